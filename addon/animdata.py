@@ -1,0 +1,186 @@
+"""Every access MotionKit makes to actions and F-curves, for both of Blender's worlds.
+
+Blender 3.x and 4.x before 4.4: an action holds its F-curves directly
+(action.fcurves) and an ID animates through animation_data.action.
+Blender 4.4 and 5.x: actions are layered and slotted. F-curves live in the
+channel bag that a keyframe strip keeps for one slot, and an ID animates through
+(animation_data.action, animation_data.action_slot). 5.0 removed action.fcurves.
+
+Nothing outside this module touches action.fcurves, slots, layers, strips or
+channel bags. Keys go in and out in bulk (keyframe_points.add + foreach_set,
+foreach_get): no per-key Python.
+"""
+from __future__ import annotations
+
+from typing import Iterable, Sequence
+
+import bpy
+import numpy as np
+
+from . import native_state
+
+# Feature test rather than a version test: 4.4 has both APIs and the layered one
+# is the one that stays.
+LAYERED = "slots" in bpy.types.Action.bl_rna.properties
+
+_INTERPOLATION = {item.identifier: item.value
+                  for item in bpy.types.Keyframe.bl_rna.properties["interpolation"].enum_items}
+
+
+class Channel(tuple):
+    """(data_path, array_index, group_name): one F-curve to write."""
+    __slots__ = ()
+
+    def __new__(cls, data_path: str, index: int = 0, group: str = ""):
+        return super().__new__(cls, (data_path, int(index), group))
+
+    data_path = property(lambda self: self[0])
+    index = property(lambda self: self[1])
+    group = property(lambda self: self[2])
+
+    def __str__(self) -> str:
+        return f"{self[0]}[{self[1]}]"
+
+
+def new_action(name: str) -> bpy.types.Action:
+    return bpy.data.actions.new(name)
+
+
+def _slot_for(action: bpy.types.Action, id_data: bpy.types.ID, create: bool):
+    """The action's slot for this ID: the one assigned, else one named after it."""
+    anim = id_data.animation_data
+    if anim is not None and anim.action == action and anim.action_slot is not None:
+        return anim.action_slot
+    for slot in action.slots:
+        if slot.target_id_type == id_data.id_type and slot.name_display == id_data.name:
+            return slot
+    if not create:
+        return None
+    return action.slots.new(id_type=id_data.id_type, name=id_data.name)
+
+
+def _channelbag(action: bpy.types.Action, slot, create: bool):
+    if not action.layers:
+        if not create:
+            return None
+        action.layers.new("Layer")
+    layer = action.layers[0]
+    if not layer.strips:
+        if not create:
+            return None
+        layer.strips.new(type='KEYFRAME')
+    return layer.strips[0].channelbag(slot, ensure=create)
+
+
+def assign(id_data: bpy.types.ID, action: bpy.types.Action) -> None:
+    """Make id_data play action (and, in the layered world, its slot for id_data)."""
+    anim = id_data.animation_data or id_data.animation_data_create()
+    if LAYERED:
+        slot = _slot_for(action, id_data, create=True)
+        anim.action = action
+        anim.action_slot = slot
+    else:
+        anim.action = action
+
+
+def assigned_action(id_data: bpy.types.ID) -> bpy.types.Action | None:
+    anim = id_data.animation_data
+    return anim.action if anim is not None else None
+
+
+def fcurves(action: bpy.types.Action, id_data: bpy.types.ID) -> Sequence[bpy.types.FCurve]:
+    """The F-curves of action that animate id_data (empty when there are none)."""
+    if not LAYERED:
+        return action.fcurves
+    slot = _slot_for(action, id_data, create=False)
+    if slot is None:
+        return ()
+    bag = _channelbag(action, slot, create=False)
+    return bag.fcurves if bag is not None else ()
+
+
+def find_fcurve(action: bpy.types.Action, id_data: bpy.types.ID, data_path: str,
+                index: int = 0) -> bpy.types.FCurve | None:
+    curves = fcurves(action, id_data)
+    return curves.find(data_path, index=index) if curves else None
+
+
+def _curve_collection(action: bpy.types.Action, id_data: bpy.types.ID):
+    if not LAYERED:
+        return action.fcurves
+    slot = _slot_for(action, id_data, create=True)
+    return _channelbag(action, slot, create=True).fcurves
+
+
+def _new_fcurve(curves, channel: Channel) -> bpy.types.FCurve:
+    existing = curves.find(channel.data_path, index=channel.index)
+    if existing is not None:
+        existing.keyframe_points.clear()
+        return existing
+    if LAYERED:
+        return curves.new(channel.data_path, index=channel.index, group_name=channel.group)
+    # Legacy actions take the group through action_group.
+    return curves.new(channel.data_path, index=channel.index, action_group=channel.group)
+
+
+def _first_non_finite(channels: Sequence[Channel], frames: np.ndarray, values: np.ndarray) -> str:
+    bad_frames = np.flatnonzero(~np.isfinite(frames))
+    if bad_frames.size:
+        return f"frame time at key {bad_frames[0]} is {frames[bad_frames[0]]}"
+    curve, key = np.argwhere(~np.isfinite(values))[0]
+    return f"{channels[curve]} at frame {frames[key]:g} (key {key}) is {values[curve, key]}"
+
+
+def write_keys(id_data: bpy.types.ID, action: bpy.types.Action, channels: Iterable,
+               frames, values, interpolation: str = 'LINEAR') -> list[bpy.types.FCurve]:
+    """Write one key per frame on each channel, replacing keys already on those curves.
+
+    channels: sequence of Channel or (data_path, index[, group]).
+    frames: (n,) strictly increasing key times. values: (len(channels), n).
+    Everything is checked before anything is written: a shape mismatch, a
+    non-finite number or frames that do not increase raise ValueError naming the
+    channel and frame, and leave the action untouched.
+    """
+    _native = native_state.native()
+    channels = [c if isinstance(c, Channel) else Channel(*c) for c in channels]
+    frames = np.ascontiguousarray(frames, dtype=np.float64)
+    values = np.ascontiguousarray(values, dtype=np.float64)
+    if values.ndim == 1 and len(channels) == 1:
+        values = values[np.newaxis, :]
+    if frames.ndim != 1 or values.shape != (len(channels), frames.size):
+        raise ValueError(f"write_keys: expected values of shape ({len(channels)}, {frames.size}) "
+                         f"for {len(channels)} channels and {frames.size} frames, got {values.shape}")
+    if interpolation not in _INTERPOLATION:
+        raise ValueError(f"write_keys: unknown interpolation {interpolation!r}; "
+                         f"expected one of {sorted(_INTERPOLATION)}")
+    if len(set(channels)) != len(channels):
+        raise ValueError("write_keys: a channel is listed twice")
+    co = np.empty((len(channels), 2 * frames.size), dtype=np.float32)
+    try:
+        _native.keyframe_co(frames, values, co)
+    except _native.MotionKitError as ex:
+        if "not finite" in str(ex):
+            raise ValueError(f"write_keys on {id_data.name}: "
+                             f"{_first_non_finite(channels, frames, values)}") from None
+        raise ValueError(f"write_keys on {id_data.name}: {ex}") from None
+
+    curves = _curve_collection(action, id_data)
+    interp = np.full(frames.size, _INTERPOLATION[interpolation], dtype=np.int32)
+    written = []
+    for channel, co_row in zip(channels, co):
+        fcurve = _new_fcurve(curves, channel)
+        points = fcurve.keyframe_points
+        points.add(frames.size)
+        points.foreach_set("co", co_row)
+        points.foreach_set("interpolation", interp)
+        fcurve.update()
+        written.append(fcurve)
+    return written
+
+
+def read_keys(fcurve: bpy.types.FCurve) -> tuple[np.ndarray, np.ndarray]:
+    """(frames, values) of every key, as float32 arrays exactly as Blender stores them."""
+    points = fcurve.keyframe_points
+    co = np.empty(2 * len(points), dtype=np.float32)
+    points.foreach_get("co", co)
+    return co[0::2].copy(), co[1::2].copy()

@@ -1,0 +1,21 @@
+"""The MotionKit tab in the 3D view's sidebar (N panel)."""
+import bpy
+
+from . import native_state
+
+
+class MOTIONKIT_PT_main(bpy.types.Panel):
+    bl_label = "MotionKit"
+    bl_idname = "MOTIONKIT_PT_main"
+    bl_space_type = 'VIEW_3D'
+    bl_region_type = 'UI'
+    bl_category = "MotionKit"
+
+    def draw(self, context):
+        native_state.draw_status(self.layout)
+        obj = context.object
+        if obj is not None and obj.type == 'ARMATURE':
+            self.layout.label(text=f"Armature: {obj.name} ({len(obj.data.bones)} bones)",
+                              icon='ARMATURE_DATA')
+        else:
+            self.layout.label(text="Select an armature", icon='INFO')

@@ -1,0 +1,83 @@
+// The private extension module motionkit._native. Arrays cross without copies:
+// inputs bind as Eigen::Ref<const RowMajor> with noconvert(), so a wrong dtype
+// or layout is a TypeError rather than a silent copy, and outputs are
+// caller-owned numpy arrays written in place.
+#include <pybind11/eigen.h>
+#include <pybind11/pybind11.h>
+
+#include <cstdint>
+
+#include "motionkit/error.hpp"
+#include "motionkit/keyframes.hpp"
+#include "motionkit/types.hpp"
+#include "motionkit/version.hpp"
+
+namespace py = pybind11;
+using namespace pybind11::literals;
+
+namespace {
+
+// Where C++ sees the array's first element; equal to numpy's data pointer
+// exactly when nothing was copied on the way in.
+std::uintptr_t DataAddress(const motionkit::ConstMatrixView& a) {
+  return reinterpret_cast<std::uintptr_t>(a.data());
+}
+
+void KeyframeCo(const motionkit::ConstVectorView& frames, const motionkit::ConstMatrixView& values,
+                motionkit::MatrixViewF co) {
+  motionkit::KeyframeCoJob job(frames, values, co);
+  job.Run();
+}
+
+}  // namespace
+
+PYBIND11_MODULE(_native, m) {
+  m.doc() = R"pbdoc(
+    MotionKit's native core (private module; use the motionkit package).
+
+    Arrays are float64 C-contiguous inputs and caller-owned outputs; nothing
+    is copied on the way in or out. Failures raise MotionKitError.
+  )pbdoc";
+
+  py::register_exception<motionkit::Error>(m, "MotionKitError", PyExc_ValueError);
+
+  m.attr("__version__") = motionkit::Version();
+
+  m.def(
+      "build_info",
+      []() {
+        py::dict info;
+        info["version"] = motionkit::Version();
+        info["eigen"] = motionkit::EigenVersion();
+        info["pybind11"] = std::to_string(PYBIND11_VERSION_MAJOR) + "." +
+                           std::to_string(PYBIND11_VERSION_MINOR) + "." +
+                           std::to_string(PYBIND11_VERSION_PATCH);
+        info["compiler"] = __VERSION__;
+        info["python"] = std::to_string(PY_MAJOR_VERSION) + "." + std::to_string(PY_MINOR_VERSION);
+        return info;
+      },
+      R"pbdoc(
+        The versions this module was built with: MotionKit, Eigen, pybind11,
+        the C++ compiler and the Python it targets.
+      )pbdoc");
+
+  m.def("data_address", &DataAddress, "array"_a.noconvert(),
+        py::call_guard<py::gil_scoped_release>(),
+        R"pbdoc(
+        Address of the first element of a 2-D float64 C-contiguous array as the
+        native code sees it. Equals array.ctypes.data: proof that no copy was
+        made. Any other dtype or layout raises TypeError instead of copying.
+      )pbdoc");
+
+  m.def("keyframe_co", &KeyframeCo, "frames"_a.noconvert(), "values"_a.noconvert(),
+        "co"_a.noconvert(), py::call_guard<py::gil_scoped_release>(),
+        R"pbdoc(
+        Interleave key times and values into F-curve "co" layout, in place.
+
+        frames: float64 (n,), strictly increasing.
+        values: float64 (c, n), C-contiguous; row k is curve k.
+        co:     float32 (c, 2n), C-contiguous, written in place:
+                co[k] = [frames[0], values[k,0], frames[1], values[k,1], ...].
+        Raises MotionKitError naming the curve and key on NaN or infinity.
+      )pbdoc");
+}

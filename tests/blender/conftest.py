@@ -1,0 +1,59 @@
+"""Fixtures for tests that run inside a real Blender (see run_in_blender.py)."""
+import importlib
+import os
+import sys
+
+import bpy
+import pytest
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+SHARED = os.path.join(os.path.dirname(ROOT), "shared")
+for path in (ROOT, os.path.join(ROOT, "tools")):
+    if path not in sys.path:
+        sys.path.insert(0, path)
+
+
+def pytest_report_header(config):
+    return (f"Blender {bpy.app.version_string}, Python {sys.version.split()[0]}, "
+            f"MotionKit module {os.environ.get('MOTIONKIT_MODULE')}")
+
+
+@pytest.fixture(scope="session")
+def mk():
+    """The installed MotionKit package (motionkit or bl_ext.user_default.motionkit)."""
+    return importlib.import_module(os.environ["MOTIONKIT_MODULE"])
+
+
+@pytest.fixture(scope="session")
+def animdata(mk):
+    return importlib.import_module(mk.__name__ + ".animdata")
+
+
+@pytest.fixture(scope="session")
+def native(mk):
+    return mk.native()
+
+
+def clear_scene():
+    """Removes every object and the data they used, without touching preferences."""
+    for collection in (bpy.data.objects, bpy.data.armatures, bpy.data.meshes, bpy.data.actions,
+                       bpy.data.materials, bpy.data.cameras, bpy.data.lights):
+        for item in list(collection):
+            collection.remove(item)
+
+
+@pytest.fixture(autouse=True)
+def empty_scene():
+    clear_scene()
+    yield bpy.context.scene
+    clear_scene()
+
+
+@pytest.fixture(scope="session")
+def shared_dir():
+    """../shared beside the repository: required under CI, a visible skip elsewhere."""
+    if not os.path.isdir(os.path.join(SHARED, "data", "bvh")):
+        if os.environ.get("CI") == "true":
+            pytest.fail(f"{SHARED}/data/bvh is missing, and CI=true requires it")
+        pytest.skip(f"{SHARED}/data/bvh is absent (set up ../shared to run this test)")
+    return SHARED

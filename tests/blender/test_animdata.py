@@ -1,0 +1,130 @@
+"""Bulk key writing and reading through motionkit.animdata, in this Blender's action world."""
+import bpy
+import numpy as np
+import pytest
+
+
+def make_armature(name="Rig", bones=("Root", "Arm")):
+    arm = bpy.data.armatures.new(name)
+    obj = bpy.data.objects.new(name, arm)
+    bpy.context.scene.collection.objects.link(obj)
+    bpy.context.view_layer.objects.active = obj
+    bpy.ops.object.mode_set(mode='EDIT')
+    parent = None
+    for i, bone_name in enumerate(bones):
+        eb = arm.edit_bones.new(bone_name)
+        eb.head, eb.tail = (0, 0, i), (0, 0, i + 1)
+        eb.parent = parent
+        parent = eb
+    bpy.ops.object.mode_set(mode='OBJECT')
+    return obj
+
+
+def test_keys_written_in_bulk_drive_the_pose(animdata):
+    obj = make_armature()
+    action = animdata.new_action("Test")
+    frames = np.arange(1.0, 11.0)
+    t = (frames - 1) / 9
+    quat = np.stack([np.cos(t), np.sin(t), np.zeros_like(t), np.zeros_like(t)])
+    loc = np.stack([t, 2 * t, -t])
+    bone = 'pose.bones["Arm"]'
+    channels = [(f"{bone}.rotation_quaternion", i, "Arm") for i in range(4)]
+    channels += [(f"{bone}.location", i, "Arm") for i in range(3)]
+    animdata.write_keys(obj, action, channels, frames, np.vstack([quat, loc]))
+    animdata.assign(obj, action)
+    assert animdata.assigned_action(obj) == action
+    scene = bpy.context.scene
+    for k in (0, 4, 9):
+        scene.frame_set(int(frames[k]))
+        pose_bone = obj.pose.bones["Arm"]
+        np.testing.assert_allclose(pose_bone.rotation_quaternion, quat[:, k], atol=1e-6)
+        np.testing.assert_allclose(pose_bone.location, loc[:, k], atol=1e-6)
+    assert [c.data_path for c in animdata.fcurves(action, obj)][:1] == [f"{bone}.rotation_quaternion"]
+    assert action.groups["Arm"] is not None if not animdata.LAYERED else True
+
+
+def test_curves_live_where_this_blender_keeps_them(animdata):
+    obj = make_armature()
+    action = animdata.new_action("Where")
+    animdata.write_keys(obj, action, [("location", 0)], [1.0, 2.0], [[0.0, 1.0]])
+    animdata.assign(obj, action)
+    if animdata.LAYERED:
+        assert not hasattr(action, "fcurves")  # 5.x removed it
+        slot = obj.animation_data.action_slot
+        assert slot is not None and slot.target_id_type == 'OBJECT'
+        bag = action.layers[0].strips[0].channelbag(slot)
+        assert [fc.data_path for fc in bag.fcurves] == ["location"]
+    else:
+        assert [fc.data_path for fc in action.fcurves] == ["location"]
+
+
+@pytest.mark.skipif(bpy.app.version < (4, 4, 0), reason="legacy actions have no slots")
+def test_one_action_animates_two_armatures_through_their_own_slots(animdata):
+    a, b = make_armature("A"), make_armature("B")
+    action = animdata.new_action("Shared")
+    animdata.write_keys(a, action, [("location", 0)], [1.0, 2.0], [[1.0, 1.0]])
+    animdata.write_keys(b, action, [("location", 0)], [1.0, 2.0], [[5.0, 5.0]])
+    animdata.assign(a, action)
+    animdata.assign(b, action)
+    bpy.context.scene.frame_set(1)
+    assert a.location.x == pytest.approx(1.0) and b.location.x == pytest.approx(5.0)
+    assert len(animdata.fcurves(action, a)) == 1 and len(animdata.fcurves(action, b)) == 1
+
+
+def test_a_million_keys_read_back_exactly(animdata):
+    obj = make_armature()
+    action = animdata.new_action("Million")
+    n_curves, n_keys = 100, 10_000
+    rng = np.random.default_rng(7)
+    frames = np.arange(1, n_keys + 1, dtype=np.float64)
+    values = rng.normal(scale=3.0, size=(n_curves, n_keys))
+    channels = [(f'["prop{c}"]', 0) for c in range(n_curves)]
+    written = animdata.write_keys(obj, action, channels, frames, values)
+    expected = values.astype(np.float32)
+    for c, fcurve in enumerate(written):
+        got_frames, got_values = animdata.read_keys(fcurve)
+        np.testing.assert_array_equal(got_frames, frames.astype(np.float32))
+        np.testing.assert_array_equal(got_values, expected[c])
+    # Blender's own evaluation, at every one of the million keys.
+    evaluated = np.array([[fc.evaluate(f) for f in frames] for fc in written], dtype=np.float64)
+    np.testing.assert_array_equal(evaluated, expected.astype(np.float64))
+    # And between keys the curves are the linear segments asked for.
+    fc = written[3]
+    mid = np.array([fc.evaluate(f + 0.25) for f in frames[:-1]])
+    e = expected[3].astype(np.float64)
+    np.testing.assert_allclose(mid, 0.75 * e[:-1] + 0.25 * e[1:], rtol=1e-5, atol=1e-5)
+
+
+def test_rewriting_a_channel_replaces_its_keys(animdata):
+    obj = make_armature()
+    action = animdata.new_action("Again")
+    animdata.write_keys(obj, action, [("location", 2)], np.arange(10.0), np.zeros((1, 10)))
+    (fc,) = animdata.write_keys(obj, action, [("location", 2)], [3.0, 4.0], [[1.0, 2.0]],
+                                interpolation='BEZIER')
+    assert len(fc.keyframe_points) == 2
+    assert {k.interpolation for k in fc.keyframe_points} == {'BEZIER'}
+    assert len(animdata.fcurves(action, obj)) == 1
+
+
+@pytest.mark.parametrize("frames, values, message", [
+    ([1.0, 2.0, 3.0], [[0.0, np.nan, 1.0]], r"location\[1\] at frame 2 \(key 1\) is nan"),
+    ([1.0, 2.0, 3.0], [[0.0, 1.0, np.inf]], r"location\[1\] at frame 3 \(key 2\) is inf"),
+    ([1.0, np.inf, 3.0], [[0.0, 1.0, 2.0]], r"frame time at key 1 is inf"),
+    ([1.0, 3.0, 2.0], [[0.0, 1.0, 2.0]], r"key 2 \(2.000000\) does not come after key 1"),
+    ([1.0, 2.0], [[0.0, 1.0, 2.0]], r"expected values of shape \(1, 2\)"),
+])
+def test_bad_keys_are_refused_and_change_nothing(animdata, frames, values, message):
+    obj = make_armature()
+    action = animdata.new_action("Bad")
+    with pytest.raises(ValueError, match=message):
+        animdata.write_keys(obj, action, [("location", 1)], frames, values)
+    assert len(animdata.fcurves(action, obj)) == 0
+    if animdata.LAYERED:
+        assert len(action.slots) == 0 and len(action.layers) == 0
+
+
+def test_unknown_interpolation_is_refused(animdata):
+    obj = make_armature()
+    with pytest.raises(ValueError, match="unknown interpolation 'SPLINE'"):
+        animdata.write_keys(obj, animdata.new_action("X"), [("location", 0)], [1.0], [[0.0]],
+                            interpolation='SPLINE')
