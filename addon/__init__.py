@@ -18,7 +18,7 @@ import sys
 
 import bpy
 
-from . import native_state, preferences, ui_panels
+from . import animdata, native_state, preferences, ui_panels
 from .native_state import native
 
 classes = (
@@ -31,17 +31,27 @@ def register():
     for cls in classes:
         bpy.utils.register_class(cls)
     # Installed as an extension the package is bl_ext.<repo>.motionkit; the
-    # alias keeps `import motionkit` working for headless scripts either way.
+    # aliases keep `import motionkit` and `from motionkit import animdata`
+    # working for headless scripts either way, without loading anything twice.
     if __package__ != "motionkit":
-        sys.modules.setdefault("motionkit", sys.modules[__package__])
+        for name in _aliases():
+            sys.modules.setdefault("motionkit" + name[len(__package__):], sys.modules[name])
     if not native_state.status.ok:
         # Enabling still succeeds so that the preferences and the sidebar can
         # show the reason; the console gets it in one line, not a traceback.
         print(f"MotionKit: {native_state.status.message}", file=sys.stderr)
 
 
+def _aliases():
+    prefix = __package__ + "."
+    return [n for n in list(sys.modules) if n == __package__ or n.startswith(prefix)]
+
+
 def unregister():
-    if sys.modules.get("motionkit") is sys.modules[__package__] and __package__ != "motionkit":
-        del sys.modules["motionkit"]
+    if __package__ != "motionkit":
+        for name in _aliases():
+            alias = "motionkit" + name[len(__package__):]
+            if sys.modules.get(alias) is sys.modules[name]:
+                del sys.modules[alias]
     for cls in reversed(classes):
         bpy.utils.unregister_class(cls)

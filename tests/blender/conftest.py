@@ -8,7 +8,7 @@ import pytest
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 SHARED = os.path.join(os.path.dirname(ROOT), "shared")
-for path in (ROOT, os.path.join(ROOT, "tools")):
+for path in (ROOT, os.path.join(ROOT, "tools"), os.path.join(ROOT, "blend_samples")):
     if path not in sys.path:
         sys.path.insert(0, path)
 
