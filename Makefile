@@ -7,7 +7,7 @@ SHELL := /bin/bash
 export PATH := /usr/local/sbin:/usr/local/bin:/usr/sbin:/usr/bin:/sbin:/bin
 export MOTIONKIT_WERROR ?= ON
 
-VERSION := $(shell sed -n 's/^project[(]motionkit VERSION \([0-9.]*\).*/\1/p' CMakeLists.txt)
+VERSION := $(shell sed -n 's/^project.motionkit VERSION \([0-9.]*\).*/\1/p' CMakeLists.txt)
 ZIP_3.4 := dist/motionkit-$(VERSION)-linux-x64-py311.zip
 ZIP_5.2 := dist/motionkit-$(VERSION)-linux-x64-py314.zip
 BLENDER_ARGS := --background --factory-startup --python-exit-code 1
