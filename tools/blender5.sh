@@ -15,7 +15,7 @@ set -euo pipefail
 
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 shared=$(cd "$here/.." && pwd)/shared
-cache=${MOTIONKIT_CACHE:-${XDG_CACHE_HOME:-$HOME/.cache}/motionkit}
+cache=${MOTIONKIT_CACHE:-${XDG_CACHE_HOME:-${HOME:-/root}/.cache}/motionkit}
 root=$cache/sid-chroot
 
 # Everything the Blender 5.2 side needs: the Blender itself and the toolchain
