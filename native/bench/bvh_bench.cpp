@@ -28,8 +28,7 @@ motionkit::Skeleton SyntheticSkeleton(int joints) {
                         ChannelType::kZrotation, ChannelType::kXrotation, ChannelType::kYrotation};
     } else {
       joint.channel_count = 3;
-      joint.channels = {ChannelType::kZrotation, ChannelType::kXrotation, ChannelType::kYrotation,
-                        ChannelType::kXposition, ChannelType::kXposition, ChannelType::kXposition};
+      joint.channels = {ChannelType::kZrotation, ChannelType::kXrotation, ChannelType::kYrotation};
     }
     joint.first_channel = column;
     column += joint.channel_count;
