@@ -1,0 +1,41 @@
+// Euler angles, quaternions and matrices for all six axis orders.
+//
+// Orders are intrinsic, as BVH channel lists and scipy's upper-case orders:
+// kZXY means R = Rz(a0) * Rx(a1) * Ry(a2), angles[k] about the k-th letter.
+// (Blender's Euler modes are extrinsic: its 'XYZ' is R = Rz Ry Rx, which is
+// our kZYX with the angles reversed; see BlenderEulerMode.)
+// Quaternions are (w, x, y, z) wherever they are stored in arrays.
+#pragma once
+
+#include <optional>
+#include <string_view>
+
+#include <Eigen/Geometry>
+
+namespace motionkit {
+
+enum class EulerOrder : std::uint8_t { kXYZ, kXZY, kYXZ, kYZX, kZXY, kZYX };
+
+// "XYZ", ..., "ZYX" (upper case) or nothing.
+std::optional<EulerOrder> ParseEulerOrder(std::string_view text);
+const char* EulerOrderName(EulerOrder order);
+// The Blender rotation_mode string with the same rotation: the reversed letters.
+const char* BlenderEulerMode(EulerOrder order);
+// Axis index (0 = X, 1 = Y, 2 = Z) of the k-th rotation of the order.
+int EulerAxis(EulerOrder order, int k);
+
+Eigen::Matrix3d EulerToMatrix(const Eigen::Vector3d& radians, EulerOrder order);
+Eigen::Quaterniond EulerToQuaternion(const Eigen::Vector3d& radians, EulerOrder order);
+
+// Principal angles: first and last in (-pi, pi], middle in [-pi/2, pi/2]
+// (for the Tait-Bryan orders). At gimbal lock the last angle is 0.
+Eigen::Vector3d MatrixToEuler(const Eigen::Matrix3d& rotation, EulerOrder order);
+Eigen::Vector3d QuaternionToEuler(const Eigen::Quaterniond& q, EulerOrder order);
+
+// The Euler triple for `rotation` closest to `previous` (no 2*pi jumps and the
+// better of the two equivalent solutions), as Blender's
+// Matrix.to_euler(order, compat) picks it, so that curves stay continuous.
+Eigen::Vector3d MatrixToEulerCompatible(const Eigen::Matrix3d& rotation, EulerOrder order,
+                                        const Eigen::Vector3d& previous);
+
+}  // namespace motionkit
