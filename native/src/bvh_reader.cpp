@@ -135,13 +135,16 @@ std::string Quoted(std::string_view text) {
   return out;
 }
 
-constexpr std::array<std::string_view, 6> kChannelNames = {
-    "Xposition", "Yposition", "Zposition", "Xrotation", "Yrotation", "Zrotation"};
+constexpr std::array<std::string_view, 6> kChannelNames = {"Xposition", "Yposition", "Zposition",
+                                                           "Xrotation", "Yrotation", "Zrotation"};
 
 class BvhParser {
  public:
   BvhParser(std::string_view text, std::string_view source, const BvhLimits& limits)
-      : p_(text.data()), end_(text.data() + text.size()), line_start_(p_), source_(source),
+      : p_(text.data()),
+        end_(text.data() + text.size()),
+        line_start_(p_),
+        source_(source),
         limits_(limits) {
     // A UTF-8 byte order mark, as some Windows tools write.
     if (text.substr(0, 3) == "\xEF\xBB\xBF") p_ += 3;
@@ -161,9 +164,7 @@ class BvhParser {
  private:
   // ---- Lexing ---------------------------------------------------------------
 
-  Where Here(const char* p) const {
-    return {line_, static_cast<std::size_t>(p - line_start_) + 1};
-  }
+  Where Here(const char* p) const { return {line_, static_cast<std::size_t>(p - line_start_) + 1}; }
 
   // p_ is on a line end: step over it ("\r\n" is one) and count the line.
   void NewLine() {
@@ -234,7 +235,8 @@ class BvhParser {
   [[noreturn]] void FailAt(const char* p, std::string_view what) const {
     if (p == end_) Fail(Here(p), what, Saw::kEndOfFile);
     if (ClassOf(*p) == CharClass::kLineEnd) Fail(Here(p), what, Saw::kLineEnd);
-    Fail(Here(p), what, Saw::kToken, std::string_view(p, static_cast<std::size_t>(TokenEnd(p) - p)));
+    Fail(Here(p), what, Saw::kToken,
+         std::string_view(p, static_cast<std::size_t>(TokenEnd(p) - p)));
   }
 
   std::string JointLabel(int index) const {
@@ -257,7 +259,8 @@ class BvhParser {
     switch (status) {
       case NumberStatus::kOk: return value;
       case NumberStatus::kNotNumber: FailToken("expected a number for " + std::string(what));
-      case NumberStatus::kOutOfRange: FailToken(std::string(what) + " is out of range for a double");
+      case NumberStatus::kOutOfRange:
+        FailToken(std::string(what) + " is out of range for a double");
       case NumberStatus::kNotFinite: FailToken(std::string(what) + " is not finite");
     }
     FailToken("expected a number for " + std::string(what));
@@ -326,8 +329,8 @@ class BvhParser {
     const std::string_view keyword = token_;
     const bool end_site = keyword == "End";
     if (static_cast<long long>(open->size()) > limits_.max_depth) {
-      FailToken("joints nested deeper than limits.max_depth (" +
-                std::to_string(limits_.max_depth) + ")");
+      FailToken("joints nested deeper than limits.max_depth (" + std::to_string(limits_.max_depth) +
+                ")");
     }
     if (static_cast<long long>(joints_.size()) >= limits_.max_joints) {
       FailToken("more joints than limits.max_joints (" + std::to_string(limits_.max_joints) + ")");
@@ -356,12 +359,15 @@ class BvhParser {
       }
       Fail(name_at, what, Saw::kToken, name_token);
     }
-    const std::string label = end_site ? "the End Site of " + Quoted(joints_[static_cast<std::size_t>(parent)].name)
-                                       : "joint " + Quoted(joint.name);
+    // Built on failure only.
+    const auto label = [&] {
+      return end_site ? "the End Site of " + Quoted(joints_[static_cast<std::size_t>(parent)].name)
+                      : "joint " + Quoted(joint.name);
+    };
     Next();
-    if (token_ != "{") FailToken("expected '{' to open " + label);
+    if (token_ != "{") FailToken("expected '{' to open " + label());
     Next();
-    if (token_ != "OFFSET") FailToken("expected OFFSET in " + label);
+    if (token_ != "OFFSET") FailToken("expected OFFSET in " + label());
     for (int axis = 0; axis < 3; ++axis) {
       Next();
       joint.offset[axis] = NumberToken("OFFSET");
@@ -396,14 +402,14 @@ class BvhParser {
         Next();
         continue;
       }
-      const std::string label = JointLabel(top);
-      if (joints_[static_cast<std::size_t>(top)].end_site) {
-        FailToken("expected '}' to close " + label);
-      }
-      if (token_ == "JOINT" || token_ == "End") {
+      const bool in_end_site = joints_[static_cast<std::size_t>(top)].end_site;
+      if (!in_end_site && (token_ == "JOINT" || token_ == "End")) {
         OpenJoint(top, &open);
         continue;
       }
+      // Only failures remain.
+      const std::string label = JointLabel(top);
+      if (in_end_site) FailToken("expected '}' to close " + label);
       if (token_ == "OFFSET") {
         FailToken("unexpected OFFSET in " + label + ": it comes once, right after '{'");
       }
@@ -484,7 +490,8 @@ class BvhParser {
       SkipSpace();
       if (p_ == end_) {
         Fail(Here(p_),
-             "the file ends after " + std::to_string(f) + " of " + std::to_string(frames) + " frames",
+             "the file ends after " + std::to_string(f) + " of " + std::to_string(frames) +
+                 " frames",
              Saw::kEndOfFile);
       }
       double* out = store ? values_.data() + f * channels : scratch.data();
@@ -516,7 +523,8 @@ class BvhParser {
     if (p != end_ && ClassOf(*p) != CharClass::kLineEnd) {
       std::size_t got = channels;
       for (const char* q = p; q != end_ && ClassOf(*q) != CharClass::kLineEnd; ++got) {
-        while (q != end_ && ClassOf(*q) != CharClass::kBlank && ClassOf(*q) != CharClass::kLineEnd) ++q;
+        while (q != end_ && ClassOf(*q) != CharClass::kBlank && ClassOf(*q) != CharClass::kLineEnd)
+          ++q;
         while (q != end_ && ClassOf(*q) == CharClass::kBlank) ++q;
       }
       Fail(Here(p),
@@ -546,7 +554,8 @@ class BvhParser {
       case NumberStatus::kNotNumber:
       case NumberStatus::kOk: what += "expected a number"; break;
     }
-    Fail(Here(p), what, Saw::kToken, std::string_view(p, static_cast<std::size_t>(RowTokenEnd(p) - p)));
+    Fail(Here(p), what, Saw::kToken,
+         std::string_view(p, static_cast<std::size_t>(RowTokenEnd(p) - p)));
   }
 
   const char* p_;

@@ -159,8 +159,8 @@ std::string WriteBvh(const Skeleton& skeleton, const Motion& motion) {
   CheckWritable(skeleton, motion);
   std::string out;
   // About 20 characters a value; one allocation for a typical clip.
-  out.reserve(skeleton.joints.size() * 96 +
-              static_cast<std::size_t>(motion.values.size()) * 20 + 64);
+  out.reserve(skeleton.joints.size() * 96 + static_cast<std::size_t>(motion.values.size()) * 20 +
+              64);
   AppendHierarchy(skeleton, &out);
   AppendMotion(motion, &out);
   return out;

@@ -60,26 +60,26 @@ std::string Replace(std::string text, std::string_view from, std::string_view to
 
 // Numbered so that tests can spell positions out; the rows are lines 19 and 20.
 const std::string kTwoJoints = Lines({
-    "HIERARCHY",                                                               // 1
-    "ROOT Hips",                                                               // 2
-    "{",                                                                       // 3
-    "  OFFSET 0 0 0",                                                          // 4
+    "HIERARCHY",                                                                 // 1
+    "ROOT Hips",                                                                 // 2
+    "{",                                                                         // 3
+    "  OFFSET 0 0 0",                                                            // 4
     "  CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation",  // 5
-    "  JOINT Chest",                                                           // 6
-    "  {",                                                                     // 7
-    "    OFFSET 0 5.5 -1",                                                     // 8
-    "    CHANNELS 3 Zrotation Xrotation Yrotation",                            // 9
-    "    End Site",                                                            // 10
-    "    {",                                                                   // 11
-    "      OFFSET 0 3 0",                                                      // 12
-    "    }",                                                                   // 13
-    "  }",                                                                     // 14
-    "}",                                                                       // 15
-    "MOTION",                                                                  // 16
-    "Frames: 2",                                                               // 17
-    "Frame Time: 0.0333333",                                                   // 18
-    "1 2 3 4 5 6 7 8 9",                                                       // 19
-    "10 11 12 13 14 15 16 17 18",                                              // 20
+    "  JOINT Chest",                                                             // 6
+    "  {",                                                                       // 7
+    "    OFFSET 0 5.5 -1",                                                       // 8
+    "    CHANNELS 3 Zrotation Xrotation Yrotation",                              // 9
+    "    End Site",                                                              // 10
+    "    {",                                                                     // 11
+    "      OFFSET 0 3 0",                                                        // 12
+    "    }",                                                                     // 13
+    "  }",                                                                       // 14
+    "}",                                                                         // 15
+    "MOTION",                                                                    // 16
+    "Frames: 2",                                                                 // 17
+    "Frame Time: 0.0333333",                                                     // 18
+    "1 2 3 4 5 6 7 8 9",                                                         // 19
+    "10 11 12 13 14 15 16 17 18",                                                // 20
 });
 
 using C = ChannelType;
@@ -117,7 +117,8 @@ void ExpectSame(const Parsed& a, const Parsed& b) {
   ASSERT_EQ(a.motion.values.cols(), b.motion.values.cols());
   for (Eigen::Index i = 0; i < a.motion.values.size(); ++i) {
     ASSERT_TRUE(SameBits(a.motion.values.data()[i], b.motion.values.data()[i]))
-        << "value " << i << ": " << a.motion.values.data()[i] << " vs " << b.motion.values.data()[i];
+        << "value " << i << ": " << a.motion.values.data()[i] << " vs "
+        << b.motion.values.data()[i];
   }
 }
 
@@ -181,8 +182,8 @@ TEST(ReadBvh, ReadsChannelsInAnyOrderAndCount) {
   const auto& joints = p.skeleton.joints;
   ASSERT_EQ(joints.size(), 3u);
   ExpectChannels(joints[0], {C::kYrotation, C::kZposition});
-  ExpectChannels(joints[1], {C::kZrotation, C::kXposition, C::kYrotation, C::kYposition,
-                             C::kXrotation});
+  ExpectChannels(joints[1],
+                 {C::kZrotation, C::kXposition, C::kYrotation, C::kYposition, C::kXrotation});
   ExpectChannels(joints[2], {C::kXrotation});
   EXPECT_EQ(joints[1].first_channel, 2);
   EXPECT_EQ(joints[2].first_channel, 7);
@@ -332,9 +333,9 @@ TEST(ReadBvh, ReadsBracesOnTheNameLineAndNamesWithSpaces) {
 }
 
 TEST(ReadBvh, ReadsNumberSpellings) {
-  const Parsed p = Read(Replace(Replace(kTwoJoints, "1 2 3 4 5 6 7 8 9",
-                                        "+1 -2 3. .5 -.25 1e3 -2.5E-2 +0.125e+1 -0"),
-                                "OFFSET 0 5.5 -1", "OFFSET +0 5.5e0 -1."));
+  const Parsed p = Read(
+      Replace(Replace(kTwoJoints, "1 2 3 4 5 6 7 8 9", "+1 -2 3. .5 -.25 1e3 -2.5E-2 +0.125e+1 -0"),
+              "OFFSET 0 5.5 -1", "OFFSET +0 5.5e0 -1."));
   const double expected[] = {1, -2, 3, 0.5, -0.25, 1000, -0.025, 1.25, -0.0};
   for (int c = 0; c < 9; ++c) EXPECT_TRUE(SameBits(p.motion.values(0, c), expected[c])) << c;
   EXPECT_EQ(p.skeleton.joints[1].offset, Eigen::Vector3d(0, 5.5, -1));
@@ -359,14 +360,14 @@ bool OnCi() {
   return ci != nullptr && std::string_view(ci) == "true";
 }
 
-#define LOAD_SHARED_OR_SKIP(name, text)                                                     \
-  do {                                                                                      \
-    if (!LoadSharedFile(name, text)) {                                                      \
-      const std::string message = std::string("cannot read ") + MOTIONKIT_SHARED_BVH_DIR + \
-                                  "/" + name + " (the shared GAMES-105 data)";             \
-      if (OnCi()) FAIL() << message << "; CI=true requires it";                             \
-      GTEST_SKIP() << message;                                                              \
-    }                                                                                       \
+#define LOAD_SHARED_OR_SKIP(name, text)                                                          \
+  do {                                                                                           \
+    if (!LoadSharedFile(name, text)) {                                                           \
+      const std::string message = std::string("cannot read ") + MOTIONKIT_SHARED_BVH_DIR + "/" + \
+                                  name + " (the shared GAMES-105 data)";                         \
+      if (OnCi()) FAIL() << message << "; CI=true requires it";                                  \
+      GTEST_SKIP() << message;                                                                   \
+    }                                                                                            \
   } while (false)
 
 void ExpectGames105Skeleton(const Skeleton& skeleton) {
@@ -380,12 +381,12 @@ void ExpectGames105Skeleton(const Skeleton& skeleton) {
       ++end_sites;
       EXPECT_EQ(joint.name, skeleton.joints[static_cast<std::size_t>(joint.parent)].name + "_end");
     } else {
-      ExpectChannels(joint, joint.parent < 0
-                                ? std::initializer_list<ChannelType>{C::kXposition, C::kYposition,
-                                                                     C::kZposition, C::kXrotation,
-                                                                     C::kYrotation, C::kZrotation}
-                                : std::initializer_list<ChannelType>{C::kXrotation, C::kYrotation,
-                                                                     C::kZrotation});
+      ExpectChannels(
+          joint,
+          joint.parent < 0
+              ? std::initializer_list<ChannelType>{C::kXposition, C::kYposition, C::kZposition,
+                                                   C::kXrotation, C::kYrotation, C::kZrotation}
+              : std::initializer_list<ChannelType>{C::kXrotation, C::kYrotation, C::kZrotation});
     }
   }
   EXPECT_EQ(end_sites, 5);
@@ -436,6 +437,7 @@ TEST(ReadBvh, ReadsRunForward) {
 
 TEST(ReadBvhErrors, EmptyFile) {
   EXPECT_EQ(ErrorOf(""), "test.bvh:1:1: expected HIERARCHY (saw end of file)");
+  EXPECT_EQ(ErrorOf(std::string_view()), "test.bvh:1:1: expected HIERARCHY (saw end of file)");
   EXPECT_EQ(ErrorOf("\n  \r\n\t"), "test.bvh:3:2: expected HIERARCHY (saw end of file)");
 }
 
@@ -485,7 +487,8 @@ TEST(ReadBvhErrors, FewerRowsThanFrames) {
 
 TEST(ReadBvhErrors, TruncatedInARow) {
   const std::string text = kTwoJoints.substr(0, kTwoJoints.find(" 15 16"));
-  EXPECT_EQ(ErrorOf(text), "test.bvh:20:15: frame 2 of 2 has 5 values, expected 9 (saw end of file)");
+  EXPECT_EQ(ErrorOf(text),
+            "test.bvh:20:15: frame 2 of 2 has 5 values, expected 9 (saw end of file)");
 }
 
 TEST(ReadBvhErrors, MoreRowsThanFrames) {
@@ -538,8 +541,9 @@ TEST(ReadBvhErrors, NonFiniteValue) {
             "test.bvh:20:22: frame 2 of 2, value 8: value is not finite (saw '-inf')");
   EXPECT_EQ(ErrorOf(Replace(kTwoJoints, "16 17", "16 +Infinity")),
             "test.bvh:20:22: frame 2 of 2, value 8: value is not finite (saw '+Infinity')");
-  EXPECT_EQ(ErrorOf(Replace(kTwoJoints, "16 17", "16 1e999")),
-            "test.bvh:20:22: frame 2 of 2, value 8: number out of range for a double (saw '1e999')");
+  EXPECT_EQ(
+      ErrorOf(Replace(kTwoJoints, "16 17", "16 1e999")),
+      "test.bvh:20:22: frame 2 of 2, value 8: number out of range for a double (saw '1e999')");
 }
 
 TEST(ReadBvhErrors, NonFiniteOffset) {
@@ -603,10 +607,11 @@ TEST(ReadBvhErrors, DuplicateJointName) {
   EXPECT_EQ(ErrorOf(Replace(kTwoJoints, "JOINT Chest", "JOINT Hips")),
             "test.bvh:6:9: duplicate joint name 'Hips' (saw 'Hips')");
   // An end site's generated name counts too.
-  EXPECT_EQ(ErrorOf(Replace(kTwoJoints, "    }\n  }\n}",
-                            "    }\n    JOINT Chest_end\n    {\n      OFFSET 0 0 0\n    }\n  }\n}")),
-            "test.bvh:14:11: duplicate joint name 'Chest_end', already given to the End Site of "
-            "'Chest' (saw 'Chest_end')");
+  EXPECT_EQ(
+      ErrorOf(Replace(kTwoJoints, "    }\n  }\n}",
+                      "    }\n    JOINT Chest_end\n    {\n      OFFSET 0 0 0\n    }\n  }\n}")),
+      "test.bvh:14:11: duplicate joint name 'Chest_end', already given to the End Site of "
+      "'Chest' (saw 'Chest_end')");
 }
 
 TEST(ReadBvhErrors, ChannelCountOutOfRange) {
@@ -639,8 +644,9 @@ TEST(ReadBvhErrors, NestingDeeperThanTheLimit) {
   // The default limit stops a deep chain without recursing.
   std::string deep = "HIERARCHY\nROOT J0\n{\nOFFSET 0 0 0\n";
   for (int i = 1; i <= 300; ++i) deep += "JOINT J" + std::to_string(i) + "\n{\nOFFSET 0 0 0\n";
-  EXPECT_EQ(ErrorOf(deep), "test.bvh:773:1: joints nested deeper than limits.max_depth (256) "
-                           "(saw 'JOINT')");
+  EXPECT_EQ(ErrorOf(deep),
+            "test.bvh:773:1: joints nested deeper than limits.max_depth (256) "
+            "(saw 'JOINT')");
 }
 
 TEST(ReadBvhErrors, MoreJointsThanTheLimit) {
@@ -709,7 +715,8 @@ TEST(ReadBvhErrors, PositionsCountLinesForEveryLineEnd) {
   for (char& c : cr) c = c == '\n' ? '\r' : c;
   EXPECT_EQ(ErrorOf(cr), "test.bvh:20:22: frame 2 of 2, value 8: expected a number (saw 'x')");
   std::string crlf;
-  for (char c : Replace(kTwoJoints, "16 17", "16 x")) crlf += c == '\n' ? "\r\n" : std::string(1, c);
+  for (char c : Replace(kTwoJoints, "16 17", "16 x"))
+    crlf += c == '\n' ? "\r\n" : std::string(1, c);
   EXPECT_EQ(ErrorOf(crlf), "test.bvh:20:22: frame 2 of 2, value 8: expected a number (saw 'x')");
 }
 
@@ -718,7 +725,8 @@ TEST(ReadBvhErrors, QuotesBinaryAndLongTokensSafely) {
             "test.bvh:3:2: expected OFFSET in joint 'A' (saw '\\x01\\xffé')");
   EXPECT_EQ(ErrorOf(std::string(100, 'x')),
             "test.bvh:1:1: expected HIERARCHY (saw '" + std::string(40, 'x') + "...')");
-  EXPECT_EQ(ErrorOf(std::string("HIER\0ARCHY", 10)), "test.bvh:1:1: expected HIERARCHY (saw 'HIER\\x00ARCHY')");
+  EXPECT_EQ(ErrorOf(std::string("HIER\0ARCHY", 10)),
+            "test.bvh:1:1: expected HIERARCHY (saw 'HIER\\x00ARCHY')");
 }
 
 TEST(ReadBvhErrors, NamesTheSource) {
@@ -781,13 +789,14 @@ TEST(Skeleton, ValidateNamesTheFaultyJoint) {
             "skeleton: joint 1 has an empty name");
   EXPECT_EQ(message([](Skeleton& s) { s.joints[2].name = "Hips"; }),
             "skeleton: joints 0 and 2 are both named 'Hips'");
-  EXPECT_EQ(message([](Skeleton& s) {
-              Joint child = s.joints[2];
-              child.name = "Tip";
-              child.parent = 2;
-              s.joints.push_back(child);
-            }),
-            "skeleton: joint 3 'Tip' is a child of end site 'Chest_end'; end sites have no children");
+  EXPECT_EQ(
+      message([](Skeleton& s) {
+        Joint child = s.joints[2];
+        child.name = "Tip";
+        child.parent = 2;
+        s.joints.push_back(child);
+      }),
+      "skeleton: joint 3 'Tip' is a child of end site 'Chest_end'; end sites have no children");
   EXPECT_EQ(message([](Skeleton& s) {
               s.joints[2].channel_count = 1;
               s.channel_count = 10;
@@ -836,9 +845,9 @@ TEST(WriteBvh, WritesTheStandardLayout) {
 }
 
 TEST(WriteBvh, WritesSeveralRootsAndJointsWithoutChannels) {
-  const std::string text = Lines({"HIERARCHY", "ROOT A", "{", "\tOFFSET 0 0 0", "\tCHANNELS 0",
-                                  "}", "ROOT B", "{", "\tOFFSET 1 0 0", "\tCHANNELS 1 Yposition",
-                                  "}", "MOTION", "Frames: 1", "Frame Time: 0", "2.5"});
+  const std::string text = Lines({"HIERARCHY", "ROOT A", "{", "\tOFFSET 0 0 0", "\tCHANNELS 0", "}",
+                                  "ROOT B", "{", "\tOFFSET 1 0 0", "\tCHANNELS 1 Yposition", "}",
+                                  "MOTION", "Frames: 1", "Frame Time: 0", "2.5"});
   const Parsed p = Read(text);
   EXPECT_EQ(WriteBvh(p.skeleton, p.motion), text);
 }
@@ -855,8 +864,8 @@ Parsed RandomClip(std::mt19937_64& random, int frames) {
   for (int i = 0; i < 40; ++i) {
     Joint joint;
     // Close a random number of open blocks; end sites always close.
-    while (!open.empty() && (s.joints[static_cast<std::size_t>(open.back())].end_site ||
-                             random() % 3 == 0)) {
+    while (!open.empty() &&
+           (s.joints[static_cast<std::size_t>(open.back())].end_site || random() % 3 == 0)) {
       open.pop_back();
     }
     joint.parent = open.empty() ? -1 : open.back();
@@ -899,8 +908,9 @@ TEST(WriteBvh, RoundTripsExactly) {
     ASSERT_TRUE(clip.skeleton.Validate()) << clip.skeleton.Validate().message();
     if (clip.skeleton.channel_count > 0) {
       // Extremes at fixed places.
-      const double extremes[] = {5e-324, -5e-324, DBL_MIN, -DBL_MAX, DBL_MAX, 0.0, -0.0,
-                                 1e-300, 1e300,  0.1,     1.0 / 3.0, 123456789.123456789};
+      const double extremes[] = {5e-324,  -5e-324, DBL_MIN,   -DBL_MAX,
+                                 DBL_MAX, 0.0,     -0.0,      1e-300,
+                                 1e300,   0.1,     1.0 / 3.0, 123456789.123456789};
       for (std::size_t k = 0; k < std::size(extremes); ++k) {
         clip.motion.values(0, static_cast<Eigen::Index>(k) % clip.skeleton.channel_count) =
             extremes[k];
@@ -937,7 +947,10 @@ TEST(WriteBvh, RejectsWhatItCannotWrite) {
             "WriteBvh: frame 1, column 0 (joint 0 'Hips' Xposition) is not finite");
   EXPECT_EQ(message([](Parsed& p) { p.motion.frame_time = -1; }),
             "WriteBvh: the frame time must be finite and not negative, got -1.000000");
-  EXPECT_EQ(message([](Parsed& p) { p.skeleton = Skeleton(); p.motion.values.resize(0, 0); }),
+  EXPECT_EQ(message([](Parsed& p) {
+              p.skeleton = Skeleton();
+              p.motion.values.resize(0, 0);
+            }),
             "WriteBvh: the skeleton has no joints");
   for (const char* name : {" Chest", "Chest\t", "Ch{est", "Ch}est", "Ch\nest", "Ch\rest"}) {
     EXPECT_EQ(message([&](Parsed& p) { p.skeleton.joints[1].name = name; }),
@@ -947,9 +960,9 @@ TEST(WriteBvh, RejectsWhatItCannotWrite) {
   EXPECT_EQ(message([](Parsed& p) { p.skeleton.joints[2].parent = -1; }),
             "WriteBvh: joint 2 'Chest_end' is an end site without a parent");
   // Parents come first, but B is not inside A's block.
-  const Parsed roots = Read(Lines({"HIERARCHY", "ROOT A", "{", "OFFSET 0 0 0", "}", "ROOT B", "{",
-                                   "OFFSET 0 0 0", "JOINT C", "{", "OFFSET 0 0 0", "}", "}",
-                                   "MOTION", "Frames: 0", "Frame Time: 1"}));
+  const Parsed roots = Read(
+      Lines({"HIERARCHY", "ROOT A", "{", "OFFSET 0 0 0", "}", "ROOT B", "{", "OFFSET 0 0 0",
+             "JOINT C", "{", "OFFSET 0 0 0", "}", "}", "MOTION", "Frames: 0", "Frame Time: 1"}));
   Skeleton shuffled = roots.skeleton;
   shuffled.joints[2].parent = 0;
   ASSERT_TRUE(shuffled.Validate());
