@@ -8,6 +8,7 @@ packages=(
   blender python3 python3-dev python3-numpy python3-scipy python3-pytest python3-matplotlib
   g++ cmake make libeigen3-dev pybind11-dev libgtest-dev libgmock-dev libbenchmark-dev
   debootstrap util-linux zip
+  clang libclang-rt-dev
 )
 missing=()
 for p in "${packages[@]}"; do
