@@ -1,0 +1,38 @@
+// Forward kinematics of a whole clip in one call (brief, section 1):
+//   Q_i = Q_p(i) R_i,   p_i = p_p(i) + Q_p(i) t_i
+// where R_i composes the joint's rotation channels in file order and t_i is
+// the joint's OFFSET with any position channels replacing its components.
+// End sites are joints like any other: they get positions and orientations.
+#pragma once
+
+#include "motionkit/error.hpp"
+#include "motionkit/skeleton.hpp"
+#include "motionkit/types.hpp"
+
+namespace motionkit {
+
+// Caller-owned buffers; Run() allocates nothing.
+//   values:       frames x skeleton.channel_count (BVH rows, degrees)
+//   positions:    frames x (3 * joints), world positions, x y z per joint
+//   orientations: frames x (4 * joints), world orientations, w x y z per joint
+struct ForwardKinematicsJob {
+  ForwardKinematicsJob(const Skeleton& skeleton_in, ConstMatrixView values_in,
+                       Eigen::Ref<RowMatrixXd> positions_out,
+                       Eigen::Ref<RowMatrixXd> orientations_out)
+      : skeleton(skeleton_in),
+        values(values_in),
+        positions(positions_out),
+        orientations(orientations_out) {}
+
+  const Skeleton& skeleton;
+  ConstMatrixView values;
+  Eigen::Ref<RowMatrixXd> positions;
+  Eigen::Ref<RowMatrixXd> orientations;
+
+  // Shapes agree, the skeleton validates, every value is finite (else names
+  // the frame and the joint's channel).
+  Status Validate() const;
+  void Run();  // throws Error when Validate() fails
+};
+
+}  // namespace motionkit
