@@ -7,6 +7,7 @@
 
 #include <cstdint>
 
+#include "bindings.hpp"
 #include "motionkit/error.hpp"
 #include "motionkit/keyframes.hpp"
 #include "motionkit/types.hpp"
@@ -80,4 +81,8 @@ PYBIND11_MODULE(_native, m) {
                 co[k] = [frames[0], values[k,0], frames[1], values[k,1], ...].
         Raises MotionKitError naming the curve and key on NaN or infinity.
       )pbdoc");
+
+  motionkit::python::BindBvh(m);
+  motionkit::python::BindRotation(m);
+  motionkit::python::BindFCurve(m);
 }
