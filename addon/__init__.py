@@ -18,18 +18,22 @@ import sys
 
 import bpy
 
-from . import animdata, native_state, preferences, ui_panels
+from . import animdata, bvh, native_state, operators_bvh, preferences, ui_panels
 from .native_state import native
 
 classes = (
     preferences.MOTIONKIT_AddonPreferences,
     ui_panels.MOTIONKIT_PT_main,
+    operators_bvh.MOTIONKIT_OT_import_bvh,
+    operators_bvh.MOTIONKIT_OT_export_bvh,
 )
 
 
 def register():
     for cls in classes:
         bpy.utils.register_class(cls)
+    bpy.types.TOPBAR_MT_file_import.append(operators_bvh.menu_import)
+    bpy.types.TOPBAR_MT_file_export.append(operators_bvh.menu_export)
     # Installed as an extension the package is bl_ext.<repo>.motionkit; the
     # aliases keep `import motionkit` and `from motionkit import animdata`
     # working for headless scripts either way, without loading anything twice.
@@ -53,5 +57,7 @@ def unregister():
             alias = "motionkit" + name[len(__package__):]
             if sys.modules.get(alias) is sys.modules[name]:
                 del sys.modules[alias]
+    bpy.types.TOPBAR_MT_file_export.remove(operators_bvh.menu_export)
+    bpy.types.TOPBAR_MT_file_import.remove(operators_bvh.menu_import)
     for cls in reversed(classes):
         bpy.utils.unregister_class(cls)

@@ -1,0 +1,439 @@
+"""BVH in and out of Blender: motionkit.bvh.load and motionkit.bvh.save.
+
+The file is parsed natively, the whole clip is converted to pose channels in
+one native call, and the keys are written in bulk (motionkit.animdata). The
+armature's rest pose is the file's: one bone per joint, its head at the joint,
+its tail at the end site, the only child, or, for several children, the child
+that continues the bone's own direction (the spine, not the hips, from the
+pelvis), with roll 0 in Blender's frame. Blender's Z-up frame is reached
+through the same forward/up axis options as Blender's own importer.
+"""
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+
+import bpy
+import numpy as np
+from bpy_extras.io_utils import axis_conversion
+
+from . import animdata, native_state
+
+ROTATION_MODES = ('QUATERNION', 'NATIVE', 'XYZ', 'XZY', 'YXZ', 'YZX', 'ZXY', 'ZYX')
+_AXIS = {"X": 0, "Y": 1, "Z": 2}
+
+
+@dataclass
+class ImportOptions:
+    scale: float = 1.0
+    axis_forward: str = '-Z'
+    axis_up: str = 'Y'
+    rotation_mode: str = 'QUATERNION'  # or 'NATIVE' (the file's order per joint) or a Blender Euler mode
+    frame_start: int = 1
+    use_fps_scale: bool = False  # map file frames onto the scene's frame rate
+    update_scene_fps: bool = False  # set the scene's frame rate to the file's
+    update_scene_duration: bool = False  # make the scene's frame range cover the clip
+
+
+def _conversion(axis_forward: str, axis_up: str):
+    """BVH space to Blender armature space, as a 3x3 matrix and a w x y z quaternion."""
+    matrix = axis_conversion(from_forward=axis_forward, from_up=axis_up)
+    return matrix, np.array(matrix.to_quaternion(), dtype=np.float64)
+
+
+def _rest_heads(skeleton) -> np.ndarray:
+    offsets, parents = skeleton.offsets, skeleton.parents
+    heads = np.zeros_like(offsets)
+    for i, parent in enumerate(parents):
+        heads[i] = offsets[i] if parent < 0 else heads[parent] + offsets[i]
+    return heads
+
+
+def _rest_tails(skeleton, heads: np.ndarray, up: np.ndarray) -> np.ndarray:
+    """Where each joint's bone points, in BVH space (see the module docstring)."""
+    offsets, parents = skeleton.offsets, skeleton.parents
+    children = [[] for _ in parents]
+    for i, parent in enumerate(parents):
+        if parent >= 0:
+            children[parent].append(i)
+    lengths = np.linalg.norm(offsets, axis=1)
+    nonzero = np.sort(lengths[lengths > 0])
+    typical = float(nonzero[len(nonzero) // 2]) if len(nonzero) else 1.0  # the median length
+    tails = heads.copy()
+    for i, kids in enumerate(children):
+        kids = [k for k in kids if lengths[k] > 1e-9 * typical]
+        incoming = offsets[i] / lengths[i] if parents[i] >= 0 and lengths[i] > 1e-9 * typical else up
+        if kids:
+            best = max(kids, key=lambda k: float(np.dot(offsets[k] / lengths[k], incoming)))
+            tails[i] = heads[best]
+        else:
+            # A leaf without an end site: continue the incoming direction.
+            size = 0.5 * (lengths[i] if parents[i] >= 0 and lengths[i] > 0 else typical)
+            tails[i] = heads[i] + incoming * size
+    return tails
+
+
+def _quaternions_by_name(armature) -> dict[str, np.ndarray]:
+    count = len(armature.bones)
+    buf = np.empty(16 * count, dtype=np.float32)
+    armature.bones.foreach_get("matrix_local", buf)
+    rotations = buf.reshape(count, 4, 4).transpose(0, 2, 1)[:, :3, :3].astype(np.float64)
+    quats = _matrix_to_quaternion(rotations)
+    return {bone.name: quats[i] for i, bone in enumerate(armature.bones)}
+
+
+def _matrix_to_quaternion(m: np.ndarray) -> np.ndarray:
+    """Rotation matrices (n, 3, 3) to w x y z quaternions with w >= 0 (Shepperd's method)."""
+    m = m / np.linalg.norm(m, axis=1, keepdims=True)  # float32 rest matrices: re-orthonormalise columns
+    q = np.empty((m.shape[0], 4))
+    trace = np.trace(m, axis1=1, axis2=2)
+    for i in range(m.shape[0]):
+        r, t = m[i], trace[i]
+        if t > 0:
+            s = 2.0 * np.sqrt(1.0 + t)
+            q[i] = (0.25 * s, (r[2, 1] - r[1, 2]) / s, (r[0, 2] - r[2, 0]) / s, (r[1, 0] - r[0, 1]) / s)
+        else:
+            k = int(np.argmax(np.diag(r)))
+            a, b = (k + 1) % 3, (k + 2) % 3
+            s = 2.0 * np.sqrt(1.0 + r[k, k] - r[a, a] - r[b, b])
+            q[i, 1 + k] = 0.25 * s
+            q[i, 0] = (r[b, a] - r[a, b]) / s
+            q[i, 1 + a] = (r[a, k] + r[k, a]) / s
+            q[i, 1 + b] = (r[b, k] + r[k, b]) / s
+    q *= np.where(q[:, :1] < 0, -1.0, 1.0)
+    return q / np.linalg.norm(q, axis=1, keepdims=True)
+
+
+def _edit_mode(obj):
+    """Blender creates bones only in edit mode, and mode_set is the only way in.
+
+    This is MotionKit's one operator call: it runs on the new, empty armature
+    before any key exists, inside the importing operator's single undo step.
+    """
+    view_layer = bpy.context.view_layer
+    previous = view_layer.objects.active
+    view_layer.objects.active = obj
+    bpy.ops.object.mode_set(mode='EDIT')
+    return previous
+
+
+def _build_armature(name: str, skeleton, heads, tails, collection):
+    names, parents, end_sites = skeleton.names, skeleton.parents, skeleton.end_sites
+    armature = bpy.data.armatures.new(name)
+    obj = bpy.data.objects.new(name, armature)
+    collection.objects.link(obj)
+    previous = _edit_mode(obj)
+    bone_names = {}
+    try:
+        edit_bones = armature.edit_bones
+        for i, joint in enumerate(names):
+            if end_sites[i]:
+                continue
+            bone = edit_bones.new(joint)
+            bone.head, bone.tail, bone.roll = heads[i], tails[i], 0.0
+            if parents[i] >= 0:
+                bone.parent = edit_bones[bone_names[parents[i]]]
+            bone_names[i] = bone.name  # Blender may shorten names beyond 63 bytes
+        for i, channels in enumerate(skeleton.channels):
+            if end_sites[i] or parents[i] < 0:
+                continue
+            bone = edit_bones[bone_names[i]]
+            has_loc = any(c.endswith("position") for c in channels)
+            bone.use_connect = (not has_loc) and np.allclose(bone.parent.tail, bone.head, atol=1e-7)
+    finally:
+        bpy.ops.object.mode_set(mode='OBJECT')
+        bpy.context.view_layer.objects.active = previous
+    return obj, bone_names
+
+
+def _euler_channels(mode: str) -> tuple[str, list[int]]:
+    """A Blender Euler mode as our intrinsic order and, per angle, its axis."""
+    order = mode[::-1]
+    return order, [_AXIS[letter] for letter in order]
+
+
+def _key_frames(motion, options: ImportOptions, scene) -> np.ndarray:
+    steps = np.arange(motion.frames, dtype=np.float64)
+    if options.use_fps_scale and motion.frame_time > 0:
+        steps *= motion.frame_time * scene.render.fps / scene.render.fps_base
+    return options.frame_start + steps
+
+
+def load(filepath: str, options: ImportOptions | None = None, *, context=None, name: str | None = None,
+         **option_values):
+    """Imports a BVH file: returns (armature_object, action). Raises ValueError on a bad file.
+
+    Options come as an ImportOptions or as keywords: load(path, scale=0.01,
+    rotation_mode='NATIVE'). Nothing is added to the file when the BVH cannot
+    be read.
+    """
+    options = options or ImportOptions(**option_values)
+    native = native_state.native()
+    if options.rotation_mode not in ROTATION_MODES:
+        raise ValueError(f"bvh.load: unknown rotation_mode {options.rotation_mode!r}")
+    if not (options.scale > 0 and np.isfinite(options.scale)):
+        raise ValueError("bvh.load: scale must be positive")
+    skeleton, motion = native.read_bvh(os.fspath(filepath))  # MotionKitError is a ValueError
+    if all(skeleton.end_sites):
+        raise ValueError(f"{filepath}: the hierarchy has no joints to make bones of")
+    context = context or bpy.context
+    scene = context.scene
+    name = name or os.path.splitext(os.path.basename(filepath))[0]
+
+    conv_matrix, conv_quat = _conversion(options.axis_forward, options.axis_up)
+    up = np.array(conv_matrix).T @ np.array([0.0, 0.0, 1.0])  # Blender's up, in BVH space
+    heads_bvh = _rest_heads(skeleton)
+    tails_bvh = _rest_tails(skeleton, heads_bvh, up)
+    to_blender = np.array(conv_matrix) * options.scale
+    heads, tails = heads_bvh @ to_blender.T, tails_bvh @ to_blender.T
+
+    created = []
+    try:
+        obj, bone_names = _build_armature(name, skeleton, heads, tails, context.collection)
+        created.append(obj)
+        rest = _quaternions_by_name(obj.data)
+        joints = len(skeleton)
+        bone_rest = np.tile([1.0, 0.0, 0.0, 0.0], (joints, 1))
+        for i, bone in bone_names.items():
+            bone_rest[i] = rest[bone]
+        rotations = np.empty((motion.frames, 4 * joints))
+        locations = np.empty((motion.frames, 3 * joints))
+        native.bvh_to_pose(skeleton, np.ascontiguousarray(motion.values), bone_rest, conv_quat,
+                           float(options.scale), rotations, locations)
+
+        # Plan the channels, then fill one (channels, frames) matrix in place.
+        channels, fills = [], []
+        for i, bone in bone_names.items():
+            joint_channels = skeleton.channels[i]
+            path = f'pose.bones["{bpy.utils.escape_identifier(bone)}"]'
+            if any(c.endswith("position") for c in joint_channels):
+                fills.append((len(channels), 'LOCATION', i))
+                channels += [(f"{path}.location", k, bone) for k in range(3)]
+            if not any(c.endswith("rotation") for c in joint_channels):
+                continue
+            mode = options.rotation_mode
+            if mode == 'NATIVE':
+                letters = "".join(c[0] for c in joint_channels if c.endswith("rotation"))
+                mode = letters[::-1] if len(letters) == 3 and len(set(letters)) == 3 else 'QUATERNION'
+            obj.pose.bones[bone].rotation_mode = mode
+            fills.append((len(channels), mode, i))
+            prop, size = ("rotation_quaternion", 4) if mode == 'QUATERNION' else ("rotation_euler", 3)
+            channels += [(f"{path}.{prop}", k, bone) for k in range(size)]
+        matrix = np.empty((len(channels), motion.frames))
+        angles = np.empty((motion.frames, 3))
+        for row, kind, i in fills:
+            if kind == 'LOCATION':
+                matrix[row:row + 3] = locations[:, 3 * i:3 * i + 3].T
+            elif kind == 'QUATERNION':
+                matrix[row:row + 4] = rotations[:, 4 * i:4 * i + 4].T
+            else:
+                order, axes = _euler_channels(kind)
+                native.quaternion_to_euler(np.ascontiguousarray(rotations[:, 4 * i:4 * i + 4]), order, angles)
+                matrix[[row + a for a in axes]] = angles.T
+
+        action = animdata.new_action(name)
+        created.append(action)
+        if channels and motion.frames:
+            animdata.write_keys(obj, action, channels, _key_frames(motion, options, scene), matrix)
+        animdata.assign(obj, action)
+    except BaseException:
+        for item in reversed(created):
+            if isinstance(item, bpy.types.Object):
+                armature = item.data
+                bpy.data.objects.remove(item)
+                bpy.data.armatures.remove(armature)
+            else:
+                bpy.data.actions.remove(item)
+        raise
+
+    if options.update_scene_fps and motion.frame_time > 0:
+        fps = 1.0 / motion.frame_time
+        scene.render.fps = max(1, int(round(fps)))
+        scene.render.fps_base = scene.render.fps / fps
+    if options.update_scene_duration and motion.frames:
+        last = _key_frames(motion, options, scene)[-1]
+        scene.frame_start = options.frame_start
+        scene.frame_end = max(scene.frame_end, int(np.ceil(last)))
+    return obj, action
+
+
+@dataclass
+class ExportOptions:
+    scale: float = 1.0  # BVH units per Blender unit
+    axis_forward: str = '-Z'
+    axis_up: str = 'Y'
+    rotation_order: str = 'NATIVE'  # BVH channel order; NATIVE: each Euler bone's own, else ZXY
+    frame_range: tuple[int, int] | None = None  # inclusive; default: the scene's
+
+
+def _depth_first(armature) -> list:
+    order, stack = [], [b for b in reversed(armature.bones) if b.parent is None]
+    while stack:
+        bone = stack.pop()
+        order.append(bone)
+        stack.extend(reversed(bone.children))
+    return order
+
+
+def _channel_letters(pose_bone, rotation_order: str) -> str:
+    if rotation_order != 'NATIVE':
+        return rotation_order
+    mode = pose_bone.rotation_mode
+    return mode[::-1] if mode in ROTATION_MODES[2:] else "ZXY"
+
+
+def _pose_rotations(obj, action, bones, frames) -> np.ndarray:
+    """Pose quaternions (frames, 4 * bones) from the action, in each bone's rotation mode."""
+    native = native_state.native()
+    channels, kinds = [], []
+    for bone in bones:
+        pose_bone = obj.pose.bones[bone.name]
+        path = f'pose.bones["{bpy.utils.escape_identifier(bone.name)}"]'
+        mode = pose_bone.rotation_mode
+        if mode == 'QUATERNION':
+            prop, static, size = "rotation_quaternion", tuple(pose_bone.rotation_quaternion), 4
+        elif mode == 'AXIS_ANGLE':
+            prop, static, size = "rotation_axis_angle", tuple(pose_bone.rotation_axis_angle), 4
+        else:
+            prop, static, size = "rotation_euler", tuple(pose_bone.rotation_euler), 3
+        kinds.append((mode, len(channels), static))
+        channels += [(f"{path}.{prop}", k) for k in range(size)]
+    values, found = animdata.sample(action, obj, channels, frames)
+    out = np.empty((frames.size, 4 * len(bones)))
+    for j, (mode, start, static) in enumerate(kinds):
+        size = len(static)
+        block = values[start:start + size].T.copy()
+        for k in range(size):
+            if not found[start + k]:
+                block[:, k] = static[k]
+        if mode == 'QUATERNION':
+            q = block
+        elif mode == 'AXIS_ANGLE':
+            axis = block[:, 1:]
+            norm = np.linalg.norm(axis, axis=1, keepdims=True)
+            axis = np.divide(axis, norm, out=np.tile([0.0, 1.0, 0.0], (len(axis), 1)), where=norm > 0)
+            half = 0.5 * block[:, 0:1]
+            q = np.hstack([np.cos(half), np.sin(half) * axis])
+        else:
+            order, axes = _euler_channels(mode)
+            q = np.empty((frames.size, 4))
+            native.euler_to_quaternion(np.ascontiguousarray(block[:, axes]), order, q)
+        norm = np.linalg.norm(q, axis=1, keepdims=True)
+        if np.any(norm < 1e-12):
+            frame = frames[int(np.argmin(norm))]
+            raise ValueError(f"bone '{bones[j].name}' has a zero rotation at frame {frame:g}")
+        out[:, 4 * j:4 * j + 4] = q / norm
+    return out
+
+
+def _pose_locations(obj, action, bones, frames) -> tuple[np.ndarray, list[bool]]:
+    channels = []
+    for bone in bones:
+        path = f'pose.bones["{bpy.utils.escape_identifier(bone.name)}"]'
+        channels += [(f"{path}.location", k) for k in range(3)]
+    values, found = animdata.sample(action, obj, channels, frames)
+    out = np.empty((frames.size, 3 * len(bones)))
+    animated = []
+    for j, bone in enumerate(bones):
+        static = obj.pose.bones[bone.name].location
+        for k in range(3):
+            row = 3 * j + k
+            out[:, row] = values[row] if found[row] else static[k]
+        animated.append(bool(found[3 * j:3 * j + 3].any()) or obj.pose.bones[bone.name].location.length > 0)
+    return out, animated
+
+
+def save(obj, filepath: str, options: ExportOptions | None = None, *, context=None,
+         **option_values) -> None:
+    """Writes obj's action (in the armature's rest frame and world placement) as BVH.
+
+    Options come as an ExportOptions or as keywords: save(obj, path,
+    frame_range=(1, 100)). Rotation and location keys of the active action are
+    evaluated natively, as Blender evaluates them; constraints, drivers and the
+    NLA are not baked.
+    """
+    options = options or ExportOptions(**option_values)
+    native = native_state.native()
+    context = context or bpy.context
+    scene = context.scene
+    if obj is None or obj.type != 'ARMATURE':
+        raise ValueError("bvh.save: pick an armature object")
+    if not len(obj.data.bones):
+        raise ValueError(f"bvh.save: armature '{obj.name}' has no bones")
+    if not (options.scale > 0 and np.isfinite(options.scale)):
+        raise ValueError("bvh.save: scale must be positive")
+    if options.rotation_order != 'NATIVE' and options.rotation_order not in ROTATION_MODES[2:]:
+        raise ValueError(f"bvh.save: unknown rotation order {options.rotation_order!r}")
+    start, end = options.frame_range or (scene.frame_start, scene.frame_end)
+    if end < start:
+        raise ValueError(f"bvh.save: frame range {start}..{end} is empty")
+    frames = np.arange(start, end + 1, dtype=np.float64)
+
+    location, rotation, obj_scale = obj.matrix_world.decompose()
+    sigma = float(np.mean(obj_scale))
+    if not np.allclose(obj_scale, sigma, rtol=1e-6):
+        raise ValueError(f"bvh.save: '{obj.name}' has a non-uniform scale {tuple(obj_scale)}")
+    world = np.array(obj.matrix_world)
+    conv_matrix, conv_quat = _conversion(options.axis_forward, options.axis_up)
+    to_bvh = np.array(conv_matrix).T * options.scale
+
+    bones = _depth_first(obj.data)
+    index = {bone.name: i for i, bone in enumerate(bones)}
+    rest = _quaternions_by_name(obj.data)
+    rot = np.array(rotation)
+    bone_rest_world = [_quat_mul(rot, rest[b.name]) for b in bones]
+
+    def to_bvh_space(points):
+        points = np.asarray(points, dtype=np.float64)
+        return (points @ world[:3, :3].T + world[:3, 3]) @ to_bvh.T
+
+    heads = to_bvh_space([b.head_local for b in bones])
+    tails = to_bvh_space([b.tail_local for b in bones])
+    action = animdata.assigned_action(obj)
+    rotations = _pose_rotations(obj, action, bones, frames)
+    locations, animated = _pose_locations(obj, action, bones, frames)
+    locations *= sigma
+
+    names, parents, offsets, end_sites, channels, rest_rows = [], [], [], [], [], []
+    joint_of_bone = {}
+    for i, bone in enumerate(bones):
+        parent = joint_of_bone[bone.parent.name] if bone.parent else -1
+        joint_of_bone[bone.name] = len(names)
+        names.append(bone.name)
+        parents.append(parent)
+        offsets.append(heads[i] - (heads[index[bone.parent.name]] if bone.parent else 0.0))
+        end_sites.append(False)
+        letters = _channel_letters(obj.pose.bones[bone.name], options.rotation_order)
+        moves = bone.parent is None or (animated[i] and not bone.use_connect)
+        channels.append(([f"{a}position" for a in "XYZ"] if moves else []) +
+                        [f"{a}rotation" for a in letters])
+        rest_rows.append(bone_rest_world[i])
+        if not bone.children:
+            names.append(bone.name + "_end")
+            parents.append(joint_of_bone[bone.name])
+            offsets.append(tails[i] - heads[i])
+            end_sites.append(True)
+            channels.append([])
+            rest_rows.append(np.array([1.0, 0.0, 0.0, 0.0]))
+    skeleton = native.Skeleton(names, parents, np.array(offsets), end_sites, channels)
+
+    # Pose arrays per joint (end sites carry identity, ignored by the job).
+    joints = len(names)
+    joint_rot = np.tile([1.0, 0.0, 0.0, 0.0], (frames.size, joints))
+    joint_loc = np.zeros((frames.size, 3 * joints))
+    for i, bone in enumerate(bones):
+        j = joint_of_bone[bone.name]
+        joint_rot[:, 4 * j:4 * j + 4] = rotations[:, 4 * i:4 * i + 4]
+        joint_loc[:, 3 * j:3 * j + 3] = locations[:, 3 * i:3 * i + 3]
+    values = np.empty((frames.size, skeleton.channel_count))
+    native.pose_to_bvh(skeleton, joint_rot, joint_loc, np.array(rest_rows), conv_quat,
+                       1.0 / options.scale, values)
+    frame_time = scene.render.fps_base / scene.render.fps
+    native.write_bvh(os.fspath(filepath), skeleton, native.Motion(values, frame_time))
+
+
+def _quat_mul(a, b) -> np.ndarray:
+    aw, ax, ay, az = a
+    bw, bx, by, bz = b
+    return np.array([aw * bw - ax * bx - ay * by - az * bz, aw * bx + ax * bw + ay * bz - az * by,
+                     aw * by - ax * bz + ay * bw + az * bx, aw * bz + ax * by - ay * bx + az * bw])
