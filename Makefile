@@ -13,14 +13,14 @@ ZIP_5.2 := dist/motionkit-$(VERSION)-linux-x64-py314.zip
 BLENDER_ARGS := --background --factory-startup --python-exit-code 1
 B5 := tools/blender5.sh
 
-.PHONY: demo test deps deps-5.2 build-3.4 build-5.2 test-native test-python \
+.PHONY: demo test deps deps-5.2 build-3.4 build-5.2 test-native test-python test-fuzz \
         test-blender test-blender-3.4 test-blender-5.2 bench clean
 
 demo: deps build-3.4
 	tools/with_blender.sh 3.4 $(BLENDER_ARGS) --python demo/demo.py -- --zip $(ZIP_3.4) --out out
 	@echo "Demo output: out/demo.blend and out/demo.png"
 
-test: deps deps-5.2 build-3.4 build-5.2 test-native test-python test-blender
+test: deps deps-5.2 build-3.4 build-5.2 test-native test-python test-blender test-fuzz
 	@echo "make test: everything passed on Blender 3.4 and 5.2"
 
 deps:
@@ -42,6 +42,10 @@ test-native:
 test-python:
 	python3 -m pytest -p no:cacheprovider -q tests/python
 
+# A bounded libFuzzer run of the BVH reader under ASan and UBSan (clang).
+test-fuzz:
+	tools/fuzz_bvh.sh 30
+
 test-blender: test-blender-3.4 test-blender-5.2
 test-blender-3.4:
 	tools/with_blender.sh 3.4 $(BLENDER_ARGS) --python tests/blender/run_in_blender.py -- $(ZIP_3.4)
@@ -54,6 +58,8 @@ bench: build-3.4 build-5.2
 	$(B5) run build/py314/motionkit_bench
 	tools/with_blender.sh 3.4 $(BLENDER_ARGS) --python bench/fcurve_write.py -- --zip $(ZIP_3.4)
 	tools/with_blender.sh 5.2 $(BLENDER_ARGS) --python bench/fcurve_write.py -- --zip $(ZIP_5.2)
+	tools/with_blender.sh 3.4 $(BLENDER_ARGS) --python bench/bvh_import.py -- --zip $(ZIP_3.4)
+	tools/with_blender.sh 5.2 $(BLENDER_ARGS) --python bench/bvh_import.py -- --zip $(ZIP_5.2)
 
 clean:
 	rm -rf build dist out

@@ -8,7 +8,8 @@ import pytest
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 SHARED = os.path.join(os.path.dirname(ROOT), "shared")
-for path in (ROOT, os.path.join(ROOT, "tools"), os.path.join(ROOT, "blend_samples")):
+for path in (ROOT, os.path.join(ROOT, "tools"), os.path.join(ROOT, "blend_samples"),
+             os.path.join(ROOT, "tests", "common")):
     if path not in sys.path:
         sys.path.insert(0, path)
 

@@ -6,7 +6,9 @@ import sys
 import pytest
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-sys.path[:0] = [os.path.join(ROOT, "addon"), os.path.join(ROOT, "blend_samples")]
+sys.path[:0] = [os.path.join(ROOT, "addon"), os.path.join(ROOT, "blend_samples"),
+                os.path.join(ROOT, "tests", "common")]
+SHARED_BVH = os.path.join(os.path.dirname(ROOT), "shared", "data", "bvh")
 
 
 @pytest.fixture(scope="session")
@@ -19,3 +21,20 @@ def native():
     sys.path.insert(0, build)
     import _native
     return _native
+
+
+def shared_bvh_files():
+    """The real motion capture files beside the repository."""
+    if not os.path.isdir(SHARED_BVH):
+        return []
+    return sorted(glob.glob(os.path.join(SHARED_BVH, "*.bvh")))
+
+
+@pytest.fixture(scope="session")
+def shared_files():
+    files = shared_bvh_files()
+    if not files:
+        if os.environ.get("CI") == "true":
+            pytest.fail(f"{SHARED_BVH} is missing, and CI=true requires it")
+        pytest.skip(f"{SHARED_BVH} is absent: the real-data checks need ../shared")
+    return files
