@@ -11,6 +11,11 @@
 
 #include "motionkit/fk.hpp"
 
+namespace motionkit::internal {
+// fk.cpp: false forces the baseline (SSE2) path on a machine with AVX2.
+extern bool fk_allow_avx2;
+}  // namespace motionkit::internal
+
 namespace {
 
 using motionkit::ChannelType;
@@ -72,5 +77,13 @@ void BM_ForwardKinematics(benchmark::State& state) {
       joint_frames, benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
 }
 BENCHMARK(BM_ForwardKinematics)->Arg(100)->Arg(10000)->Unit(benchmark::kMillisecond);
+
+// The same without AVX2, as on a CPU that lacks it.
+void BM_ForwardKinematicsBaseline(benchmark::State& state) {
+  motionkit::internal::fk_allow_avx2 = false;
+  BM_ForwardKinematics(state);
+  motionkit::internal::fk_allow_avx2 = true;
+}
+BENCHMARK(BM_ForwardKinematicsBaseline)->Arg(10000)->Unit(benchmark::kMillisecond);
 
 }  // namespace

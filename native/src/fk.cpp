@@ -7,7 +7,7 @@
 #include <string>
 
 // How it is fast (about 10 ns per joint and frame on a 31-joint skeleton):
-// frames are solved four at a time in vector lanes, the half-angle sines and
+// frames are solved several at a time in vector lanes, the half-angle sines and
 // cosines come from a vectorised polynomial instead of libm, quaternions are
 // composed rather than matrices, the next rows are prefetched, and nothing is
 // allocated.
@@ -108,10 +108,11 @@ void HalfAngleCosSinAnySize(double degrees, double* cos_out, double* sin_out) {
 }
 
 // Frames solved together. Frames are independent, so a joint is computed for
-// kBlock of them side by side: the compiler keeps each step in vector
-// registers (one lane a frame), and the parent-to-child dependency chain of
-// one frame no longer stalls the others.
-constexpr int kBlock = 4;
+// a block of them side by side: each step is one vector operation (one lane a
+// frame), and the parent-to-child dependency chain of one frame no longer
+// stalls the others. The block is as wide as a vector register: 2 frames on
+// the baseline ISA (SSE2, or NEON), 4 with AVX2.
+constexpr int kMaxBlock = 4;
 // How far ahead (in blocks) to prefetch; 2 to 3 measured best on a 10,000-frame clip.
 constexpr int kPrefetchBlocks = 3;
 // Columns whose half-angle cosines and sines are computed at once (for each
@@ -120,62 +121,87 @@ constexpr int kPrefetchBlocks = 3;
 constexpr int kBatch = 64;
 static_assert(kBatch >= kMaxChannelsPerJoint, "a joint's channels must fit in one batch");
 
-// One number per frame of a block. GCC and Clang vector extensions give plain
-// arithmetic on whole registers (two SSE2 registers on the baseline ISA, one
-// AVX register in the AVX2 build); other compilers get a loop per operation
-// (define MOTIONKIT_FK_NO_VECTOR_EXT to try that path with GCC). No function
-// takes or returns a Lanes by value, which would make GCC and Clang warn that
-// the calling convention for 32-byte vectors depends on AVX (-Wpsabi).
+// Vec<L>::type holds L doubles, one per frame of a block. GCC and Clang vector
+// extensions give plain arithmetic on whole registers; other compilers get a
+// loop per operation (define MOTIONKIT_FK_NO_VECTOR_EXT to try that path with
+// GCC). No function takes or returns one by value, which would make GCC and
+// Clang warn that the calling convention for 32-byte vectors depends on AVX
+// (-Wpsabi).
 #if defined(__GNUC__) && !defined(MOTIONKIT_FK_NO_VECTOR_EXT)
 #define MOTIONKIT_FK_VECTOR_EXT 1
-typedef double Lanes __attribute__((vector_size(kBlock * sizeof(double))));
+template <int L>
+struct Vec;
+template <>
+struct Vec<2> {
+  typedef double type __attribute__((vector_size(2 * sizeof(double))));
+};
+template <>
+struct Vec<4> {
+  typedef double type __attribute__((vector_size(4 * sizeof(double))));
+};
+#define MOTIONKIT_FK_LANE(lanes, b) (lanes)[b]
 #else
 #define MOTIONKIT_FK_VECTOR_EXT 0
-struct Lanes {
-  double v[kBlock];
+template <int L>
+struct LaneArray {
+  double v[L];
 };
-#define MOTIONKIT_FK_LANE_OP(op)                                       \
-  inline Lanes operator op(const Lanes& a, const Lanes& b) {           \
-    Lanes r;                                                           \
-    for (int i = 0; i < kBlock; ++i) r.v[i] = a.v[i] op b.v[i];        \
-    return r;                                                          \
-  }                                                                    \
-  inline Lanes operator op(const Lanes& a, double b) {                 \
-    Lanes r;                                                           \
-    for (int i = 0; i < kBlock; ++i) r.v[i] = a.v[i] op b;             \
-    return r;                                                          \
+#define MOTIONKIT_FK_LANE_OP(op)                                               \
+  template <int L>                                                             \
+  LaneArray<L> operator op(const LaneArray<L>& a, const LaneArray<L>& b) {     \
+    LaneArray<L> r;                                                            \
+    for (int i = 0; i < L; ++i) r.v[i] = a.v[i] op b.v[i];                     \
+    return r;                                                                  \
+  }                                                                            \
+  template <int L>                                                             \
+  LaneArray<L> operator op(const LaneArray<L>& a, double b) {                  \
+    LaneArray<L> r;                                                            \
+    for (int i = 0; i < L; ++i) r.v[i] = a.v[i] op b;                          \
+    return r;                                                                  \
   }
 MOTIONKIT_FK_LANE_OP(+)
 MOTIONKIT_FK_LANE_OP(-)
 MOTIONKIT_FK_LANE_OP(*)
 #undef MOTIONKIT_FK_LANE_OP
+template <int L>
+struct Vec {
+  typedef LaneArray<L> type;
+};
+#define MOTIONKIT_FK_LANE(lanes, b) (lanes).v[b]
 #endif
 
-// kBlock consecutive doubles.
-MOTIONKIT_FK_INLINE void LoadTo(Lanes& out, const double* p) { std::memcpy(&out, p, sizeof(out)); }
+// L consecutive doubles.
+template <typename V>
+MOTIONKIT_FK_INLINE void LoadTo(V& out, const double* p) {
+  std::memcpy(&out, p, sizeof(out));
+}
 
 // Between lanes (one per frame) and rows (one per frame): rows[b][offset + i]
 // is lane b of v[i]. Element by element: in measurements this beat 4 x 4
 // shuffle transposes with whole-vector loads and stores.
-#if MOTIONKIT_FK_VECTOR_EXT
-#define MOTIONKIT_FK_LANE(lanes, b) (lanes)[b]
-#else
-#define MOTIONKIT_FK_LANE(lanes, b) (lanes).v[b]
-#endif
-
-template <int n>
-MOTIONKIT_FK_INLINE void StoreRows(const Lanes (&v)[n], double* const* rows, std::size_t offset) {
-  for (int b = 0; b < kBlock; ++b) {
+template <int L, int n>
+MOTIONKIT_FK_INLINE void StoreRows(const typename Vec<L>::type (&v)[n], double* const* rows,
+                                   std::size_t offset) {
+  for (int b = 0; b < L; ++b) {
     for (int i = 0; i < n; ++i) rows[b][offset + i] = MOTIONKIT_FK_LANE(v[i], b);
   }
 }
 
-MOTIONKIT_FK_INLINE void LoadColumn(Lanes& out, double* const* rows, std::size_t offset) {
+template <int L>
+MOTIONKIT_FK_INLINE void LoadColumn(typename Vec<L>::type& out, double* const* rows,
+                                    std::size_t offset) {
 #if MOTIONKIT_FK_VECTOR_EXT
-  static_assert(kBlock == 4, "one initialiser per lane");
-  out = Lanes{rows[0][offset], rows[1][offset], rows[2][offset], rows[3][offset]};
+  // Initialisers rather than element stores, which GCC takes for partly
+  // uninitialised vectors (-Wmaybe-uninitialized).
+  if constexpr (L == 2) {
+    out = typename Vec<L>::type{rows[0][offset], rows[1][offset]};
+  } else {
+    static_assert(L == 4, "one initialiser per lane");
+    out = typename Vec<L>::type{rows[0][offset], rows[1][offset], rows[2][offset],
+                                rows[3][offset]};
+  }
 #else
-  for (int b = 0; b < kBlock; ++b) out.v[b] = rows[b][offset];
+  for (int b = 0; b < L; ++b) out.v[b] = rows[b][offset];
 #endif
 }
 
@@ -212,6 +238,7 @@ Status CheckShapes(const ForwardKinematicsJob& job) {
 
 // True when every value is finite and below kLargeDegrees in magnitude: one
 // vectorised pass that only compares.
+template <int L>
 MOTIONKIT_FK_INLINE bool AllOrdinary(const ConstMatrixView& values) {
   const Eigen::Index n = values.cols();
   for (Eigen::Index f = 0; f < values.rows(); ++f) {
@@ -219,14 +246,15 @@ MOTIONKIT_FK_INLINE bool AllOrdinary(const ConstMatrixView& values) {
     bool unusual = false;
     Eigen::Index i = 0;
 #if MOTIONKIT_FK_VECTOR_EXT
-    const Lanes large = Lanes{} + kLargeDegrees;
-    Lanes v{};
+    using V = typename Vec<L>::type;
+    const V large = V{} + kLargeDegrees;
+    V v{};
     auto seen = (v != v);  // all false, of the comparison's mask type
-    for (; i + kBlock <= n; i += kBlock) {
+    for (; i + L <= n; i += L) {
       LoadTo(v, row + i);
       seen |= (v != v) | (v >= large) | (v <= -large);  // NaN, or large or infinite
     }
-    for (int b = 0; b < kBlock; ++b) unusual |= seen[b] != 0;
+    for (int b = 0; b < L; ++b) unusual |= seen[b] != 0;
 #endif
     for (; i < n; ++i) unusual |= !(std::abs(row[i]) < kLargeDegrees);
     if (unusual) return false;
@@ -255,27 +283,29 @@ Status CheckValues(const ForwardKinematicsJob& job) {
 
 // The whole clip. kAnySize handles angles beyond kLargeDegrees, which a real
 // clip never has, at the cost of vectorisation.
-template <bool kAnySize>
+template <int L, bool kAnySize>
 MOTIONKIT_FK_INLINE void SolveClip(const Skeleton& skeleton, const ConstMatrixView& values,
                                    Eigen::Ref<RowMatrixXd>& positions,
                                    Eigen::Ref<RowMatrixXd>& orientations) {
+  static_assert(L <= kMaxBlock, "scratch is sized for kMaxBlock lanes");
+  using V = typename Vec<L>::type;
   const Eigen::Index frames = values.rows();
   const int channels = skeleton.channel_count;
   const std::size_t joint_count = skeleton.joints.size();
   // Scratch on the stack, lane-minor ([column][frame of the block]): Run
   // allocates nothing.
-  alignas(64) double raw[kBatch * kBlock];
-  alignas(64) double half_cos[kBatch * kBlock];
-  alignas(64) double half_sin[kBatch * kBlock];
+  alignas(64) double raw[kBatch * kMaxBlock];
+  alignas(64) double half_cos[kBatch * kMaxBlock];
+  alignas(64) double half_sin[kBatch * kMaxBlock];
 
-  for (Eigen::Index f0 = 0; f0 < frames; f0 += kBlock) {
-    const double* in[kBlock];
-    double* pos[kBlock];
-    double* ori[kBlock];
-    const double* ahead_in[kBlock];  // the rows kPrefetchBlocks blocks on
-    const double* ahead_pos[kBlock];
-    const double* ahead_ori[kBlock];
-    for (int b = 0; b < kBlock; ++b) {
+  for (Eigen::Index f0 = 0; f0 < frames; f0 += L) {
+    const double* in[L];
+    double* pos[L];
+    double* ori[L];
+    const double* ahead_in[L];  // the rows kPrefetchBlocks blocks on
+    const double* ahead_pos[L];
+    const double* ahead_ori[L];
+    for (int b = 0; b < L; ++b) {
       // A short last block repeats its last frame, which writes the same
       // numbers to the same place twice.
       const Eigen::Index f = std::min<Eigen::Index>(f0 + b, frames - 1);
@@ -283,7 +313,7 @@ MOTIONKIT_FK_INLINE void SolveClip(const Skeleton& skeleton, const ConstMatrixVi
       pos[b] = positions.row(f).data();
       ori[b] = orientations.row(f).data();
       const Eigen::Index ahead =
-          std::min<Eigen::Index>(f0 + kPrefetchBlocks * kBlock + b, frames - 1);
+          std::min<Eigen::Index>(f0 + kPrefetchBlocks * L + b, frames - 1);
       ahead_in[b] = values.row(ahead).data();
       ahead_pos[b] = positions.row(ahead).data();
       ahead_ori[b] = orientations.row(ahead).data();
@@ -299,29 +329,29 @@ MOTIONKIT_FK_INLINE void SolveClip(const Skeleton& skeleton, const ConstMatrixVi
         batch_end = std::min(first + kBatch, channels);
         const int n = batch_end - batch_begin;
         for (int k = 0; k < n; ++k) {
-          for (int b = 0; b < kBlock; ++b) raw[k * kBlock + b] = in[b][batch_begin + k];
+          for (int b = 0; b < L; ++b) raw[k * L + b] = in[b][batch_begin + k];
         }
         if constexpr (kAnySize) {
-          for (int i = 0; i < n * kBlock; ++i) {
+          for (int i = 0; i < n * L; ++i) {
             HalfAngleCosSinAnySize(raw[i], half_cos + i, half_sin + i);
           }
         } else {
-          HalfAngleCosSin(raw, n * kBlock, half_cos, half_sin);
+          HalfAngleCosSin(raw, n * L, half_cos, half_sin);
         }
       }
 
       // Local rotation R_i (w, x, y, z), composed channel by channel, and t_i.
-      const Lanes zero{};
-      Lanes w = zero + 1.0, x = zero, y = zero, z = zero;
+      const V zero{};
+      V w = zero + 1.0, x = zero, y = zero, z = zero;
       // Separate variables, not an array, so that they stay in registers.
-      Lanes t0 = zero + joint.offset[0], t1 = zero + joint.offset[1], t2 = zero + joint.offset[2];
+      V t0 = zero + joint.offset[0], t1 = zero + joint.offset[1], t2 = zero + joint.offset[2];
       for (int c = 0; c < joint.channel_count; ++c) {
         const ChannelType type = joint.channels[static_cast<std::size_t>(c)];
-        const int k = (first + c - batch_begin) * kBlock;
-        Lanes hc, hs;
+        const int k = (first + c - batch_begin) * L;
+        V hc, hs;
         LoadTo(hc, half_cos + k);
         LoadTo(hs, half_sin + k);
-        Lanes nw, nx, ny, nz;
+        V nw, nx, ny, nz;
         switch (type) {
           case ChannelType::kXrotation:  // q * (hc, hs, 0, 0)
             nw = w * hc - x * hs;
@@ -360,27 +390,27 @@ MOTIONKIT_FK_INLINE void SolveClip(const Skeleton& skeleton, const ConstMatrixVi
         z = nz;
       }
 
-      Lanes q[4] = {w, x, y, z};
+      V q[4] = {w, x, y, z};
       if (joint.parent >= 0) {
         const std::size_t oq = 4 * static_cast<std::size_t>(joint.parent);
         const std::size_t op = 3 * static_cast<std::size_t>(joint.parent);
-        Lanes pw, px, py, pz, p0, p1, p2;
-        LoadColumn(pw, ori, oq);
-        LoadColumn(px, ori, oq + 1);
-        LoadColumn(py, ori, oq + 2);
-        LoadColumn(pz, ori, oq + 3);
-        LoadColumn(p0, pos, op);
-        LoadColumn(p1, pos, op + 1);
-        LoadColumn(p2, pos, op + 2);
+        V pw, px, py, pz, p0, p1, p2;
+        LoadColumn<L>(pw, ori, oq);
+        LoadColumn<L>(px, ori, oq + 1);
+        LoadColumn<L>(py, ori, oq + 2);
+        LoadColumn<L>(pz, ori, oq + 3);
+        LoadColumn<L>(p0, pos, op);
+        LoadColumn<L>(p1, pos, op + 1);
+        LoadColumn<L>(p2, pos, op + 2);
         // Q_i = Q_p R_i
         q[0] = pw * w - px * x - py * y - pz * z;
         q[1] = pw * x + px * w + py * z - pz * y;
         q[2] = pw * y - px * z + py * w + pz * x;
         q[3] = pw * z + px * y - py * x + pz * w;
         // p_i = p_p + Q_p t_i, rotating with t + w u + v x u where u = 2 v x t.
-        const Lanes ux = (py * t2 - pz * t1) * 2.0;
-        const Lanes uy = (pz * t0 - px * t2) * 2.0;
-        const Lanes uz = (px * t1 - py * t0) * 2.0;
+        const V ux = (py * t2 - pz * t1) * 2.0;
+        const V uy = (pz * t0 - px * t2) * 2.0;
+        const V uz = (px * t1 - py * t0) * 2.0;
         t0 = p0 + t0 + pw * ux + (py * uz - pz * uy);
         t1 = p1 + t1 + pw * uy + (pz * ux - px * uz);
         t2 = p2 + t2 + pw * uz + (px * uy - py * ux);
@@ -389,15 +419,15 @@ MOTIONKIT_FK_INLINE void SolveClip(const Skeleton& skeleton, const ConstMatrixVi
       // larger than the caches streams instead of stalling on every line.
       // Every other joint is enough: two joints span at most 64 bytes of a row.
       if (j % 2 == 0) {
-        for (int b = 0; b < kBlock; ++b) {
+        for (int b = 0; b < L; ++b) {
           MOTIONKIT_FK_PREFETCH(ahead_in[b] + first, 0);
           MOTIONKIT_FK_PREFETCH(ahead_pos[b] + 3 * j, 1);
           MOTIONKIT_FK_PREFETCH(ahead_ori[b] + 4 * j, 1);
         }
       }
-      const Lanes t[3] = {t0, t1, t2};
-      StoreRows(q, ori, 4 * j);
-      StoreRows(t, pos, 3 * j);
+      const V t[3] = {t0, t1, t2};
+      StoreRows<L>(q, ori, 4 * j);
+      StoreRows<L>(t, pos, 3 * j);
     }
   }
 }
@@ -405,26 +435,27 @@ MOTIONKIT_FK_INLINE void SolveClip(const Skeleton& skeleton, const ConstMatrixVi
 // Angles beyond kLargeDegrees: never in a real clip, so not worth a copy per ISA.
 void SolveAnySize(const Skeleton& skeleton, const ConstMatrixView& values,
                   Eigen::Ref<RowMatrixXd>& positions, Eigen::Ref<RowMatrixXd>& orientations) {
-  SolveClip<true>(skeleton, values, positions, orientations);
+  SolveClip<2, true>(skeleton, values, positions, orientations);
 }
 
 // Run() after the shapes are known to be right: scan the values, then solve.
+template <int L>
 MOTIONKIT_FK_INLINE void ScanAndSolve(ForwardKinematicsJob& job) {
-  if (AllOrdinary(job.values)) {
-    SolveClip<false>(job.skeleton, job.values, job.positions, job.orientations);
+  if (AllOrdinary<L>(job.values)) {
+    SolveClip<L, false>(job.skeleton, job.values, job.positions, job.orientations);
     return;
   }
   CheckValues(job).ThrowIfFailed();
   SolveAnySize(job.skeleton, job.values, job.positions, job.orientations);
 }
 
-void RunBaseline(ForwardKinematicsJob& job) { ScanAndSolve(job); }
+void RunBaseline(ForwardKinematicsJob& job) { ScanAndSolve<2>(job); }
 
 #if MOTIONKIT_FK_X86_DISPATCH
-// The same code, inlined into a function compiled for AVX2 and FMA. (With FMA
-// the last bit of a result may differ from the baseline path.)
+// The same code with four lanes, inlined into a function compiled for AVX2
+// and FMA. (With FMA the last bit of a result may differ from the baseline.)
 __attribute__((target("avx2,fma"))) void RunAvx2(ForwardKinematicsJob& job) {
-  ScanAndSolve(job);
+  ScanAndSolve<4>(job);
 }
 
 bool HasAvx2() {
@@ -437,7 +468,7 @@ bool HasAvx2() {
 
 Status ForwardKinematicsJob::Validate() const {
   if (Status s = CheckShapes(*this); !s) return s;
-  if (AllOrdinary(values)) return Status::Ok();
+  if (AllOrdinary<2>(values)) return Status::Ok();
   return CheckValues(*this);
 }
 
