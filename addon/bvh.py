@@ -108,12 +108,14 @@ def _edit_mode(obj):
     """Blender creates bones only in edit mode, and mode_set is the only way in.
 
     This is MotionKit's one operator call: it runs on the new, empty armature
-    before any key exists, inside the importing operator's single undo step.
+    before any key exists. It pushes no undo step of its own (undo=False):
+    the importing operator's single step covers it, and a headless load()
+    must not serialise the whole file for the undo stack twice.
     """
     view_layer = bpy.context.view_layer
     previous = view_layer.objects.active
     view_layer.objects.active = obj
-    bpy.ops.object.mode_set(mode='EDIT')
+    bpy.ops.object.mode_set('EXEC_DEFAULT', False, mode='EDIT')
     return previous
 
 
@@ -141,7 +143,7 @@ def _build_armature(name: str, skeleton, heads, tails, collection):
             has_loc = any(c.endswith("position") for c in channels)
             bone.use_connect = (not has_loc) and np.allclose(bone.parent.tail, bone.head, atol=1e-7)
     finally:
-        bpy.ops.object.mode_set(mode='OBJECT')
+        bpy.ops.object.mode_set('EXEC_DEFAULT', False, mode='OBJECT')
         bpy.context.view_layer.objects.active = previous
     return obj, bone_names
 
