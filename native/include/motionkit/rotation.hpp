@@ -7,6 +7,7 @@
 // Quaternions are (w, x, y, z) wherever they are stored in arrays.
 #pragma once
 
+#include <cstdint>
 #include <optional>
 #include <string_view>
 
