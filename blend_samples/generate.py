@@ -83,38 +83,44 @@ def _bone_tube(head, tail, x_axis, z_axis, radii):
 
 
 def build_body(spec: characters.CharacterSpec, arm_obj: bpy.types.Object) -> bpy.types.Object:
-    """A skinned body: one rounded tube per bone, rigidly weighted to it."""
+    """A skinned body for a sample character, radii by canonical bone."""
     scale = spec.proportions.height / 1.8
+    radii = {b.name: tuple(scale * r for r in RADII[_kind(b.canonical)]) for b in spec.bones}
+    return skin_bones(arm_obj, radii, spec.color, spec.name)
+
+
+def skin_bones(arm_obj: bpy.types.Object, radii: dict, color, name: str) -> bpy.types.Object:
+    """One rounded tube per named bone, rigidly weighted to it: a body for any armature."""
     all_verts, all_faces, groups = [], [], []
     offset = 0
-    for bone in spec.bones:
-        rest = arm_obj.data.bones[bone.name].matrix_local
-        x_axis = np.array(rest.col[0][:3])
-        z_axis = np.array(rest.col[2][:3])
-        radii = tuple(scale * r for r in RADII[_kind(bone.canonical)])
-        verts, faces = _bone_tube(bone.head, bone.tail, x_axis, z_axis, radii)
+    for bone_name, bone_radii in radii.items():
+        rest = arm_obj.data.bones[bone_name]
+        matrix = rest.matrix_local
+        x_axis = np.array(matrix.col[0][:3])
+        z_axis = np.array(matrix.col[2][:3])
+        verts, faces = _bone_tube(rest.head_local, rest.tail_local, x_axis, z_axis, bone_radii)
         all_verts.append(verts)
         all_faces.extend(tuple(i + offset for i in f) for f in faces)
-        groups.append((bone.name, range(offset, offset + len(verts))))
+        groups.append((bone_name, range(offset, offset + len(verts))))
         offset += len(verts)
-    mesh = bpy.data.meshes.new(spec.name + "Body")
+    mesh = bpy.data.meshes.new(name + "Body")
     mesh.from_pydata(np.concatenate(all_verts).tolist(), [], all_faces)
     mesh.polygons.foreach_set("use_smooth", np.ones(len(mesh.polygons), dtype=bool))
     mesh.update()
-    body = bpy.data.objects.new(spec.name + "Body", mesh)
+    body = bpy.data.objects.new(name + "Body", mesh)
     bpy.context.scene.collection.objects.link(body)
     body.parent = arm_obj
-    for name, indices in groups:
-        body.vertex_groups.new(name=name).add(list(indices), 1.0, 'REPLACE')
+    for bone_name, indices in groups:
+        body.vertex_groups.new(name=bone_name).add(list(indices), 1.0, 'REPLACE')
     body.modifiers.new("Armature", 'ARMATURE').object = arm_obj
     subsurf = body.modifiers.new("Smooth", 'SUBSURF')
     subsurf.levels = subsurf.render_levels = 1
-    material = bpy.data.materials.new(spec.name + "Skin")
-    material.diffuse_color = spec.color
+    material = bpy.data.materials.new(name + "Skin")
+    material.diffuse_color = color
     if material.node_tree is None:
         material.use_nodes = True
     principled = next(n for n in material.node_tree.nodes if n.type == 'BSDF_PRINCIPLED')
-    principled.inputs["Base Color"].default_value = spec.color
+    principled.inputs["Base Color"].default_value = color
     principled.inputs["Roughness"].default_value = 0.55
     mesh.materials.append(material)
     return body
@@ -147,11 +153,11 @@ def add_walk(arm_obj, spec, animdata, fps: int = FPS, cycles: int = CYCLES) -> b
     return action
 
 
-def build_all(animdata, spacing: float = 1.2, walk_on=("MixamoT",)) -> dict[str, bpy.types.Object]:
+def build_all(animdata, spacing: float = 1.2, walk_on=("MixamoT",), offset: float = 0.0) -> dict[str, bpy.types.Object]:
     """All sample characters side by side along X; the walk on those named in walk_on."""
     out = {}
     for i, spec in enumerate(characters.CHARACTERS):
-        obj = build_armature(spec, x=(i - (len(characters.CHARACTERS) - 1) / 2) * spacing)
+        obj = build_armature(spec, x=offset + (i - (len(characters.CHARACTERS) - 1) / 2) * spacing)
         build_body(spec, obj)
         if spec.name in walk_on:
             add_walk(obj, spec, animdata)

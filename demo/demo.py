@@ -75,8 +75,8 @@ def stage(scene) -> bpy.types.Object:
     cam = bpy.data.cameras.new("Camera")
     cam.lens = 38
     cam_obj = bpy.data.objects.new("Camera", cam)
-    cam_obj.location = (3.1, -6.4, 1.75)
-    target = mathutils.Vector((0.0, -0.45, 0.88))
+    cam_obj.location = (3.4, -7.6, 1.9)
+    target = mathutils.Vector((0.3, -0.45, 0.85))
     # Cameras look down their -Z with +Y up.
     cam_obj.rotation_euler = (target - cam_obj.location).to_track_quat('-Z', 'Y').to_euler()
     scene.collection.objects.link(cam_obj)
@@ -113,12 +113,22 @@ def main() -> None:
     for obj in list(bpy.data.objects):
         bpy.data.objects.remove(obj)
     scene = bpy.context.scene
-    objects = generate.build_all(motionkit.animdata, spacing=1.5, walk_on=("MixamoT",))
+    objects = generate.build_all(motionkit.animdata, spacing=1.5, walk_on=("MixamoT",), offset=-0.75)
     camera = stage(scene)
     for spec in characters.CHARACTERS:
         obj = objects[spec.name]
-        add_label(f"{spec.name}\n{spec.rest_pose}-pose, {spec.naming} names",
+        add_label(f"{spec.name}\n{spec.rest_pose}-pose rest, {spec.naming} names",
                   (obj.location.x + 0.45, -0.2, 0.2), camera)
+    mocap = os.path.join(os.path.dirname(ROOT), "shared", "data", "bvh", "walk60.bvh")
+    if os.path.isfile(mocap):
+        # Real motion capture through MotionKit's importer, skinned like the samples.
+        walker, action = motionkit.bvh.load(mocap)
+        walker.location.x = 2.25
+        generate.skin_bones(walker, {b.name: (0.045, 0.035) for b in walker.data.bones},
+                            (0.85, 0.75, 0.25, 1.0), "walk60")
+        add_label("walk60.bvh\nmotion capture, imported", (2.7, -0.2, 0.2), camera)
+    else:
+        print(f"demo: {mocap} is absent, so the motion-capture walker is left out")
     scene.frame_start, scene.frame_end = 1, 61
     scene.frame_set(SHOW_FRAME)
     blend = os.path.join(out, "demo.blend")
