@@ -34,3 +34,11 @@ def native():
     if not status.ok:
         raise RuntimeError(status.message)
     return status.module
+
+
+def poll_native(operator_class) -> bool:
+    """For an operator's poll: False, with the reason shown, when the core is not usable."""
+    if not status.ok:
+        operator_class.poll_message_set(status.message)
+        return False
+    return True

@@ -40,10 +40,7 @@ class MOTIONKIT_OT_import_bvh(bpy.types.Operator, ImportHelper):
 
     @classmethod
     def poll(cls, context):
-        if not native_state.status.ok:
-            cls.poll_message_set(native_state.status.message)
-            return False
-        return True
+        return native_state.poll_native(cls)
 
     def execute(self, context):
         wm = context.window_manager
@@ -91,8 +88,7 @@ class MOTIONKIT_OT_export_bvh(bpy.types.Operator, ExportHelper):
 
     @classmethod
     def poll(cls, context):
-        if not native_state.status.ok:
-            cls.poll_message_set(native_state.status.message)
+        if not native_state.poll_native(cls):
             return False
         obj = context.active_object
         if obj is None or obj.type != 'ARMATURE':
