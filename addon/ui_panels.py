@@ -19,3 +19,6 @@ class MOTIONKIT_PT_main(bpy.types.Panel):
                               icon='ARMATURE_DATA')
         else:
             self.layout.label(text="Select an armature", icon='INFO')
+        row = self.layout.row(align=True)
+        row.operator("motionkit.import_bvh", text="Import BVH", icon='IMPORT')
+        row.operator("motionkit.export_bvh", text="Export BVH", icon='EXPORT')
