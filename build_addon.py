@@ -44,9 +44,6 @@ print("MOTIONKIT_PYINFO " + json.dumps({
 }))
 """
 
-PACKAGE_FILES = ("__init__.py", "_native.pyi")
-
-
 def fail(message: str) -> None:
     print(f"build_addon.py: {message}", file=sys.stderr)
     sys.exit(1)

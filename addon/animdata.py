@@ -186,14 +186,6 @@ def read_keys(fcurve: bpy.types.FCurve) -> tuple[np.ndarray, np.ndarray]:
     return co[0::2].copy(), co[1::2].copy()
 
 
-def _native_evaluable(fcurve) -> bool:
-    if len(fcurve.modifiers) or not len(fcurve.keyframe_points):
-        return False
-    interp = np.empty(len(fcurve.keyframe_points), dtype=np.int32)
-    fcurve.keyframe_points.foreach_get("interpolation", interp)
-    return bool(np.all(interp <= _INTERPOLATION['BEZIER']))
-
-
 def sample(action: bpy.types.Action, id_data: bpy.types.ID, channels: Iterable,
            frames) -> tuple[np.ndarray, np.ndarray]:
     """Values of the action's curves for channels at frames: (values (c, n), found (c,)).
@@ -209,32 +201,31 @@ def sample(action: bpy.types.Action, id_data: bpy.types.ID, channels: Iterable,
     values = np.full((len(channels), frames.size), np.nan)
     found = np.zeros(len(channels), dtype=bool)
     curves = fcurves(action, id_data) if action is not None else ()
-    native_rows, native_curves = [], []
+    native_rows, keys = [], []
     for row, channel in enumerate(channels):
         fcurve = curves.find(channel.data_path, index=channel.index) if curves else None
         if fcurve is None:
             continue
         found[row] = True
-        if _native_evaluable(fcurve):
-            native_rows.append(row)
-            native_curves.append(fcurve)
-        else:
-            values[row] = [fcurve.evaluate(f) for f in frames]
-    if native_curves:
-        counts = [len(fc.keyframe_points) for fc in native_curves]
-        offsets = np.concatenate([[0], np.cumsum(counts)]).astype(np.int32)
-        total = int(offsets[-1])
-        co, left, right = (np.empty((total, 2), dtype=np.float32) for _ in range(3))
-        interp = np.empty(total, dtype=np.int32)
-        for fc, begin, end in zip(native_curves, offsets[:-1], offsets[1:]):
-            points = fc.keyframe_points
-            points.foreach_get("co", co[begin:end].reshape(-1))
-            points.foreach_get("handle_left", left[begin:end].reshape(-1))
-            points.foreach_get("handle_right", right[begin:end].reshape(-1))
-            points.foreach_get("interpolation", interp[begin:end])
-        linear = np.array([fc.extrapolation == 'LINEAR' for fc in native_curves], dtype=np.int32)
-        out = np.empty((len(native_curves), frames.size))
-        native.evaluate_fcurves(co.astype(np.float64), left.astype(np.float64),
-                                right.astype(np.float64), interp, offsets, linear, frames, out)
+        points = fcurve.keyframe_points
+        count = len(points)
+        interp = np.empty(count, dtype=np.int32)
+        points.foreach_get("interpolation", interp)
+        if len(fcurve.modifiers) or not count or np.any(interp > _INTERPOLATION['BEZIER']):
+            values[row] = [fcurve.evaluate(f) for f in frames]  # modifiers or easing keys
+            continue
+        arrays = [np.empty(2 * count, dtype=np.float32) for _ in range(3)]
+        for name, array in zip(("co", "handle_left", "handle_right"), arrays):
+            points.foreach_get(name, array)
+        native_rows.append(row)
+        keys.append((arrays, interp, fcurve.extrapolation == 'LINEAR'))
+    if keys:
+        offsets = np.concatenate([[0], np.cumsum([len(k[1]) for k in keys])]).astype(np.int32)
+        co, left, right = (np.concatenate([k[0][i] for k in keys]).astype(np.float64).reshape(-1, 2)
+                           for i in range(3))
+        interp = np.concatenate([k[1] for k in keys])
+        linear = np.array([k[2] for k in keys], dtype=np.int32)
+        out = np.empty((len(keys), frames.size))
+        native.evaluate_fcurves(co, left, right, interp, offsets, linear, frames, out)
         values[native_rows] = out
     return values, found

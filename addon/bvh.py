@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import bpy
 import numpy as np
 from bpy_extras.io_utils import axis_conversion
+from mathutils import Quaternion
 
 from . import animdata, native_state
 
@@ -74,34 +75,8 @@ def _rest_tails(skeleton, heads: np.ndarray, up: np.ndarray) -> np.ndarray:
 
 
 def _quaternions_by_name(armature) -> dict[str, np.ndarray]:
-    count = len(armature.bones)
-    buf = np.empty(16 * count, dtype=np.float32)
-    armature.bones.foreach_get("matrix_local", buf)
-    rotations = buf.reshape(count, 4, 4).transpose(0, 2, 1)[:, :3, :3].astype(np.float64)
-    quats = _matrix_to_quaternion(rotations)
-    return {bone.name: quats[i] for i, bone in enumerate(armature.bones)}
-
-
-def _matrix_to_quaternion(m: np.ndarray) -> np.ndarray:
-    """Rotation matrices (n, 3, 3) to w x y z quaternions with w >= 0 (Shepperd's method)."""
-    m = m / np.linalg.norm(m, axis=1, keepdims=True)  # float32 rest matrices: re-orthonormalise columns
-    q = np.empty((m.shape[0], 4))
-    trace = np.trace(m, axis1=1, axis2=2)
-    for i in range(m.shape[0]):
-        r, t = m[i], trace[i]
-        if t > 0:
-            s = 2.0 * np.sqrt(1.0 + t)
-            q[i] = (0.25 * s, (r[2, 1] - r[1, 2]) / s, (r[0, 2] - r[2, 0]) / s, (r[1, 0] - r[0, 1]) / s)
-        else:
-            k = int(np.argmax(np.diag(r)))
-            a, b = (k + 1) % 3, (k + 2) % 3
-            s = 2.0 * np.sqrt(1.0 + r[k, k] - r[a, a] - r[b, b])
-            q[i, 1 + k] = 0.25 * s
-            q[i, 0] = (r[b, a] - r[a, b]) / s
-            q[i, 1 + a] = (r[a, k] + r[k, a]) / s
-            q[i, 1 + b] = (r[b, k] + r[k, b]) / s
-    q *= np.where(q[:, :1] < 0, -1.0, 1.0)
-    return q / np.linalg.norm(q, axis=1, keepdims=True)
+    """Each bone's rest orientation in armature space, as w x y z."""
+    return {bone.name: np.array(bone.matrix_local.to_quaternion()) for bone in armature.bones}
 
 
 def _edit_mode(obj):
@@ -382,8 +357,7 @@ def save(obj, filepath: str, options: ExportOptions | None = None, *, context=No
     bones = _depth_first(obj.data)
     index = {bone.name: i for i, bone in enumerate(bones)}
     rest = _quaternions_by_name(obj.data)
-    rot = np.array(rotation)
-    bone_rest_world = [_quat_mul(rot, rest[b.name]) for b in bones]
+    bone_rest_world = [np.array(rotation @ Quaternion(rest[b.name])) for b in bones]
 
     def to_bvh_space(points):
         points = np.asarray(points, dtype=np.float64)
@@ -433,9 +407,3 @@ def save(obj, filepath: str, options: ExportOptions | None = None, *, context=No
     frame_time = scene.render.fps_base / scene.render.fps
     native.write_bvh(os.fspath(filepath), skeleton, native.Motion(values, frame_time))
 
-
-def _quat_mul(a, b) -> np.ndarray:
-    aw, ax, ay, az = a
-    bw, bx, by, bz = b
-    return np.array([aw * bw - ax * bx - ay * by - az * bz, aw * bx + ax * bw + ay * bz - az * by,
-                     aw * by - ax * bz + ay * bw + az * bx, aw * bz + ax * by - ay * bx + az * bw])

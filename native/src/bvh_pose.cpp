@@ -210,7 +210,20 @@ Status PoseToBvhJob::Validate() const {
 void PoseToBvhJob::Run() {
   Validate().ThrowIfFailed();
   const Eigen::Quaterniond c = conversion.normalized();
-  const double inv_scale = 1.0 / scale;
+  // Per joint, the constant halves of R_i = (C^-1 B_i) M_i (B_i^-1 C) and the
+  // location map C^-1 B_i / s, computed once rather than per frame.
+  const std::size_t joints = skeleton.joints.size();
+  std::vector<Eigen::Quaterniond> left(joints), right(joints);
+  std::vector<Eigen::Matrix3d> to_translation(joints);
+  std::vector<EulerOrder> orders(joints);
+  std::vector<int> rotation_counts(joints);
+  for (std::size_t j = 0; j < joints; ++j) {
+    const Eigen::Quaterniond b = QuatAt(bone_rest, static_cast<Eigen::Index>(j), 0).normalized();
+    left[j] = c.conjugate() * b;
+    right[j] = b.conjugate() * c;
+    to_translation[j] = left[j].toRotationMatrix() / scale;
+    orders[j] = JointEulerOrder(skeleton.joints[j], &rotation_counts[j]);
+  }
   // Previous frame's angles per joint, for continuity; the first frame is
   // made compatible with zero, as a rest pose would be.
   Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> previous =
@@ -222,16 +235,13 @@ void PoseToBvhJob::Run() {
       const Joint& joint = skeleton.joints[j];
       if (joint.end_site || joint.channel_count == 0) continue;
       const auto jj = static_cast<Eigen::Index>(j);
-      const Eigen::Quaterniond b = QuatAt(bone_rest, jj, 0).normalized();
       const Eigen::Quaterniond m = QuatAt(rotations, f, jj).normalized();
-      const Eigen::Quaterniond r = c.conjugate() * b * m * b.conjugate() * c;
+      const Eigen::Quaterniond r = left[j] * m * right[j];
       const Eigen::Vector3d l = locations.row(f).segment<3>(3 * jj).transpose();
-      const Eigen::Vector3d t = joint.offset + inv_scale * (c.conjugate() * (b * l));
-      int rotation_count = 0;
-      const EulerOrder order = JointEulerOrder(joint, &rotation_count);
+      const Eigen::Vector3d t = joint.offset + to_translation[j] * l;
       Eigen::Vector3d angles = Eigen::Vector3d::Zero();
-      if (rotation_count > 0) {
-        angles = MatrixToEulerCompatible(r.toRotationMatrix(), order,
+      if (rotation_counts[j] > 0) {
+        angles = MatrixToEulerCompatible(r.toRotationMatrix(), orders[j],
                                          previous.row(jj).transpose());
         previous.row(jj) = angles.transpose();
       }
