@@ -18,14 +18,18 @@ import sys
 
 import bpy
 
-from . import animdata, bvh, native_state, operators_bvh, preferences, ui_panels
+from . import (animdata, bvh, native_state, operators_bvh, operators_keys, preferences, resample_plan,
+               resampling, ui_panels)
 from .native_state import native
+from .resampling import reduce_keys, resample
 
 classes = (
     preferences.MOTIONKIT_AddonPreferences,
     ui_panels.MOTIONKIT_PT_main,
     operators_bvh.MOTIONKIT_OT_import_bvh,
     operators_bvh.MOTIONKIT_OT_export_bvh,
+    operators_keys.MOTIONKIT_OT_resample_keys,
+    operators_keys.MOTIONKIT_OT_reduce_keys,
 )
 
 
@@ -34,6 +38,8 @@ def register():
         bpy.utils.register_class(cls)
     bpy.types.TOPBAR_MT_file_import.append(operators_bvh.menu_import)
     bpy.types.TOPBAR_MT_file_export.append(operators_bvh.menu_export)
+    for menu in operators_keys.MENUS:
+        getattr(bpy.types, menu).append(operators_keys.menu_keys)
     # Installed as an extension the package is bl_ext.<repo>.motionkit; the
     # aliases keep `import motionkit` and `from motionkit import animdata`
     # working for headless scripts either way, without loading anything twice.
@@ -57,6 +63,8 @@ def unregister():
             alias = "motionkit" + name[len(__package__):]
             if sys.modules.get(alias) is sys.modules[name]:
                 del sys.modules[alias]
+    for menu in reversed(operators_keys.MENUS):
+        getattr(bpy.types, menu).remove(operators_keys.menu_keys)
     bpy.types.TOPBAR_MT_file_export.remove(operators_bvh.menu_export)
     bpy.types.TOPBAR_MT_file_import.remove(operators_bvh.menu_import)
     for cls in reversed(classes):

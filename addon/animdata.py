@@ -12,7 +12,7 @@ foreach_get): no per-key Python.
 """
 from __future__ import annotations
 
-from typing import Iterable, Sequence
+from typing import Iterable, NamedTuple, Sequence
 
 import bpy
 import numpy as np
@@ -25,6 +25,8 @@ LAYERED = "slots" in bpy.types.Action.bl_rna.properties
 
 _INTERPOLATION = {item.identifier: item.value
                   for item in bpy.types.Keyframe.bl_rna.properties["interpolation"].enum_items}
+_HANDLE_TYPE = {item.identifier: item.value
+                for item in bpy.types.Keyframe.bl_rna.properties["handle_left_type"].enum_items}
 
 
 class Channel(tuple):
@@ -131,12 +133,30 @@ def _first_non_finite(channels: Sequence[Channel], frames: np.ndarray, values: n
     return f"{channels[curve]} at frame {frames[key]:g} (key {key}) is {values[curve, key]}"
 
 
+class Handles(NamedTuple):
+    """Bezier handles for write_keys, each key's left and right handle.
+
+    left_frames, right_frames: (n,) handle times, shared by all channels.
+    left_values, right_values: (c, n). aligned: (c, n) bool, True where the two
+    handles of a key are collinear (ALIGNED, so the key stays smooth when an
+    animator drags it), else FREE.
+    """
+    left_frames: np.ndarray
+    left_values: np.ndarray
+    right_frames: np.ndarray
+    right_values: np.ndarray
+    aligned: np.ndarray
+
+
 def write_keys(id_data: bpy.types.ID, action: bpy.types.Action, channels: Iterable,
-               frames, values, interpolation: str = 'LINEAR') -> list[bpy.types.FCurve]:
+               frames, values, interpolation: str = 'LINEAR',
+               handles: Handles | None = None) -> list[bpy.types.FCurve]:
     """Write one key per frame on each channel, replacing keys already on those curves.
 
     channels: sequence of Channel or (data_path, index[, group]).
     frames: (n,) strictly increasing key times. values: (len(channels), n).
+    handles: exact Bezier handles (FREE or ALIGNED) instead of Blender's
+    automatic ones; Blender then draws and evaluates the curve they define.
     Everything is checked before anything is written: a shape mismatch, a
     non-finite number or frames that do not increase raise ValueError naming the
     channel and frame, and leave the action untouched.
@@ -155,27 +175,48 @@ def write_keys(id_data: bpy.types.ID, action: bpy.types.Action, channels: Iterab
                          f"expected one of {sorted(_INTERPOLATION)}")
     if len(set(channels)) != len(channels):
         raise ValueError("write_keys: a channel is listed twice")
-    co = np.empty((len(channels), 2 * frames.size), dtype=np.float32)
-    try:
-        _native.keyframe_co(frames, values, co)
-    except _native.MotionKitError as ex:
-        if "not finite" in str(ex):
-            raise ValueError(f"write_keys on {id_data.name}: "
-                             f"{_first_non_finite(channels, frames, values)}") from None
-        raise ValueError(f"write_keys on {id_data.name}: {ex}") from None
+    co = _pack(_native, id_data, channels, frames, values)
+    if handles is not None:
+        left = _pack(_native, id_data, channels, handles.left_frames, handles.left_values, "left handle of ")
+        right = _pack(_native, id_data, channels, handles.right_frames, handles.right_values, "right handle of ")
+        aligned = np.asarray(handles.aligned, dtype=bool)
+        if aligned.shape != values.shape:
+            raise ValueError(f"write_keys: handles.aligned has shape {aligned.shape}, expected {values.shape}")
+        types = np.where(aligned, _HANDLE_TYPE['ALIGNED'], _HANDLE_TYPE['FREE']).astype(np.int32)
 
     curves = _curve_collection(action, id_data)
     interp = np.full(frames.size, _INTERPOLATION[interpolation], dtype=np.int32)
     written = []
-    for channel, co_row in zip(channels, co):
+    for row, channel in enumerate(channels):
         fcurve = _new_fcurve(curves, channel)
         points = fcurve.keyframe_points
         points.add(frames.size)
-        points.foreach_set("co", co_row)
-        points.foreach_set("interpolation", interp)
+        points.foreach_set("co", co[row])
+        if interpolation != 'BEZIER':  # add() makes Bezier keys already
+            points.foreach_set("interpolation", interp)
+        if handles is not None:
+            points.foreach_set("handle_left", left[row])
+            points.foreach_set("handle_right", right[row])
+            points.foreach_set("handle_left_type", types[row])
+            points.foreach_set("handle_right_type", types[row])
         fcurve.update()
         written.append(fcurve)
     return written
+
+
+def _pack(native, id_data, channels, frames, values, what: str = "") -> np.ndarray:
+    """Keys as Blender's interleaved float32 (frame, value) rows, NaN and infinity refused."""
+    frames = np.ascontiguousarray(frames, dtype=np.float64)
+    values = np.ascontiguousarray(values, dtype=np.float64)
+    co = np.empty((len(channels), 2 * frames.size), dtype=np.float32)
+    try:
+        native.keyframe_co(frames, values, co)
+    except native.MotionKitError as ex:
+        if "not finite" in str(ex):
+            raise ValueError(f"write_keys on {id_data.name}: {what}"
+                             f"{_first_non_finite(channels, frames, values)}") from None
+        raise ValueError(f"write_keys on {id_data.name}: {what}{ex}") from None
+    return co
 
 
 def read_keys(fcurve: bpy.types.FCurve) -> tuple[np.ndarray, np.ndarray]:

@@ -18,10 +18,9 @@ import numpy as np
 from bpy_extras.io_utils import axis_conversion
 from mathutils import Quaternion
 
-from . import animdata, native_state
+from . import animdata, native_state, rotation_channels
 
 ROTATION_MODES = ('QUATERNION', 'NATIVE', 'XYZ', 'XZY', 'YXZ', 'YZX', 'ZXY', 'ZYX')
-_AXIS = {"X": 0, "Y": 1, "Z": 2}
 
 
 @dataclass
@@ -123,12 +122,6 @@ def _build_armature(name: str, skeleton, heads, tails, collection):
     return obj, bone_names
 
 
-def _euler_channels(mode: str) -> tuple[str, list[int]]:
-    """A Blender Euler mode as our intrinsic order and, per angle, its axis."""
-    order = mode[::-1]
-    return order, [_AXIS[letter] for letter in order]
-
-
 def _key_frames(motion, options: ImportOptions, scene) -> np.ndarray:
     steps = np.arange(motion.frames, dtype=np.float64)
     if options.use_fps_scale and motion.frame_time > 0:
@@ -204,7 +197,7 @@ def load(filepath: str, options: ImportOptions | None = None, *, context=None, n
             elif kind == 'QUATERNION':
                 matrix[row:row + 4] = rotations[:, 4 * i:4 * i + 4].T
             else:
-                order, axes = _euler_channels(kind)
+                order, axes = rotation_channels.euler_order(kind)
                 native.quaternion_to_euler(np.ascontiguousarray(rotations[:, 4 * i:4 * i + 4]), order, angles)
                 matrix[[row + a for a in axes]] = angles.T
 
@@ -267,12 +260,8 @@ def _pose_rotations(obj, action, bones, frames) -> np.ndarray:
         pose_bone = obj.pose.bones[bone.name]
         path = f'pose.bones["{bpy.utils.escape_identifier(bone.name)}"]'
         mode = pose_bone.rotation_mode
-        if mode == 'QUATERNION':
-            prop, static, size = "rotation_quaternion", tuple(pose_bone.rotation_quaternion), 4
-        elif mode == 'AXIS_ANGLE':
-            prop, static, size = "rotation_axis_angle", tuple(pose_bone.rotation_axis_angle), 4
-        else:
-            prop, static, size = "rotation_euler", tuple(pose_bone.rotation_euler), 3
+        prop, size = rotation_channels.channel_property(mode)
+        static = tuple(getattr(pose_bone, prop))
         kinds.append((mode, len(channels), static))
         channels += [(f"{path}.{prop}", k) for k in range(size)]
     values, found = animdata.sample(action, obj, channels, frames)
@@ -283,23 +272,8 @@ def _pose_rotations(obj, action, bones, frames) -> np.ndarray:
         for k in range(size):
             if not found[start + k]:
                 block[:, k] = static[k]
-        if mode == 'QUATERNION':
-            q = block
-        elif mode == 'AXIS_ANGLE':
-            axis = block[:, 1:]
-            norm = np.linalg.norm(axis, axis=1, keepdims=True)
-            axis = np.divide(axis, norm, out=np.tile([0.0, 1.0, 0.0], (len(axis), 1)), where=norm > 0)
-            half = 0.5 * block[:, 0:1]
-            q = np.hstack([np.cos(half), np.sin(half) * axis])
-        else:
-            order, axes = _euler_channels(mode)
-            q = np.empty((frames.size, 4))
-            native.euler_to_quaternion(np.ascontiguousarray(block[:, axes]), order, q)
-        norm = np.linalg.norm(q, axis=1, keepdims=True)
-        if np.any(norm < 1e-12):
-            frame = frames[int(np.argmin(norm))]
-            raise ValueError(f"bone '{bones[j].name}' has a zero rotation at frame {frame:g}")
-        out[:, 4 * j:4 * j + 4] = q / norm
+        q = rotation_channels.to_quaternions(native, mode, block, f"bone '{bones[j].name}' rotation", frames)
+        out[:, 4 * j:4 * j + 4] = q
     return out
 
 

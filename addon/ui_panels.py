@@ -22,3 +22,7 @@ class MOTIONKIT_PT_main(bpy.types.Panel):
         row = self.layout.row(align=True)
         row.operator("motionkit.import_bvh", text="Import BVH", icon='IMPORT')
         row.operator("motionkit.export_bvh", text="Export BVH", icon='EXPORT')
+        self.layout.label(text="Keys")
+        row = self.layout.row(align=True)
+        row.operator("motionkit.resample_keys", text="Resample", icon='IPO_BEZIER')
+        row.operator("motionkit.reduce_keys", text="Reduce", icon='IPO_LINEAR')

@@ -1,0 +1,156 @@
+"""Resample Keys and Reduce Keys: Graph Editor and Dope Sheet Key menus, and the MotionKit tab."""
+import math
+
+import bpy
+from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty
+
+from . import animdata, native_state, resample_plan, resampling
+
+
+def _targets(context):
+    """(objects, bones): in pose mode the selected bones of each armature, else the selected objects."""
+    if context.mode == 'POSE':
+        bones = {}
+        for pose_bone in context.selected_pose_bones or ():
+            bones.setdefault(pose_bone.id_data.name, []).append(pose_bone.name)
+        objects = [bpy.data.objects[name] for name in bones]
+        return objects, bones
+    objects = [obj for obj in (context.selected_objects or ()) if animdata.assigned_action(obj) is not None]
+    return objects, None
+
+
+def _poll(cls, context) -> bool:
+    if not native_state.poll_native(cls):
+        return False
+    objects, _ = _targets(context)
+    if not objects:
+        cls.poll_message_set("Select animated objects, or bones in pose mode")
+        return False
+    return True
+
+
+class _Progress:
+    def __init__(self, context):
+        self.wm = context.window_manager
+        self.started = False
+
+    def __call__(self, done, total):
+        if not self.started:
+            self.wm.progress_begin(0, max(total, 1))
+            self.started = True
+        self.wm.progress_update(done)
+
+    def end(self):
+        if self.started:
+            self.wm.progress_end()
+
+
+class MOTIONKIT_OT_resample_keys(bpy.types.Operator):
+    """Put the keys on a new frame step or frame rate, interpolating rotations on the quaternion sphere (MotionKit)"""
+    bl_idname = "motionkit.resample_keys"
+    bl_label = "Resample Keys"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    timing: EnumProperty(name="Timing", items=[
+        ('STEP', "Frame Step", "A key every N frames"),
+        ('FPS', "Frame Rate", "Keys at a new frame rate")], default='FPS')
+    step: FloatProperty(name="Step", description="Frames between keys", default=2.0, min=0.01, max=1e4)
+    fps: FloatProperty(name="Frame Rate", description="The new frame rate", default=24.0, min=0.01, max=1e4)
+    change_scene_rate: BoolProperty(
+        name="Change Scene Frame Rate", default=True,
+        description="Set the scene to the new rate and rescale frames; else keep it and space the keys")
+    scalar: EnumProperty(name="Location/Scale", items=resample_plan.SCALAR_INTERPOLANTS, default="catmull-rom")
+    rotation: EnumProperty(name="Rotation", items=resample_plan.ROTATION_INTERPOLANTS, default="squad")
+    output: EnumProperty(name="Output", items=resample_plan.OUTPUTS, default='EXACT')
+    tension: FloatProperty(name="Tension", default=0.0, min=-1.0, max=1.0)
+    continuity: FloatProperty(name="Continuity", default=0.0, min=-1.0, max=1.0)
+    bias: FloatProperty(name="Bias", default=0.0, min=-1.0, max=1.0)
+
+    @classmethod
+    def poll(cls, context):
+        return _poll(cls, context)
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        layout.prop(self, "timing")
+        if self.timing == 'STEP':
+            layout.prop(self, "step")
+        else:
+            layout.prop(self, "fps")
+            layout.prop(self, "change_scene_rate")
+        layout.prop(self, "scalar")
+        layout.prop(self, "rotation")
+        if "kochanek-bartels" in (self.scalar, self.rotation):
+            col = layout.column(align=True)
+            col.prop(self, "tension")
+            col.prop(self, "continuity")
+            col.prop(self, "bias")
+        layout.prop(self, "output")
+
+    def invoke(self, context, event):
+        return context.window_manager.invoke_props_dialog(self)
+
+    def execute(self, context):
+        objects, bones = _targets(context)
+        progress = _Progress(context)
+        try:
+            actions = resampling.resample(
+                objects, step=self.step if self.timing == 'STEP' else None,
+                fps=self.fps if self.timing == 'FPS' else None, rotation=self.rotation, scalar=self.scalar,
+                output=self.output, change_scene_rate=self.change_scene_rate, bones=bones,
+                tension=self.tension, continuity=self.continuity, bias=self.bias,
+                scene=context.scene, progress=progress)
+        except (ValueError, TypeError) as ex:
+            self.report({'ERROR'}, str(ex))
+            return {'CANCELLED'}
+        finally:
+            progress.end()
+        self.report({'INFO'}, f"Resampled {', '.join(a.name for a in actions)}")
+        return {'FINISHED'}
+
+
+class MOTIONKIT_OT_reduce_keys(bpy.types.Operator):
+    """Fit the fewest Bezier keys that stay within a tolerance of the current curves (MotionKit)"""
+    bl_idname = "motionkit.reduce_keys"
+    bl_label = "Reduce Keys"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    tolerance: FloatProperty(name="Tolerance", description="Location, scale and other channels, in their units",
+                             default=1e-3, min=1e-9, max=1e3, precision=5)
+    rotation_tolerance: FloatProperty(name="Rotation Tolerance", subtype='ANGLE', default=math.radians(0.1),
+                                      min=1e-9, max=math.pi, description="On the whole rotation, not per channel")
+    samples_per_frame: IntProperty(name="Samples per Frame", default=4, min=1, max=64,
+                                   description="How densely the tolerance is checked")
+
+    @classmethod
+    def poll(cls, context):
+        return _poll(cls, context)
+
+    def invoke(self, context, event):
+        return context.window_manager.invoke_props_dialog(self)
+
+    def execute(self, context):
+        objects, bones = _targets(context)
+        progress = _Progress(context)
+        try:
+            before, after = resampling.reduce_keys(
+                objects, self.tolerance, self.rotation_tolerance, samples_per_frame=self.samples_per_frame,
+                bones=bones, progress=progress)
+        except (ValueError, TypeError) as ex:
+            self.report({'ERROR'}, str(ex))
+            return {'CANCELLED'}
+        finally:
+            progress.end()
+        self.report({'INFO'}, f"Reduced {before} keys to {after}")
+        return {'FINISHED'}
+
+
+def menu_keys(self, context):
+    layout = self.layout
+    layout.separator()
+    layout.operator(MOTIONKIT_OT_resample_keys.bl_idname, text="Resample Keys [MotionKit]")
+    layout.operator(MOTIONKIT_OT_reduce_keys.bl_idname, text="Reduce Keys [MotionKit]")
+
+
+MENUS = ("GRAPH_MT_key", "DOPESHEET_MT_key")

@@ -1,0 +1,376 @@
+"""Resample and reduce keys in Blender: motionkit.resample and motionkit.reduce_keys.
+
+Location, scale and other scalar channels are interpolated per channel group
+(a location is one 3-D curve); rotations are interpolated on the quaternion
+sphere whatever the rotation mode, and come back in the owner's own mode with
+continuous angles. Keys are read and written in bulk (motionkit.animdata),
+everything is computed and checked before the first F-curve changes, so an
+error leaves the action as it was.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import bpy
+import numpy as np
+
+from . import animdata, native_state, resample_plan, rotation_channels
+from .resample_plan import ChannelGroup
+
+POLYNOMIAL_MAX_KEYS = 64
+# Slopes of sphere curves for exact output come from one-sided second-order
+# differences this far apart (in frames): truncation ~1e-6 x the third
+# derivative, round-off ~1e-13.
+_SLOPE_STEP = 1e-3
+_SMOOTH_ROTATIONS = {"squad", "catmull-rom", "euler-catmull-rom", "axis-angle-catmull-rom"}
+
+
+@dataclass
+class _Write:
+    """One group's new keys, computed and checked, waiting to be written."""
+    channels: list
+    frames: np.ndarray
+    values: np.ndarray
+    interpolation: str
+    handles: animdata.Handles | None
+
+
+def _target(target):
+    """(object, action) from an object or an action that some object plays."""
+    if isinstance(target, bpy.types.Action):
+        for obj in bpy.data.objects:
+            if animdata.assigned_action(obj) == target:
+                return obj, target
+        raise ValueError(f"action '{target.name}' is not assigned to any object: pass the object instead")
+    if not isinstance(target, bpy.types.Object):
+        raise TypeError(f"expected an Object or an Action, got {type(target).__name__}")
+    action = animdata.assigned_action(target)
+    if action is None:
+        raise ValueError(f"'{target.name}' has no action to resample")
+    return target, action
+
+
+def _bone_owner(name: str) -> str:
+    return f'pose.bones["{bpy.utils.escape_identifier(name)}"]'
+
+
+def _groups(obj, action, bones) -> list[ChannelGroup]:
+    owners = None if bones is None else {_bone_owner(b) for b in bones}
+
+    def euler_mode_of(owner):
+        holder = obj.path_resolve(owner) if owner else obj
+        mode = getattr(holder, "rotation_mode", 'XYZ')
+        return mode if mode in rotation_channels.EULER_MODES else 'XYZ'
+
+    triples = []
+    for fcurve in animdata.fcurves(action, obj):
+        owner, _ = resample_plan.split_path(fcurve.data_path)
+        if owners is not None and owner not in owners:
+            continue
+        if len(fcurve.keyframe_points) and not fcurve.mute:
+            triples.append((fcurve.data_path, fcurve.array_index, fcurve))
+    return resample_plan.group_channels(triples, euler_mode_of)
+
+
+def _channels(obj, group: ChannelGroup) -> tuple[list, np.ndarray]:
+    """Every channel of the group (present or not) and each one's static value."""
+    holder = obj.path_resolve(group.owner) if group.owner else obj
+    static = np.atleast_1d(np.asarray(getattr(holder, group.prop) if group.prop else
+                                      obj.path_resolve(group.data_path), dtype=np.float64))
+    if group.kind == 'scalar':
+        index = next(iter(group.curves))
+        fcurve = group.curves[index]
+        return [animdata.Channel(fcurve.data_path, index, _group_name(fcurve))], static[index:index + 1]
+    name = _group_name(next(iter(group.curves.values())))
+    return [animdata.Channel(group.data_path, k, name) for k in range(group.size)], static[:group.size]
+
+
+def _group_name(fcurve) -> str:
+    return fcurve.group.name if fcurve.group is not None else ""
+
+
+def _keys(obj, action, group: ChannelGroup) -> tuple[np.ndarray, np.ndarray]:
+    """The group's key times (union over its curves) and all its channels there, (n,), (n, size)."""
+    reads = {index: animdata.read_keys(fcurve) for index, fcurve in group.curves.items()}
+    frames = [f for f, _ in reads.values()]
+    channels, static = _channels(obj, group)
+    same = all(f.shape == frames[0].shape and np.array_equal(f, frames[0]) for f in frames)
+    times = frames[0].astype(np.float64) if same else np.unique(np.concatenate(frames)).astype(np.float64)
+    values = np.tile(static, (times.size, 1))
+    if same:
+        for row, channel in enumerate(channels):
+            if channel.index in reads:
+                values[:, row] = reads[channel.index][1]
+    else:
+        sampled, found = animdata.sample(action, obj, channels, times)
+        values[:, found] = sampled[found].T
+    return times, values
+
+
+def _scalar_options(kind: str, count: int, tcb) -> dict:
+    if kind == "polynomial" and count > POLYNOMIAL_MAX_KEYS:
+        raise ValueError(f"polynomial interpolation through {count} keys would only show Runge's phenomenon "
+                         f"(at most {POLYNOMIAL_MAX_KEYS} keys); choose another interpolant")
+    if kind == "kochanek-bartels":
+        return {name: np.full(count, value) for name, value in zip(("tension", "continuity", "bias"), tcb)}
+    return {}
+
+
+def _resample_vector(native, label, times, values, grid, kind, output, tcb) -> tuple:
+    if kind == "periodic" and not np.allclose(values[0], values[-1], rtol=0, atol=1e-6):
+        raise ValueError(f"{label}: a periodic spline needs equal first and last keys")
+    options = _scalar_options(kind, times.size, tcb)
+    try:
+        new = native.interpolate(times, values, grid, kind=kind, **options)
+        if output == 'DENSE' or kind in resample_plan.NOT_CUBIC or grid.size < 2:
+            return new, 'LINEAR', None
+        if kind in resample_plan.BLENDER_INTERPOLATION:
+            return new, resample_plan.BLENDER_INTERPOLATION[kind], None
+        if kind == "periodic":  # rounding must not break the equal-ends rule
+            new[-1] = new[0]
+        slopes_in, slopes_out = native.hermite_form(grid, new, kind=kind, **_scalar_options(kind, grid.size, tcb))
+    except native.MotionKitError as ex:
+        raise ValueError(f"{label}: {ex}") from None
+    return new, 'BEZIER', (slopes_in, slopes_out)
+
+
+def _resample_rotation(native, group, times, values, grid, kind, output, tcb) -> tuple:
+    mode = group.mode
+    quats = rotation_channels.to_quaternions(native, mode, values, group.data_path, times)
+    order = rotation_channels.euler_order(mode)[0] if mode in rotation_channels.EULER_MODES else "XYZ"
+    options = {"euler_order": order}
+    if kind == "kochanek-bartels":
+        options.update({name: np.full(times.size, value)
+                        for name, value in zip(("tension", "continuity", "bias"), tcb)})
+    exact = output == 'EXACT' and grid.size >= 2
+    if exact:
+        # Five samples per key, in time order, so that continuity runs through them.
+        offsets = _SLOPE_STEP * np.array([-2.0, -1.0, 0.0, 1.0, 2.0])
+        eval_times = (grid[:, None] + offsets[None, :]).ravel()
+    else:
+        eval_times = grid
+    try:
+        q = native.interpolate_rotations(times, quats, eval_times, kind=kind, **options)
+    except native.MotionKitError as ex:
+        raise ValueError(f"{group.data_path}: {ex}") from None
+    channels = rotation_channels.from_quaternions(native, mode, q, previous=values[0])
+    if not exact:
+        return channels, 'LINEAR', None
+    samples = channels.reshape(grid.size, 5, -1)
+    new = samples[:, 2]
+    h = _SLOPE_STEP
+    slopes_in = (3.0 * new - 4.0 * samples[:, 1] + samples[:, 0]) / (2.0 * h)
+    slopes_out = (-3.0 * new + 4.0 * samples[:, 3] - samples[:, 4]) / (2.0 * h)
+    # Outside the keys the rotation holds, so the outer slopes of the end keys
+    # are zero; the segments need the inner ones.
+    slopes_in[0], slopes_out[-1] = slopes_out[0], slopes_in[-1]
+    if kind in _SMOOTH_ROTATIONS or (kind == "kochanek-bartels" and tcb[1] == 0.0):
+        slopes_in = slopes_out = 0.5 * (slopes_in + slopes_out)
+    return new, 'BEZIER', (slopes_in, slopes_out)
+
+
+def _handles(frames, values, slopes) -> animdata.Handles:
+    slopes_in, slopes_out = slopes
+    return animdata.Handles(*resample_plan.bezier_handles(frames, values, slopes_in, slopes_out))
+
+
+def _targets(targets) -> list:
+    """[(object, action)] from one object or action, or a list of them, each once."""
+    items = targets if isinstance(targets, (list, tuple, set)) else [targets]
+    pairs = []
+    for item in items:
+        pair = _target(item)
+        if all(pair[0] != seen[0] for seen in pairs):
+            pairs.append(pair)
+    if not pairs:
+        raise ValueError("nothing to work on: no object or action given")
+    return pairs
+
+
+def _bones_of(bones, obj):
+    return bones.get(obj.name) if isinstance(bones, dict) else bones
+
+
+def resample(targets, step: float | None = None, fps: float | None = None, *, rotation: str = "squad",
+             scalar: str = "catmull-rom", output: str = 'EXACT', change_scene_rate: bool = False,
+             bones=None, tension: float = 0.0, continuity: float = 0.0, bias: float = 0.0,
+             scene=None, progress=None) -> list:
+    """Put the keys of the targets' actions on a new frame step or frame rate.
+
+    targets: an object, an action that an object plays, or a list of them.
+    step: a key every `step` frames; fps: keys at a new frame rate, with the
+    scene's rate and frame range changed to it (change_scene_rate) or kept
+    (keys then fall every scene_fps / fps frames). scalar / rotation: the
+    interpolants (motionkit.resample_plan lists them). output 'EXACT' writes
+    Bezier handles so that Blender draws the chosen curve between the keys
+    (rotations: per channel, matching the sphere curve's value and slope at
+    every key); 'DENSE' writes linear keys. bones: pose bone names to resample,
+    or {object name: names} (default: every curve of each action). tension,
+    continuity, bias: Kochanek-Bartels parameters for every key.
+    progress(done, total): called per channel group. Returns the actions.
+    Everything is computed and checked before anything changes: a ValueError
+    leaves every action and the scene as they were.
+    """
+    native = native_state.native()
+    pairs = _targets(targets)
+    scene = scene or bpy.context.scene
+    valid_scalar = [item[0] for item in resample_plan.SCALAR_INTERPOLANTS]
+    valid_rotation = [item[0] for item in resample_plan.ROTATION_INTERPOLANTS]
+    if scalar not in valid_scalar:
+        raise ValueError(f"unknown scalar interpolant {scalar!r}; expected one of {valid_scalar}")
+    if rotation not in valid_rotation:
+        raise ValueError(f"unknown rotation interpolant {rotation!r}; expected one of {valid_rotation}")
+    if output not in ('EXACT', 'DENSE'):
+        raise ValueError(f"unknown output {output!r}; expected 'EXACT' or 'DENSE'")
+    if not all(np.isfinite([tension, continuity, bias])):
+        raise ValueError("tension, continuity and bias must be finite")
+    scene_fps = scene.render.fps / scene.render.fps_base
+    timing = resample_plan.plan_timing(scene_fps, float(scene.frame_start), step, fps, change_scene_rate)
+    tcb = (tension, continuity, bias)
+
+    work = []
+    for obj, action in pairs:
+        groups = _groups(obj, action, _bones_of(bones, obj))
+        if not groups:
+            raise ValueError(f"'{obj.name}' has no keys to resample" + (" on the selected bones" if bones else ""))
+        work.append((obj, action, groups, [_keys(obj, action, group) for group in groups]))
+    first = min(times[0] for *_, keys in work for times, _ in keys)
+    last = max(times[-1] for *_, keys in work for times, _ in keys)
+    grid = resample_plan.key_grid(float(timing.map(first)), float(timing.map(last)), timing.step)
+
+    total = sum(len(groups) for _, _, groups, _ in work)
+    planned, done = [], 0
+    for obj, action, groups, keys in work:
+        writes = []
+        for group, (times, values) in zip(groups, keys):
+            if progress is not None:
+                progress(done, total)
+            done += 1
+            writes.append(_resample_group(native, obj, group, timing.map(times), values, grid,
+                                          scalar, rotation, output, tcb))
+        _check_finite(obj, writes)
+        planned.append((obj, action, writes))
+    for obj, action, writes in planned:
+        for write in writes:
+            animdata.write_keys(obj, action, write.channels, write.frames, write.values,
+                                write.interpolation, write.handles)
+    if timing.scene_fps is not None:
+        _set_scene_rate(scene, timing)
+    return [action for _, action, _ in planned]
+
+
+def _resample_group(native, obj, group, times, values, grid, scalar, rotation, output, tcb) -> _Write:
+    channels, _ = _channels(obj, group)
+    if times.size == 1:
+        return _Write(channels, times, np.ascontiguousarray(values.T), 'LINEAR', None)
+    own_grid = resample_plan.segment_grid(grid, float(times[0]), float(times[-1]))
+    if group.kind == 'rotation':
+        new, interpolation, slopes = _resample_rotation(native, group, times, values, own_grid,
+                                                        rotation, output, tcb)
+    else:
+        new, interpolation, slopes = _resample_vector(native, group.label(), times, values, own_grid,
+                                                      scalar, output, tcb)
+    values_t = np.ascontiguousarray(new.T)
+    handles = _handles(own_grid, values_t, (slopes[0].T, slopes[1].T)) if slopes is not None else None
+    return _Write(channels, own_grid, values_t, interpolation, handles)
+
+
+def _check_finite(obj, writes) -> None:
+    for write in writes:
+        arrays = [write.values] + ([write.handles.left_values, write.handles.right_values]
+                                   if write.handles is not None else [])
+        for array in arrays:
+            bad = np.argwhere(~np.isfinite(array))
+            if bad.size:
+                channel, key = bad[0]
+                raise ValueError(f"{obj.name}: {write.channels[channel]} would get a non-finite value at "
+                                 f"frame {write.frames[key]:g}; nothing was changed")
+
+
+def _set_scene_rate(scene, timing) -> None:
+    fps = timing.scene_fps
+    scene.render.fps = max(1, int(round(fps)))
+    scene.render.fps_base = scene.render.fps / fps
+    start, end = timing.map([scene.frame_start, scene.frame_end])
+    scene.frame_end = max(int(round(start)), int(round(end)))
+
+
+def reduce_keys(targets, tolerance: float = 1e-3, rotation_tolerance: float = np.radians(0.1), *,
+                samples_per_frame: int = 4, bones=None, progress=None) -> tuple[int, int]:
+    """Replace each channel group's keys by the fewest Bezier keys that stay within tolerance.
+
+    targets, bones: as for resample. tolerance: for location, scale and scalar
+    channels, in their own units; rotation_tolerance: radians, on the whole
+    rotation (not per channel; axis-angle channels: per channel). The current
+    curves are sampled samples_per_frame times per frame; the reduced curve
+    stays within tolerance at every sample, and its keys stay on whole frames
+    where the original ones were. Returns (keys before, keys after). A
+    ValueError leaves every action as it was.
+    """
+    native = native_state.native()
+    pairs = _targets(targets)
+    if not (np.isfinite(tolerance) and tolerance > 0 and np.isfinite(rotation_tolerance)
+            and rotation_tolerance > 0):
+        raise ValueError("reduce_keys: tolerances must be positive")
+    if not (isinstance(samples_per_frame, int) and 1 <= samples_per_frame <= 64):
+        raise ValueError("reduce_keys: samples_per_frame must be an integer from 1 to 64")
+    work = []
+    for obj, action in pairs:
+        groups = _groups(obj, action, _bones_of(bones, obj))
+        if not groups:
+            raise ValueError(f"'{obj.name}' has no keys to reduce")
+        for group in groups:
+            for fcurve in group.curves.values():
+                if len(fcurve.modifiers):
+                    raise ValueError(f"{fcurve.data_path}[{fcurve.array_index}] has F-curve modifiers: "
+                                     "apply or remove them before reducing its keys")
+        work.append((obj, action, groups))
+    total = sum(len(groups) for _, _, groups in work)
+    before = after = done = 0
+    planned = []
+    for obj, action, groups in work:
+        writes = []
+        for group in groups:
+            if progress is not None:
+                progress(done, total)
+            done += 1
+            before += sum(len(fcurve.keyframe_points) for fcurve in group.curves.values())
+            writes.append(_reduce_group(native, obj, action, group, tolerance, rotation_tolerance,
+                                        samples_per_frame))
+            after += writes[-1].values.size
+        _check_finite(obj, writes)
+        planned.append((obj, action, writes))
+    for obj, action, writes in planned:
+        for write in writes:
+            animdata.write_keys(obj, action, write.channels, write.frames, write.values, 'BEZIER', write.handles)
+    return before, after
+
+
+def _reduce_group(native, obj, action, group, tolerance, rotation_tolerance, samples_per_frame) -> _Write:
+    channels, static = _channels(obj, group)
+    reads = [animdata.read_keys(fcurve)[0] for fcurve in group.curves.values()]
+    first = min(float(f[0]) for f in reads)
+    last = max(float(f[-1]) for f in reads)
+    count = int(np.floor((last - first) * samples_per_frame + 1e-9)) + 1
+    times = first + np.arange(count, dtype=np.float64) / samples_per_frame
+    if last - times[-1] > 1e-9:
+        times = np.append(times, last)
+    sampled, found = animdata.sample(action, obj, channels, times)
+    values = np.tile(static, (times.size, 1))
+    values[:, found] = sampled[found].T
+    kind, order, tol = "absolute", "XYZ", tolerance
+    if group.kind == 'rotation':
+        tol = rotation_tolerance
+        if group.mode == 'QUATERNION':
+            kind = "quaternion"
+        elif group.mode in rotation_channels.EULER_MODES:
+            kind, order = "euler", rotation_channels.euler_order(group.mode)[0]
+    try:
+        indices, slopes_in, slopes_out = native.reduce_keys(
+            times, np.ascontiguousarray(values), tol, mode=kind, euler_order=order, stride=samples_per_frame)
+    except native.MotionKitError as ex:
+        raise ValueError(f"{group.label()}: {ex}") from None
+    frames = times[indices]
+    values_t = np.ascontiguousarray(values[indices].T)
+    handles = _handles(frames, values_t, (np.asarray(slopes_in).T, np.asarray(slopes_out).T))
+    return _Write(channels, frames, values_t, 'BEZIER', handles)

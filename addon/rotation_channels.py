@@ -1,0 +1,115 @@
+"""A bone's or object's rotation channels, in any of Blender's rotation modes, as quaternions and back.
+
+No bpy here: the BVH exporter, the resampler and the plain-Python tests share it.
+Blender's Euler mode 'XYZ' applies X first, then Y, then Z about fixed axes,
+which is the intrinsic order "ZYX" of our native rotations (the letters
+reversed); angles are stored per axis (x, y, z) whatever the mode.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+EULER_MODES = ('XYZ', 'XZY', 'YXZ', 'YZX', 'ZXY', 'ZYX')
+_AXIS = {"X": 0, "Y": 1, "Z": 2}
+
+
+def channel_property(mode: str) -> tuple[str, int]:
+    """The property that holds the rotation in this mode, and its channel count."""
+    if mode == 'QUATERNION':
+        return "rotation_quaternion", 4
+    if mode == 'AXIS_ANGLE':
+        return "rotation_axis_angle", 4
+    if mode in EULER_MODES:
+        return "rotation_euler", 3
+    raise ValueError(f"unknown rotation mode {mode!r}")
+
+
+def euler_order(mode: str) -> tuple[str, list[int]]:
+    """A Blender Euler mode as our intrinsic order and, per angle of that order, its axis."""
+    if mode not in EULER_MODES:
+        raise ValueError(f"not an Euler rotation mode: {mode!r}")
+    order = mode[::-1]
+    return order, [_AXIS[letter] for letter in order]
+
+
+def to_quaternions(native, mode: str, block, what: str = "rotation", frames=None) -> np.ndarray:
+    """Channel values (n, 3 or 4) in mode to unit w x y z quaternions (n, 4).
+
+    A zero or non-finite quaternion raises ValueError naming `what` and the
+    frame (frames[row], or the row when frames is None).
+    """
+    block = np.asarray(block, dtype=np.float64)
+    if mode == 'QUATERNION':
+        q = block.copy()
+    elif mode == 'AXIS_ANGLE':
+        axis = block[:, 1:]
+        norm = np.linalg.norm(axis, axis=1, keepdims=True)
+        # Blender treats a zero axis as the Y axis.
+        axis = np.divide(axis, norm, out=np.tile([0.0, 1.0, 0.0], (len(axis), 1)), where=norm > 0)
+        half = 0.5 * block[:, 0:1]
+        q = np.hstack([np.cos(half), np.sin(half) * axis])
+    else:
+        order, axes = euler_order(mode)
+        q = np.empty((len(block), 4))
+        native.euler_to_quaternion(np.ascontiguousarray(block[:, axes]), order, q)
+    norm = np.linalg.norm(q, axis=1, keepdims=True)
+    bad = np.flatnonzero(~(norm[:, 0] > 1e-12))
+    if bad.size:
+        where = f"row {bad[0]}" if frames is None else f"frame {frames[bad[0]]:g}"
+        raise ValueError(f"{what} is zero or not finite at {where}")
+    return q / norm
+
+
+def from_quaternions(native, mode: str, q, previous=None) -> np.ndarray:
+    """Unit quaternions (n, 4) to channel values in mode, continuous from row to row.
+
+    previous: the channel values just before the first row (the first row is
+    made closest to them), or None. Euler angles are continuous as Blender's
+    to_euler(order, compat) makes them; quaternions keep one hemisphere;
+    axis-angle keeps its axis from flipping.
+    """
+    q = np.ascontiguousarray(q, dtype=np.float64)
+    n = len(q)
+    if mode in EULER_MODES:
+        order, axes = euler_order(mode)
+        start = np.zeros(3) if previous is None else np.asarray(previous, dtype=np.float64)[axes]
+        angles = np.empty((n, 3))
+        if n:
+            native.quaternion_to_euler(q, order, angles, True, start)
+        out = np.empty((n, 3))
+        out[:, axes] = angles
+        return out
+    reference = None
+    if previous is not None:
+        reference = to_quaternions(native, mode, np.asarray(previous, dtype=np.float64)[None, :])[0]
+    q = sign_continuous(q, reference)
+    if mode == 'QUATERNION':
+        return q
+    if mode != 'AXIS_ANGLE':
+        raise ValueError(f"unknown rotation mode {mode!r}")
+    # q and -q give angle and 2*pi - angle about opposite axes: the sign
+    # continuity above keeps both the angle and the axis from jumping.
+    vector = q[:, 1:]
+    sin_half = np.linalg.norm(vector, axis=1)
+    angle = 2.0 * np.arctan2(sin_half, q[:, 0])
+    axis = np.divide(vector, sin_half[:, None], out=np.zeros_like(vector), where=sin_half[:, None] > 1e-12)
+    # Where the angle vanishes the axis is free: keep the last defined one.
+    defined = sin_half > 1e-12
+    if not defined.all():
+        first = np.asarray(previous[1:], dtype=np.float64) if previous is not None else np.array([0.0, 1.0, 0.0])
+        axis = np.vstack([first, axis])
+        last = np.maximum.accumulate(np.where(np.concatenate([[True], defined]), np.arange(n + 1), 0))
+        axis = axis[last][1:]
+    return np.hstack([angle[:, None], axis])
+
+
+def sign_continuous(q, previous=None) -> np.ndarray:
+    """Flip rows of q so that each has a non-negative dot product with the one before."""
+    q = np.array(q, dtype=np.float64)
+    if not len(q):
+        return q
+    dots = np.einsum("ij,ij->i", q[1:], q[:-1])
+    flips = np.concatenate([[previous is not None and float(np.dot(q[0], previous)) < 0.0],
+                            dots < 0.0])
+    sign = np.where(np.logical_xor.accumulate(flips), -1.0, 1.0)
+    return q * sign[:, None]

@@ -1,0 +1,273 @@
+"""Resample Keys and Reduce Keys in a real Blender, checked with Blender's own fcurve.evaluate."""
+import importlib
+import math
+
+import bpy
+import numpy as np
+import pytest
+
+SCALAR_EXACT = ["catmull-rom", "centripetal", "chordal", "kochanek-bartels", "natural", "clamped",
+                "not-a-knot", "monotone", "periodic"]
+ROTATION_KINDS = ["squad", "slerp", "catmull-rom", "kochanek-bartels"]
+
+
+def _float32(values):
+    return np.asarray(values, dtype=np.float32).astype(np.float64)
+
+
+def _animated_empty(animdata, frames, location, name="Mover"):
+    obj = bpy.data.objects.new(name, None)
+    bpy.context.scene.collection.objects.link(obj)
+    action = animdata.new_action(f"{name}Action")
+    animdata.assign(obj, action)
+    animdata.write_keys(obj, action, [("location", k, "Object Transforms") for k in range(3)], frames, location)
+    return obj, action
+
+
+def _keys(animdata, action, obj, path, index):
+    fcurve = animdata.find_fcurve(action, obj, path, index)
+    frames, values = animdata.read_keys(fcurve)
+    return fcurve, frames.astype(np.float64), values.astype(np.float64)
+
+
+def _handles(fcurve):
+    points = fcurve.keyframe_points
+    left = np.empty(2 * len(points), dtype=np.float32)
+    right = np.empty(2 * len(points), dtype=np.float32)
+    points.foreach_get("handle_left", left)
+    points.foreach_get("handle_right", right)
+    return left.reshape(-1, 2).astype(np.float64), right.reshape(-1, 2).astype(np.float64)
+
+
+def _random_times_per_segment(frames, count, rng):
+    u = rng.uniform(0.0, 1.0, size=(frames.size - 1, count))
+    return _float32((frames[:-1, None] + u * np.diff(frames)[:, None]).ravel())  # Blender evaluates in float
+
+
+def _hermite_from_keys(native, fcurve, frames, values):
+    """The cubic Hermite curve that the written keys and handles define, evaluated natively."""
+    left, right = _handles(fcurve)
+    h_left = np.concatenate([[1.0], np.diff(frames)])
+    h_right = np.concatenate([np.diff(frames), [1.0]])
+    slopes_in = (values - left[:, 1]) / (h_left / 3.0)
+    slopes_out = (right[:, 1] - values) / (h_right / 3.0)
+    return slopes_in, slopes_out
+
+
+@pytest.mark.parametrize("kind", SCALAR_EXACT)
+def test_exact_keys_make_blender_draw_the_native_curve(mk, animdata, native, kind):
+    """Blender's fcurve.evaluate equals the native curve at 100 random times per segment to 1e-6."""
+    rng = np.random.default_rng(3)
+    frames = np.concatenate([[1.0], 1.0 + np.cumsum(rng.uniform(0.5, 3.0, size=40))])
+    location = np.cumsum(rng.normal(scale=0.3, size=(3, frames.size)), axis=1)
+    if kind == "periodic":
+        location[:, -1] = location[:, 0]
+    obj, action = _animated_empty(animdata, frames, location)
+    source = _float32(location)
+    mk.resample(obj, step=2.0, scalar=kind, output='EXACT', tension=0.3 if kind == "kochanek-bartels" else 0.0,
+                bias=-0.2 if kind == "kochanek-bartels" else 0.0)
+    grid_expected = np.append(np.arange(frames[0], frames[-1], 2.0), frames[-1])
+    kwargs = {}
+    if kind == "kochanek-bartels":
+        kwargs = {"tension": np.full(frames.size, 0.3), "bias": np.full(frames.size, -0.2)}
+    worst = 0.0
+    for k in range(3):
+        fcurve, new_frames, new_values = _keys(animdata, action, obj, "location", k)
+        assert np.allclose(new_frames, grid_expected, atol=1e-4)
+        # The keys are the chosen curve through the old keys, sampled on the new frames.
+        vector = native.interpolate(frames, source.T.copy(), new_frames, kind=kind, **kwargs)
+        assert np.allclose(new_values, vector[:, k], atol=1e-5)
+        assert {p.interpolation for p in fcurve.keyframe_points} == {'BEZIER'}
+        assert {p.handle_left_type for p in fcurve.keyframe_points} <= {'FREE', 'ALIGNED'}
+        # Between the keys Blender draws the same curve through the new keys that MotionKit computes.
+        slopes_in, slopes_out = _hermite_from_keys(native, fcurve, new_frames, new_values)
+        new_kwargs = {} if kind != "kochanek-bartels" else {
+            "tension": np.full(new_frames.size, 0.3), "bias": np.full(new_frames.size, -0.2)}
+        exp_in, exp_out = native.hermite_form(new_frames, new_values, kind=kind, **new_kwargs)
+        assert np.allclose(slopes_out[:-1], exp_out[:-1], rtol=1e-4, atol=1e-4)
+        times = _random_times_per_segment(new_frames, 100, rng)
+        expected = native.interpolate(new_frames, new_values, times, kind=kind, **new_kwargs)
+        got = np.array([fcurve.evaluate(t) for t in times])
+        worst = max(worst, float(np.max(np.abs(got - expected))))
+    assert worst < 1e-6, worst
+
+
+@pytest.mark.parametrize("kind, interpolation", [("linear", 'LINEAR'), ("stepped", 'CONSTANT')])
+def test_linear_and_stepped_use_blenders_own_key_types(mk, animdata, native, kind, interpolation):
+    frames = np.arange(1.0, 31.0)
+    location = np.vstack([np.sin(frames / 4.0), np.cos(frames / 5.0), frames / 10.0])
+    obj, action = _animated_empty(animdata, frames, location)
+    mk.resample(obj, step=3.0, scalar=kind)
+    fcurve, new_frames, new_values = _keys(animdata, action, obj, "location", 0)
+    assert {p.interpolation for p in fcurve.keyframe_points} == {interpolation}
+    times = _random_times_per_segment(new_frames, 20, np.random.default_rng(0))
+    expected = native.interpolate(new_frames, new_values, times, kind=kind)
+    assert np.allclose([fcurve.evaluate(t) for t in times], expected, atol=1e-6)
+
+
+def _rotating_bone_rig(animdata, native, mode, frames, quats):
+    armature = bpy.data.armatures.new("Rig")
+    obj = bpy.data.objects.new("Rig", armature)
+    bpy.context.scene.collection.objects.link(obj)
+    bpy.context.view_layer.objects.active = obj
+    bpy.ops.object.mode_set(mode='EDIT')
+    bone = armature.edit_bones.new("Arm")
+    bone.tail = (0.0, 0.0, 1.0)
+    bpy.ops.object.mode_set(mode='OBJECT')
+    pose_bone = obj.pose.bones["Arm"]
+    pose_bone.rotation_mode = mode
+    rc = importlib.import_module(animdata.__name__.rsplit(".", 1)[0] + ".rotation_channels")
+    prop, size = rc.channel_property(mode)
+    values = rc.from_quaternions(native, mode, quats)
+    action = animdata.new_action("RigAction")
+    animdata.assign(obj, action)
+    animdata.write_keys(obj, action, [(f'pose.bones["Arm"].{prop}', k, "Arm") for k in range(size)],
+                        frames, values.T)
+    return obj, action, prop, size
+
+
+def _smooth_quaternions(count, seed):
+    rng = np.random.default_rng(seed)
+    vectors = np.cumsum(rng.normal(scale=0.35, size=(count, 3)), axis=0)
+    angle = np.linalg.norm(vectors, axis=1, keepdims=True)
+    axis = vectors / np.maximum(angle, 1e-12)
+    return np.hstack([np.cos(angle / 2), np.sin(angle / 2) * axis])
+
+
+def _pose_quaternions(obj, frames):
+    """The bone's rotation as Blender evaluates it (depsgraph), per frame."""
+    scene = bpy.context.scene
+    out = []
+    for frame in frames:
+        scene.frame_set(int(np.floor(frame)), subframe=float(frame - np.floor(frame)))
+        q = obj.pose.bones["Arm"].matrix_basis.to_quaternion()
+        out.append((q.w, q.x, q.y, q.z))
+    return np.array(out)
+
+
+def _angle_between(a, b):
+    dots = np.clip(np.abs(np.einsum("ij,ij->i", a, b)), 0.0, 1.0)
+    return 2.0 * np.arccos(dots)
+
+
+@pytest.mark.parametrize("mode", ['QUATERNION', 'XYZ', 'ZXY', 'AXIS_ANGLE'])
+@pytest.mark.parametrize("kind", ROTATION_KINDS)
+def test_rotations_go_over_the_sphere_in_every_rotation_mode(mk, animdata, native, mode, kind):
+    frames = np.arange(1.0, 61.0, 2.5)
+    quats = _smooth_quaternions(frames.size, 5)
+    obj, action, prop, size = _rotating_bone_rig(animdata, native, mode, frames, quats)
+    mk.resample(obj, fps=24.0, change_scene_rate=False, rotation=kind, output='EXACT')
+    scene_fps = bpy.context.scene.render.fps / bpy.context.scene.render.fps_base
+    curves = [_keys(animdata, action, obj, f'pose.bones["Arm"].{prop}', k) for k in range(size)]
+    new_frames = curves[0][1]
+    assert np.allclose(np.diff(new_frames)[:-1], scene_fps / 24.0, atol=1e-4)
+    expected = native.interpolate_rotations(frames, quats, new_frames, kind=kind)
+    got = _pose_quaternions(obj, new_frames)
+    assert np.max(_angle_between(got, expected)) < 1e-5  # float32 storage
+    block = np.vstack([c[2] for c in curves]).T
+    assert np.max(np.abs(np.diff(block, axis=0))) < 1.5  # continuous channels: no 2*pi or sign jumps
+    # Between keys: Blender's per-channel Bezier equals the native Hermite of the written handles.
+    rng = np.random.default_rng(1)
+    for fcurve, kf, kv in curves:
+        slopes_in, slopes_out = _hermite_from_keys(native, fcurve, kf, kv)
+        times = _random_times_per_segment(kf, 20, rng)
+        segment = np.searchsorted(kf, times, side="right") - 1
+        segment = np.clip(segment, 0, kf.size - 2)
+        h = kf[segment + 1] - kf[segment]
+        u = (times - kf[segment]) / h
+        hermite = ((2 * u**3 - 3 * u**2 + 1) * kv[segment] + (u**3 - 2 * u**2 + u) * h * slopes_out[segment]
+                   + (-2 * u**3 + 3 * u**2) * kv[segment + 1] + (u**3 - u**2) * h * slopes_in[segment + 1])
+        assert np.allclose([fcurve.evaluate(t) for t in times], hermite, atol=1e-5)
+    # And that per-channel curve stays close to the sphere curve between keys.
+    between = new_frames[:-1] + 0.5 * np.diff(new_frames)
+    deviation = _angle_between(_pose_quaternions(obj, between),
+                               native.interpolate_rotations(frames, quats, between, kind=kind))
+    assert np.degrees(deviation.max()) < 0.5
+
+
+def test_euler_channels_come_back_continuous_across_the_flip(mk, animdata, native):
+    """A spin past 180 degrees about Z stays one continuous Euler curve, as Blender's compat Euler."""
+    frames = np.arange(1.0, 21.0)
+    angles = np.radians(np.linspace(0.0, 540.0, frames.size))
+    quats = np.stack([np.cos(angles / 2), 0 * angles, 0 * angles, np.sin(angles / 2)], axis=1)
+    obj, action, prop, _ = _rotating_bone_rig(animdata, native, 'XYZ', frames, quats)
+    mk.resample(obj, step=0.5, rotation="squad", output='DENSE')
+    _, new_frames, z = _keys(animdata, action, obj, f'pose.bones["Arm"].{prop}', 2)
+    assert np.all(np.diff(z) > 0) and z[-1] == pytest.approx(np.radians(540.0), abs=1e-4)
+
+
+def test_new_frame_rate_rescales_keys_and_the_scene(mk, animdata):
+    scene = bpy.context.scene
+    scene.render.fps, scene.render.fps_base = 60, 1.0
+    scene.frame_start, scene.frame_end = 1, 121
+    frames = np.arange(1.0, 122.0)
+    location = np.vstack([np.sin(frames / 10.0), frames / 60.0, np.zeros_like(frames)])
+    obj, action = _animated_empty(animdata, frames, location)
+    try:
+        mk.resample(obj, fps=24.0, change_scene_rate=True, scalar="natural")
+        _, new_frames, y = _keys(animdata, action, obj, "location", 1)
+        assert scene.render.fps == 24 and scene.frame_end == 49
+        assert np.allclose(new_frames, np.arange(1.0, 50.0))
+        assert np.allclose(y, (new_frames - 1.0) / 24.0 + 1.0 / 60.0, atol=1e-5)  # same time, same value
+    finally:
+        scene.render.fps, scene.render.fps_base = 24, 1.0
+        scene.frame_start, scene.frame_end = 1, 250
+
+
+def test_bad_requests_change_nothing(mk, animdata):
+    frames = np.arange(1.0, 101.0)
+    location = np.vstack([np.sin(frames), np.cos(frames), frames])
+    obj, action = _animated_empty(animdata, frames, location)
+    before = [animdata.read_keys(f) for f in animdata.fcurves(action, obj)]
+    for kwargs, message in [({"step": 2.0, "scalar": "polynomial"}, "Runge"),
+                            ({"step": -1.0}, "frame step must be positive"),
+                            ({"step": 2.0, "scalar": "bogus"}, "unknown scalar interpolant"),
+                            ({"step": 2.0, "scalar": "periodic"}, "periodic spline needs equal")]:
+        with pytest.raises(ValueError, match=message):
+            mk.resample(obj, **kwargs)
+    after = [animdata.read_keys(f) for f in animdata.fcurves(action, obj)]
+    assert all(np.array_equal(a[0], b[0]) and np.array_equal(a[1], b[1]) for a, b in zip(before, after))
+
+
+def test_operator_reports_errors_and_resamples_selected_objects(mk, animdata):
+    frames = np.arange(1.0, 101.0)
+    obj, action = _animated_empty(animdata, frames, np.vstack([np.sin(frames), np.cos(frames), frames]))
+    obj.select_set(True)
+    bpy.context.view_layer.objects.active = obj
+    with pytest.raises(RuntimeError, match="Runge"):
+        bpy.ops.motionkit.resample_keys('EXEC_DEFAULT', timing='STEP', step=2.0, scalar="polynomial")
+    assert len(animdata.find_fcurve(action, obj, "location", 0).keyframe_points) == 100
+    assert bpy.ops.motionkit.resample_keys('EXEC_DEFAULT', timing='STEP', step=4.0) == {'FINISHED'}
+    assert len(animdata.find_fcurve(action, obj, "location", 0).keyframe_points) == 26
+    assert bpy.ops.motionkit.reduce_keys('EXEC_DEFAULT', tolerance=1e-3) == {'FINISHED'}
+
+
+def test_reduce_keys_stays_within_tolerance(mk, animdata, native):
+    frames = np.arange(1.0, 401.0)
+    location = np.vstack([np.sin(frames / 15.0), 0.2 * np.cos(frames / 7.0), frames / 100.0])
+    obj, action = _animated_empty(animdata, frames, location)
+    dense = np.arange(1.0, 400.0 + 1e-9, 0.1)
+    original = np.array([[animdata.find_fcurve(action, obj, "location", k).evaluate(t) for t in dense]
+                         for k in range(3)])
+    before, after = mk.reduce_keys(obj, tolerance=1e-3, samples_per_frame=4)
+    assert before == 1200 and after < 200
+    reduced = np.array([[animdata.find_fcurve(action, obj, "location", k).evaluate(t) for t in dense]
+                        for k in range(3)])
+    assert np.max(np.abs(reduced - original)) <= 1e-3 * 1.01 + 1e-6
+    kept, _ = animdata.read_keys(animdata.find_fcurve(action, obj, "location", 0))
+    assert np.allclose(kept, np.round(kept))  # whole frames where the original keys were
+
+
+def test_reduce_keys_on_a_rotation_honours_the_angle(mk, animdata, native):
+    frames = np.arange(1.0, 301.0)
+    quats = _smooth_quaternions(frames.size, 9)
+    quats = np.array([np.mean(quats[max(0, i - 6):i + 7], axis=0) for i in range(frames.size)])
+    quats /= np.linalg.norm(quats, axis=1, keepdims=True)
+    obj, action, prop, size = _rotating_bone_rig(animdata, native, 'QUATERNION', frames, quats)
+    dense = np.arange(1.0, 300.0, 0.25)
+    original = _pose_quaternions(obj, dense)
+    tolerance = math.radians(0.2)
+    before, after = mk.reduce_keys(obj, rotation_tolerance=tolerance, samples_per_frame=4)
+    reduced = _pose_quaternions(obj, dense)
+    assert after < before / 3
+    assert np.max(_angle_between(reduced, original)) <= tolerance * 1.01 + 1e-6

@@ -1,0 +1,69 @@
+"""Rotation channels in every Blender rotation mode, against scipy.
+
+Blender's Euler mode 'XYZ' rotates about X, then Y, then Z, about fixed axes:
+scipy's extrinsic lower-case "xyz" with the angles in x, y, z order.
+"""
+import numpy as np
+import pytest
+import rotation_channels as rc
+from scipy.spatial.transform import Rotation
+
+
+def _wxyz(rotation):
+    xyzw = rotation.as_quat()
+    return np.hstack([xyzw[:, 3:], xyzw[:, :3]])
+
+
+def _smooth_rotations(n, seed=0):
+    rng = np.random.default_rng(seed)
+    vectors = np.cumsum(rng.normal(scale=0.3, size=(n, 3)), axis=0)
+    return Rotation.from_rotvec(vectors)
+
+
+@pytest.mark.parametrize("mode", rc.EULER_MODES)
+def test_euler_modes_follow_blenders_fixed_axis_convention(native, mode):
+    rng = np.random.default_rng(1)
+    angles = rng.uniform(-np.pi, np.pi, size=(50, 3))
+    expected = Rotation.from_euler(mode.lower(), angles[:, ["XYZ".index(a) for a in mode]])
+    q = rc.to_quaternions(native, mode, angles)
+    assert np.allclose(np.abs(np.einsum("ij,ij->i", q, _wxyz(expected))), 1.0, atol=1e-12)
+
+
+@pytest.mark.parametrize("mode", rc.EULER_MODES + ('QUATERNION', 'AXIS_ANGLE'))
+def test_round_trip_is_the_same_rotation_and_continuous(native, mode):
+    rotations = _smooth_rotations(400)
+    q = _wxyz(rotations)
+    block = rc.from_quaternions(native, mode, q)
+    assert block.shape == (400, rc.channel_property(mode)[1])
+    back = rc.to_quaternions(native, mode, block)
+    assert np.allclose(np.abs(np.einsum("ij,ij->i", back, q)), 1.0, atol=1e-12)
+    # Continuity: no channel jumps by more than the motion between rows allows.
+    assert np.max(np.abs(np.diff(block, axis=0))) < 2.0
+
+
+def test_euler_output_continues_from_the_previous_values(native):
+    q = _wxyz(Rotation.from_euler("xyz", [[0.1, 0.2, 0.3]]))
+    block = rc.from_quaternions(native, 'XYZ', q, previous=[0.1 + 2 * np.pi, 0.2, 0.3])
+    assert np.allclose(block, [[0.1 + 2 * np.pi, 0.2, 0.3]], atol=1e-12)
+
+
+def test_quaternion_output_keeps_the_hemisphere_of_the_previous_value(native):
+    q = np.array([[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0]])
+    out = rc.from_quaternions(native, 'QUATERNION', -q, previous=[1.0, 0.0, 0.0, 0.0])
+    assert np.allclose(out, q)
+
+
+def test_axis_angle_of_identity_keeps_the_last_axis(native):
+    q = np.array([[np.cos(0.1), 0.0, 0.0, np.sin(0.1)], [1.0, 0.0, 0.0, 0.0]])
+    out = rc.from_quaternions(native, 'AXIS_ANGLE', q)
+    assert np.allclose(out, [[0.2, 0.0, 0.0, 1.0], [0.0, 0.0, 0.0, 1.0]])
+
+
+def test_zero_quaternion_names_the_frame(native):
+    with pytest.raises(ValueError, match=r"bone 'Hips' rotation is zero or not finite at frame 7"):
+        rc.to_quaternions(native, 'QUATERNION', np.zeros((2, 4)), "bone 'Hips' rotation", np.array([7.0, 8.0]))
+
+
+def test_sign_continuity_flips_runs():
+    q = np.array([[1.0, 0, 0, 0], [-1.0, 0, 0, 0], [-1.0, 0, 0, 0], [1.0, 0, 0, 0]])
+    assert np.allclose(rc.sign_continuous(q)[:, 0], 1.0)
