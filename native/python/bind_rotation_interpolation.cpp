@@ -69,7 +69,7 @@ py::object InterpolateRotations(const ConstVectorView& times, const ConstMatrixV
     job.Run();
   }
   if (want_velocity) return py::make_tuple(out, velocity);
-  return std::move(out);
+  return py::object(std::move(out));
 }
 
 DoubleArray SlerpMany(const Eigen::Vector4d& q0, const Eigen::Vector4d& q1, const ConstVectorView& u) {
