@@ -1,4 +1,6 @@
 # Hand-kept stub of the compiled module native/python/module.cpp.
+from typing import Literal, overload
+
 import numpy as np
 import numpy.typing as npt
 
@@ -13,3 +15,44 @@ def keyframe_co(
     values: npt.NDArray[np.float64],
     co: npt.NDArray[np.float32],
 ) -> None: ...
+
+# Rotation interpolation (native/python/bind_rotation_interpolation.cpp).
+@overload
+def interpolate_rotations(
+    times: npt.NDArray[np.float64],
+    quats: npt.NDArray[np.float64],
+    eval_times: npt.NDArray[np.float64],
+    kind: str = "squad",
+    *,
+    tension: npt.ArrayLike | None = None,
+    continuity: npt.ArrayLike | None = None,
+    bias: npt.ArrayLike | None = None,
+    euler_order: str = "XYZ",
+    angular_velocity: Literal[False] = False,
+) -> npt.NDArray[np.float64]: ...
+@overload
+def interpolate_rotations(
+    times: npt.NDArray[np.float64],
+    quats: npt.NDArray[np.float64],
+    eval_times: npt.NDArray[np.float64],
+    kind: str = "squad",
+    *,
+    tension: npt.ArrayLike | None = None,
+    continuity: npt.ArrayLike | None = None,
+    bias: npt.ArrayLike | None = None,
+    euler_order: str = "XYZ",
+    angular_velocity: Literal[True],
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
+@overload
+def slerp(q0: npt.ArrayLike, q1: npt.ArrayLike, u: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]: ...
+@overload
+def slerp(q0: npt.ArrayLike, q1: npt.ArrayLike, u: float) -> npt.NDArray[np.float64]: ...
+
+# Key reduction (native/python/bind_key_reduction.cpp).
+def reduce_keys(
+    times: npt.NDArray[np.float64],
+    values: npt.NDArray[np.float64],
+    tolerance: float,
+    mode: str = "absolute",
+    euler_order: str = "XYZ",
+) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...

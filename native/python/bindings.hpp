@@ -8,5 +8,7 @@ namespace motionkit::python {
 void BindBvh(pybind11::module_& m);
 void BindRotation(pybind11::module_& m);
 void BindFCurve(pybind11::module_& m);
+void BindRotationInterpolation(pybind11::module_& m);
+void BindKeyReduction(pybind11::module_& m);
 
 }  // namespace motionkit::python

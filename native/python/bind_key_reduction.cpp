@@ -1,0 +1,77 @@
+// Fitting the fewest Bézier keys to densely sampled curves.
+#include <pybind11/eigen.h>
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+
+#include <cstdint>
+#include <string>
+
+#include "bindings.hpp"
+#include "motionkit/error.hpp"
+#include "motionkit/key_reduction.hpp"
+#include "motionkit/types.hpp"
+
+namespace py = pybind11;
+using namespace pybind11::literals;
+
+namespace motionkit::python {
+namespace {
+
+KeyToleranceMode Mode(const std::string& text) {
+  if (text == "absolute") return KeyToleranceMode::kAbsolute;
+  if (text == "quaternion") return KeyToleranceMode::kQuaternion;
+  if (text == "euler") return KeyToleranceMode::kEuler;
+  throw Error("unknown key reduction mode '" + text + "'; expected absolute, quaternion or euler");
+}
+
+py::tuple ReduceKeys(const ConstVectorView& times, const ConstMatrixView& values, double tolerance,
+                     const std::string& mode_text, const std::string& euler_order) {
+  const auto order = ParseEulerOrder(euler_order);
+  if (!order) {
+    throw Error("unknown Euler order '" + euler_order + "'; expected XYZ, XZY, YXZ, YZX, ZXY or ZYX");
+  }
+  const py::ssize_t m = times.size(), d = values.cols();
+  py::array_t<std::int64_t> indices(m);
+  py::array_t<double> slopes_in({m, d}), slopes_out({m, d});
+  Eigen::Map<Eigen::Matrix<std::int64_t, Eigen::Dynamic, 1>> indices_view(indices.mutable_data(), m);
+  Eigen::Map<RowMatrixXd> in_view(slopes_in.mutable_data(), m, d);
+  Eigen::Map<RowMatrixXd> out_view(slopes_out.mutable_data(), m, d);
+  KeyReductionJob job(times, values, tolerance, indices_view, in_view, out_view);
+  job.mode = Mode(mode_text);
+  job.euler_order = *order;
+  job.Validate().ThrowIfFailed();
+  {
+    py::gil_scoped_release release;
+    job.Run();
+  }
+  const py::slice keys(0, static_cast<py::ssize_t>(job.key_count), 1);
+  return py::make_tuple(indices[keys].attr("copy")(), slopes_in[keys].attr("copy")(),
+                        slopes_out[keys].attr("copy")());
+}
+
+}  // namespace
+
+void BindKeyReduction(py::module_& m) {
+  m.def("reduce_keys", &ReduceKeys, "times"_a.noconvert(), "values"_a.noconvert(), "tolerance"_a,
+        "mode"_a = "absolute", "euler_order"_a = "XYZ",
+        R"pbdoc(
+        The fewest Bezier keys (free handles at 1/3 of each segment) whose curve
+        stays within tolerance of the samples.
+
+        times: float64 (m,), strictly increasing; values: float64 (m, d).
+        mode "absolute": every channel within tolerance; "quaternion": d = 4
+        channels w x y z, interpolated per channel and normalised as Blender
+        poses a bone, error = angle to the sample's rotation (radians);
+        "euler": d = 3 angles in the letter order of euler_order (intrinsic, as
+        euler_to_quaternion: Blender rotation_mode 'XYZ' is euler_order "ZYX"
+        with columns rotation_euler[::-1]), error = angle between rotations.
+
+        Returns (indices int64 (k,), slopes_in (k, d), slopes_out (k, d)): the
+        samples kept as keys (always the first and last) and each key's
+        incoming and outgoing slope in value per time unit. Within tolerance at
+        every sample given (pass 4-10 samples per frame for "everywhere").
+        The GIL is released while it runs.
+      )pbdoc");
+}
+
+}  // namespace motionkit::python
