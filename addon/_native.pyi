@@ -55,4 +55,5 @@ def reduce_keys(
     tolerance: float,
     mode: str = "absolute",
     euler_order: str = "XYZ",
+    stride: int = 1,
 ) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...

@@ -359,18 +359,25 @@ def _reduce_group(native, obj, action, group, tolerance, rotation_tolerance, sam
     values = np.tile(static, (times.size, 1))
     values[:, found] = sampled[found].T
     kind, order, tol = "absolute", "XYZ", tolerance
+    columns = np.arange(values.shape[1])
     if group.kind == 'rotation':
         tol = rotation_tolerance
         if group.mode == 'QUATERNION':
             kind = "quaternion"
         elif group.mode in rotation_channels.EULER_MODES:
-            kind, order = "euler", rotation_channels.euler_order(group.mode)[0]
+            # The native Euler mode takes the angles in its order's letter order.
+            kind = "euler"
+            order, axes = rotation_channels.euler_order(group.mode)
+            columns = np.asarray(axes)
     try:
         indices, slopes_in, slopes_out = native.reduce_keys(
-            times, np.ascontiguousarray(values), tol, mode=kind, euler_order=order, stride=samples_per_frame)
+            times, np.ascontiguousarray(values[:, columns]), tol, mode=kind, euler_order=order,
+            stride=samples_per_frame)
     except native.MotionKitError as ex:
         raise ValueError(f"{group.label()}: {ex}") from None
+    inverse = np.argsort(columns)
+    slopes_in, slopes_out = slopes_in[:, inverse], slopes_out[:, inverse]
     frames = times[indices]
     values_t = np.ascontiguousarray(values[indices].T)
-    handles = _handles(frames, values_t, (np.asarray(slopes_in).T, np.asarray(slopes_out).T))
+    handles = _handles(frames, values_t, (slopes_in.T, slopes_out.T))
     return _Write(channels, frames, values_t, 'BEZIER', handles)

@@ -25,7 +25,7 @@ KeyToleranceMode Mode(const std::string& text) {
 }
 
 py::tuple ReduceKeys(const ConstVectorView& times, const ConstMatrixView& values, double tolerance,
-                     const std::string& mode_text, const std::string& euler_order) {
+                     const std::string& mode_text, const std::string& euler_order, Eigen::Index stride) {
   const auto order = ParseEulerOrder(euler_order);
   if (!order) {
     throw Error("unknown Euler order '" + euler_order + "'; expected XYZ, XZY, YXZ, YZX, ZXY or ZYX");
@@ -39,6 +39,7 @@ py::tuple ReduceKeys(const ConstVectorView& times, const ConstMatrixView& values
   KeyReductionJob job(times, values, tolerance, indices_view, in_view, out_view);
   job.mode = Mode(mode_text);
   job.euler_order = *order;
+  job.stride = stride;
   job.Validate().ThrowIfFailed();
   {
     py::gil_scoped_release release;
@@ -53,7 +54,7 @@ py::tuple ReduceKeys(const ConstVectorView& times, const ConstMatrixView& values
 
 void BindKeyReduction(py::module_& m) {
   m.def("reduce_keys", &ReduceKeys, "times"_a.noconvert(), "values"_a.noconvert(), "tolerance"_a,
-        "mode"_a = "absolute", "euler_order"_a = "XYZ",
+        "mode"_a = "absolute", "euler_order"_a = "XYZ", "stride"_a = 1,
         R"pbdoc(
         The fewest Bezier keys (free handles at 1/3 of each segment) whose curve
         stays within tolerance of the samples.
@@ -65,6 +66,8 @@ void BindKeyReduction(py::module_& m) {
         "euler": d = 3 angles in the letter order of euler_order (intrinsic, as
         euler_to_quaternion: Blender rotation_mode 'XYZ' is euler_order "ZYX"
         with columns rotation_euler[::-1]), error = angle between rotations.
+        stride: keys only at every stride-th sample and the last (samples taken
+        several times per frame keep their keys on frames).
 
         Returns (indices int64 (k,), slopes_in (k, d), slopes_out (k, d)): the
         samples kept as keys (always the first and last) and each key's

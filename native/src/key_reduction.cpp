@@ -52,6 +52,7 @@ Status KeyReductionJob::Validate() const {
   if (mode == KeyToleranceMode::kEuler && d != 3) {
     return Status::Fail("key reduction: Euler mode needs 3 channels, got " + std::to_string(d));
   }
+  if (stride < 1) return Status::Fail("key reduction: stride must be at least 1, got " + std::to_string(stride));
   if (!std::isfinite(tolerance) || tolerance < 0.0) {
     return Status::Fail("key reduction: tolerance must be finite and >= 0, got " +
                         std::to_string(tolerance));
@@ -186,38 +187,53 @@ void KeyReductionJob::Run() {
   key_indices[0] = 0;
   slopes_in.row(0).setZero();
   slopes_out.row(0).setZero();
+  // The search runs over candidate keys: every stride-th sample and the last.
+  // When even the next candidate is out of reach (a tolerance tighter than
+  // the curve between two frames), the next sample becomes a key instead, so
+  // the tolerance holds at every sample whatever the stride.
+  const Eigen::Index last_candidate = (m - 2) / stride + 1;
   Eigen::Index a = 0;
   while (a < m - 1) {
-    Eigen::Index good = a + 1;
-    FitSegment(a, good, trial_a, trial_b);
-    keep();
-    Eigen::Index bad = m;  // the first end known to fail; m: none yet
-    for (Eigen::Index step = 2; good < m - 1; step *= 2) {
-      const Eigen::Index end = std::min(a + step, m - 1);
-      if (FitSegment(a, end, trial_a, trial_b)) {
-        good = end;
-        keep();
-      } else {
-        bad = end;
-        break;
+    const Eigen::Index base = a / stride;
+    const auto sample = [&](Eigen::Index j) { return std::min((base + j) * stride, m - 1); };
+    const Eigen::Index last = last_candidate - base;
+    Eigen::Index good = 1;
+    Eigen::Index key = sample(1);
+    if (FitSegment(a, key, trial_a, trial_b)) {
+      keep();
+      Eigen::Index bad = last + 1;  // the first end known to fail; past the end: none yet
+      for (Eigen::Index step = 2; good < last; step *= 2) {
+        const Eigen::Index end = std::min(step, last);
+        if (FitSegment(a, sample(end), trial_a, trial_b)) {
+          good = end;
+          keep();
+        } else {
+          bad = end;
+          break;
+        }
       }
-    }
-    while (bad < m && bad - good > 1) {
-      const Eigen::Index mid = good + (bad - good) / 2;
-      if (FitSegment(a, mid, trial_a, trial_b)) {
-        good = mid;
-        keep();
-      } else {
-        bad = mid;
+      while (bad <= last && bad - good > 1) {
+        const Eigen::Index mid = good + (bad - good) / 2;
+        if (FitSegment(a, sample(mid), trial_a, trial_b)) {
+          good = mid;
+          keep();
+        } else {
+          bad = mid;
+        }
       }
+      key = sample(good);
+    } else {
+      key = a + 1;
+      FitSegment(a, key, trial_a, trial_b);  // no sample inside: always within tolerance
+      keep();
     }
     const Eigen::Index k = key_count++;
     for (Eigen::Index c = 0; c < d; ++c) {
       slopes_out(k - 1, c) = best_a[c];
       slopes_in(k, c) = best_b[c];
     }
-    key_indices[k] = good;
-    a = good;
+    key_indices[k] = key;
+    a = key;
   }
   slopes_in.row(0) = slopes_out.row(0);
   slopes_out.row(key_count - 1) = slopes_in.row(key_count - 1);

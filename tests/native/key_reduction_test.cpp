@@ -20,13 +20,14 @@ struct Reduced {
 
 Reduced Reduce(const Eigen::VectorXd& times, const RowMatrixXd& values, double tolerance,
                KeyToleranceMode mode = KeyToleranceMode::kAbsolute,
-               EulerOrder order = EulerOrder::kXYZ) {
+               EulerOrder order = EulerOrder::kXYZ, Eigen::Index stride = 1) {
   const Eigen::Index m = times.size(), d = values.cols();
   Eigen::Matrix<std::int64_t, Eigen::Dynamic, 1> indices(m);
   RowMatrixXd in(m, d), out(m, d);
   KeyReductionJob job(times, values, tolerance, indices, in, out);
   job.mode = mode;
   job.euler_order = order;
+  job.stride = stride;
   const Status status = job.Validate();
   EXPECT_TRUE(status) << status.message();
   job.Run();
@@ -119,6 +120,23 @@ TEST(KeyReductionJob, SineNeedsFarFewerKeysAndStaysWithinTolerance) {
     const Reduced s = Reduce(t, sine, tolerance);
     EXPECT_LT(s.keys.size(), static_cast<std::size_t>(m / 30)) << tolerance;
     EXPECT_LE((Redraw(t, sine, s) - sine).cwiseAbs().maxCoeff(), tolerance * (1 + 1e-9));
+  }
+}
+
+TEST(KeyReductionJob, StrideKeepsKeysOnFramesAndStillChecksEverySample) {
+  // 400 frames and a bit, 4 samples per frame: keys only on whole frames.
+  const int m = 4 * 400 + 3;
+  const Eigen::VectorXd t = Eigen::VectorXd::LinSpaced(m, 1.0, 1.0 + (m - 1) / 4.0);
+  RowMatrixXd y(m, 1);
+  for (int j = 0; j < m; ++j) y(j, 0) = std::sin(t[j] / 9.0) + 0.2 * std::sin(t[j] / 2.0);
+  // Tolerance 0 cannot be met between frames: keys fall between them then.
+  for (double tolerance : {1e-2, 1e-4, 0.0}) {
+    const Reduced r = Reduce(t, y, tolerance, KeyToleranceMode::kAbsolute, EulerOrder::kXYZ, 4);
+    ExpectEnds(r, m);
+    if (tolerance > 0) {
+      for (std::size_t k = 0; k + 1 < r.keys.size(); ++k) EXPECT_EQ(r.keys[k] % 4, 0) << tolerance;
+    }
+    EXPECT_LE((Redraw(t, y, r) - y).cwiseAbs().maxCoeff(), tolerance * (1 + 1e-9) + 1e-12) << tolerance;
   }
 }
 

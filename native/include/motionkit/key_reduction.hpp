@@ -87,6 +87,10 @@ struct KeyReductionJob {
   double tolerance;
   KeyToleranceMode mode = KeyToleranceMode::kAbsolute;
   EulerOrder euler_order = EulerOrder::kXYZ;  // kEuler only
+  // Keys are chosen among every stride-th sample (and the last): with samples
+  // taken several times per frame, a stride of that many keeps keys on frames
+  // while the tolerance is still checked at every sample.
+  Eigen::Index stride = 1;
   IndexVectorView key_indices;
   Eigen::Ref<RowMatrixXd> slopes_in;
   Eigen::Ref<RowMatrixXd> slopes_out;
