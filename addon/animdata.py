@@ -12,6 +12,7 @@ foreach_get): no per-key Python.
 """
 from __future__ import annotations
 
+import ctypes
 from typing import Iterable, NamedTuple, Sequence
 
 import bpy
@@ -182,7 +183,7 @@ def write_keys(id_data: bpy.types.ID, action: bpy.types.Action, channels: Iterab
         aligned = np.asarray(handles.aligned, dtype=bool)
         if aligned.shape != values.shape:
             raise ValueError(f"write_keys: handles.aligned has shape {aligned.shape}, expected {values.shape}")
-        types = np.where(aligned, _HANDLE_TYPE['ALIGNED'], _HANDLE_TYPE['FREE']).astype(np.int32)
+        types = np.ascontiguousarray(np.where(aligned, _HANDLE_TYPE['ALIGNED'], _HANDLE_TYPE['FREE']), dtype=np.int32)
 
     curves = _curve_collection(action, id_data)
     interp = np.full(frames.size, _INTERPOLATION[interpolation], dtype=np.int32)
@@ -197,11 +198,43 @@ def write_keys(id_data: bpy.types.ID, action: bpy.types.Action, channels: Iterab
         if handles is not None:
             points.foreach_set("handle_left", left[row])
             points.foreach_set("handle_right", right[row])
-            points.foreach_set("handle_left_type", types[row])
-            points.foreach_set("handle_right_type", types[row])
+            _set_handle_types(points, types[row])
         fcurve.update()
         written.append(fcurve)
     return written
+
+
+# Blender 3.x's foreach_set on handle_left_type/handle_right_type returns
+# without error and changes nothing (fixed by 4.x). There the types go straight
+# into the keys' BezTriple array, after checking its layout against what RNA
+# reports for the first key; the offsets are those of DNA's BezTriple (ipo, h1,
+# h2 after vec[3][3], tilt, weight, radius), unchanged since 2.8.
+_BEZTRIPLE_SIZE, _IPO, _H1, _H2 = 72, 48, 49, 50
+
+
+def _set_handle_types(points, types: np.ndarray) -> None:
+    """One handle type per key, for both handles, in bulk."""
+    points.foreach_set("handle_left_type", types)
+    points.foreach_set("handle_right_type", types)
+    if _HANDLE_TYPE[points[0].handle_left_type] == types[0]:
+        return
+    count = len(points)
+    base = points[0].as_pointer()
+    first = int(types[0])
+    # Probe: set the first key through RNA, then find it where the layout says.
+    points[0].handle_left_type, points[0].handle_right_type = 'VECTOR', 'ALIGNED'
+    raw = np.ctypeslib.as_array((ctypes.c_uint8 * (count * _BEZTRIPLE_SIZE)).from_address(base))
+    keys = raw.reshape(count, _BEZTRIPLE_SIZE)
+    laid_out = (count < 2 or points[1].as_pointer() - base == _BEZTRIPLE_SIZE) and (
+        keys[0, _H1] == _HANDLE_TYPE['VECTOR'] and keys[0, _H2] == _HANDLE_TYPE['ALIGNED']
+        and keys[0, _IPO] == _INTERPOLATION[points[0].interpolation])
+    if not laid_out:
+        raise RuntimeError("MotionKit: this Blender neither sets handle types in bulk nor lays out "
+                           "keyframes as expected; please report its version")
+    keys[:, _H1] = types
+    keys[:, _H2] = types
+    if _HANDLE_TYPE[points[0].handle_left_type] != first or _HANDLE_TYPE[points[-1].handle_right_type] != types[-1]:
+        raise RuntimeError("MotionKit: writing handle types in bulk failed")
 
 
 def _pack(native, id_data, channels, frames, values, what: str = "") -> np.ndarray:

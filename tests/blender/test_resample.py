@@ -258,12 +258,13 @@ def test_reduce_keys_stays_within_tolerance(mk, animdata, native):
     assert np.allclose(kept, np.round(kept))  # whole frames where the original keys were
 
 
-def test_reduce_keys_on_a_rotation_honours_the_angle(mk, animdata, native):
+@pytest.mark.parametrize("mode", ['QUATERNION', 'ZXY', 'XYZ'])
+def test_reduce_keys_on_a_rotation_honours_the_angle(mk, animdata, native, mode):
     frames = np.arange(1.0, 301.0)
-    quats = _smooth_quaternions(frames.size, 9)
-    quats = np.array([np.mean(quats[max(0, i - 6):i + 7], axis=0) for i in range(frames.size)])
-    quats /= np.linalg.norm(quats, axis=1, keepdims=True)
-    obj, action, prop, size = _rotating_bone_rig(animdata, native, 'QUATERNION', frames, quats)
+    vectors = np.stack([0.8 * np.sin(frames / 20.0), 0.5 * np.cos(frames / 13.0), 0.3 * np.sin(frames / 7.0)], 1)
+    angle = np.linalg.norm(vectors, axis=1, keepdims=True)
+    quats = np.hstack([np.cos(angle / 2), np.sin(angle / 2) * vectors / angle])
+    obj, action, prop, size = _rotating_bone_rig(animdata, native, mode, frames, quats)
     dense = np.arange(1.0, 300.0, 0.25)
     original = _pose_quaternions(obj, dense)
     tolerance = math.radians(0.2)
