@@ -8,5 +8,6 @@ namespace motionkit::python {
 void BindBvh(pybind11::module_& m);
 void BindRotation(pybind11::module_& m);
 void BindFCurve(pybind11::module_& m);
+void BindInterpolation(pybind11::module_& m);
 
 }  // namespace motionkit::python

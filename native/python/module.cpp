@@ -85,4 +85,5 @@ PYBIND11_MODULE(_native, m) {
   motionkit::python::BindBvh(m);
   motionkit::python::BindRotation(m);
   motionkit::python::BindFCurve(m);
+  motionkit::python::BindInterpolation(m);
 }
