@@ -57,3 +57,46 @@ def reduce_keys(
     euler_order: str = "XYZ",
     stride: int = 1,
 ) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
+# Keyframe interpolation (native/python/bind_interpolation.cpp). kind is one of
+# "stepped", "linear", "polynomial", "natural", "clamped", "periodic",
+# "not-a-knot", "hermite", "catmull-rom", "centripetal", "chordal",
+# "kochanek-bartels", "monotone". times, values and eval_times must be float64
+# and C-contiguous (no silent copies); the optional arrays are converted.
+def interpolate(
+    times: npt.NDArray[np.float64],
+    values: npt.NDArray[np.float64],
+    eval_times: npt.NDArray[np.float64],
+    kind: str = "natural",
+    *,
+    slopes: npt.ArrayLike | None = None,
+    end_slopes: npt.ArrayLike | None = None,
+    tension: npt.ArrayLike | None = None,
+    continuity: npt.ArrayLike | None = None,
+    bias: npt.ArrayLike | None = None,
+    derivative: bool = False,
+) -> npt.NDArray[np.float64] | tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
+def hermite_form(
+    times: npt.NDArray[np.float64],
+    values: npt.NDArray[np.float64],
+    kind: str = "natural",
+    *,
+    slopes: npt.ArrayLike | None = None,
+    end_slopes: npt.ArrayLike | None = None,
+    tension: npt.ArrayLike | None = None,
+    continuity: npt.ArrayLike | None = None,
+    bias: npt.ArrayLike | None = None,
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
+def interpolate_curves(
+    offsets: npt.NDArray[np.integer],
+    times: npt.NDArray[np.float64],
+    values: npt.NDArray[np.float64],
+    eval_times: npt.NDArray[np.float64],
+    kind: str = "natural",
+    *,
+    slopes: npt.ArrayLike | None = None,
+    end_slopes: npt.ArrayLike | None = None,
+    tension: npt.ArrayLike | None = None,
+    continuity: npt.ArrayLike | None = None,
+    bias: npt.ArrayLike | None = None,
+    derivative: bool = False,
+) -> npt.NDArray[np.float64] | tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...

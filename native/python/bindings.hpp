@@ -10,5 +10,6 @@ void BindRotation(pybind11::module_& m);
 void BindFCurve(pybind11::module_& m);
 void BindRotationInterpolation(pybind11::module_& m);
 void BindKeyReduction(pybind11::module_& m);
+void BindInterpolation(pybind11::module_& m);
 
 }  // namespace motionkit::python

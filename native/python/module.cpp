@@ -87,4 +87,5 @@ PYBIND11_MODULE(_native, m) {
   motionkit::python::BindFCurve(m);
   motionkit::python::BindRotationInterpolation(m);
   motionkit::python::BindKeyReduction(m);
+  motionkit::python::BindInterpolation(m);
 }
