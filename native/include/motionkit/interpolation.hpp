@@ -72,7 +72,10 @@ const char* InterpolantNames();
 bool IsHermiteForm(Interpolant kind);
 
 // Settings of one interpolation; the optional arrays are views onto caller
-// memory (emplace them: options.slopes.emplace(my_matrix)).
+// memory (emplace them: options.slopes.emplace(my_matrix)), which must outlive
+// the jobs given these options. A view of a strided expression holds its own
+// copy, which a job's copy of the options still points into: emplace plain
+// arrays, maps or contiguous blocks.
 // For InterpolateJob and HermiteFormJob (one curve of d components):
 //   start_slope, end_slope: kClampedSpline's first derivatives at t_0 and
 //     t_{n-1}, d each; absent means 0 (scipy's bc_type='clamped').
