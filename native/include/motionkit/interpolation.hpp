@@ -107,7 +107,8 @@ struct InterpolationScratch {
 //   right handle of key i     = (t_i + h/3,     y_i     + slopes_out[i] h/3),
 //   left handle of key i + 1  = (t_{i+1} - h/3, y_{i+1} - slopes_in[i+1] h/3),
 // h = t_{i+1} - t_i, which Blender evaluates exactly as this cubic (its time
-// is then linear in the Bezier parameter). slopes_in[0] and
+// is then linear in the Bezier parameter) as long as it does not recompute
+// the handles: write them as FREE (kinds with in != out slopes) or ALIGNED. slopes_in[0] and
 // slopes_out[n-1] face outside the keys: they continue the end segments
 // (slopes_in[0] = slopes_out[0], slopes_out[n-1] = slopes_in[n-1]); the
 // curve itself extrapolates flat. kLinear gives the secant slopes; kStepped
