@@ -72,7 +72,10 @@ const char* InterpolantNames();
 bool IsHermiteForm(Interpolant kind);
 
 // Settings of one interpolation; the optional arrays are views onto caller
-// memory (emplace them: options.slopes.emplace(my_matrix)).
+// memory (emplace them: options.slopes.emplace(my_matrix)), which must outlive
+// the jobs given these options. A view of a strided expression holds its own
+// copy, which a job's copy of the options still points into: emplace plain
+// arrays, maps or contiguous blocks.
 // For InterpolateJob and HermiteFormJob (one curve of d components):
 //   start_slope, end_slope: kClampedSpline's first derivatives at t_0 and
 //     t_{n-1}, d each; absent means 0 (scipy's bc_type='clamped').
@@ -104,7 +107,8 @@ struct InterpolationScratch {
 //   right handle of key i     = (t_i + h/3,     y_i     + slopes_out[i] h/3),
 //   left handle of key i + 1  = (t_{i+1} - h/3, y_{i+1} - slopes_in[i+1] h/3),
 // h = t_{i+1} - t_i, which Blender evaluates exactly as this cubic (its time
-// is then linear in the Bezier parameter). slopes_in[0] and
+// is then linear in the Bezier parameter) as long as it does not recompute
+// the handles: write them as FREE (kinds with in != out slopes) or ALIGNED. slopes_in[0] and
 // slopes_out[n-1] face outside the keys: they continue the end segments
 // (slopes_in[0] = slopes_out[0], slopes_out[n-1] = slopes_in[n-1]); the
 // curve itself extrapolates flat. kLinear gives the secant slopes; kStepped
