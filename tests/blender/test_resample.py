@@ -294,3 +294,32 @@ def test_reduce_keys_on_a_rotation_honours_the_angle(mk, animdata, native, mode)
     reduced = _pose_quaternions(obj, dense)
     assert after < before / 3
     assert np.max(_angle_between(reduced, original)) <= tolerance * 1.01 + 1e-6
+
+
+def test_reduce_keys_on_walk60_stays_within_tolerance_everywhere(mk, animdata, shared_dir, capsys):
+    """The imported capture, reduced to 1 mm and 0.1 degrees, checked at ten points per frame."""
+    import os
+    obj, action = mk.bvh.load(os.path.join(shared_dir, "data", "bvh", "walk60.bvh"))
+    curves = list(animdata.fcurves(action, obj))
+    channels = [(f.data_path, f.array_index) for f in curves]
+    first, last = action.frame_range
+    dense = np.arange(first, last + 1e-9, 0.1)
+    original, _ = animdata.sample(action, obj, channels, dense)
+    tolerance, rotation_tolerance = 1e-3, math.radians(0.1)
+    before, after = mk.reduce_keys(obj, tolerance, rotation_tolerance, samples_per_frame=4)
+    reduced, _ = animdata.sample(action, obj, channels, dense)
+    rotation_rows = {}
+    for row, (path, index) in enumerate(channels):
+        if path.endswith("rotation_quaternion"):
+            rotation_rows.setdefault(path, [None] * 4)[index] = row
+        else:
+            assert np.max(np.abs(reduced[row] - original[row])) <= tolerance * (1 + 1e-6) + 1e-6, path
+    worst = 0.0
+    for path, rows in rotation_rows.items():
+        angle = _angle_between(original[rows].T, reduced[rows].T)
+        worst = max(worst, float(angle.max()))
+    assert worst <= rotation_tolerance * (1 + 1e-3) + 1e-6
+    assert after < before / 2
+    with capsys.disabled():
+        print(f"\nwalk60 key reduction: {before} keys -> {after} ({100 * after / before:.1f} %), "
+              f"worst rotation error {math.degrees(worst):.4f} deg")
