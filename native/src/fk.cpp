@@ -5,7 +5,11 @@
 #include <cstddef>
 #include <cstdint>
 #include <cstring>
+#include <functional>
 #include <string>
+#include <system_error>
+#include <thread>
+#include <vector>
 
 // How it is fast (about 8 ns per joint and frame on a 31-joint skeleton in
 // cache, AVX2): frames are solved several at a time in vector lanes, the
@@ -39,6 +43,9 @@ namespace motionkit {
 namespace internal {
 // Tests turn the AVX2 path off to exercise the baseline one too.
 bool fk_allow_avx2 = true;
+// Joint-frames below which another thread is not worth starting (about 0.1 ms
+// of work); tests lower it to split short clips.
+Eigen::Index fk_min_joint_frames_per_thread = 16384;
 }  // namespace internal
 
 namespace {
@@ -711,24 +718,34 @@ MOTIONKIT_FK_INLINE void SolveClip(const Skeleton& skeleton, const ConstMatrixVi
   }
 }
 
-// Run() after the shapes are known to be right: scan the values, then solve.
-template <int L>
-MOTIONKIT_FK_INLINE void ScanAndSolve(ForwardKinematicsJob& job) {
-  bool any_size = false;
-  if (!AllOrdinary<L>(job.values)) {
-    CheckValues(job).ThrowIfFailed();
-    any_size = true;
-  }
-  SolveClip<L>(job.skeleton, job.values, job.positions, job.orientations, any_size);
+// The solver for one ISA: a scan of the values (true when all are ordinary)
+// and the solve proper.
+struct Kernels {
+  bool (*scan)(const ConstMatrixView& values);
+  void (*solve)(const Skeleton& skeleton, const ConstMatrixView& values,
+                Eigen::Ref<RowMatrixXd>& positions, Eigen::Ref<RowMatrixXd>& orientations,
+                bool any_size);
+};
+
+bool ScanBaseline(const ConstMatrixView& values) { return AllOrdinary<2>(values); }
+void SolveBaseline(const Skeleton& skeleton, const ConstMatrixView& values,
+                   Eigen::Ref<RowMatrixXd>& positions, Eigen::Ref<RowMatrixXd>& orientations,
+                   bool any_size) {
+  SolveClip<2>(skeleton, values, positions, orientations, any_size);
 }
 
-void RunBaseline(ForwardKinematicsJob& job) { ScanAndSolve<2>(job); }
-
 #if MOTIONKIT_FK_X86_DISPATCH
-// The same code with four lanes, inlined into a function compiled for AVX2
+// The same code with four lanes, inlined into functions compiled for AVX2
 // and FMA. (With FMA the last bit of a result may differ from the baseline.)
-__attribute__((target("avx2,fma"))) void RunAvx2(ForwardKinematicsJob& job) {
-  ScanAndSolve<4>(job);
+__attribute__((target("avx2,fma"))) bool ScanAvx2(const ConstMatrixView& values) {
+  return AllOrdinary<4>(values);
+}
+__attribute__((target("avx2,fma"))) void SolveAvx2(const Skeleton& skeleton,
+                                                   const ConstMatrixView& values,
+                                                   Eigen::Ref<RowMatrixXd>& positions,
+                                                   Eigen::Ref<RowMatrixXd>& orientations,
+                                                   bool any_size) {
+  SolveClip<4>(skeleton, values, positions, orientations, any_size);
 }
 
 bool HasAvx2() {
@@ -737,23 +754,114 @@ bool HasAvx2() {
 }
 #endif
 
+Kernels PickKernels() {
+#if MOTIONKIT_FK_X86_DISPATCH
+  if (internal::fk_allow_avx2 && HasAvx2()) return {ScanAvx2, SolveAvx2};
+#endif
+  return {ScanBaseline, SolveBaseline};
+}
+
+// Contiguous runs of rows, one a thread: `count` runs of `size` rows (a whole
+// number of blocks), the last one shorter.
+struct Parts {
+  int count = 1;
+  Eigen::Index size = 0;
+
+  Eigen::Index Begin(int i) const { return i * size; }
+  Eigen::Index Rows(int i, Eigen::Index frames) const {
+    return std::min(size, frames - Begin(i));
+  }
+};
+
+Parts SplitFrames(const ForwardKinematicsJob& job) {
+  const Eigen::Index frames = job.values.rows();
+  Parts parts;
+  parts.size = frames;
+  Eigen::Index threads = job.threads;
+  if (threads == 0) threads = std::max(1u, std::thread::hardware_concurrency());
+  const auto joints = std::max<Eigen::Index>(1, static_cast<Eigen::Index>(job.skeleton.joints.size()));
+  const Eigen::Index blocks = (frames + kMaxBlock - 1) / kMaxBlock;
+  const Eigen::Index by_work =
+      std::max<Eigen::Index>(1, frames * joints / internal::fk_min_joint_frames_per_thread);
+  const Eigen::Index wanted = std::min({threads, blocks, by_work});
+  if (wanted <= 1) return parts;
+  const Eigen::Index per_part = (frames + wanted - 1) / wanted;
+  parts.size = (per_part + kMaxBlock - 1) / kMaxBlock * kMaxBlock;
+  parts.count = static_cast<int>((frames + parts.size - 1) / parts.size);
+  return parts;
+}
+
+// part(i) for every part: the first on the calling thread, each other on a
+// thread of its own, or on the calling thread too when no thread can start.
+// part must not throw.
+template <typename Part>
+void ForEachPart(int count, const Part& part) {
+  std::vector<std::thread> workers;
+  workers.reserve(static_cast<std::size_t>(count - 1));
+  int started = 1;
+  try {
+    for (; started < count; ++started) workers.emplace_back(std::cref(part), started);
+  } catch (const std::system_error&) {
+    // Out of threads: the parts left run below.
+  }
+  for (int i = started; i < count; ++i) part(i);
+  part(0);
+  for (std::thread& worker : workers) worker.join();
+}
+
+// Several threads. Every part is scanned before any is solved, so that a
+// value that is not finite still leaves the outputs untouched. Large angles
+// are reduced value by value, so a part solved with any_size gives the other
+// values the same numbers as a part without.
+void RunInParts(ForwardKinematicsJob& job, const Kernels& kernels, const Parts& parts) {
+  const Eigen::Index frames = job.values.rows();
+  std::vector<char> ordinary(static_cast<std::size_t>(parts.count));
+  ForEachPart(parts.count, [&](int i) {
+    ordinary[static_cast<std::size_t>(i)] =
+        kernels.scan(job.values.middleRows(parts.Begin(i), parts.Rows(i, frames)));
+  });
+  if (std::find(ordinary.begin(), ordinary.end(), 0) != ordinary.end()) {
+    CheckValues(job).ThrowIfFailed();
+  }
+  ForEachPart(parts.count, [&](int i) {
+    const Eigen::Index begin = parts.Begin(i), rows = parts.Rows(i, frames);
+    Eigen::Ref<RowMatrixXd> positions = job.positions.middleRows(begin, rows);
+    Eigen::Ref<RowMatrixXd> orientations = job.orientations.middleRows(begin, rows);
+    kernels.solve(job.skeleton, job.values.middleRows(begin, rows), positions, orientations,
+                  !ordinary[static_cast<std::size_t>(i)]);
+  });
+}
+
+// The shapes and the thread count.
+Status CheckJob(const ForwardKinematicsJob& job) {
+  if (job.threads < 0) {
+    return Status::Fail("fk: threads must be 0 (all) or more, got " + std::to_string(job.threads));
+  }
+  return CheckShapes(job);
+}
+
 }  // namespace
 
 Status ForwardKinematicsJob::Validate() const {
-  if (Status s = CheckShapes(*this); !s) return s;
+  if (Status s = CheckJob(*this); !s) return s;
   if (AllOrdinary<2>(values)) return Status::Ok();
   return CheckValues(*this);
 }
 
 void ForwardKinematicsJob::Run() {
-  CheckShapes(*this).ThrowIfFailed();
-#if MOTIONKIT_FK_X86_DISPATCH
-  if (internal::fk_allow_avx2 && HasAvx2()) {
-    RunAvx2(*this);
+  CheckJob(*this).ThrowIfFailed();
+  const Kernels kernels = PickKernels();
+  const Parts parts = SplitFrames(*this);
+  if (parts.count > 1) {
+    RunInParts(*this, kernels, parts);
     return;
   }
-#endif
-  RunBaseline(*this);
+  bool any_size = false;
+  if (!kernels.scan(values)) {
+    CheckValues(*this).ThrowIfFailed();
+    any_size = true;
+  }
+  kernels.solve(skeleton, values, positions, orientations, any_size);
 }
 
 }  // namespace motionkit
