@@ -100,3 +100,17 @@ def interpolate_curves(
     bias: npt.ArrayLike | None = None,
     derivative: bool = False,
 ) -> npt.NDArray[np.float64] | tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
+
+class Skeleton:
+    """Joints depth-first, end sites included (read_bvh, parse_bvh or Skeleton(...))."""
+
+    def __len__(self) -> int: ...
+
+def forward_kinematics(
+    skeleton: Skeleton,
+    values: npt.NDArray[np.float64],
+    positions: npt.NDArray[np.float64],
+    orientations: npt.NDArray[np.float64],
+    threads: int = 0,
+) -> None:
+    """Whole-clip FK in place; threads=0 shares the frames among all cores, 1 stays on this thread."""

@@ -212,15 +212,19 @@ void BindBvh(py::module_& m) {
   m.def(
       "forward_kinematics",
       [](const Skeleton& skeleton, Eigen::Ref<const RowMatrixXd> values, Eigen::Ref<RowMatrixXd> positions,
-         Eigen::Ref<RowMatrixXd> orientations) {
+         Eigen::Ref<RowMatrixXd> orientations, int threads) {
         ForwardKinematicsJob job(skeleton, values, positions, orientations);
+        job.threads = threads;
         job.Run();
       },
       "skeleton"_a, "values"_a.noconvert(), "positions"_a.noconvert(), "orientations"_a.noconvert(),
-      py::call_guard<py::gil_scoped_release>(), R"pbdoc(
+      "threads"_a = 0, py::call_guard<py::gil_scoped_release>(), R"pbdoc(
         Whole-clip forward kinematics, in place.
         values: (frames, channels); positions: (frames, 3 * joints) world x y z;
         orientations: (frames, 4 * joints) world w x y z. End sites included.
+        threads: how many threads may share the frames; 0 (the default) uses
+        every core, 1 stays on the calling thread. The numbers are the same
+        either way; short clips use fewer threads.
       )pbdoc");
 
   m.def(

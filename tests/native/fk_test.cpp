@@ -14,8 +14,10 @@
 
 namespace motionkit {
 namespace internal {
-// fk.cpp: lets the tests take the baseline path on a machine with AVX2.
+// fk.cpp: lets the tests take the baseline path on a machine with AVX2, and
+// split short clips between threads.
 extern bool fk_allow_avx2;
+extern Eigen::Index fk_min_joint_frames_per_thread;
 }  // namespace internal
 
 namespace {
@@ -316,6 +318,45 @@ TEST_P(BothPaths, MatchesAReferenceOnARandomSkeleton) {
   }
 }
 
+// Every frame of a clip gets the same numbers, to the last bit, whether the
+// clip is solved on one thread or cut into parts on several: parts of one
+// block, parts shorter than a block, fewer frames than threads, no frames,
+// and a huge angle that only one part sees.
+TEST_P(BothPaths, ThreadsGiveExactlyTheNumbersOfOneThread) {
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  std::vector<Joint> joints = {MakeJoint(
+      "hips", -1, {0, 0, 0},
+      {C::kXposition, C::kYposition, C::kZposition, C::kZrotation, C::kXrotation, C::kYrotation})};
+  for (int n = 1; n < 24; ++n) {
+    joints.push_back(MakeJoint("j" + std::to_string(n), (n - 1) / 2, {unit(rng), unit(rng), unit(rng)},
+                               {C::kZrotation, C::kYrotation, C::kXrotation}));
+  }
+  joints.push_back(MakeEndSite("j23_end", 23, {0, 1, 0}));
+  const Skeleton s = MakeSkeleton(std::move(joints));
+  const Eigen::Index saved = internal::fk_min_joint_frames_per_thread;
+  internal::fk_min_joint_frames_per_thread = 1;  // split even a few frames
+  for (Eigen::Index frames : {0, 1, 2, 3, 4, 5, 7, 9, 13, 64, 130, 1001}) {
+    RowMatrixXd values(frames, s.channel_count);
+    for (Eigen::Index f = 0; f < frames; ++f) {
+      for (Eigen::Index c = 0; c < values.cols(); ++c) values(f, c) = 400.0 * unit(rng);
+    }
+    if (frames > 2) values(frames - 2, 4) = 3e15;  // reduced with fmod, in the last part only
+    const Result one = RunFk(s, values);
+    for (int threads : {0, 2, 3, 4, 7, 16}) {
+      Result many{RowMatrixXd::Constant(frames, one.positions.cols(), -7.0),
+                  RowMatrixXd::Constant(frames, one.orientations.cols(), -7.0)};
+      ForwardKinematicsJob job(s, values, many.positions, many.orientations);
+      job.threads = threads;
+      job.Run();
+      EXPECT_TRUE(many.positions == one.positions) << frames << " frames, " << threads << " threads";
+      EXPECT_TRUE(many.orientations == one.orientations)
+          << frames << " frames, " << threads << " threads";
+    }
+  }
+  internal::fk_min_joint_frames_per_thread = saved;
+}
+
 TEST(ForwardKinematics, EmptyClipAndEmptySkeleton) {
   const Skeleton s = MakeSkeleton({MakeJoint("root", -1, {0, 0, 0}, {C::kXrotation})});
   RunFk(s, RowMatrixXd(0, 1));
@@ -344,6 +385,37 @@ TEST(ForwardKinematics, RejectsNanNamingFrameJointAndChannel) {
   // Nothing written on failure.
   EXPECT_EQ(positions, RowMatrixXd::Constant(20, 9, 5.0));
   EXPECT_EQ(orientations, RowMatrixXd::Constant(20, 12, 5.0));
+}
+
+TEST(ForwardKinematics, OnThreadsANanStillWritesNothing) {
+  const Skeleton s = Leg();
+  RowMatrixXd values = RowMatrixXd::Zero(200, 9);
+  values(150, 7) = std::numeric_limits<double>::quiet_NaN();  // in a later part than the first
+  RowMatrixXd positions = RowMatrixXd::Constant(200, 9, 5.0);
+  RowMatrixXd orientations = RowMatrixXd::Constant(200, 12, 5.0);
+  const Eigen::Index saved = internal::fk_min_joint_frames_per_thread;
+  internal::fk_min_joint_frames_per_thread = 1;
+  ForwardKinematicsJob job(s, values, positions, orientations);
+  job.threads = 4;
+  try {
+    job.Run();
+    ADD_FAILURE() << "no error";
+  } catch (const Error& e) {
+    EXPECT_STREQ(e.what(), "fk: frame 150, joint 'lKnee' channel Xrotation is nan");
+  }
+  internal::fk_min_joint_frames_per_thread = saved;
+  EXPECT_EQ(positions, RowMatrixXd::Constant(200, 9, 5.0));
+  EXPECT_EQ(orientations, RowMatrixXd::Constant(200, 12, 5.0));
+}
+
+TEST(ForwardKinematics, RejectsANegativeThreadCount) {
+  const Skeleton s = Leg();
+  RowMatrixXd values = RowMatrixXd::Zero(2, 9);
+  RowMatrixXd positions(2, 9), orientations(2, 12);
+  ForwardKinematicsJob job(s, values, positions, orientations);
+  job.threads = -1;
+  EXPECT_EQ(job.Validate().message(), "fk: threads must be 0 (all) or more, got -1");
+  EXPECT_THROW(job.Run(), Error);
 }
 
 TEST(ForwardKinematics, RejectsInfinityNamingItsSign) {

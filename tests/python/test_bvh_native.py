@@ -102,6 +102,23 @@ def test_fk_of_the_real_files_matches_the_reference(native, shared_files):
         np.testing.assert_allclose(positions, ref_pos, atol=1e-12, err_msg=path)
 
 
+def test_fk_on_threads_gives_the_same_numbers(native, shared_files):
+    walk = [p for p in shared_files if p.endswith("walk60.bvh")][0]
+    skeleton, motion = native.read_bvh(walk)
+    values = np.ascontiguousarray(np.tile(motion.values, (20, 1)))  # long enough to be split
+    frames, joints = values.shape[0], len(skeleton)
+    results = []
+    for threads in (1, 0, 3):
+        positions, orientations = np.empty((frames, 3 * joints)), np.empty((frames, 4 * joints))
+        native.forward_kinematics(skeleton, values, positions, orientations, threads=threads)
+        results.append((positions, orientations))
+    for positions, orientations in results[1:]:
+        assert np.array_equal(positions, results[0][0])
+        assert np.array_equal(orientations, results[0][1])
+    with pytest.raises(native.MotionKitError, match="threads must be 0"):
+        native.forward_kinematics(skeleton, values, positions, orientations, threads=-2)
+
+
 def test_the_real_walk_has_the_briefs_shape(native, shared_files):
     walk = [p for p in shared_files if p.endswith("walk60.bvh")][0]
     skeleton, motion = native.read_bvh(walk)
