@@ -212,12 +212,18 @@ def write_keys(id_data: bpy.types.ID, action: bpy.types.Action, channels: Iterab
 _BEZTRIPLE_SIZE, _IPO, _H1, _H2 = 72, 48, 49, 50
 
 
+_bulk_types_work = True
+
+
 def _set_handle_types(points, types: np.ndarray) -> None:
     """One handle type per key, for both handles, in bulk."""
-    points.foreach_set("handle_left_type", types)
-    points.foreach_set("handle_right_type", types)
-    if _HANDLE_TYPE[points[0].handle_left_type] == types[0]:
-        return
+    global _bulk_types_work
+    if _bulk_types_work:
+        points.foreach_set("handle_left_type", types)
+        points.foreach_set("handle_right_type", types)
+        if _HANDLE_TYPE[points[0].handle_left_type] == types[0]:
+            return
+        _bulk_types_work = False
     count = len(points)
     base = points[0].as_pointer()
     first = int(types[0])

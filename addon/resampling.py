@@ -22,6 +22,7 @@ POLYNOMIAL_MAX_KEYS = 64
 # differences this far apart (in frames): truncation ~1e-6 x the third
 # derivative, round-off ~1e-13.
 _SLOPE_STEP = 1e-3
+_TANGENT_STEP = 1e-4  # frames; truncation ~1e-8 x the third derivative, round-off ~1e-12
 _SMOOTH_ROTATIONS = {"squad", "catmull-rom", "euler-catmull-rom", "axis-angle-catmull-rom"}
 
 
@@ -120,6 +121,7 @@ def _resample_vector(native, label, times, values, grid, kind, output, tcb) -> t
     if kind == "periodic" and not np.allclose(values[0], values[-1], rtol=0, atol=1e-6):
         raise ValueError(f"{label}: a periodic spline needs equal first and last keys")
     options = _scalar_options(kind, times.size, tcb)
+    times, values, grid = (np.ascontiguousarray(a, dtype=np.float64) for a in (times, values, grid))
     try:
         new = native.interpolate(times, values, grid, kind=kind, **options)
         if output == 'DENSE' or kind in resample_plan.NOT_CUBIC or grid.size < 2:
@@ -143,12 +145,16 @@ def _resample_rotation(native, group, times, values, grid, kind, output, tcb) ->
         options.update({name: np.full(times.size, value)
                         for name, value in zip(("tension", "continuity", "bias"), tcb)})
     exact = output == 'EXACT' and grid.size >= 2
+    smooth = kind in _SMOOTH_ROTATIONS or (kind == "kochanek-bartels" and tcb[1] == 0.0)
+    if exact and smooth:
+        return _smooth_rotation_keys(native, group, times, quats, values, grid, kind, options)
     if exact:
         # Five samples per key, in time order, so that continuity runs through them.
         offsets = _SLOPE_STEP * np.array([-2.0, -1.0, 0.0, 1.0, 2.0])
         eval_times = (grid[:, None] + offsets[None, :]).ravel()
     else:
         eval_times = grid
+    times, quats, eval_times = (np.ascontiguousarray(a, dtype=np.float64) for a in (times, quats, eval_times))
     try:
         q = native.interpolate_rotations(times, quats, eval_times, kind=kind, **options)
     except native.MotionKitError as ex:
@@ -167,6 +173,39 @@ def _resample_rotation(native, group, times, values, grid, kind, output, tcb) ->
     if kind in _SMOOTH_ROTATIONS or (kind == "kochanek-bartels" and tcb[1] == 0.0):
         slopes_in = slopes_out = 0.5 * (slopes_in + slopes_out)
     return new, 'BEZIER', (slopes_in, slopes_out)
+
+
+def _smooth_rotation_keys(native, group, times, quats, values, grid, kind, options) -> tuple:
+    """Keys and slopes of a C1 sphere curve from one evaluation with its angular velocity.
+
+    Each key's channels are also taken a hair before and after along the curve's
+    own tangent (exp(+-eps w / 2) q), so the slope of every channel, in any
+    rotation mode, is a central difference along the exact tangent direction.
+    """
+    times, quats, grid = (np.ascontiguousarray(a, dtype=np.float64) for a in (times, quats, grid))
+    try:
+        q, omega = native.interpolate_rotations(times, quats, grid, kind=kind, angular_velocity=True, **options)
+        if grid[-1] >= times[-1] - 1e-9:  # the last key: the velocity from inside, not the held end
+            _, inside = native.interpolate_rotations(times, quats, np.array([times[-1] - 1e-6]), kind=kind,
+                                                     angular_velocity=True, **options)
+            omega[-1] = inside[0]
+    except native.MotionKitError as ex:
+        raise ValueError(f"{group.data_path}: {ex}") from None
+    rows = np.stack([_turn(q, omega, -_TANGENT_STEP), q, _turn(q, omega, _TANGENT_STEP)], axis=1)
+    channels = rotation_channels.from_quaternions(native, group.mode, rows.reshape(-1, 4), previous=values[0])
+    channels = channels.reshape(grid.size, 3, -1)
+    slopes = (channels[:, 2] - channels[:, 0]) / (2.0 * _TANGENT_STEP)
+    return np.ascontiguousarray(channels[:, 1]), 'BEZIER', (slopes, slopes)
+
+
+def _turn(q, omega, dt):
+    """exp(dt w / 2) q: q carried dt along the world angular velocity w."""
+    angle = np.linalg.norm(omega, axis=1, keepdims=True) * dt
+    axis = np.divide(omega, np.linalg.norm(omega, axis=1, keepdims=True), out=np.zeros_like(omega),
+                     where=angle != 0)
+    w1, v1 = np.cos(0.5 * angle), np.sin(0.5 * angle) * axis
+    w2, v2 = q[:, :1], q[:, 1:]
+    return np.hstack([w1 * w2 - np.sum(v1 * v2, axis=1, keepdims=True), w1 * v2 + w2 * v1 + np.cross(v1, v2)])
 
 
 def _handles(frames, values, slopes) -> animdata.Handles:
