@@ -9,6 +9,8 @@ error leaves the action as it was.
 """
 from __future__ import annotations
 
+import os
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import bpy
@@ -191,6 +193,13 @@ def _smooth_rotation_keys(native, group, times, quats, values, grid, kind, optio
             omega[-1] = inside[0]
     except native.MotionKitError as ex:
         raise ValueError(f"{group.data_path}: {ex}") from None
+    if group.mode == 'QUATERNION':
+        # dq/dt = (0, w) q / 2 exactly, kept with the hemisphere the keys take.
+        q = rotation_channels.sign_continuous(q, rotation_channels.to_quaternions(native, 'QUATERNION',
+                                                                                  values[:1])[0])
+        w, v = q[:, :1], q[:, 1:]
+        slopes = 0.5 * np.hstack([-np.sum(omega * v, axis=1, keepdims=True), omega * w + np.cross(omega, v)])
+        return q, 'BEZIER', (slopes, slopes)
     rows = np.stack([_turn(q, omega, -_TANGENT_STEP), q, _turn(q, omega, _TANGENT_STEP)], axis=1)
     channels = rotation_channels.from_quaternions(native, group.mode, rows.reshape(-1, 4), previous=values[0])
     channels = channels.reshape(grid.size, 3, -1)
@@ -277,18 +286,23 @@ def resample(targets, step: float | None = None, fps: float | None = None, *, ro
     last = max(times[-1] for *_, keys in work for times, _ in keys)
     grid = resample_plan.key_grid(float(timing.map(first)), float(timing.map(last)), timing.step)
 
+    # The groups are independent and their work is native (GIL released) and
+    # numpy, so they run on all cores; everything that touches bpy stays here.
     total = sum(len(groups) for _, _, groups, _ in work)
     planned, done = [], 0
-    for obj, action, groups, keys in work:
-        writes = []
-        for group, (times, values) in zip(groups, keys):
-            if progress is not None:
-                progress(done, total)
-            done += 1
-            writes.append(_resample_group(native, obj, group, timing.map(times), values, grid,
-                                          scalar, rotation, output, tcb))
-        _check_finite(obj, writes)
-        planned.append((obj, action, writes))
+    with ThreadPoolExecutor(max_workers=os.cpu_count() or 1) as pool:
+        for obj, action, groups, keys in work:
+            futures = [pool.submit(_resample_group, native, _channels(obj, group)[0], group, timing.map(times),
+                                   values, grid, scalar, rotation, output, tcb)
+                       for group, (times, values) in zip(groups, keys)]
+            writes = []
+            for future in futures:
+                if progress is not None:
+                    progress(done, total)
+                done += 1
+                writes.append(future.result())
+            _check_finite(obj, writes)
+            planned.append((obj, action, writes))
     for obj, action, writes in planned:
         for write in writes:
             animdata.write_keys(obj, action, write.channels, write.frames, write.values,
@@ -298,8 +312,7 @@ def resample(targets, step: float | None = None, fps: float | None = None, *, ro
     return [action for _, action, _ in planned]
 
 
-def _resample_group(native, obj, group, times, values, grid, scalar, rotation, output, tcb) -> _Write:
-    channels, _ = _channels(obj, group)
+def _resample_group(native, channels, group, times, values, grid, scalar, rotation, output, tcb) -> _Write:
     if times.size == 1:
         return _Write(channels, times, np.ascontiguousarray(values.T), 'LINEAR', None)
     own_grid = resample_plan.segment_grid(grid, float(times[0]), float(times[-1]))
