@@ -17,6 +17,7 @@ import time
 
 import bpy
 import mathutils
+import numpy as np
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path[:0] = [os.path.join(ROOT, "tools"), os.path.join(ROOT, "blend_samples")]
@@ -24,6 +25,9 @@ sys.path[:0] = [os.path.join(ROOT, "tools"), os.path.join(ROOT, "blend_samples")
 import characters  # noqa: E402
 import generate  # noqa: E402
 import install_addon  # noqa: E402
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import interpolant_plot  # noqa: E402
 
 SHOW_FRAME = 22  # mid-stride: left leg forward, right arm forward
 
@@ -97,6 +101,53 @@ def render(scene, path: str, samples: int) -> None:
     bpy.ops.render.render(write_still=True)
 
 
+def resample_inputs(motionkit, obj, action, seconds: float = 2.0) -> dict:
+    """The first seconds of the clip's bounciest root location channel and liveliest bone rotation."""
+    animdata = motionkit.animdata
+    curves = list(animdata.fcurves(action, obj))
+    root = obj.pose.bones[0].name
+    locations = [f for f in curves if f.data_path == f'pose.bones["{root}"].location']
+    keys = [animdata.read_keys(f) for f in locations]
+    count = int(seconds * 60) + 1
+
+    def wiggle(i):  # what is left once the steady drift is taken out: the bounce of a walk
+        values = keys[i][1][:count].astype(np.float64)
+        steps = np.arange(values.size)
+        return float(np.std(values - np.polyval(np.polyfit(steps, values, 1), steps)))
+
+    index = max(range(len(keys)), key=wiggle)
+    frames, values = (k.astype(np.float64)[:count] for k in keys[index])
+    best, quats = None, None
+    for bone in obj.pose.bones[1:]:
+        rows = [animdata.find_fcurve(action, obj, f'pose.bones["{bone.name}"].rotation_quaternion', k)
+                for k in range(4)]
+        if any(r is None for r in rows):
+            continue
+        q = np.stack([animdata.read_keys(r)[1][:count] for r in rows], axis=1).astype(np.float64)
+        q /= np.linalg.norm(q, axis=1, keepdims=True)
+        spread = float(np.ptp(np.abs(q @ q[0])))
+        if best is None or spread > best[0]:
+            best, quats = (spread, bone.name), q
+    return {"scalar": (frames, values, f"{root} location[{index}]"),
+            "rotation": (frames[:len(quats)], quats, best[1]),
+            "channel": (f'pose.bones["{root}"].location', index)}
+
+
+def resampled_curve(motionkit, obj, action, before) -> dict:
+    """The resampled channel as Blender now has it: its keys, and fcurve.evaluate between them."""
+    path, index = before["channel"]
+    fcurve = motionkit.animdata.find_fcurve(action, obj, path, index)
+    frames, values = (k.astype(np.float64) for k in motionkit.animdata.read_keys(fcurve))
+    old_frames, old_values, _ = before["scalar"]
+    seconds = (old_frames[-1] - old_frames[0]) / 60.0
+    new = frames <= 1.0 + seconds * 24.0 + 1e-6
+    dense = np.linspace(1.0, 1.0 + seconds * 24.0, 1500)
+    return {"old_times": (old_frames - 1.0) / 60.0, "old_values": old_values,
+            "new_times": (frames[new] - 1.0) / 24.0, "new_values": values[new],
+            "curve_times": (dense - 1.0) / 24.0, "curve_values": np.array([fcurve.evaluate(t) for t in dense]),
+            "label": f"{path}[{index}]"}
+
+
 def main() -> None:
     argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
     parser = argparse.ArgumentParser(prog="demo.py")
@@ -122,8 +173,17 @@ def main() -> None:
     mocap = os.path.join(os.path.dirname(ROOT), "shared", "data", "bvh", "walk60.bvh")
     if os.path.isfile(mocap):
         # Real motion capture through MotionKit's importer, skinned like the samples.
-        walker, action = motionkit.bvh.load(mocap)
+        walker, action = motionkit.bvh.load(mocap, update_scene_fps=True)
         walker.location.x = 2.25
+        # Resample the 60 fps capture to 24 fps with Kochanek-Bartels rotations, plotting
+        # the interpolants on its keys beside what Blender now evaluates.
+        before = resample_inputs(motionkit, walker, action)
+        motionkit.resample(walker, fps=24.0, change_scene_rate=True, rotation="kochanek-bartels",
+                           scalar="catmull-rom")
+        plot = os.path.join(out, "interpolants.png")
+        interpolant_plot.plot(motionkit.native(), plot, before["scalar"], before["rotation"],
+                              resampled_curve(motionkit, walker, action, before))
+        print(f"demo: wrote {plot}")
         generate.skin_bones(walker, {b.name: (0.045, 0.035) for b in walker.data.bones},
                             (0.85, 0.75, 0.25, 1.0), "walk60")
         add_label("walk60.bvh\nmotion capture, imported", (2.7, -0.2, 0.2), camera)
