@@ -29,6 +29,31 @@ def _poll(cls, context) -> bool:
     return True
 
 
+class _KeysOperator:
+    """What Resample Keys and Reduce Keys share: poll, the dialog, and running on the targets."""
+
+    @classmethod
+    def poll(cls, context):
+        return _poll(cls, context)
+
+    def invoke(self, context, event):
+        return context.window_manager.invoke_props_dialog(self)
+
+    def run(self, context, work, done_message):
+        """work(objects, bones, progress) -> result; done_message(result) -> the report."""
+        objects, bones = _targets(context)
+        progress = _Progress(context)
+        try:
+            result = work(objects, bones, progress)
+        except (ValueError, TypeError) as ex:
+            self.report({'ERROR'}, str(ex))
+            return {'CANCELLED'}
+        finally:
+            progress.end()
+        self.report({'INFO'}, done_message(result))
+        return {'FINISHED'}
+
+
 class _Progress:
     def __init__(self, context):
         self.wm = context.window_manager
@@ -45,7 +70,7 @@ class _Progress:
             self.wm.progress_end()
 
 
-class MOTIONKIT_OT_resample_keys(bpy.types.Operator):
+class MOTIONKIT_OT_resample_keys(_KeysOperator, bpy.types.Operator):
     """Put the keys on a new frame step or frame rate, interpolating rotations on the quaternion sphere (MotionKit)"""
     bl_idname = "motionkit.resample_keys"
     bl_label = "Resample Keys"
@@ -66,10 +91,6 @@ class MOTIONKIT_OT_resample_keys(bpy.types.Operator):
     continuity: FloatProperty(name="Continuity", default=0.0, min=-1.0, max=1.0)
     bias: FloatProperty(name="Bias", default=0.0, min=-1.0, max=1.0)
 
-    @classmethod
-    def poll(cls, context):
-        return _poll(cls, context)
-
     def draw(self, context):
         layout = self.layout
         layout.use_property_split = True
@@ -88,29 +109,17 @@ class MOTIONKIT_OT_resample_keys(bpy.types.Operator):
             col.prop(self, "bias")
         layout.prop(self, "output")
 
-    def invoke(self, context, event):
-        return context.window_manager.invoke_props_dialog(self)
-
     def execute(self, context):
-        objects, bones = _targets(context)
-        progress = _Progress(context)
-        try:
-            actions = resampling.resample(
-                objects, step=self.step if self.timing == 'STEP' else None,
-                fps=self.fps if self.timing == 'FPS' else None, rotation=self.rotation, scalar=self.scalar,
-                output=self.output, change_scene_rate=self.change_scene_rate, bones=bones,
-                tension=self.tension, continuity=self.continuity, bias=self.bias,
-                scene=context.scene, progress=progress)
-        except (ValueError, TypeError) as ex:
-            self.report({'ERROR'}, str(ex))
-            return {'CANCELLED'}
-        finally:
-            progress.end()
-        self.report({'INFO'}, f"Resampled {', '.join(a.name for a in actions)}")
-        return {'FINISHED'}
+        return self.run(context, lambda objects, bones, progress: resampling.resample(
+            objects, step=self.step if self.timing == 'STEP' else None,
+            fps=self.fps if self.timing == 'FPS' else None, rotation=self.rotation, scalar=self.scalar,
+            output=self.output, change_scene_rate=self.change_scene_rate, bones=bones,
+            tension=self.tension, continuity=self.continuity, bias=self.bias,
+            scene=context.scene, progress=progress),
+            lambda actions: f"Resampled {', '.join(a.name for a in actions)}")
 
 
-class MOTIONKIT_OT_reduce_keys(bpy.types.Operator):
+class MOTIONKIT_OT_reduce_keys(_KeysOperator, bpy.types.Operator):
     """Fit the fewest Bezier keys that stay within a tolerance of the current curves (MotionKit)"""
     bl_idname = "motionkit.reduce_keys"
     bl_label = "Reduce Keys"
@@ -123,27 +132,11 @@ class MOTIONKIT_OT_reduce_keys(bpy.types.Operator):
     samples_per_frame: IntProperty(name="Samples per Frame", default=4, min=1, max=64,
                                    description="How densely the tolerance is checked")
 
-    @classmethod
-    def poll(cls, context):
-        return _poll(cls, context)
-
-    def invoke(self, context, event):
-        return context.window_manager.invoke_props_dialog(self)
-
     def execute(self, context):
-        objects, bones = _targets(context)
-        progress = _Progress(context)
-        try:
-            before, after = resampling.reduce_keys(
-                objects, self.tolerance, self.rotation_tolerance, samples_per_frame=self.samples_per_frame,
-                bones=bones, progress=progress)
-        except (ValueError, TypeError) as ex:
-            self.report({'ERROR'}, str(ex))
-            return {'CANCELLED'}
-        finally:
-            progress.end()
-        self.report({'INFO'}, f"Reduced {before} keys to {after}")
-        return {'FINISHED'}
+        return self.run(context, lambda objects, bones, progress: resampling.reduce_keys(
+            objects, self.tolerance, self.rotation_tolerance, samples_per_frame=self.samples_per_frame,
+            bones=bones, progress=progress),
+            lambda counts: f"Reduced {counts[0]} keys to {counts[1]}")
 
 
 def menu_keys(self, context):

@@ -92,8 +92,8 @@ def _group_name(fcurve) -> str:
     return fcurve.group.name if fcurve.group is not None else ""
 
 
-def _keys(obj, action, group: ChannelGroup) -> tuple[np.ndarray, np.ndarray]:
-    """The group's key times (union over its curves) and all its channels there, (n,), (n, size)."""
+def _keys(obj, action, group: ChannelGroup) -> tuple[list, np.ndarray, np.ndarray]:
+    """The group's channels, its key times (union over its curves) and every channel there, (n, size)."""
     reads = {index: animdata.read_keys(fcurve) for index, fcurve in group.curves.items()}
     frames = [f for f, _ in reads.values()]
     channels, static = _channels(obj, group)
@@ -105,9 +105,16 @@ def _keys(obj, action, group: ChannelGroup) -> tuple[np.ndarray, np.ndarray]:
             if channel.index in reads:
                 values[:, row] = reads[channel.index][1]
     else:
-        sampled, found = animdata.sample(action, obj, channels, times)
-        values[:, found] = sampled[found].T
-    return times, values
+        values = _sample(obj, action, channels, static, times)
+    return channels, times, values
+
+
+def _sample(obj, action, channels, static, times) -> np.ndarray:
+    """The channels as Blender evaluates them at times, (n, size); a channel without a curve holds static."""
+    sampled, found = animdata.sample(action, obj, channels, times)
+    values = np.tile(static, (times.size, 1))
+    values[:, found] = sampled[found].T
+    return values
 
 
 def _scalar_options(kind: str, count: int, tcb) -> dict:
@@ -282,8 +289,8 @@ def resample(targets, step: float | None = None, fps: float | None = None, *, ro
         if not groups:
             raise ValueError(f"'{obj.name}' has no keys to resample" + (" on the selected bones" if bones else ""))
         work.append((obj, action, groups, [_keys(obj, action, group) for group in groups]))
-    first = min(times[0] for *_, keys in work for times, _ in keys)
-    last = max(times[-1] for *_, keys in work for times, _ in keys)
+    first = min(times[0] for *_, keys in work for _, times, _ in keys)
+    last = max(times[-1] for *_, keys in work for _, times, _ in keys)
     grid = resample_plan.key_grid(float(timing.map(first)), float(timing.map(last)), timing.step)
 
     # The groups are independent and their work is native (GIL released) and
@@ -292,9 +299,9 @@ def resample(targets, step: float | None = None, fps: float | None = None, *, ro
     planned, done = [], 0
     with ThreadPoolExecutor(max_workers=os.cpu_count() or 1) as pool:
         for obj, action, groups, keys in work:
-            futures = [pool.submit(_resample_group, native, _channels(obj, group)[0], group, timing.map(times),
+            futures = [pool.submit(_resample_group, native, channels, group, timing.map(times),
                                    values, grid, scalar, rotation, output, tcb)
-                       for group, (times, values) in zip(groups, keys)]
+                       for group, (channels, times, values) in zip(groups, keys)]
             writes = []
             for future in futures:
                 if progress is not None:
@@ -407,9 +414,7 @@ def _reduce_group(native, obj, action, group, tolerance, rotation_tolerance, sam
     times = first + np.arange(count, dtype=np.float64) / samples_per_frame
     if last - times[-1] > 1e-9:
         times = np.append(times, last)
-    sampled, found = animdata.sample(action, obj, channels, times)
-    values = np.tile(static, (times.size, 1))
-    values[:, found] = sampled[found].T
+    values = _sample(obj, action, channels, static, times)
     kind, order, tol = "absolute", "XYZ", tolerance
     columns = np.arange(values.shape[1])
     if group.kind == 'rotation':
