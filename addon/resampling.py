@@ -109,6 +109,11 @@ def _keys(obj, action, group: ChannelGroup) -> tuple[list, np.ndarray, np.ndarra
     return channels, times, values
 
 
+def _key_range(fcurve) -> tuple[float, float]:
+    points = fcurve.keyframe_points
+    return points[0].co[0], points[-1].co[0]
+
+
 def _sample(obj, action, channels, static, times) -> np.ndarray:
     """The channels as Blender evaluates them at times, (n, size); a channel without a curve holds static."""
     sampled, found = animdata.sample(action, obj, channels, times)
@@ -191,21 +196,29 @@ def _smooth_rotation_keys(native, group, times, quats, values, grid, kind, optio
     own tangent (exp(+-eps w / 2) q), so the slope of every channel, in any
     rotation mode, is a central difference along the exact tangent direction.
     """
-    times, quats, grid = (np.ascontiguousarray(a, dtype=np.float64) for a in (times, quats, grid))
+    # The last key takes the velocity from inside, not that of the held end.
+    at_end = grid[-1] >= times[-1] - 1e-9
+    eval_times = np.append(grid, times[-1] - 1e-6) if at_end else grid
+    times, quats, eval_times = (np.ascontiguousarray(a, dtype=np.float64) for a in (times, quats, eval_times))
     try:
-        q, omega = native.interpolate_rotations(times, quats, grid, kind=kind, angular_velocity=True, **options)
-        if grid[-1] >= times[-1] - 1e-9:  # the last key: the velocity from inside, not the held end
-            _, inside = native.interpolate_rotations(times, quats, np.array([times[-1] - 1e-6]), kind=kind,
-                                                     angular_velocity=True, **options)
-            omega[-1] = inside[0]
+        q, omega = native.interpolate_rotations(times, quats, eval_times, kind=kind, angular_velocity=True,
+                                                **options)
     except native.MotionKitError as ex:
         raise ValueError(f"{group.data_path}: {ex}") from None
+    if at_end:
+        q, omega[-2] = q[:-1], omega[-1]
+        omega = omega[:-1]
     if group.mode == 'QUATERNION':
         # dq/dt = (0, w) q / 2 exactly, kept with the hemisphere the keys take.
-        q = rotation_channels.sign_continuous(q, rotation_channels.to_quaternions(native, 'QUATERNION',
-                                                                                  values[:1])[0])
-        w, v = q[:, :1], q[:, 1:]
-        slopes = 0.5 * np.hstack([-np.sum(omega * v, axis=1, keepdims=True), omega * w + np.cross(omega, v)])
+        q = rotation_channels.sign_continuous(q, quats[0])
+        slopes = np.empty_like(q)
+        w, x, y, z = q.T
+        wx, wy, wz = omega.T
+        slopes[:, 0] = -(wx * x + wy * y + wz * z)
+        slopes[:, 1] = wx * w + wy * z - wz * y
+        slopes[:, 2] = wy * w + wz * x - wx * z
+        slopes[:, 3] = wz * w + wx * y - wy * x
+        slopes *= 0.5
         return q, 'BEZIER', (slopes, slopes)
     rows = np.stack([_turn(q, omega, -_TANGENT_STEP), q, _turn(q, omega, _TANGENT_STEP)], axis=1)
     channels = rotation_channels.from_quaternions(native, group.mode, rows.reshape(-1, 4), previous=values[0])
@@ -288,20 +301,23 @@ def resample(targets, step: float | None = None, fps: float | None = None, *, ro
         groups = _groups(obj, action, _bones_of(bones, obj))
         if not groups:
             raise ValueError(f"'{obj.name}' has no keys to resample" + (" on the selected bones" if bones else ""))
-        work.append((obj, action, groups, [_keys(obj, action, group) for group in groups]))
-    first = min(times[0] for *_, keys in work for _, times, _ in keys)
-    last = max(times[-1] for *_, keys in work for _, times, _ in keys)
+        work.append((obj, action, groups))
+    ends = [_key_range(fcurve) for *_, groups in work for group in groups for fcurve in group.curves.values()]
+    first, last = min(e[0] for e in ends), max(e[1] for e in ends)
     grid = resample_plan.key_grid(float(timing.map(first)), float(timing.map(last)), timing.step)
 
     # The groups are independent and their work is native (GIL released) and
-    # numpy, so they run on all cores; everything that touches bpy stays here.
-    total = sum(len(groups) for _, _, groups, _ in work)
+    # numpy, so they run on all cores while this thread reads the next group's
+    # keys; everything that touches bpy stays on this thread.
+    total = sum(len(groups) for *_, groups in work)
     planned, done = [], 0
     with ThreadPoolExecutor(max_workers=os.cpu_count() or 1) as pool:
-        for obj, action, groups, keys in work:
-            futures = [pool.submit(_resample_group, native, channels, group, timing.map(times),
-                                   values, grid, scalar, rotation, output, tcb)
-                       for group, (channels, times, values) in zip(groups, keys)]
+        for obj, action, groups in work:
+            futures = []
+            for group in groups:
+                channels, times, values = _keys(obj, action, group)
+                futures.append(pool.submit(_resample_group, native, channels, group, timing.map(times),
+                                           values, grid, scalar, rotation, output, tcb))
             writes = []
             for future in futures:
                 if progress is not None:

@@ -40,7 +40,7 @@ def to_quaternions(native, mode: str, block, what: str = "rotation", frames=None
     """
     block = np.asarray(block, dtype=np.float64)
     if mode == 'QUATERNION':
-        q = block.copy()
+        q = block
     elif mode == 'AXIS_ANGLE':
         axis = block[:, 1:]
         norm = np.linalg.norm(axis, axis=1, keepdims=True)
@@ -52,7 +52,7 @@ def to_quaternions(native, mode: str, block, what: str = "rotation", frames=None
         order, axes = euler_order(mode)
         q = np.empty((len(block), 4))
         native.euler_to_quaternion(np.ascontiguousarray(block[:, axes]), order, q)
-    norm = np.linalg.norm(q, axis=1, keepdims=True)
+    norm = np.sqrt(np.einsum("ij,ij->i", q, q))[:, None]
     bad = np.flatnonzero(~(norm[:, 0] > 1e-12))
     if bad.size:
         where = f"row {bad[0]}" if frames is None else f"frame {frames[bad[0]]:g}"

@@ -131,8 +131,10 @@ def main() -> None:
 
     results = {}
     for output in ('EXACT', 'DENSE'):
-        times = []
+        times, action = [], None
         for _ in range(args.repeat):
+            if action is not None:  # each run starts from the same scene, not one full of earlier copies
+                bpy.data.actions.remove(action)
             seconds, action = run_motionkit(mk, animdata, obj, source, output)
             times.append(seconds)
         results[output] = (statistics.median(times), action)

@@ -106,6 +106,29 @@ def test_rewriting_a_channel_replaces_its_keys(animdata):
     assert len(animdata.fcurves(action, obj)) == 1
 
 
+@pytest.mark.parametrize("interpolation", ['CONSTANT', 'LINEAR', 'BEZIER'])
+def test_every_key_gets_its_interpolation_and_handle_types(animdata, interpolation):
+    # Each Blender takes these byte-sized enums in bulk a different way (and
+    # 3.x silently drops some), so every key is read back one by one here.
+    obj = make_armature()
+    n = 257
+    frames = np.arange(n, dtype=np.float64)
+    values = np.sin(frames)[np.newaxis, :]
+    rng = np.random.default_rng(3)
+    aligned = rng.random((1, n)) < 0.5
+    handles = animdata.Handles(frames - 0.3, values - 0.1, frames + 0.3, values + 0.1, aligned) \
+        if interpolation == 'BEZIER' else None
+    for _ in range(2):  # the second time, the way found the first time
+        (fc,) = animdata.write_keys(obj, animdata.new_action("Types"), [("location", 0)], frames, values,
+                                    interpolation=interpolation, handles=handles)
+        assert [k.interpolation for k in fc.keyframe_points] == [interpolation] * n
+        if handles is not None:
+            expected = ['ALIGNED' if a else 'FREE' for a in aligned[0]]
+            assert [k.handle_left_type for k in fc.keyframe_points] == expected
+            assert [k.handle_right_type for k in fc.keyframe_points] == expected
+            np.testing.assert_allclose([k.handle_right[0] for k in fc.keyframe_points], frames + 0.3, atol=1e-5)
+
+
 @pytest.mark.parametrize("frames, values, message", [
     ([1.0, 2.0, 3.0], [[0.0, np.nan, 1.0]], r"location\[1\] at frame 2 \(key 1\) is nan"),
     ([1.0, 2.0, 3.0], [[0.0, 1.0, np.inf]], r"location\[1\] at frame 3 \(key 2\) is inf"),
