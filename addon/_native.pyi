@@ -114,3 +114,44 @@ def forward_kinematics(
     threads: int = 0,
 ) -> None:
     """Whole-clip FK in place; threads=0 shares the frames among all cores, 1 stays on this thread."""
+
+# Rigs and retargeting (native/python/bind_retarget.cpp).
+class Rig:
+    def __init__(
+        self,
+        names: list[str],
+        parents: list[int],
+        rest_rotations: npt.NDArray[np.float64],
+        rest_heads: npt.NDArray[np.float64],
+        lengths: npt.NDArray[np.float64],
+    ) -> None: ...
+    @property
+    def size(self) -> int: ...
+    @property
+    def names(self) -> list[str]: ...
+    def find(self, name: str) -> int: ...
+
+def armature_pose(
+    rig: Rig,
+    basis_rotations: npt.NDArray[np.float64],
+    basis_locations: npt.NDArray[np.float64],
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
+def retarget(
+    source: Rig,
+    target: Rig,
+    source_rotations: npt.NDArray[np.float64],
+    source_root_heads: npt.NDArray[np.float64],
+    bone_map: list[int],
+    *,
+    source_match: npt.NDArray[np.float64],
+    source_match_root: npt.ArrayLike,
+    target_match_basis: npt.NDArray[np.float64],
+    target_match_location: npt.ArrayLike,
+    source_root: int,
+    target_root: int,
+    space: npt.ArrayLike = ...,
+    scale: float = 1.0,
+    unit_scale: float = 1.0,
+    root_motion: Literal["scaled", "in_place", "offset", "none"] = "scaled",
+    ground_bones: list[int] = ...,
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...

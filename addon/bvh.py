@@ -18,7 +18,7 @@ import numpy as np
 from bpy_extras.io_utils import axis_conversion
 from mathutils import Quaternion
 
-from . import animdata, native_state, rotation_channels
+from . import animdata, native_state, pose_channels, rotation_channels
 
 ROTATION_MODES = ('QUATERNION', 'NATIVE', 'XYZ', 'XZY', 'YXZ', 'YZX', 'ZXY', 'ZYX')
 
@@ -71,11 +71,6 @@ def _rest_tails(skeleton, heads: np.ndarray, up: np.ndarray) -> np.ndarray:
             size = 0.5 * (lengths[i] if parents[i] >= 0 and lengths[i] > 0 else typical)
             tails[i] = heads[i] + incoming * size
     return tails
-
-
-def _quaternions_by_name(armature) -> dict[str, np.ndarray]:
-    """Each bone's rest orientation in armature space, as w x y z."""
-    return {bone.name: np.array(bone.matrix_local.to_quaternion()) for bone in armature.bones}
 
 
 def _edit_mode(obj):
@@ -161,7 +156,7 @@ def load(filepath: str, options: ImportOptions | None = None, *, context=None, n
     try:
         obj, bone_names = _build_armature(name, skeleton, heads, tails, context.collection)
         created.append(obj)
-        rest = _quaternions_by_name(obj.data)
+        rest = pose_channels.rest_quaternions(obj.data)
         joints = len(skeleton)
         bone_rest = np.tile([1.0, 0.0, 0.0, 0.0], (joints, 1))
         for i, bone in bone_names.items():
@@ -227,6 +222,23 @@ def load(filepath: str, options: ImportOptions | None = None, *, context=None, n
     return obj, action
 
 
+def mapping_rig(filepath: str, options: ImportOptions | None = None):
+    """The file's skeleton as the importer would make its bones, for motionkit.bone_mapping."""
+    from . import bone_mapping
+    options = options or ImportOptions()
+    skeleton, _ = native_state.native().read_bvh(os.fspath(filepath))
+    conv_matrix, _ = _conversion(options.axis_forward, options.axis_up)
+    up = np.array(conv_matrix).T @ np.array([0.0, 0.0, 1.0])
+    heads_bvh = _rest_heads(skeleton)
+    to_blender = np.array(conv_matrix) * options.scale
+    heads, tails = heads_bvh @ to_blender.T, _rest_tails(skeleton, heads_bvh, up) @ to_blender.T
+    joints = [i for i, end in enumerate(skeleton.end_sites) if not end]
+    index = {j: k for k, j in enumerate(joints)}
+    return bone_mapping.Rig(tuple(skeleton.names[j] for j in joints),
+                            tuple(index.get(skeleton.parents[j], -1) for j in joints),
+                            heads[joints], tails[joints])
+
+
 @dataclass
 class ExportOptions:
     scale: float = 1.0  # BVH units per Blender unit
@@ -236,62 +248,11 @@ class ExportOptions:
     frame_range: tuple[int, int] | None = None  # inclusive; default: the scene's
 
 
-def _depth_first(armature) -> list:
-    order, stack = [], [b for b in reversed(armature.bones) if b.parent is None]
-    while stack:
-        bone = stack.pop()
-        order.append(bone)
-        stack.extend(reversed(bone.children))
-    return order
-
-
 def _channel_letters(pose_bone, rotation_order: str) -> str:
     if rotation_order != 'NATIVE':
         return rotation_order
     mode = pose_bone.rotation_mode
     return mode[::-1] if mode in ROTATION_MODES[2:] else "ZXY"
-
-
-def _pose_rotations(obj, action, bones, frames) -> np.ndarray:
-    """Pose quaternions (frames, 4 * bones) from the action, in each bone's rotation mode."""
-    native = native_state.native()
-    channels, kinds = [], []
-    for bone in bones:
-        pose_bone = obj.pose.bones[bone.name]
-        path = f'pose.bones["{bpy.utils.escape_identifier(bone.name)}"]'
-        mode = pose_bone.rotation_mode
-        prop, size = rotation_channels.channel_property(mode)
-        static = tuple(getattr(pose_bone, prop))
-        kinds.append((mode, len(channels), static))
-        channels += [(f"{path}.{prop}", k) for k in range(size)]
-    values, found = animdata.sample(action, obj, channels, frames)
-    out = np.empty((frames.size, 4 * len(bones)))
-    for j, (mode, start, static) in enumerate(kinds):
-        size = len(static)
-        block = values[start:start + size].T.copy()
-        for k in range(size):
-            if not found[start + k]:
-                block[:, k] = static[k]
-        q = rotation_channels.to_quaternions(native, mode, block, f"bone '{bones[j].name}' rotation", frames)
-        out[:, 4 * j:4 * j + 4] = q
-    return out
-
-
-def _pose_locations(obj, action, bones, frames) -> tuple[np.ndarray, list[bool]]:
-    channels = []
-    for bone in bones:
-        path = f'pose.bones["{bpy.utils.escape_identifier(bone.name)}"]'
-        channels += [(f"{path}.location", k) for k in range(3)]
-    values, found = animdata.sample(action, obj, channels, frames)
-    out = np.empty((frames.size, 3 * len(bones)))
-    animated = []
-    for j, bone in enumerate(bones):
-        static = obj.pose.bones[bone.name].location
-        for k in range(3):
-            row = 3 * j + k
-            out[:, row] = values[row] if found[row] else static[k]
-        animated.append(bool(found[3 * j:3 * j + 3].any()) or obj.pose.bones[bone.name].location.length > 0)
-    return out, animated
 
 
 def save(obj, filepath: str, options: ExportOptions | None = None, *, context=None,
@@ -328,9 +289,9 @@ def save(obj, filepath: str, options: ExportOptions | None = None, *, context=No
     conv_matrix, conv_quat = _conversion(options.axis_forward, options.axis_up)
     to_bvh = np.array(conv_matrix).T * options.scale
 
-    bones = _depth_first(obj.data)
+    bones = pose_channels.depth_first(obj.data)
     index = {bone.name: i for i, bone in enumerate(bones)}
-    rest = _quaternions_by_name(obj.data)
+    rest = pose_channels.rest_quaternions(obj.data)
     bone_rest_world = [np.array(rotation @ Quaternion(rest[b.name])) for b in bones]
 
     def to_bvh_space(points):
@@ -340,8 +301,8 @@ def save(obj, filepath: str, options: ExportOptions | None = None, *, context=No
     heads = to_bvh_space([b.head_local for b in bones])
     tails = to_bvh_space([b.tail_local for b in bones])
     action = animdata.assigned_action(obj)
-    rotations = _pose_rotations(obj, action, bones, frames)
-    locations, animated = _pose_locations(obj, action, bones, frames)
+    rotations = pose_channels.rotations(obj, action, bones, frames)
+    locations, animated = pose_channels.locations(obj, action, bones, frames)
     locations *= sigma
 
     names, parents, offsets, end_sites, channels, rest_rows = [], [], [], [], [], []

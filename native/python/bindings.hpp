@@ -11,5 +11,6 @@ void BindFCurve(pybind11::module_& m);
 void BindRotationInterpolation(pybind11::module_& m);
 void BindKeyReduction(pybind11::module_& m);
 void BindInterpolation(pybind11::module_& m);
+void BindRetarget(pybind11::module_& m);
 
 }  // namespace motionkit::python

@@ -88,4 +88,5 @@ PYBIND11_MODULE(_native, m) {
   motionkit::python::BindRotationInterpolation(m);
   motionkit::python::BindKeyReduction(m);
   motionkit::python::BindInterpolation(m);
+  motionkit::python::BindRetarget(m);
 }

@@ -1,0 +1,82 @@
+"""An armature's bones and pose channels as arrays: rest data and keyed motion, read in bulk.
+
+Shared by the BVH exporter and the retargeter: bones parents first, rest
+orientations in armature space, and the pose channels an action gives every
+bone on many frames (evaluated natively, as Blender evaluates them), as
+quaternions whatever each bone's rotation mode.
+"""
+from __future__ import annotations
+
+import bpy
+import numpy as np
+
+from . import animdata, native_state, rotation_channels
+
+
+def depth_first(armature) -> list:
+    order, stack = [], [b for b in reversed(armature.bones) if b.parent is None]
+    while stack:
+        bone = stack.pop()
+        order.append(bone)
+        stack.extend(reversed(bone.children))
+    return order
+
+
+def rest_quaternions(armature) -> dict[str, np.ndarray]:
+    """Each bone's rest orientation in armature space, as w x y z."""
+    return {bone.name: np.array(bone.matrix_local.to_quaternion()) for bone in armature.bones}
+
+
+def rotations(obj, action, bones, frames) -> np.ndarray:
+    """Pose quaternions (frames, 4 * bones) from the action, in each bone's rotation mode."""
+    native = native_state.native()
+    channels, kinds = [], []
+    for bone in bones:
+        pose_bone = obj.pose.bones[bone.name]
+        path = f'pose.bones["{bpy.utils.escape_identifier(bone.name)}"]'
+        mode = pose_bone.rotation_mode
+        prop, size = rotation_channels.channel_property(mode)
+        static = tuple(getattr(pose_bone, prop))
+        kinds.append((mode, len(channels), static))
+        channels += [(f"{path}.{prop}", k) for k in range(size)]
+    values, found = animdata.sample(action, obj, channels, frames)
+    out = np.empty((frames.size, 4 * len(bones)))
+    for j, (mode, start, static) in enumerate(kinds):
+        size = len(static)
+        block = values[start:start + size].T.copy()
+        for k in range(size):
+            if not found[start + k]:
+                block[:, k] = static[k]
+        q = rotation_channels.to_quaternions(native, mode, block, f"bone '{bones[j].name}' rotation", frames)
+        out[:, 4 * j:4 * j + 4] = q
+    return out
+
+
+def locations(obj, action, bones, frames) -> tuple[np.ndarray, list[bool]]:
+    channels = []
+    for bone in bones:
+        path = f'pose.bones["{bpy.utils.escape_identifier(bone.name)}"]'
+        channels += [(f"{path}.location", k) for k in range(3)]
+    values, found = animdata.sample(action, obj, channels, frames)
+    out = np.empty((frames.size, 3 * len(bones)))
+    animated = []
+    for j, bone in enumerate(bones):
+        static = obj.pose.bones[bone.name].location
+        for k in range(3):
+            row = 3 * j + k
+            out[:, row] = values[row] if found[row] else static[k]
+        animated.append(bool(found[3 * j:3 * j + 3].any()) or obj.pose.bones[bone.name].location.length > 0)
+    return out, animated
+
+
+def native_rig(armature, bones=None):
+    """The armature at rest as a native Rig (bones parents first), and that bone order."""
+    native = native_state.native()
+    bones = bones if bones is not None else depth_first(armature)
+    index = {bone.name: i for i, bone in enumerate(bones)}
+    rest = rest_quaternions(armature)
+    rig = native.Rig([b.name for b in bones], [index[b.parent.name] if b.parent else -1 for b in bones],
+                     np.array([rest[b.name] for b in bones], dtype=np.float64).reshape(-1, 4),
+                     np.array([b.head_local for b in bones], dtype=np.float64).reshape(-1, 3),
+                     np.array([b.length for b in bones], dtype=np.float64))
+    return rig, bones

@@ -1,0 +1,108 @@
+// Retargeting a whole clip from one rig to another (brief, section 2).
+//
+// Per mapped pair (source bone a, target bone b), with M the orientations of
+// the match pose (the rest pose, or a pose the user set so that the two rigs
+// stand alike), R the rotation from source to target armature space and
+// S_b the shortest rotation that turns b's match direction (its Y axis) onto
+// a's (carried by R), the target bone's orientation on every frame is
+//   G_b(t) = D_a(t) S_b M_b,   D_a(t) = R G_a(t) M_a^-1 R^-1,
+// the brief's Q^B = Q^A (Q^{A->B})^T with Q^{A->B} = M_b^-1 S_b^-1 M_a
+// read in each rig's own bone frames. So b points where a points on every
+// frame whatever the rest poses (T, A, anything) and bone rolls, and turns
+// about itself as a does. Locals come back as G_p^-1 G_b against each bone's
+// rest (Blender's pose basis).
+//
+// Chains of different lengths: target bones left out of the map that lie
+// between two mapped bones (b0 above b) take, at the fraction of the chain's
+// length where their tails lie, the rotation interpolated (slerp) along the
+// source chain between a0 and a, so the chain bends as the source's does and
+// ends as a. Other unmapped bones keep the match pose's local rotation.
+//
+// Root motion: the target root's head follows the source root's displacement
+// from the match pose, carried by R, with `scale` the ratio of the rigs' leg
+// lengths (hip heights, in their own armature units):
+//   kScaled   every axis scaled;
+//   kInPlace  vertical only, scaled; the horizontal stays at the match pose;
+//   kOffset   horizontal scaled, vertical unscaled (`unit_scale` converts
+//             source armature units to target ones), so the root keeps the
+//             source's height above the floor plus the match-pose difference;
+//   kNone     the root stays at the match pose.
+// Vertical is the target armature's Z. With ground_bones, the root is moved
+// vertically on every frame so that the lowest of those bones' heads and
+// tails touches Z = 0 on the first frame.
+#pragma once
+
+#include <optional>
+#include <string_view>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+#include "motionkit/error.hpp"
+#include "motionkit/rig.hpp"
+#include "motionkit/types.hpp"
+
+namespace motionkit {
+
+enum class RootMotion { kScaled, kInPlace, kOffset, kNone };
+
+std::optional<RootMotion> ParseRootMotion(std::string_view text);
+
+struct RetargetOptions {
+  RootMotion root_motion = RootMotion::kScaled;
+  double scale = 1.0;       // target leg length / source leg length
+  double unit_scale = 1.0;  // target armature units per source armature unit
+  Eigen::Quaterniond space = Eigen::Quaterniond::Identity();  // source armature -> target armature
+  std::vector<int> ground_bones;  // target bones that touch the floor on the first frame
+};
+
+// Inputs (caller-owned, read-only):
+//   source_rotations  frames x 4A  armature-space orientations G_a (ArmaturePoseJob)
+//   source_root_heads frames x 3   the source root's head
+//   source_match      A x 4        M_a (the rest rotations, or a frame of source_rotations)
+//   source_match_root 3            the source root's head in the match pose
+//   target_match_basis B x 4       the target's match pose as pose channels (identity: rest)
+//   target_match_location 3        the target root's location channel in the match pose
+//   bone_map          B            per target bone, its source bone or -1
+//   source_root, target_root       the bones whose heads carry the translation (-1: none)
+// Outputs: rotations frames x 4B (basis quaternions, each bone's continuous
+// from frame to frame), root_locations frames x 3 (the target root's location
+// channel; zero without a target root).
+struct RetargetJob {
+  RetargetJob(const RigModel& source_in, const RigModel& target_in, ConstMatrixView source_rotations_in,
+              ConstMatrixView source_root_heads_in, ConstMatrixView source_match_in,
+              ConstMatrixView target_match_basis_in, Eigen::Ref<RowMatrixXd> rotations_out,
+              Eigen::Ref<RowMatrixXd> root_locations_out)
+      : source(source_in),
+        target(target_in),
+        source_rotations(source_rotations_in),
+        source_root_heads(source_root_heads_in),
+        source_match(source_match_in),
+        target_match_basis(target_match_basis_in),
+        rotations(rotations_out),
+        root_locations(root_locations_out) {}
+
+  const RigModel& source;
+  const RigModel& target;
+  ConstMatrixView source_rotations;
+  ConstMatrixView source_root_heads;
+  ConstMatrixView source_match;
+  ConstMatrixView target_match_basis;
+  Eigen::Vector3d source_match_root = Eigen::Vector3d::Zero();
+  Eigen::Vector3d target_match_location = Eigen::Vector3d::Zero();
+  std::vector<int> bone_map;
+  int source_root = -1;
+  int target_root = -1;
+  RetargetOptions options;
+  Eigen::Ref<RowMatrixXd> rotations;
+  Eigen::Ref<RowMatrixXd> root_locations;
+
+  // Shapes, finiteness (naming bone and frame), the map (indices in range, at
+  // least one bone, and no crossing: if target b0 is above b, source a0 must
+  // not be below a), roots and ground bones in range.
+  Status Validate() const;
+  // Throws Error when Validate() fails, having written nothing.
+  void Run();
+};
+
+}  // namespace motionkit

@@ -1,0 +1,101 @@
+// A Blender-style armature at rest, and its forward kinematics.
+//
+// Unlike a BVH skeleton, a bone has a rest orientation of its own (its Y axis
+// runs head to tail, rolled about itself) and its pose is stored relative to
+// that rest frame. With Rest_b the rest orientation and H_b the rest head in
+// armature space (bone.matrix_local), a bone's posed orientation and head are
+//   G_b    = G_p Rest_p^-1 Rest_b basis_b
+//   head_b = head_p + G_p Rest_p^-1 (H_b - H_p + Rest_b loc_b)
+// (a root: G_b = Rest_b basis_b, head_b = H_b + Rest_b loc_b), which is what
+// Blender's pose_bone.matrix holds for bones that inherit rotation and have
+// unit scale. Quaternions are (w, x, y, z) in arrays.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+#include "motionkit/error.hpp"
+#include "motionkit/types.hpp"
+
+namespace motionkit {
+
+// Const after construction; bones depth-first (every parent index smaller
+// than its children's), as ozz and Pinocchio keep their models.
+class RigModel {
+ public:
+  RigModel(std::vector<std::string> names, std::vector<int> parents, const RowMatrixXd& rest_rotations,
+           const RowMatrixXd& rest_heads, const Eigen::VectorXd& lengths);
+
+  // Names unique and non-empty, parents before children, rest rotations
+  // finite and unit (to 1e-6), heads finite, lengths finite and positive.
+  Status Validate() const;
+
+  int size() const { return static_cast<int>(parents_.size()); }
+  const std::string& name(int bone) const { return names_[static_cast<std::size_t>(bone)]; }
+  int parent(int bone) const { return parents_[static_cast<std::size_t>(bone)]; }
+  const Eigen::Quaterniond& rest(int bone) const { return rest_[static_cast<std::size_t>(bone)]; }
+  const Eigen::Vector3d& head(int bone) const { return heads_[static_cast<std::size_t>(bone)]; }
+  double length(int bone) const { return lengths_[static_cast<std::size_t>(bone)]; }
+  // Rest_p^-1 Rest_b (Rest_b for a root): the bone's rest relative to its parent.
+  const Eigen::Quaterniond& relative(int bone) const { return relative_[static_cast<std::size_t>(bone)]; }
+  // Rest_p^-1 (H_b - H_p) (H_b for a root): the head in the parent's rest frame.
+  const Eigen::Vector3d& offset(int bone) const { return offset_[static_cast<std::size_t>(bone)]; }
+  // True when `ancestor` is `bone` or above it.
+  bool IsAncestor(int ancestor, int bone) const;
+  int Find(const std::string& name) const;
+
+ private:
+  std::vector<std::string> names_;
+  std::vector<int> parents_;
+  std::vector<Eigen::Quaterniond> rest_;
+  std::vector<Eigen::Vector3d> heads_;
+  std::vector<double> lengths_;
+  std::vector<Eigen::Quaterniond> relative_;
+  std::vector<Eigen::Vector3d> offset_;
+};
+
+// Pose channels of every bone and frame to armature-space orientations and
+// heads. Caller-owned buffers; Run() allocates nothing.
+//   basis_rotations: frames x 4B, any non-zero length (normalised)
+//   basis_locations: frames x 3B, or 0 columns for none
+//   rotations:       frames x 4B out, unit, G_b
+//   heads:           frames x 3B out
+struct ArmaturePoseJob {
+  ArmaturePoseJob(const RigModel& rig_in, ConstMatrixView basis_rotations_in,
+                  ConstMatrixView basis_locations_in, Eigen::Ref<RowMatrixXd> rotations_out,
+                  Eigen::Ref<RowMatrixXd> heads_out)
+      : rig(rig_in),
+        basis_rotations(basis_rotations_in),
+        basis_locations(basis_locations_in),
+        rotations(rotations_out),
+        heads(heads_out) {}
+
+  const RigModel& rig;
+  ConstMatrixView basis_rotations;
+  ConstMatrixView basis_locations;
+  Eigen::Ref<RowMatrixXd> rotations;
+  Eigen::Ref<RowMatrixXd> heads;
+
+  // Shapes agree and every input is finite with non-zero quaternions, else
+  // names the bone and frame.
+  Status Validate() const;
+  void Run();
+};
+
+// Quaternion row helpers shared by the rig jobs.
+inline Eigen::Quaterniond QuatAt(const ConstMatrixView& m, Eigen::Index row, Eigen::Index bone) {
+  const double* p = m.data() + row * m.outerStride() + 4 * bone;
+  return Eigen::Quaterniond(p[0], p[1], p[2], p[3]);
+}
+inline void StoreQuat(Eigen::Ref<RowMatrixXd>& m, Eigen::Index row, Eigen::Index bone,
+                      const Eigen::Quaterniond& q) {
+  double* p = m.data() + row * m.outerStride() + 4 * bone;
+  p[0] = q.w();
+  p[1] = q.x();
+  p[2] = q.y();
+  p[3] = q.z();
+}
+
+}  // namespace motionkit

@@ -1,0 +1,359 @@
+#include "motionkit/retarget.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <string>
+#include <vector>
+
+namespace motionkit {
+
+namespace {
+
+const Eigen::Vector3d kBoneAxis = Eigen::Vector3d::UnitY();  // Blender bones run along their Y axis
+
+std::string Bone(const RigModel& rig, int b) { return "'" + rig.name(b) + "'"; }
+
+// How one target bone gets its orientation on every frame.
+struct Drive {
+  enum Kind { kKeep, kMapped, kChain } kind = kKeep;
+  int from = -1;     // source bone (kMapped), or the chain's upper source bone (kChain)
+  int to = -1;       // kChain: the lower source bone
+  double alpha = 0;  // kChain: slerp parameter from `from` to `to`
+  Eigen::Quaterniond align = Eigen::Quaterniond::Identity();  // S_b M_b
+  double fit = -2;   // kChain: how well the chain continues this bone (for bones on two chains)
+};
+
+// Source bones from just below `top` down to `bottom` (inclusive), top first.
+std::vector<int> SourcePath(const RigModel& rig, int top, int bottom) {
+  std::vector<int> path;
+  for (int b = bottom; b != top && b >= 0; b = rig.parent(b)) path.push_back(b);
+  std::reverse(path.begin(), path.end());
+  return path;
+}
+
+// The rest of the job's state, set up once per Run from the match poses.
+class Plan {
+ public:
+  explicit Plan(const RetargetJob& job) : job_(job) {
+    const RigModel& t = job.target;
+    const int nt = t.size();
+    match_.resize(static_cast<std::size_t>(nt));
+    for (int b = 0; b < nt; ++b) {
+      const Eigen::Quaterniond basis = QuatAt(job.target_match_basis, 0, b).normalized();
+      const int p = t.parent(b);
+      match_[static_cast<std::size_t>(b)] =
+          ((p < 0 ? Eigen::Quaterniond::Identity() : match_[static_cast<std::size_t>(p)]) * t.relative(b) * basis)
+              .normalized();
+      match_basis_.push_back(basis);
+    }
+    const int ns = job.source.size();
+    source_match_inverse_.resize(static_cast<std::size_t>(ns));
+    for (int a = 0; a < ns; ++a) {
+      source_match_inverse_[static_cast<std::size_t>(a)] = QuatAt(job.source_match, 0, a).normalized().conjugate();
+    }
+    drives_.resize(static_cast<std::size_t>(nt));
+    for (int b = 0; b < nt; ++b) {
+      const int a = job.bone_map[static_cast<std::size_t>(b)];
+      if (a < 0) continue;
+      Drive& d = drives_[static_cast<std::size_t>(b)];
+      d.kind = Drive::kMapped;
+      d.from = a;
+      d.align = Align(b, SourceDirection(a, a, 0.0));
+    }
+    for (int b = 0; b < nt; ++b) {
+      if (job.bone_map[static_cast<std::size_t>(b)] >= 0) PlanChain(b);
+    }
+  }
+
+  const Drive& drive(int b) const { return drives_[static_cast<std::size_t>(b)]; }
+  const Eigen::Quaterniond& match(int b) const { return match_[static_cast<std::size_t>(b)]; }
+  const Eigen::Quaterniond& match_basis(int b) const { return match_basis_[static_cast<std::size_t>(b)]; }
+  const Eigen::Quaterniond& source_match_inverse(int a) const {
+    return source_match_inverse_[static_cast<std::size_t>(a)];
+  }
+
+ private:
+  // Where the source points in the match pose, between bones `from` and `to`
+  // at alpha, in target armature space.
+  Eigen::Vector3d SourceDirection(int from, int to, double alpha) const {
+    const Eigen::Quaterniond qa = source_match_inverse(from).conjugate();
+    const Eigen::Quaterniond qb = source_match_inverse(to).conjugate();
+    return job_.options.space * (qa.slerp(alpha, qb) * kBoneAxis);
+  }
+
+  // S_b M_b: the target's match orientation turned the shortest way onto the source's direction.
+  Eigen::Quaterniond Align(int b, const Eigen::Vector3d& direction) const {
+    const Eigen::Vector3d own = match(b) * kBoneAxis;
+    return (Eigen::Quaterniond::FromTwoVectors(own, direction) * match(b)).normalized();
+  }
+
+  // Unmapped target bones between mapped `b` and its nearest mapped ancestor.
+  void PlanChain(int b) {
+    const RigModel& t = job_.target;
+    const RigModel& s = job_.source;
+    std::vector<int> chain{b};
+    int top = t.parent(b);
+    while (top >= 0 && job_.bone_map[static_cast<std::size_t>(top)] < 0) {
+      chain.push_back(top);
+      top = t.parent(top);
+    }
+    if (top < 0 || chain.size() < 2) return;
+    const int a = job_.bone_map[static_cast<std::size_t>(b)];
+    const int a0 = job_.bone_map[static_cast<std::size_t>(top)];
+    if (a0 == a || !s.IsAncestor(a0, a)) return;
+    std::reverse(chain.begin(), chain.end());
+    const std::vector<int> path = SourcePath(s, a0, a);
+    std::vector<double> source_ends{0.0};
+    for (int bone : path) source_ends.push_back(source_ends.back() + s.length(bone));
+    double target_total = 0.0;
+    for (int bone : chain) target_total += t.length(bone);
+    double reach = 0.0;
+    for (std::size_t j = 0; j + 1 < chain.size(); ++j) {
+      const int c = chain[j];
+      reach += t.length(c);
+      const double f = reach / target_total * source_ends.back();
+      std::size_t i = 1;
+      while (i + 1 < source_ends.size() && source_ends[i] < f) ++i;
+      const int upper = i == 1 ? a0 : path[i - 2];
+      const int lower = path[i - 1];
+      const double span = source_ends[i] - source_ends[i - 1];
+      const double alpha = std::clamp((f - source_ends[i - 1]) / span, 0.0, 1.0);
+      // A bone on two chains (an unmapped chest under the neck and both
+      // arms) follows the one that continues it best.
+      const Eigen::Vector3d own = t.rest(c) * kBoneAxis;
+      const double fit = own.dot(t.rest(chain[j + 1]) * kBoneAxis);
+      Drive& d = drives_[static_cast<std::size_t>(c)];
+      if (d.kind == Drive::kChain && d.fit >= fit) continue;
+      d.kind = Drive::kChain;
+      d.from = upper;
+      d.to = lower;
+      d.alpha = alpha;
+      d.fit = fit;
+      d.align = Align(c, SourceDirection(upper, lower, alpha));
+    }
+  }
+
+  const RetargetJob& job_;
+  std::vector<Eigen::Quaterniond> match_, match_basis_, source_match_inverse_;
+  std::vector<Drive> drives_;
+};
+
+}  // namespace
+
+std::optional<RootMotion> ParseRootMotion(std::string_view text) {
+  if (text == "scaled") return RootMotion::kScaled;
+  if (text == "in_place") return RootMotion::kInPlace;
+  if (text == "offset") return RootMotion::kOffset;
+  if (text == "none") return RootMotion::kNone;
+  return std::nullopt;
+}
+
+Status RetargetJob::Validate() const {
+  const int ns = source.size(), nt = target.size();
+  const Eigen::Index frames = source_rotations.rows();
+  if (source_rotations.cols() != 4 * ns) {
+    return Status::Fail("retarget: source rotations need 4 columns per source bone");
+  }
+  if (source_root_heads.rows() != frames || source_root_heads.cols() != 3) {
+    return Status::Fail("retarget: source root heads must be frames x 3");
+  }
+  if (source_match.rows() != 1 || source_match.cols() != 4 * ns) {
+    return Status::Fail("retarget: the source match pose needs one row of 4 numbers per source bone");
+  }
+  if (target_match_basis.rows() != 1 || target_match_basis.cols() != 4 * nt) {
+    return Status::Fail("retarget: the target match pose needs one row of 4 numbers per target bone");
+  }
+  if (rotations.rows() != frames || rotations.cols() != 4 * nt || root_locations.rows() != frames ||
+      root_locations.cols() != 3) {
+    return Status::Fail("retarget: outputs must be frames x 4 per target bone and frames x 3");
+  }
+  if (bone_map.size() != static_cast<std::size_t>(nt)) {
+    return Status::Fail("retarget: the bone map needs one entry per target bone");
+  }
+  if (!(std::isfinite(options.scale) && options.scale > 0 && std::isfinite(options.unit_scale) &&
+        options.unit_scale > 0)) {
+    return Status::Fail("retarget: scale and unit_scale must be positive");
+  }
+  if (!options.space.coeffs().allFinite() || std::abs(options.space.norm() - 1.0) > 1e-6) {
+    return Status::Fail("retarget: the space rotation must be a unit quaternion");
+  }
+  if (!source_match_root.allFinite() || !target_match_location.allFinite()) {
+    return Status::Fail("retarget: the match-pose root positions must be finite");
+  }
+  if (source_root < -1 || source_root >= ns || target_root < -1 || target_root >= nt) {
+    return Status::Fail("retarget: root bone index out of range");
+  }
+  for (int g : options.ground_bones) {
+    if (g < 0 || g >= nt) return Status::Fail("retarget: ground bone index out of range");
+  }
+  int mapped = 0;
+  for (int b = 0; b < nt; ++b) {
+    const int a = bone_map[static_cast<std::size_t>(b)];
+    if (a < -1 || a >= ns) {
+      return Status::Fail("retarget: target bone " + Bone(target, b) + " maps to source index " +
+                          std::to_string(a) + ", out of range");
+    }
+    if (a < 0) continue;
+    ++mapped;
+    // A map that turns the hierarchy upside down has no consistent answer.
+    for (int up = target.parent(b); up >= 0; up = target.parent(up)) {
+      const int a0 = bone_map[static_cast<std::size_t>(up)];
+      if (a0 < 0) continue;
+      if (a0 != a && source.IsAncestor(a, a0)) {
+        return Status::Fail("retarget: the bone map crosses the hierarchy (a cycle): target " + Bone(target, up) +
+                            " is above " + Bone(target, b) + " but its source " + Bone(source, a0) +
+                            " is below " + Bone(source, a));
+      }
+      break;
+    }
+  }
+  if (mapped == 0) return Status::Fail("retarget: the bone map maps no bone (no common bones)");
+  for (int b = 0; b < nt; ++b) {
+    const Eigen::Quaterniond q = QuatAt(target_match_basis, 0, b);
+    if (!q.coeffs().allFinite() || !(q.norm() > 1e-12)) {
+      return Status::Fail("retarget: the target match pose of " + Bone(target, b) + " is not a rotation");
+    }
+  }
+  for (int a = 0; a < ns; ++a) {
+    const Eigen::Quaterniond q = QuatAt(source_match, 0, a);
+    if (!q.coeffs().allFinite() || !(q.norm() > 1e-12)) {
+      return Status::Fail("retarget: the source match pose of " + Bone(source, a) + " is not a rotation");
+    }
+  }
+  for (Eigen::Index f = 0; f < frames; ++f) {
+    for (int a = 0; a < ns; ++a) {
+      const Eigen::Quaterniond q = QuatAt(source_rotations, f, a);
+      if (!q.coeffs().allFinite() || !(q.norm() > 1e-12)) {
+        return Status::Fail("retarget: source bone " + Bone(source, a) + " has no valid rotation at frame index " +
+                            std::to_string(f));
+      }
+    }
+    if (!source_root_heads.row(f).allFinite()) {
+      return Status::Fail("retarget: the source root's head is not finite at frame index " + std::to_string(f));
+    }
+  }
+  return Status::Ok();
+}
+
+void RetargetJob::Run() {
+  Validate().ThrowIfFailed();
+  const Plan plan(*this);
+  const int nt = target.size();
+  const Eigen::Index frames = source_rotations.rows();
+  const Eigen::Quaterniond space = options.space.normalized();
+  const Eigen::Quaterniond space_inverse = space.conjugate();
+
+  // Where the target root's head goes in the match pose, and its parent's frame there.
+  std::vector<Eigen::Quaterniond> globals(static_cast<std::size_t>(nt));
+  std::vector<Eigen::Vector3d> heads(static_cast<std::size_t>(nt));
+  const auto pose_heads = [&](const std::vector<Eigen::Quaterniond>& g, const Eigen::Vector3d& root_location) {
+    for (int b = 0; b < nt; ++b) {
+      const int p = target.parent(b);
+      Eigen::Vector3d local = target.offset(b);
+      if (b == target_root) local += target.relative(b) * root_location;
+      heads[static_cast<std::size_t>(b)] =
+          p < 0 ? local : heads[static_cast<std::size_t>(p)] + g[static_cast<std::size_t>(p)] * local;
+    }
+  };
+  std::vector<Eigen::Quaterniond> match_globals(static_cast<std::size_t>(nt));
+  for (int b = 0; b < nt; ++b) match_globals[static_cast<std::size_t>(b)] = plan.match(b);
+  pose_heads(match_globals, target_match_location);
+  const Eigen::Vector3d target_match_root =
+      target_root >= 0 ? heads[static_cast<std::size_t>(target_root)] : Eigen::Vector3d::Zero();
+
+  // The target root's ancestors, top first: their heads place the root.
+  std::vector<int> root_ancestors;
+  for (int b = target_root >= 0 ? target.parent(target_root) : -1; b >= 0; b = target.parent(b)) {
+    root_ancestors.push_back(b);
+  }
+  std::reverse(root_ancestors.begin(), root_ancestors.end());
+
+  const auto solve_frame = [&](Eigen::Index f, double lift) {
+    for (int b = 0; b < nt; ++b) {
+      const Drive& d = plan.drive(b);
+      const int p = target.parent(b);
+      const Eigen::Quaterniond parent =
+          p < 0 ? Eigen::Quaterniond::Identity() : globals[static_cast<std::size_t>(p)];
+      Eigen::Quaterniond g;
+      if (d.kind == Drive::kKeep) {
+        g = parent * target.relative(b) * plan.match_basis(b);
+      } else {
+        const auto delta = [&](int a) {
+          return space * QuatAt(source_rotations, f, a).normalized() * plan.source_match_inverse(a) * space_inverse;
+        };
+        const Eigen::Quaterniond rotation =
+            d.kind == Drive::kMapped ? delta(d.from) : delta(d.from).slerp(d.alpha, delta(d.to));
+        g = rotation * d.align;
+      }
+      g.normalize();
+      globals[static_cast<std::size_t>(b)] = g;
+      Eigen::Quaterniond basis = (parent * target.relative(b)).conjugate() * g;
+      basis.normalize();
+      if (f > 0) {
+        const double* previous = rotations.data() + (f - 1) * rotations.outerStride() + 4 * b;
+        const double dot = previous[0] * basis.w() + previous[1] * basis.x() + previous[2] * basis.y() +
+                           previous[3] * basis.z();
+        if (dot < 0) basis.coeffs() = -basis.coeffs();
+      } else if (basis.w() < 0) {
+        basis.coeffs() = -basis.coeffs();
+      }
+      StoreQuat(rotations, f, b, basis);
+    }
+    if (target_root < 0) {
+      root_locations.row(f).setZero();
+      return;
+    }
+    // The root's head: the match pose's, moved as the source root moved.
+    Eigen::Vector3d moved = Eigen::Vector3d::Zero();
+    if (source_root >= 0) {
+      moved = space * (source_root_heads.row(f).transpose() - source_match_root);
+    }
+    Eigen::Vector3d shift = Eigen::Vector3d::Zero();
+    switch (options.root_motion) {
+      case RootMotion::kScaled:
+        shift = options.scale * moved;
+        break;
+      case RootMotion::kInPlace:
+        shift.z() = options.scale * moved.z();
+        break;
+      case RootMotion::kOffset:
+        shift << options.scale * moved.x(), options.scale * moved.y(), options.unit_scale * moved.z();
+        break;
+      case RootMotion::kNone:
+        break;
+    }
+    const Eigen::Vector3d wanted = target_match_root + shift + Eigen::Vector3d(0, 0, lift);
+    const int p = target.parent(target_root);
+    // head = anchor + frame * location, from the root's parent (posed this frame).
+    Eigen::Vector3d anchor = target.offset(target_root);
+    Eigen::Quaterniond frame = target.relative(target_root);
+    if (p >= 0) {
+      Eigen::Vector3d parent_head = Eigen::Vector3d::Zero();
+      for (int b : root_ancestors) {
+        const int bp = target.parent(b);
+        parent_head = bp < 0 ? target.offset(b) : parent_head + globals[static_cast<std::size_t>(bp)] * target.offset(b);
+      }
+      anchor = parent_head + globals[static_cast<std::size_t>(p)] * target.offset(target_root);
+      frame = globals[static_cast<std::size_t>(p)] * target.relative(target_root);
+    }
+    root_locations.row(f) = (frame.conjugate() * (wanted - anchor)).transpose();
+  };
+
+  double lift = 0.0;
+  if (!options.ground_bones.empty() && frames > 0) {
+    solve_frame(0, 0.0);
+    const Eigen::Vector3d location = root_locations.row(0).transpose();
+    pose_heads(globals, location);
+    double lowest = std::numeric_limits<double>::infinity();
+    for (int g : options.ground_bones) {
+      const Eigen::Vector3d head = heads[static_cast<std::size_t>(g)];
+      const Eigen::Vector3d tail = head + globals[static_cast<std::size_t>(g)] * (target.length(g) * kBoneAxis);
+      lowest = std::min({lowest, head.z(), tail.z()});
+    }
+    lift = -lowest;
+  }
+  for (Eigen::Index f = 0; f < frames; ++f) solve_frame(f, lift);
+}
+
+}  // namespace motionkit

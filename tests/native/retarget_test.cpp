@@ -1,0 +1,320 @@
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "motionkit/retarget.hpp"
+#include "motionkit/rig.hpp"
+
+namespace motionkit {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+struct BoneSpec {
+  std::string name;
+  int parent;
+  Eigen::Vector3d head, tail;
+  double roll;
+};
+
+// Rest orientation as Blender makes it from head, tail and roll (the shortest
+// turn of Y onto the bone, then the roll about it).
+Eigen::Quaterniond RestOf(const BoneSpec& b) {
+  const Eigen::Vector3d d = (b.tail - b.head).normalized();
+  return (Eigen::AngleAxisd(b.roll, d) * Eigen::Quaterniond::FromTwoVectors(Eigen::Vector3d::UnitY(), d)).normalized();
+}
+
+RigModel MakeRig(const std::vector<BoneSpec>& bones) {
+  std::vector<std::string> names;
+  std::vector<int> parents;
+  RowMatrixXd rest(static_cast<Eigen::Index>(bones.size()), 4), heads(static_cast<Eigen::Index>(bones.size()), 3);
+  Eigen::VectorXd lengths(static_cast<Eigen::Index>(bones.size()));
+  for (std::size_t i = 0; i < bones.size(); ++i) {
+    const auto r = static_cast<Eigen::Index>(i);
+    names.push_back(bones[i].name);
+    parents.push_back(bones[i].parent);
+    const Eigen::Quaterniond q = RestOf(bones[i]);
+    rest.row(r) << q.w(), q.x(), q.y(), q.z();
+    heads.row(r) = bones[i].head.transpose();
+    lengths[r] = (bones[i].tail - bones[i].head).norm();
+  }
+  return RigModel(names, parents, rest, heads, lengths);
+}
+
+// A small humanoid: hips, a spine of `spine` bones, a left arm whose rest
+// points `arm_down` radians below horizontal, a left leg. Optional extra roll
+// on every bone.
+std::vector<BoneSpec> Humanoid(int spine, double arm_down, double roll_seed = 0.0, double size = 1.0) {
+  std::mt19937 rng(static_cast<unsigned>(roll_seed * 1000));
+  std::uniform_real_distribution<double> any(-kPi, kPi);
+  const auto roll = [&]() { return roll_seed != 0.0 ? any(rng) : 0.0; };
+  std::vector<BoneSpec> b;
+  const double s = size;
+  b.push_back({"hips", -1, {0, 0, 1.0 * s}, {0, 0, 1.1 * s}, roll()});
+  double z = 1.1 * s;
+  int parent = 0;
+  for (int i = 0; i < spine; ++i) {
+    const double step = 0.45 * s / spine;
+    b.push_back({"spine" + std::to_string(i), parent, {0, 0, z}, {0, 0, z + step}, roll()});
+    parent = static_cast<int>(b.size()) - 1;
+    z += step;
+  }
+  const int chest = parent;
+  const Eigen::Vector3d shoulder(0.2 * s, 0, z - 0.05 * s);
+  const Eigen::Vector3d dir(std::cos(arm_down), 0, -std::sin(arm_down));
+  b.push_back({"clavicle", chest, {0.02 * s, 0, z - 0.05 * s}, shoulder, roll()});
+  const int clavicle = static_cast<int>(b.size()) - 1;
+  b.push_back({"upper_arm", clavicle, shoulder, shoulder + 0.3 * s * dir, roll()});
+  b.push_back({"forearm", clavicle + 1, shoulder + 0.3 * s * dir, shoulder + 0.56 * s * dir, roll()});
+  b.push_back({"thigh", 0, {0.1 * s, 0, 1.0 * s}, {0.1 * s, -0.01 * s, 0.54 * s}, roll()});
+  const int thigh = static_cast<int>(b.size()) - 1;
+  b.push_back({"shin", thigh, {0.1 * s, -0.01 * s, 0.54 * s}, {0.1 * s, 0, 0.1 * s}, roll()});
+  b.push_back({"foot", thigh + 1, {0.1 * s, 0, 0.1 * s}, {0.1 * s, -0.14 * s, 0.02 * s}, roll()});
+  return b;
+}
+
+RowMatrixXd RandomPoses(int bones, int frames, unsigned seed, double spread = 0.8) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> n(0.0, spread);
+  RowMatrixXd q(frames, 4 * bones);
+  for (int f = 0; f < frames; ++f) {
+    for (int b = 0; b < bones; ++b) {
+      const Eigen::Vector3d v(n(rng), n(rng), n(rng));
+      const Eigen::Quaterniond r(Eigen::AngleAxisd(v.norm(), v.normalized()));
+      q.row(f).segment<4>(4 * b) << r.w(), r.x(), r.y(), r.z();
+    }
+  }
+  return q;
+}
+
+struct Posed {
+  RowMatrixXd rotations, heads;
+};
+
+Posed Pose(const RigModel& rig, const RowMatrixXd& basis, const RowMatrixXd& locations) {
+  Posed p{RowMatrixXd(basis.rows(), 4 * rig.size()), RowMatrixXd(basis.rows(), 3 * rig.size())};
+  ArmaturePoseJob job(rig, basis, locations, p.rotations, p.heads);
+  job.Run();
+  return p;
+}
+
+Eigen::Vector3d Direction(const RowMatrixXd& rotations, Eigen::Index f, int b) {
+  return QuatAt(rotations, f, b) * Eigen::Vector3d::UnitY();
+}
+
+double AngleDeg(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+  return std::atan2(a.cross(b).norm(), a.dot(b)) * 180.0 / kPi;
+}
+
+// Retargets every frame with the map by name, match poses at rest.
+struct Retargeted {
+  RowMatrixXd rotations, roots;
+};
+
+Retargeted Retarget(const RigModel& source, const RigModel& target, const Posed& posed, RetargetOptions options = {},
+             std::vector<int> map = {}) {
+  const Eigen::Index frames = posed.rotations.rows();
+  Retargeted out{RowMatrixXd(frames, 4 * target.size()), RowMatrixXd(frames, 3)};
+  RowMatrixXd source_match(1, 4 * source.size()), target_match(1, 4 * target.size());
+  for (int a = 0; a < source.size(); ++a) {
+    const Eigen::Quaterniond q = source.rest(a);
+    source_match.row(0).segment<4>(4 * a) << q.w(), q.x(), q.y(), q.z();
+  }
+  for (int b = 0; b < target.size(); ++b) target_match.row(0).segment<4>(4 * b) << 1, 0, 0, 0;
+  RowMatrixXd root_heads = posed.heads.leftCols(3);
+  RetargetJob job(source, target, posed.rotations, root_heads, source_match, target_match, out.rotations,
+                  out.roots);
+  if (map.empty()) {
+    for (int b = 0; b < target.size(); ++b) map.push_back(source.Find(target.name(b)));
+  }
+  job.bone_map = map;
+  job.source_match_root = source.head(0);
+  job.source_root = 0;
+  job.target_root = 0;
+  job.options = options;
+  job.Run();
+  return out;
+}
+
+TEST(ArmaturePose, MatchesAHandDerivedChain) {
+  // Root along +Y at the origin, child along +Y above it; root turned 90 deg about Z.
+  const RigModel rig = MakeRig({{"a", -1, {0, 0, 0}, {0, 1, 0}, 0}, {"b", 0, {0, 1, 0}, {0, 2, 0}, 0}});
+  RowMatrixXd basis(1, 8), locations(1, 6);
+  const Eigen::Quaterniond turn(Eigen::AngleAxisd(kPi / 2, Eigen::Vector3d::UnitZ()));
+  basis << turn.w(), turn.x(), turn.y(), turn.z(), 1, 0, 0, 0;
+  locations << 0, 0, 0.5, 0, 0, 0;  // the root moved 0.5 along its own Z (= world Z)
+  const Posed p = Pose(rig, basis, locations);
+  EXPECT_NEAR((p.heads.row(0).transpose() - Eigen::Vector3d(0, 0, 0.5)).norm(), 0, 1e-12);
+  EXPECT_NEAR((p.heads.row(0).segment<3>(3).transpose() - Eigen::Vector3d(-1, 0, 0.5)).norm(), 0, 1e-12);
+  EXPECT_NEAR((Direction(p.rotations, 0, 1) - Eigen::Vector3d(-1, 0, 0)).norm(), 0, 1e-12);
+}
+
+TEST(Retarget, SameRigGivesTheSamePose) {
+  const RigModel rig = MakeRig(Humanoid(3, 0.0));
+  RowMatrixXd basis = RandomPoses(rig.size(), 20, 1);
+  RowMatrixXd locations = RowMatrixXd::Zero(20, 3 * rig.size());
+  for (int f = 0; f < 20; ++f) locations.row(f).head<3>() << 0.1 * f, -0.05 * f, 0.02 * std::sin(f);
+  const Posed posed = Pose(rig, basis, locations);
+  const Retargeted run = Retarget(rig, rig, posed);
+  for (int f = 0; f < 20; ++f) {
+    for (int b = 0; b < rig.size(); ++b) {
+      const double dot = std::abs(QuatAt(run.rotations, f, b).normalized().dot(QuatAt(basis, f, b).normalized()));
+      EXPECT_NEAR(dot, 1.0, 1e-12) << rig.name(b) << " frame " << f;
+    }
+    EXPECT_NEAR((run.roots.row(f) - locations.row(f).head<3>()).norm(), 0, 1e-12);
+  }
+}
+
+// The lab check of the brief: a T-pose and an A-pose rig with the same bones
+// pose the same world joints on every frame, both ways; rolls on the target
+// change nothing.
+TEST(Retarget, TPoseToAPoseAndBackKeepsEveryJoint) {
+  for (const double roll_seed : {0.0, 0.37}) {
+    const RigModel t_rig = MakeRig(Humanoid(3, 0.0));
+    const RigModel a_rig = MakeRig(Humanoid(3, kPi / 4, roll_seed));
+    for (const bool forward : {true, false}) {
+      const RigModel& source = forward ? t_rig : a_rig;
+      const RigModel& target = forward ? a_rig : t_rig;
+      const RowMatrixXd basis = RandomPoses(source.size(), 30, 7);
+      const RowMatrixXd no_locations = RowMatrixXd::Zero(30, 3 * source.size());
+      const Posed posed = Pose(source, basis, no_locations);
+      const Retargeted run = Retarget(source, target, posed);
+      RowMatrixXd target_locations = RowMatrixXd::Zero(30, 3 * target.size());
+      target_locations.leftCols(3) = run.roots;
+      const Posed result = Pose(target, run.rotations, target_locations);
+      for (int f = 0; f < 30; ++f) {
+        for (int b = 0; b < target.size(); ++b) {
+          const int a = source.Find(target.name(b));
+          EXPECT_LT(AngleDeg(Direction(result.rotations, f, b), Direction(posed.rotations, f, a)), 1e-9)
+              << target.name(b) << " frame " << f;
+          const Eigen::Vector3d tail_t = result.heads.row(f).segment<3>(3 * b).transpose() +
+                                         target.length(b) * Direction(result.rotations, f, b);
+          const Eigen::Vector3d tail_s = posed.heads.row(f).segment<3>(3 * a).transpose() +
+                                         source.length(a) * Direction(posed.rotations, f, a);
+          EXPECT_LT((tail_t - tail_s).norm(), 1e-9) << target.name(b) << " frame " << f;
+        }
+      }
+    }
+  }
+}
+
+TEST(Retarget, ChainsOfOtherLengthsEndAsTheSourceAndBendBetween) {
+  const RigModel source = MakeRig(Humanoid(3, 0.0));
+  for (const int spine : {2, 5}) {
+    const RigModel target = MakeRig(Humanoid(spine, 0.0));
+    const RowMatrixXd basis = RandomPoses(source.size(), 10, 3, 0.3);
+    const Posed posed = Pose(source, basis, RowMatrixXd::Zero(10, 3 * source.size()));
+    // Map everything by name except the spine: only the chest (last spine bone).
+    std::vector<int> map;
+    for (int b = 0; b < target.size(); ++b) {
+      const std::string& n = target.name(b);
+      map.push_back(n.rfind("spine", 0) == 0 ? -1 : source.Find(n));
+    }
+    const int target_chest = target.Find("spine" + std::to_string(spine - 1));
+    map[static_cast<std::size_t>(target_chest)] = source.Find("spine2");
+    const Retargeted run = Retarget(source, target, posed, {}, map);
+    const Posed result = Pose(target, run.rotations, RowMatrixXd::Zero(10, 3 * target.size()));
+    for (int f = 0; f < 10; ++f) {
+      EXPECT_LT(AngleDeg(Direction(result.rotations, f, target_chest), Direction(posed.rotations, f, 3)), 1e-9);
+      // Every interior bone lies on the source chain: on the shortest arc
+      // between two consecutive orientations of hips, spine0, spine1, spine2
+      // (all these bones share one rest orientation).
+      for (int i = 0; i + 1 < spine; ++i) {
+        const Eigen::Quaterniond g = QuatAt(result.rotations, f, target.Find("spine" + std::to_string(i)));
+        double best = 1e9;
+        for (int k = 0; k < 3; ++k) {
+          const Eigen::Quaterniond lo = QuatAt(posed.rotations, f, k), hi = QuatAt(posed.rotations, f, k + 1);
+          best = std::min(best, g.angularDistance(lo) + g.angularDistance(hi) - lo.angularDistance(hi));
+        }
+        EXPECT_LT(best, 1e-9) << "spine" << i << " of " << spine << ", frame " << f;
+      }
+    }
+  }
+}
+
+TEST(Retarget, RootMotionScalesAndGroundsAsAsked) {
+  const RigModel source = MakeRig(Humanoid(3, 0.0));
+  const RigModel target = MakeRig(Humanoid(3, 0.0, 0.0, 0.5));  // half the size
+  const int frames = 5;
+  const RowMatrixXd basis = RandomPoses(source.size(), frames, 9, 0.0);  // rest every frame
+  RowMatrixXd locations = RowMatrixXd::Zero(frames, 3 * source.size());
+  for (int f = 0; f < frames; ++f) locations.row(f).head<3>() << 0.2 * f, 0.1 * f, 0.04 * f;
+  const Posed posed = Pose(source, basis, locations);
+  // The target root's head moved from rest, in armature space.
+  const auto root_at = [&](RetargetOptions o, int f) {
+    const Retargeted run = Retarget(source, target, posed, o);
+    RowMatrixXd target_locations = RowMatrixXd::Zero(frames, 3 * target.size());
+    target_locations.leftCols(3) = run.roots;
+    const Posed result = Pose(target, run.rotations, target_locations);
+    return Eigen::Vector3d(result.heads.row(f).head<3>().transpose() - target.head(0));
+  };
+  const Eigen::Vector3d moved = posed.heads.row(4).head<3>().transpose() - source.head(0);
+  ASSERT_GT(std::abs(moved.x()) * std::abs(moved.y()) * std::abs(moved.z()), 1e-4);
+  RetargetOptions o;
+  o.scale = 0.5;
+  EXPECT_NEAR((root_at(o, 4) - 0.5 * moved).norm(), 0, 1e-12);
+  o.root_motion = RootMotion::kInPlace;
+  EXPECT_NEAR((root_at(o, 4) - Eigen::Vector3d(0, 0, 0.5 * moved.z())).norm(), 0, 1e-12);
+  o.root_motion = RootMotion::kOffset;
+  o.unit_scale = 2.0;
+  EXPECT_NEAR((root_at(o, 4) - Eigen::Vector3d(0.5 * moved.x(), 0.5 * moved.y(), 2.0 * moved.z())).norm(), 0,
+              1e-12);
+  o.root_motion = RootMotion::kNone;
+  EXPECT_NEAR(root_at(o, 4).norm(), 0, 1e-12);
+  // Feet down: the foot's tail sits at z = 0.01 at rest on the half-size rig.
+  o.root_motion = RootMotion::kScaled;
+  o.ground_bones = {target.Find("foot")};
+  EXPECT_NEAR((root_at(o, 0) - Eigen::Vector3d(0, 0, -0.01)).norm(), 0, 1e-12);
+  EXPECT_NEAR((root_at(o, 4) - 0.5 * moved - Eigen::Vector3d(0, 0, -0.01)).norm(), 0, 1e-12);
+}
+
+TEST(Retarget, BadMapsAreRefusedWithTheirBones) {
+  const RigModel rig = MakeRig(Humanoid(3, 0.0));
+  const Posed posed = Pose(rig, RandomPoses(rig.size(), 2, 1), RowMatrixXd::Zero(2, 3 * rig.size()));
+  std::vector<int> none(static_cast<std::size_t>(rig.size()), -1);
+  EXPECT_THROW(
+      {
+        try {
+          Retarget(rig, rig, posed, {}, none);
+        } catch (const Error& e) {
+          EXPECT_NE(std::string(e.what()).find("no common bones"), std::string::npos);
+          throw;
+        }
+      },
+      Error);
+  // Swap the upper arm and forearm: target upper_arm (above) gets the source forearm (below).
+  std::vector<int> crossed;
+  for (int b = 0; b < rig.size(); ++b) crossed.push_back(b);
+  std::swap(crossed[static_cast<std::size_t>(rig.Find("upper_arm"))],
+            crossed[static_cast<std::size_t>(rig.Find("forearm"))]);
+  try {
+    Retarget(rig, rig, posed, {}, crossed);
+    FAIL() << "a crossing map was accepted";
+  } catch (const Error& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("cycle"), std::string::npos) << m;
+    EXPECT_NE(m.find("'upper_arm'"), std::string::npos) << m;
+  }
+  Posed broken = posed;
+  broken.rotations(1, 4 * 2 + 1) = std::nan("");
+  try {
+    Retarget(rig, rig, broken);
+    FAIL() << "a NaN rotation was accepted";
+  } catch (const Error& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("'spine1'"), std::string::npos) << m;
+    EXPECT_NE(m.find("frame index 1"), std::string::npos) << m;
+  }
+}
+
+TEST(Rig, RefusesChildrenBeforeParents) {
+  std::vector<BoneSpec> bones = {{"a", 1, {0, 0, 0}, {0, 1, 0}, 0}, {"b", -1, {0, 1, 0}, {0, 2, 0}, 0}};
+  EXPECT_THROW(MakeRig(bones), Error);
+}
+
+}  // namespace
+}  // namespace motionkit
