@@ -18,10 +18,11 @@ import sys
 
 import bpy
 
-from . import (animdata, bvh, native_state, operators_bvh, operators_keys, preferences, resample_plan,
-               resampling, ui_panels)
+from . import (animdata, bvh, native_state, operators_bvh, operators_keys, operators_retarget, preferences,
+               resample_plan, resampling, retarget_props, retargeting, ui_panels)
 from .native_state import native
 from .resampling import reduce_keys, resample
+from .retargeting import retarget, retarget_files
 
 classes = (
     preferences.MOTIONKIT_AddonPreferences,
@@ -30,12 +31,17 @@ classes = (
     operators_bvh.MOTIONKIT_OT_export_bvh,
     operators_keys.MOTIONKIT_OT_resample_keys,
     operators_keys.MOTIONKIT_OT_reduce_keys,
+    *retarget_props.classes,
+    *operators_retarget.classes,
+    ui_panels.MOTIONKIT_UL_bone_map,
+    ui_panels.MOTIONKIT_PT_retarget,
 )
 
 
 def register():
     for cls in classes:
         bpy.utils.register_class(cls)
+    retarget_props.register_properties()
     bpy.types.TOPBAR_MT_file_import.append(operators_bvh.menu_import)
     bpy.types.TOPBAR_MT_file_export.append(operators_bvh.menu_export)
     for menu in operators_keys.MENUS:
@@ -67,5 +73,6 @@ def unregister():
         getattr(bpy.types, menu).remove(operators_keys.menu_keys)
     bpy.types.TOPBAR_MT_file_export.remove(operators_bvh.menu_export)
     bpy.types.TOPBAR_MT_file_import.remove(operators_bvh.menu_import)
+    retarget_props.unregister_properties()
     for cls in reversed(classes):
         bpy.utils.unregister_class(cls)

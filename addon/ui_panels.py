@@ -26,3 +26,70 @@ class MOTIONKIT_PT_main(bpy.types.Panel):
         row = self.layout.row(align=True)
         row.operator("motionkit.resample_keys", text="Resample", icon='IPO_BEZIER')
         row.operator("motionkit.reduce_keys", text="Reduce", icon='IPO_LINEAR')
+
+
+class MOTIONKIT_UL_bone_map(bpy.types.UIList):
+    """One row per source -> target pair; bone names pick from the armatures when they are in the file."""
+
+    def draw_item(self, context, layout, data, item, icon, active_data, active_propname, index=0):
+        settings = context.scene.motionkit_retarget
+        row = layout.row(align=True)
+        if settings.source_kind == 'ARMATURE' and settings.source is not None:
+            row.prop_search(item, "source", settings.source.data, "bones", text="")
+        else:
+            row.prop(item, "source", text="", emboss=True)
+        row.label(text="", icon='FORWARD')
+        if settings.target is not None:
+            row.prop_search(item, "target", settings.target.data, "bones", text="")
+        else:
+            row.prop(item, "target", text="")
+
+
+class MOTIONKIT_PT_retarget(bpy.types.Panel):
+    bl_label = "Retarget"
+    bl_idname = "MOTIONKIT_PT_retarget"
+    bl_space_type = 'VIEW_3D'
+    bl_region_type = 'UI'
+    bl_category = "MotionKit"
+
+    def draw(self, context):
+        settings = context.scene.motionkit_retarget
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        layout.prop(settings, "source_kind", expand=True)
+        if settings.source_kind == 'BVH':
+            layout.prop(settings, "bvh_path")
+        else:
+            layout.prop(settings, "source")
+        layout.prop(settings, "target")
+
+        layout.label(text="Bone Map")
+        row = layout.row()
+        row.template_list("MOTIONKIT_UL_bone_map", "", settings, "pairs", settings, "active_pair", rows=6)
+        col = row.column(align=True)
+        col.operator("motionkit.bone_map_add", text="", icon='ADD')
+        col.operator("motionkit.bone_map_remove", text="", icon='REMOVE')
+        col.separator()
+        col.operator("motionkit.bone_map_load", text="", icon='FILEBROWSER')
+        col.operator("motionkit.bone_map_save", text="", icon='FILE_TICK')
+        row = layout.row(align=True)
+        row.operator("motionkit.bone_map_auto", icon='AUTO')
+        row.operator("motionkit.bone_map_scheme", icon='PRESET')
+        if not settings.pairs:
+            layout.label(text="An empty map is filled automatically", icon='INFO')
+
+        layout.prop(settings, "source_match")
+        if settings.source_match == 'FRAME':
+            layout.prop(settings, "match_frame")
+        layout.prop(settings, "target_match")
+        layout.prop(settings, "root_motion")
+        layout.prop(settings, "ground")
+        layout.prop(settings, "align_facing")
+        layout.prop(settings, "use_frame_range")
+        if settings.use_frame_range:
+            col = layout.column(align=True)
+            col.prop(settings, "frame_start")
+            col.prop(settings, "frame_end")
+        layout.prop(settings, "overwrite")
+        layout.operator("motionkit.retarget", icon='ARMATURE_DATA')
