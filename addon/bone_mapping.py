@@ -316,13 +316,16 @@ class _Shape:
                 and self.bottom[child] < self.floor + 0.15 * self.height)
 
     def farthest_path(self, start) -> list[int]:
-        """start, then at each branching the child whose subtree reaches farthest from start's head.
+        """start, then at each branching the child whose subtree reaches farthest from the branching bone.
 
-        This walks past twist leaves and picks a path through the fingers or toes.
+        This walks past twist leaves and picks a path through the fingers or
+        toes. Distances are from the branching bone's head, not the limb's
+        root: seen from the hip, the metarig's heel (on the floor) is farther
+        than its toe (just above it); seen from the ankle, it is not.
         """
-        origin = self.rig.heads[start]
         path = [start]
         while self.kids[path[-1]]:
+            origin = self.rig.heads[path[-1]]
             path.append(max(self.kids[path[-1]], key=lambda c: (self.reach(c, origin), -c)))
         return path
 

@@ -112,7 +112,7 @@ def split_limbs(bones):
 
 
 def unreal_like(**kwargs):
-    """UnrealA under a root at the floor, with twist bones, fingers and ik_ bones."""
+    """UnrealA under a root at the floor, with twist bones, fingers, heels and ik_ bones."""
     spec = SPECS["UnrealA"]
     bone = {b.canonical: b for b in spec.bones}
     extra = [("root", None, (0, 0, 0), (0, 0.2, 0))]
@@ -135,6 +135,8 @@ def unreal_like(**kwargs):
                 extra.append((name, parent, along(hand, 1 + 0.3 * (k - 1)), along(hand, 1 + 0.3 * k)))
                 parent = name
         foot = bone[f"foot.{S}"]
+        x = foot.head[0]  # a heel on the floor, like the metarig's: farther from the hip than the toe is
+        extra.append((f"heel_02_{side}", foot.name, (x - 0.04, 0.05, 0.0), (x + 0.04, 0.05, 0.0)))
         extra.append((f"ik_foot_{side}", "ik_foot_root", foot.head, foot.tail))
         extra.append((f"ik_hand_{side}", "ik_hand_gun", hand.head, hand.tail))
     extra[1:1] = [("ik_foot_root", "root", (0, 0, 0), (0, 0, 0.1)),
@@ -342,13 +344,13 @@ def test_games105_real_file(native, shared_files, how):
 
 
 @pytest.mark.parametrize("how", ["presets", "names", "shape"])
-def test_unreal_with_root_twist_fingers_and_ik_bones(how):
+def test_unreal_with_root_twist_fingers_heels_and_ik_bones(how):
     known = unreal_like(rename=anonymous if how == "shape" else None)
     body = bm.classify(known.rig, presets=how == "presets")
     assert_correct(known, body)
     assert bm.detect_scheme(known.rig) == (None if how == "shape" else "unreal")
     labelled = set(body.limbs.values()) | {body.hips, body.head} | set(body.spine) | set(body.neck)
-    assert not any(known.label(n) is None for n in labelled)  # no root, twist, finger or ik_ bone
+    assert not any(known.label(n) is None for n in labelled)  # no root, twist, finger, heel or ik_ bone
 
 
 def test_ue5_spine_and_neck_preset():
