@@ -142,6 +142,8 @@ def package(info: dict, module: str, version: str, platform_tag: str, dist: str)
     }
     addon_dir = os.path.join(ROOT, "addon")
     sources = sorted(n for n in os.listdir(addon_dir) if n.endswith(".py")) + ["_native.pyi"]
+    presets_dir = os.path.join(addon_dir, "presets")  # bone_mapping's scheme presets
+    sources += sorted(f"presets/{n}" for n in os.listdir(presets_dir) if n.endswith(".json"))
     tmp = path + ".tmp"
     with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as z:
         for name in sources:
