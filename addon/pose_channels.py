@@ -24,7 +24,7 @@ def depth_first(armature) -> list:
 
 def rest_quaternions(armature) -> dict[str, np.ndarray]:
     """Each bone's rest orientation in armature space, as w x y z."""
-    return {bone.name: np.array(bone.matrix_local.to_quaternion()) for bone in armature.bones}
+    return {bone.name: np.array(bone.matrix_local.to_quaternion(), dtype=np.float64) for bone in armature.bones}
 
 
 def rotations(obj, action, bones, frames) -> np.ndarray:

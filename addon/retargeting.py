@@ -390,17 +390,22 @@ def retarget_files(paths, target, *, keep_sources: bool = False, **options) -> l
     and, unless keep_sources, its armature removed again. The target ends with
     the last file's action assigned; every action keeps a fake user so that
     saving the file keeps them all. Returns the actions in the order of paths.
+    A file that fails raises ValueError naming it; the files before it keep
+    their actions.
     """
+    from . import bvh
     actions = []
     for path in paths:
-        from . import bvh
+        name = os.path.splitext(os.path.basename(path))[0]
         source, _ = bvh.load(os.fspath(path))
         try:
-            result = plan(source, target, **options)
-            action = apply(result, action_name=os.path.splitext(os.path.basename(path))[0])
+            action = apply(plan(source, target, **options), action_name=name)
             action.use_fake_user = True
             actions.append(action)
+        except ValueError as ex:
+            raise ValueError(f"{path}: {ex}") from None
         finally:
             if not keep_sources:
                 remove_armature(source)
+        action.name = name  # the imported source's action held the name until now
     return actions

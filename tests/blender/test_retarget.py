@@ -186,7 +186,7 @@ def test_walk60_onto_each_sample_character(mk, retargeting, walk60, spec):
             errors.append(abs(h_t - ratio * h_s))
     worst = max(errors)
     print(f"\n{spec.name}: leg ratio {ratio:.3f}, worst foot height error {100 * worst:.2f} cm")
-    assert worst < 0.03
+    assert worst < 0.02  # measured 0.8-1.5 cm: the rigs' thigh:shin:foot proportions differ
 
 
 def test_errors_change_nothing(mk, walk60):
