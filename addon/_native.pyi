@@ -152,6 +152,7 @@ def retarget(
     space: npt.ArrayLike = ...,
     scale: float = 1.0,
     unit_scale: float = 1.0,
+    vertical_offset: float = 0.0,
     root_motion: Literal["scaled", "in_place", "offset", "none"] = "scaled",
     ground_bones: list[int] = ...,
 ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...

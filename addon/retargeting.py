@@ -275,7 +275,8 @@ def plan(source, target, bone_map=None, frame_range=None, root: str = "scaled", 
         source_match=np.ascontiguousarray(source_pose.rotations), source_match_root=source_pose.heads[source_root],
         target_match_basis=np.ascontiguousarray(target_basis), target_match_location=target_locations[target_root],
         source_root=source_root, target_root=target_root, space=space, scale=target_height / source_height,
-        unit_scale=source_scale / target_scale, root_motion=root,
+        unit_scale=source_scale / target_scale,
+        vertical_offset=target_height - source_scale / target_scale * source_height, root_motion=root,
         ground_bones=list(range(len(tgt.bones))) if ground else [])
 
     moving, still = _target_channels(native, tgt, rotations, target_basis, bone_map_idx, target_root,

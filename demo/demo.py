@@ -48,7 +48,7 @@ def add_label(text: str, location, camera, size=0.085):
 
 
 def stage(scene) -> bpy.types.Object:
-    """Ground, light, sky and a camera that frames the three characters."""
+    """Ground, light, sky and a camera that frames both rows of characters."""
     ground = bpy.data.meshes.new("Ground")
     s = 12.0
     ground.from_pydata([(-s, -s, 0), (s, -s, 0), (s, s, 0), (-s, s, 0)], [], [(0, 1, 2, 3)])
@@ -79,8 +79,8 @@ def stage(scene) -> bpy.types.Object:
     cam = bpy.data.cameras.new("Camera")
     cam.lens = 38
     cam_obj = bpy.data.objects.new("Camera", cam)
-    cam_obj.location = (3.4, -7.6, 1.9)
-    target = mathutils.Vector((0.3, -0.45, 0.85))
+    cam_obj.location = (0.0, -9.0, 4.2)
+    target = mathutils.Vector((0.0, 1.2, 0.6))
     # Cameras look down their -Z with +Y up.
     cam_obj.rotation_euler = (target - cam_obj.location).to_track_quat('-Z', 'Y').to_euler()
     scene.collection.objects.link(cam_obj)
@@ -148,6 +148,37 @@ def resampled_curve(motionkit, obj, action, before) -> dict:
             "label": f"{path}[{index}]"}
 
 
+FRONT, BACK = 0.0, 3.4  # the rows' distances from the camera side
+SOURCE_FPS = 60
+
+
+def character(spec, x: float, y: float):
+    obj = generate.build_armature(spec, x=x)
+    obj.location.y = y
+    generate.build_body(spec, obj)
+    return obj
+
+
+def retarget_row(motionkit, source, y: float, placements, labels: dict, source_label: str) -> list:
+    """Sample characters placed at (spec, x) on row y, each retargeted from source (auto-mapped)."""
+    targets = []
+    for spec, x in placements:
+        obj = character(spec, x, y)
+        started = time.perf_counter()
+        motionkit.retarget(source, obj)
+        print(f"demo: retargeted {source.name} onto {obj.name} in {time.perf_counter() - started:.3f} s")
+        labels[obj] = f"{spec.name} ({spec.rest_pose}-pose)\n<- {source_label}"
+        targets.append(obj)
+    return targets
+
+
+def place_labels(labels: dict, camera) -> None:
+    """Each label at its character's feet, where the shown frame has it."""
+    for obj, text in labels.items():
+        root = obj.matrix_world @ obj.pose.bones[0].head
+        add_label(text, (root.x + 0.45, root.y - 0.25, 0.2), camera)
+
+
 def main() -> None:
     argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
     parser = argparse.ArgumentParser(prog="demo.py")
@@ -164,33 +195,47 @@ def main() -> None:
     for obj in list(bpy.data.objects):
         bpy.data.objects.remove(obj)
     scene = bpy.context.scene
-    objects = generate.build_all(motionkit.animdata, spacing=1.5, walk_on=("MixamoT",), offset=-0.75)
+    scene.render.fps, scene.render.fps_base = SOURCE_FPS, 1.0
     camera = stage(scene)
-    for spec in characters.CHARACTERS:
-        obj = objects[spec.name]
-        add_label(f"{spec.name}\n{spec.rest_pose}-pose rest, {spec.naming} names",
-                  (obj.location.x + 0.45, -0.2, 0.2), camera)
+    animated, labels = [], {}
+
+    # Front row: the procedural walk on the T-pose Mixamo-style character,
+    # retargeted onto the A-pose Rigify- and Unreal-style ones.
+    source = character(characters.MIXAMO_T, -1.6, FRONT)
+    generate.add_walk(source, characters.MIXAMO_T, motionkit.animdata, fps=SOURCE_FPS)
+    labels[source] = "MixamoT (T-pose)\nsource: procedural walk"
+    animated += [source] + retarget_row(motionkit, source, FRONT,
+                                        ((characters.RIGIFY_A, 0.0), (characters.UNREAL_A, 1.6)),
+                                        labels, "MixamoT")
+
     mocap = os.path.join(os.path.dirname(ROOT), "shared", "data", "bvh", "walk60.bvh")
+    before = None
     if os.path.isfile(mocap):
-        # Real motion capture through MotionKit's importer, skinned like the samples.
-        walker, action = motionkit.bvh.load(mocap, update_scene_fps=True)
-        walker.location.x = 2.25
-        # Resample the 60 fps capture to 24 fps with Kochanek-Bartels rotations, plotting
-        # the interpolants on its keys beside what Blender now evaluates.
+        # Back row: real motion capture through MotionKit's importer, and the
+        # three characters retargeted from it.
+        walker, action = motionkit.bvh.load(mocap)
+        walker.location = (-3.3, BACK, 0.0)
+        generate.skin_bones(walker, {b.name: (0.045, 0.035) for b in walker.data.bones},
+                            (0.85, 0.75, 0.25, 1.0), "walk60")
+        labels[walker] = "walk60.bvh\nsource: motion capture"
+        animated += [walker] + retarget_row(motionkit, walker, BACK,
+                                            tuple(zip(characters.CHARACTERS, (-1.1, 1.1, 3.3))),
+                                            labels, "walk60.bvh")
         before = resample_inputs(motionkit, walker, action)
-        motionkit.resample(walker, fps=24.0, change_scene_rate=True, rotation="kochanek-bartels",
-                           scalar="catmull-rom")
+    else:
+        print(f"demo: {mocap} is absent, so the motion-capture row is left out")
+
+    # Everything from 60 to 24 fps in one call, Kochanek-Bartels rotations.
+    motionkit.resample(animated, fps=24.0, change_scene_rate=True, rotation="kochanek-bartels",
+                       scalar="catmull-rom")
+    if before is not None:
         plot = os.path.join(out, "interpolants.png")
         interpolant_plot.plot(motionkit.native(), plot, before["scalar"], before["rotation"],
                               resampled_curve(motionkit, walker, action, before))
         print(f"demo: wrote {plot}")
-        generate.skin_bones(walker, {b.name: (0.045, 0.035) for b in walker.data.bones},
-                            (0.85, 0.75, 0.25, 1.0), "walk60")
-        add_label("walk60.bvh\nmotion capture, imported", (2.7, -0.2, 0.2), camera)
-    else:
-        print(f"demo: {mocap} is absent, so the motion-capture walker is left out")
-    scene.frame_start, scene.frame_end = 1, 61
+    scene.frame_start, scene.frame_end = 1, 73
     scene.frame_set(SHOW_FRAME)
+    place_labels(labels, camera)
     blend = os.path.join(out, "demo.blend")
     bpy.ops.wm.save_as_mainfile(filepath=blend)
     png = os.path.join(out, "demo.png")

@@ -52,7 +52,7 @@ py::tuple Retarget(const RigModel& source, const RigModel& target, const ConstMa
                    const ConstMatrixView& source_match, const Eigen::Vector3d& source_match_root,
                    const ConstMatrixView& target_match_basis, const Eigen::Vector3d& target_match_location,
                    int source_root, int target_root, const Eigen::Vector4d& space, double scale, double unit_scale,
-                   const std::string& root_motion, const std::vector<int>& ground_bones) {
+                   double vertical_offset, const std::string& root_motion, const std::vector<int>& ground_bones) {
   const auto motion = ParseRootMotion(root_motion);
   if (!motion) throw Error("unknown root motion '" + root_motion + "'; expected scaled, in_place, offset or none");
   const Eigen::Index frames = source_rotations.rows(), bones = target.size();
@@ -70,6 +70,7 @@ py::tuple Retarget(const RigModel& source, const RigModel& target, const ConstMa
   job.options.root_motion = *motion;
   job.options.scale = scale;
   job.options.unit_scale = unit_scale;
+  job.options.vertical_offset = vertical_offset;
   job.options.space = Eigen::Quaterniond(space[0], space[1], space[2], space[3]);
   job.options.ground_bones = ground_bones;
   job.Validate().ThrowIfFailed();
@@ -116,7 +117,7 @@ void BindRetarget(py::module_& m) {
         "source_root_heads"_a.noconvert(), "bone_map"_a, py::kw_only(), "source_match"_a.noconvert(),
         "source_match_root"_a, "target_match_basis"_a.noconvert(), "target_match_location"_a,
         "source_root"_a, "target_root"_a, "space"_a = Eigen::Vector4d(1, 0, 0, 0), "scale"_a = 1.0,
-        "unit_scale"_a = 1.0, "root_motion"_a = "scaled", "ground_bones"_a = std::vector<int>{},
+        "unit_scale"_a = 1.0, "vertical_offset"_a = 0.0, "root_motion"_a = "scaled", "ground_bones"_a = std::vector<int>{},
         R"pbdoc(
         Retarget a whole clip from the source rig to the target rig.
 
@@ -130,7 +131,9 @@ void BindRetarget(py::module_& m) {
         there. space: w x y z rotation from source to target armature space.
         scale: target leg length / source leg length; unit_scale: target
         armature units per source one. root_motion: "scaled", "in_place",
-        "offset" or "none". ground_bones: target bones that touch Z = 0 on the
+        "offset" or "none" (retarget.hpp says what each does with the root's
+        horizontal motion and its height above armature Z = 0);
+        vertical_offset: added to the height in "offset". ground_bones: target bones that touch Z = 0 on the
         first frame.
 
         Returns (rotations (frames, 4b) pose quaternions per target bone,

@@ -172,8 +172,8 @@ Status RetargetJob::Validate() const {
     return Status::Fail("retarget: the bone map needs one entry per target bone");
   }
   if (!(std::isfinite(options.scale) && options.scale > 0 && std::isfinite(options.unit_scale) &&
-        options.unit_scale > 0)) {
-    return Status::Fail("retarget: scale and unit_scale must be positive");
+        options.unit_scale > 0 && std::isfinite(options.vertical_offset))) {
+    return Status::Fail("retarget: scale and unit_scale must be positive, vertical_offset finite");
   }
   if (!options.space.coeffs().allFinite() || std::abs(options.space.norm() - 1.0) > 1e-6) {
     return Status::Fail("retarget: the space rotation must be a unit quaternion");
@@ -304,26 +304,31 @@ void RetargetJob::Run() {
       root_locations.row(f).setZero();
       return;
     }
-    // The root's head: the match pose's, moved as the source root moved.
+    // The root's head: horizontally the match pose's, moved as the source
+    // root moved; vertically at the source root's height.
     Eigen::Vector3d moved = Eigen::Vector3d::Zero();
+    double height = 0.0;
     if (source_root >= 0) {
       moved = space * (source_root_heads.row(f).transpose() - source_match_root);
+      height = (space * source_root_heads.row(f).transpose()).z();
     }
-    Eigen::Vector3d shift = Eigen::Vector3d::Zero();
+    Eigen::Vector3d wanted = target_match_root;
     switch (options.root_motion) {
       case RootMotion::kScaled:
-        shift = options.scale * moved;
+        wanted << wanted.x() + options.scale * moved.x(), wanted.y() + options.scale * moved.y(),
+            options.scale * height;
         break;
       case RootMotion::kInPlace:
-        shift.z() = options.scale * moved.z();
+        wanted.z() = options.scale * height;
         break;
       case RootMotion::kOffset:
-        shift << options.scale * moved.x(), options.scale * moved.y(), options.unit_scale * moved.z();
+        wanted << wanted.x() + options.scale * moved.x(), wanted.y() + options.scale * moved.y(),
+            options.unit_scale * height + options.vertical_offset;
         break;
       case RootMotion::kNone:
         break;
     }
-    const Eigen::Vector3d wanted = target_match_root + shift + Eigen::Vector3d(0, 0, lift);
+    wanted.z() += lift;
     const int p = target.parent(target_root);
     // head = anchor + frame * location, from the root's parent (posed this frame).
     Eigen::Vector3d anchor = target.offset(target_root);

@@ -167,15 +167,15 @@ def test_walk60_onto_each_sample_character(mk, retargeting, walk60, spec):
     tgt_dirs = directions(target, [t for _, t in pairs], frames)
     assert angles_deg(src_dirs, tgt_dirs).max() < 0.1
 
-    # Feet: height above each rig's floor (its lowest rest point), the source's
-    # scaled by the ratio of hip heights.
-    def hip_height(obj, hips):
+    # Feet: height above the floor (Z = 0 for both: the capture's floor, the
+    # character's ground; walk60's rest pose hangs below it, its root OFFSET
+    # being zero), the source's scaled by the ratio of leg lengths.
+    def leg_length(obj, hips):
         bones = obj.data.bones
         return bones[hips].head_local.z - min(min(b.head_local.z, b.tail_local.z) for b in bones)
 
-    ratio = hip_height(target, spec.canonical["hips"]) / hip_height(source, "RootJoint")
-    floor_s = min(min(b.head_local.z, b.tail_local.z) for b in source.data.bones)
-    floor_t = min(min(b.head_local.z, b.tail_local.z) for b in target.data.bones)
+    ratio = leg_length(target, spec.canonical["hips"]) / leg_length(source, "RootJoint")
+    floor_s = floor_t = 0.0
     errors = []
     for side, (ankle, toe) in zip("LR", FEET["walk60"]):
         t_ankle, t_toe = spec.canonical[f"foot.{side}"], spec.canonical[f"toe.{side}"]

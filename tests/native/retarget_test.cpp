@@ -244,7 +244,8 @@ TEST(Retarget, RootMotionScalesAndGroundsAsAsked) {
   RowMatrixXd locations = RowMatrixXd::Zero(frames, 3 * source.size());
   for (int f = 0; f < frames; ++f) locations.row(f).head<3>() << 0.2 * f, 0.1 * f, 0.04 * f;
   const Posed posed = Pose(source, basis, locations);
-  // The target root's head moved from rest, in armature space.
+  // The target root's head moved from rest, in armature space. Both rigs stand
+  // on Z = 0, so scaled heights are scaled moves.
   const auto root_at = [&](RetargetOptions o, int f) {
     const Retargeted run = Retarget(source, target, posed, o);
     RowMatrixXd target_locations = RowMatrixXd::Zero(frames, 3 * target.size());
@@ -259,8 +260,10 @@ TEST(Retarget, RootMotionScalesAndGroundsAsAsked) {
   EXPECT_NEAR((root_at(o, 4) - 0.5 * moved).norm(), 0, 1e-12);
   o.root_motion = RootMotion::kInPlace;
   EXPECT_NEAR((root_at(o, 4) - Eigen::Vector3d(0, 0, 0.5 * moved.z())).norm(), 0, 1e-12);
+  // Unscaled height (in twice the units) plus the offset that makes standing heights agree.
   o.root_motion = RootMotion::kOffset;
   o.unit_scale = 2.0;
+  o.vertical_offset = target.head(0).z() - 2.0 * source.head(0).z();
   EXPECT_NEAR((root_at(o, 4) - Eigen::Vector3d(0.5 * moved.x(), 0.5 * moved.y(), 2.0 * moved.z())).norm(), 0,
               1e-12);
   o.root_motion = RootMotion::kNone;

@@ -18,18 +18,19 @@
 // source chain between a0 and a, so the chain bends as the source's does and
 // ends as a. Other unmapped bones keep the match pose's local rotation.
 //
-// Root motion: the target root's head follows the source root's displacement
-// from the match pose, carried by R, with `scale` the ratio of the rigs' leg
+// Root motion: the target root's head moves horizontally as the source
+// root moved from its match pose, and stands at the source root's height
+// above the floor (armature Z = 0 on both sides: a capture's floor, a rig's
+// ground), both carried by R and scaled by `scale`, the ratio of the rigs' leg
 // lengths (hip heights, in their own armature units):
-//   kScaled   every axis scaled;
-//   kInPlace  vertical only, scaled; the horizontal stays at the match pose;
-//   kOffset   horizontal scaled, vertical unscaled (`unit_scale` converts
-//             source armature units to target ones), so the root keeps the
-//             source's height above the floor plus the match-pose difference;
+//   kScaled   horizontal and height scaled;
+//   kInPlace  height scaled; the horizontal stays at the match pose;
+//   kOffset   horizontal scaled, height unscaled (`unit_scale` converts
+//             source armature units to target ones) plus `vertical_offset`
+//             (the caller passes the difference in hip heights);
 //   kNone     the root stays at the match pose.
-// Vertical is the target armature's Z. With ground_bones, the root is moved
-// vertically on every frame so that the lowest of those bones' heads and
-// tails touches Z = 0 on the first frame.
+// With ground_bones, the root is moved vertically on every frame so that the
+// lowest of those bones' heads and tails touches Z = 0 on the first frame.
 #pragma once
 
 #include <optional>
@@ -52,6 +53,7 @@ struct RetargetOptions {
   RootMotion root_motion = RootMotion::kScaled;
   double scale = 1.0;       // target leg length / source leg length
   double unit_scale = 1.0;  // target armature units per source armature unit
+  double vertical_offset = 0.0;  // kOffset: added to the root's unscaled height
   Eigen::Quaterniond space = Eigen::Quaterniond::Identity();  // source armature -> target armature
   std::vector<int> ground_bones;  // target bones that touch the floor on the first frame
 };
