@@ -18,8 +18,8 @@ import sys
 
 import bpy
 
-from . import (animdata, bvh, native_state, operators_bvh, operators_keys, operators_retarget, preferences,
-               resample_plan, resampling, retarget_props, retargeting, ui_panels)
+from . import (animdata, bone_mapping, bvh, native_state, operators_bvh, operators_keys, operators_retarget,
+               preferences, resample_plan, resampling, retarget_props, retargeting, ui_panels)
 from .native_state import native
 from .resampling import reduce_keys, resample
 from .retargeting import retarget, retarget_files

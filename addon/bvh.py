@@ -18,7 +18,7 @@ import numpy as np
 from bpy_extras.io_utils import axis_conversion
 from mathutils import Quaternion
 
-from . import animdata, native_state, pose_channels, rotation_channels
+from . import animdata, bone_mapping, native_state, pose_channels, rotation_channels
 
 ROTATION_MODES = ('QUATERNION', 'NATIVE', 'XYZ', 'XZY', 'YXZ', 'YZX', 'ZXY', 'ZYX')
 
@@ -224,7 +224,6 @@ def load(filepath: str, options: ImportOptions | None = None, *, context=None, n
 
 def mapping_rig(filepath: str, options: ImportOptions | None = None):
     """The file's skeleton as the importer would make its bones, for motionkit.bone_mapping."""
-    from . import bone_mapping
     options = options or ImportOptions()
     skeleton, _ = native_state.native().read_bvh(os.fspath(filepath))
     conv_matrix, _ = _conversion(options.axis_forward, options.axis_up)

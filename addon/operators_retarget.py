@@ -5,7 +5,7 @@ import bpy
 from bpy.props import EnumProperty, StringProperty
 from bpy_extras.io_utils import ExportHelper, ImportHelper
 
-from . import bvh, native_state, retargeting
+from . import bone_mapping, bvh, native_state, retargeting
 
 
 def _settings(context):
@@ -89,7 +89,6 @@ class MOTIONKIT_OT_bone_map_auto(bpy.types.Operator):
         return True
 
     def execute(self, context):
-        from . import bone_mapping
         settings = _settings(context)
         try:
             pairs = bone_mapping.auto_map(_source_rig(settings), retargeting.mapping_rig(settings.target))
@@ -102,7 +101,6 @@ class MOTIONKIT_OT_bone_map_auto(bpy.types.Operator):
 
 
 def _scheme_items(self, context):
-    from . import bone_mapping
     return [(key, scheme.get("label", key), "") for key, scheme in sorted(bone_mapping.schemes().items())]
 
 
@@ -123,7 +121,6 @@ class MOTIONKIT_OT_bone_map_scheme(bpy.types.Operator):
         return context.window_manager.invoke_props_dialog(self)
 
     def execute(self, context):
-        from . import bone_mapping
         settings = _settings(context)
         try:
             pairs = bone_mapping.map_from_presets(_source_rig(settings), self.source_scheme,
@@ -179,7 +176,6 @@ class MOTIONKIT_OT_bone_map_save(bpy.types.Operator, ExportHelper):
     filter_glob: StringProperty(default="*.json", options={'HIDDEN'})
 
     def execute(self, context):
-        from . import bone_mapping
         try:
             bone_mapping.save_map(self.filepath, _settings(context).bone_map())
         except (ValueError, OSError) as ex:
@@ -198,7 +194,6 @@ class MOTIONKIT_OT_bone_map_load(bpy.types.Operator, ImportHelper):
     filter_glob: StringProperty(default="*.json", options={'HIDDEN'})
 
     def execute(self, context):
-        from . import bone_mapping
         try:
             pairs = bone_mapping.load_map(self.filepath)
         except (ValueError, OSError) as ex:

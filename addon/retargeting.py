@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import bpy
 import numpy as np
 
-from . import animdata, native_state, pose_channels, rotation_channels
+from . import animdata, bone_mapping, bvh, native_state, pose_channels, rotation_channels
 
 ROOT_MOTIONS = (
     ("scaled", "Scaled", "Translation scaled by the ratio of leg lengths"),
@@ -62,7 +62,6 @@ def _side(obj, role: str) -> _Side:
 
 def mapping_rig(obj):
     """The armature at rest as motionkit.bone_mapping sees it."""
-    from . import bone_mapping
     bones = pose_channels.depth_first(obj.data)
     index = {b.name: i for i, b in enumerate(bones)}
     return bone_mapping.Rig(tuple(b.name for b in bones),
@@ -73,7 +72,6 @@ def mapping_rig(obj):
 
 def auto_map(source, target) -> list[tuple[str, str]]:
     """(source bone, target bone) pairs found from names and, where they say nothing, the skeletons."""
-    from . import bone_mapping
     return bone_mapping.auto_map(mapping_rig(source), mapping_rig(target))
 
 
@@ -362,7 +360,6 @@ def retarget(source, target, bone_map=None, frame_range=None, root: str = "scale
     """
     imported = None
     if isinstance(source, (str, os.PathLike)):
-        from . import bvh
         imported, _ = bvh.load(os.fspath(source))
         source = imported
     try:
@@ -394,7 +391,6 @@ def retarget_files(paths, target, *, keep_sources: bool = False, **options) -> l
     A file that fails raises ValueError naming it; the files before it keep
     their actions.
     """
-    from . import bvh
     actions = []
     for path in paths:
         name = os.path.splitext(os.path.basename(path))[0]
