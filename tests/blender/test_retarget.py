@@ -306,3 +306,35 @@ def test_batch_retargets_a_folder_of_files(mk, walk60, shared_dir):
     assert [a.name for a in actions] == [os.path.splitext(os.path.basename(f))[0] for f in files]
     assert set(bpy.data.objects) == objects  # the imported sources are gone again
     assert all(a.use_fake_user for a in actions)
+
+
+def test_a_bvh_path_as_source_stays_in_the_scene_and_a_failure_removes_it(mk, walk60):
+    target = generate.build_armature(characters.UNREAL_A)
+    objects = set(bpy.data.objects)
+    with pytest.raises(ValueError, match="no common bones"):
+        mk.retarget(walk60, target, bone_map=[])
+    assert set(bpy.data.objects) == objects
+    action = mk.retarget(walk60, target)
+    imported = set(bpy.data.objects) - objects
+    assert len(imported) == 1 and next(iter(imported)).type == 'ARMATURE'
+    assert target.animation_data.action == action
+
+
+def test_bone_map_operators_save_load_and_edit_the_list(mk, walk60, tmp_path):
+    source, _ = load(mk, walk60, "walk60")
+    target = generate.build_armature(characters.RIGIFY_A)
+    settings = bpy.context.scene.motionkit_retarget
+    settings.source_kind, settings.source, settings.target = 'ARMATURE', source, target
+    assert bpy.ops.motionkit.bone_map_auto() == {'FINISHED'}
+    pairs = settings.bone_map()
+    path = str(tmp_path / "map.json")
+    assert bpy.ops.motionkit.bone_map_save(filepath=path) == {'FINISHED'}
+    assert bpy.ops.motionkit.bone_map_add() == {'FINISHED'}
+    assert len(settings.pairs) == len(pairs) + 1
+    settings.active_pair = 0
+    assert bpy.ops.motionkit.bone_map_remove() == {'FINISHED'}
+    assert settings.bone_map() == pairs[1:]
+    assert bpy.ops.motionkit.bone_map_load(filepath=path) == {'FINISHED'}
+    assert settings.bone_map() == pairs
+    assert bpy.ops.motionkit.bone_map_scheme(source_scheme="games105", target_scheme="rigify_metarig") == {'FINISHED'}
+    assert dict(settings.bone_map())["lHip"] == "thigh.L"
