@@ -18,8 +18,9 @@ import sys
 
 import bpy
 
-from . import (animdata, bone_mapping, bvh, native_state, operators_bvh, operators_keys, operators_retarget,
-               preferences, resample_plan, resampling, retarget_props, retargeting, ui_panels)
+from . import (animdata, bone_mapping, bvh, ik, ik_live, ik_props, native_state, operators_bvh, operators_ik,
+               operators_keys, operators_retarget, preferences, resample_plan, resampling, retarget_props,
+               retargeting, ui_panels)
 from .native_state import native
 from .resampling import reduce_keys, resample
 from .retargeting import retarget, retarget_files
@@ -35,6 +36,10 @@ classes = (
     *operators_retarget.classes,
     ui_panels.MOTIONKIT_UL_bone_map,
     ui_panels.MOTIONKIT_PT_retarget,
+    *ik_props.classes,
+    *operators_ik.classes,
+    ui_panels.MOTIONKIT_UL_ik_effectors,
+    ui_panels.MOTIONKIT_PT_ik,
 )
 
 
@@ -42,6 +47,7 @@ def register():
     for cls in classes:
         bpy.utils.register_class(cls)
     retarget_props.register_properties()
+    ik_props.register_properties()
     bpy.types.TOPBAR_MT_file_import.append(operators_bvh.menu_import)
     bpy.types.TOPBAR_MT_file_export.append(operators_bvh.menu_export)
     for menu in operators_keys.MENUS:
@@ -73,6 +79,8 @@ def unregister():
         getattr(bpy.types, menu).remove(operators_keys.menu_keys)
     bpy.types.TOPBAR_MT_file_export.remove(operators_bvh.menu_export)
     bpy.types.TOPBAR_MT_file_import.remove(operators_bvh.menu_import)
+    ik_live.unregister()
+    ik_props.unregister_properties()
     retarget_props.unregister_properties()
     for cls in reversed(classes):
         bpy.utils.unregister_class(cls)

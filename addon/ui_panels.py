@@ -93,3 +93,65 @@ class MOTIONKIT_PT_retarget(bpy.types.Panel):
             col.prop(settings, "frame_end")
         layout.prop(settings, "overwrite")
         layout.operator("motionkit.retarget", icon='ARMATURE_DATA')
+
+
+class MOTIONKIT_UL_ik_effectors(bpy.types.UIList):
+    """One row per effector: bone, then its target or the pin."""
+
+    def draw_item(self, context, layout, data, item, icon, active_data, active_propname, index=0):
+        obj = data.id_data
+        row = layout.row(align=True)
+        row.prop_search(item, "bone", obj.data, "bones", text="")
+        row.prop(item, "pin", text="", icon='PINNED' if item.pin else 'UNPINNED')
+        if not item.pin:
+            row.prop(item, "target", text="")
+            if item.target is not None and item.target.type == 'ARMATURE':
+                row.prop_search(item, "subtarget", item.target.data, "bones", text="")
+
+
+class MOTIONKIT_PT_ik(bpy.types.Panel):
+    bl_label = "Full-body IK"
+    bl_idname = "MOTIONKIT_PT_ik"
+    bl_space_type = 'VIEW_3D'
+    bl_region_type = 'UI'
+    bl_category = "MotionKit"
+
+    def draw(self, context):
+        layout = self.layout
+        obj = context.object
+        if obj is None or obj.type != 'ARMATURE':
+            layout.label(text="Select an armature", icon='INFO')
+            return
+        settings = obj.motionkit_ik
+        row = layout.row()
+        row.template_list("MOTIONKIT_UL_ik_effectors", "", settings, "effectors", settings, "active_effector",
+                          rows=4)
+        col = row.column(align=True)
+        col.operator("motionkit.ik_effector_add", text="", icon='ADD')
+        col.operator("motionkit.ik_effector_remove", text="", icon='REMOVE')
+        if 0 <= settings.active_effector < len(settings.effectors):
+            item = settings.effectors[settings.active_effector]
+            row = layout.row(align=True)
+            row.prop(item, "weight")
+            row.prop(item, "use_position", toggle=True)
+            row.prop(item, "use_orientation", toggle=True)
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        layout.prop(settings, "method")
+        col = layout.column(align=True)
+        col.prop(settings, "max_iterations")
+        col.prop(settings, "damping")
+        col.prop(settings, "regularization")
+        layout.prop(settings, "root_translation")
+        layout.prop(settings, "root_rotation")
+        layout.prop(settings, "use_limits")
+        row = layout.row(align=True)
+        row.operator("motionkit.ik_solve", icon='CON_KINEMATIC')
+        row.prop(settings, "live", toggle=True, icon='PLAY')
+        layout.prop(settings, "use_scene_range")
+        if not settings.use_scene_range:
+            col = layout.column(align=True)
+            col.prop(settings, "frame_start")
+            col.prop(settings, "frame_end")
+        layout.prop(settings, "new_action")
+        layout.operator("motionkit.ik_bake", icon='REC')

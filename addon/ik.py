@@ -1,0 +1,345 @@
+"""Full-body IK in Blender: motionkit.ik.solve, and the live re-solve behind the panel.
+
+The armature's input pose (its action, or its current pose) and every
+effector's target on every frame are read in bulk, the whole frame range is
+solved in one native call (native/include/motionkit/ik.hpp), and the result
+goes either onto the pose (one frame) or into keys (a range), in each bone's
+own rotation mode. Everything is computed and checked before anything in
+the file changes.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import bpy
+import numpy as np
+
+from . import animdata, native_state, pose_channels, rotation_channels
+
+METHODS = (
+    ("dls", "Damped Least Squares", "Robust near singular poses; regularised towards the previous frame"),
+    ("pinv", "Pseudo-inverse", "Gauss-Newton steps; fast, fragile near singular poses"),
+    ("transpose", "Jacobian Transpose", "Gradient steps: simple and slow"),
+    ("ccd", "CCD", "Cyclic coordinate descent, joint by joint"),
+)
+_AXES = "xyz"
+
+
+@dataclass
+class Effector:
+    """A bone whose tail should reach a target.
+
+    target: an Object (its world location, and rotation with orientation=True),
+    (armature Object, bone name) for a bone's head, a world position (3,), or
+    per-frame world positions (frames, 3). pin=True holds the tail where the
+    input pose has it on each frame (no target needed).
+    """
+    bone: str
+    target: object = None
+    pin: bool = False
+    weight: float = 1.0
+    position: bool = True
+    orientation: bool = False
+    name: str = ""
+
+    def label(self) -> str:
+        return self.name or f"effector on '{self.bone}'"
+
+
+@dataclass
+class Result:
+    frames: np.ndarray
+    errors: np.ndarray      # (frames, effectors), armature units
+    iterations: np.ndarray  # (frames,)
+    bones: list = field(default_factory=list)  # the bones the solve moved
+
+
+def joint_limits(obj, bones) -> dict:
+    """The bones' IK settings (ik_min_*, ik_max_*, use_ik_limit_*, lock_ik_*, ik_stiffness_*, ik_stretch)."""
+    count = len(bones)
+    lo, hi = np.full((count, 3), -np.inf), np.full((count, 3), np.inf)
+    locked = np.zeros((count, 3), dtype=bool)
+    stiffness = np.zeros((count, 3))
+    stretch = np.zeros(count)
+    scale_range = np.ones((count, 2))
+    for i, bone in enumerate(bones):
+        pose_bone = obj.pose.bones[bone.name]
+        for k, axis in enumerate(_AXES):
+            locked[i, k] = getattr(pose_bone, f"lock_ik_{axis}")
+            if getattr(pose_bone, f"use_ik_limit_{axis}"):
+                lo[i, k] = getattr(pose_bone, f"ik_min_{axis}")
+                hi[i, k] = getattr(pose_bone, f"ik_max_{axis}")
+            stiffness[i, k] = min(getattr(pose_bone, f"ik_stiffness_{axis}"), 0.99)
+        stretch[i] = pose_bone.ik_stretch
+        if stretch[i] > 0:
+            scale_range[i] = (0.5, 2.0)
+    return {"limit_min": lo, "limit_max": hi, "locked": locked, "stiffness": stiffness, "stretch": stretch,
+            "scale_range": scale_range}
+
+
+def _frames(obj, frame_range) -> np.ndarray:
+    if frame_range is None:
+        return np.array([float(bpy.context.scene.frame_current)])
+    start, end = (int(v) for v in frame_range)
+    if end < start:
+        raise ValueError(f"frame range {start}..{end} is empty")
+    return np.arange(start, end + 1, dtype=np.float64)
+
+
+def _world_matrices(obj, frames) -> np.ndarray:
+    """An object's world matrix on each frame (frames, 4, 4), from its own keys, without frame_set."""
+    action = animdata.assigned_action(obj)
+    if action is None or frames.size == 1 and frames[0] == bpy.context.scene.frame_current:
+        return np.tile(np.array(obj.matrix_world), (frames.size, 1, 1))
+    if obj.parent is not None or len(obj.constraints):
+        raise ValueError(f"target '{obj.name}' is animated and parented or constrained: bake its motion first")
+    native = native_state.native()
+    mode = obj.rotation_mode
+    prop, size = rotation_channels.channel_property(mode)
+    channels = ([("location", k) for k in range(3)] + [(prop, k) for k in range(size)] +
+                [("scale", k) for k in range(3)])
+    static = list(obj.location) + list(getattr(obj, prop)) + list(obj.scale)
+    values, found = animdata.sample(action, obj, channels, frames)
+    values[~found] = np.array(static)[~found, None]
+    q = rotation_channels.to_quaternions(native, mode, values[3:3 + size].T, f"target '{obj.name}' rotation", frames)
+    w, x, y, z = q.T
+    rot = np.stack([np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
+                    np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], -1),
+                    np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1)], 1)
+    out = np.tile(np.eye(4), (frames.size, 1, 1))
+    out[:, :3, :3] = rot * values[3 + size:].T[:, None, :]
+    out[:, :3, 3] = values[:3].T
+    return out
+
+
+def _bone_heads(obj, bone_name, frames) -> np.ndarray:
+    """World heads of another armature's bone on each frame (frames, 3), posed natively."""
+    native = native_state.native()
+    rig, bones = pose_channels.native_rig(obj.data)
+    action = animdata.assigned_action(obj)
+    rotations = pose_channels.rotations(obj, action, bones, frames)
+    locations, _ = pose_channels.locations(obj, action, bones, frames)
+    _, heads = native.armature_pose(rig, rotations, np.ascontiguousarray(locations))
+    index = [b.name for b in bones].index(bone_name)
+    world = np.array(obj.matrix_world)
+    return heads[:, 3 * index:3 * index + 3] @ world[:3, :3].T + world[:3, 3]
+
+
+def _targets(obj, effectors, frames):
+    """Per-frame targets in the armature's space: positions (frames, 3E), orientations (frames, 4E)."""
+    to_armature = np.linalg.inv(np.array(obj.matrix_world))
+    arm_rotation = np.array(obj.matrix_world.to_quaternion(), dtype=np.float64)
+    positions = np.zeros((frames.size, 3 * len(effectors)))
+    orientations = np.tile([1.0, 0.0, 0.0, 0.0], (frames.size, len(effectors)))
+    for e, effector in enumerate(effectors):
+        target = effector.target
+        if effector.pin:
+            continue
+        if target is None:
+            raise ValueError(f"{effector.label()} has no target (give one, or pin it)")
+        rotation = None
+        if isinstance(target, bpy.types.Object):
+            matrices = _world_matrices(target, frames)
+            world = matrices[:, :3, 3]
+            rotation = matrices[:, :3, :3]
+        elif isinstance(target, tuple) and len(target) == 2 and isinstance(target[0], bpy.types.Object):
+            armature, bone_name = target
+            if armature.type != 'ARMATURE' or bone_name not in armature.data.bones:
+                raise ValueError(f"{effector.label()}: '{bone_name}' is not a bone of '{armature.name}'")
+            world = _bone_heads(armature, bone_name, frames)
+        else:
+            world = np.asarray(target, dtype=np.float64)
+            if world.shape == (3,):
+                world = np.tile(world, (frames.size, 1))
+            if world.shape != (frames.size, 3):
+                raise ValueError(f"{effector.label()}: target positions must be (3,) or ({frames.size}, 3)")
+        if not np.all(np.isfinite(world)):
+            raise ValueError(f"{effector.label()}: the target is not finite")
+        positions[:, 3 * e:3 * e + 3] = world @ to_armature[:3, :3].T + to_armature[:3, 3]
+        if effector.orientation:
+            if rotation is None:
+                raise ValueError(f"{effector.label()}: an orientation target needs an object target")
+            q = _matrix_quaternions(rotation / np.linalg.norm(rotation, axis=1, keepdims=True))
+            orientations[:, 4 * e:4 * e + 4] = _multiply(arm_rotation * [1, -1, -1, -1], q)
+    return positions, orientations
+
+
+def _matrix_quaternions(m: np.ndarray) -> np.ndarray:
+    """Rotation matrices (n, 3, 3) to unit w x y z quaternions (n, 4), w >= 0 (Shepperd's method)."""
+    trace = m[:, 0, 0] + m[:, 1, 1] + m[:, 2, 2]
+    candidates = np.stack([trace, m[:, 0, 0], m[:, 1, 1], m[:, 2, 2]], axis=1)
+    pick = np.argmax(candidates, axis=1)
+    q = np.empty((len(m), 4))
+    for k in range(4):  # at most four vectorised cases, not a loop over frames
+        rows = pick == k
+        r = m[rows]
+        if k == 0:
+            s = 2.0 * np.sqrt(1.0 + trace[rows])
+            q[rows] = np.stack([0.25 * s, (r[:, 2, 1] - r[:, 1, 2]) / s, (r[:, 0, 2] - r[:, 2, 0]) / s,
+                                (r[:, 1, 0] - r[:, 0, 1]) / s], axis=1)
+            continue
+        i, j, l = k - 1, k % 3, (k + 1) % 3
+        s = 2.0 * np.sqrt(1.0 + r[:, i, i] - r[:, j, j] - r[:, l, l])
+        out = np.empty((len(r), 4))
+        out[:, 0] = (r[:, l, j] - r[:, j, l]) / s
+        out[:, 1 + i] = 0.25 * s
+        out[:, 1 + j] = (r[:, j, i] + r[:, i, j]) / s
+        out[:, 1 + l] = (r[:, l, i] + r[:, i, l]) / s
+        q[rows] = out
+    q *= np.where(q[:, :1] < 0, -1.0, 1.0)
+    return q / np.linalg.norm(q, axis=1, keepdims=True)
+
+
+def _multiply(a, b) -> np.ndarray:
+    """a (4,) times each row of b (n, 4)."""
+    w1, x1, y1, z1 = a
+    w2, x2, y2, z2 = b.T
+    return np.stack([w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2, w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
+                     w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2, w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2], axis=1)
+
+
+@dataclass
+class Plan:
+    obj: bpy.types.Object
+    bones: list
+    frames: np.ndarray
+    rotations: np.ndarray       # (frames, 4B) solved pose rotations
+    root_locations: np.ndarray  # (frames, 3)
+    moved: np.ndarray           # (B,) bool: bones whose rotation the solve changed
+    result: Result
+
+
+def plan(obj, effectors, frame_range=None, method: str = "dls", *, root_translation: bool = True,
+         root_rotation: bool = True, max_iterations: int = 64, tolerance: float | None = None,
+         damping: float = 0.0, regularization: float = 1e-4, use_limits: bool = True,
+         reference: str = "previous") -> Plan:
+    """Solve without touching the file (see solve)."""
+    native = native_state.native()
+    if obj is None or not isinstance(obj, bpy.types.Object) or obj.type != 'ARMATURE':
+        raise ValueError(f"'{getattr(obj, 'name', obj)}' is not an armature object")
+    if method not in [m[0] for m in METHODS]:
+        raise ValueError(f"unknown IK method {method!r}; expected one of {[m[0] for m in METHODS]}")
+    effectors = [e if isinstance(e, Effector) else Effector(**e) for e in effectors]
+    if not effectors:
+        raise ValueError("no effectors: give at least one bone and target")
+    rig, bones = pose_channels.native_rig(obj.data)
+    names = [b.name for b in bones]
+    for effector in effectors:
+        if effector.bone not in names:
+            raise ValueError(f"{effector.label()}: '{effector.bone}' is not a bone of '{obj.name}'")
+        if not (np.isfinite(effector.weight) and effector.weight > 0):
+            raise ValueError(f"{effector.label()}: the weight must be positive")
+    frames = _frames(obj, frame_range)
+    action = animdata.assigned_action(obj)
+    if action is None or frame_range is None:
+        # The pose as it stands (one frame): the current pose channels.
+        rows = []
+        for bone in bones:
+            pose_bone = obj.pose.bones[bone.name]
+            prop, _ = rotation_channels.channel_property(pose_bone.rotation_mode)
+            rows.append(rotation_channels.to_quaternions(
+                native, pose_bone.rotation_mode, np.array([tuple(getattr(pose_bone, prop))]),
+                f"bone '{bone.name}' rotation")[0])
+        input_rotations = np.array(rows).reshape(1, -1)
+        input_locations = np.array([tuple(obj.pose.bones[names[0]].location)], dtype=np.float64)
+    else:
+        input_rotations = pose_channels.rotations(obj, action, bones, frames)
+        locations, _ = pose_channels.locations(obj, action, bones, frames)
+        input_locations = np.ascontiguousarray(locations[:, :3])
+    positions, orientations = _targets(obj, effectors, frames)
+    height = max(np.ptp(np.array([b.head_local for b in bones] + [b.tail_local for b in bones]), axis=0))
+    options = joint_limits(obj, bones) if use_limits else {}
+    solved = native.ik_solve(
+        rig, np.ascontiguousarray(input_rotations), np.ascontiguousarray(input_locations),
+        np.ascontiguousarray(positions), np.ascontiguousarray(orientations),
+        [{"name": e.label(), "bone": names.index(e.bone), "weight": float(e.weight), "position": e.position,
+          "orientation": e.orientation, "pin": e.pin} for e in effectors],
+        method=method, max_iterations=max_iterations,
+        tolerance=float(tolerance if tolerance is not None else 1e-5 * height),
+        damping=damping, regularization=regularization, reference=reference,
+        root_translation=root_translation, root_rotation=root_rotation, **options)
+    rotations = solved["rotations"]
+    base = np.broadcast_to(input_rotations, rotations.shape)
+    dots = np.abs(np.einsum("fbk,fbk->fb", rotations.reshape(frames.size, -1, 4), base.reshape(frames.size, -1, 4)))
+    moved = np.any(dots < 1.0 - 1e-12, axis=0)
+    if root_translation:
+        moved[0] = True
+    result = Result(frames, solved["errors"], solved["iterations"], [names[i] for i in np.flatnonzero(moved)])
+    return Plan(obj, bones, frames, rotations, solved["root_locations"], moved, result)
+
+
+def _channels(plan_: Plan) -> tuple[list, np.ndarray]:
+    native = native_state.native()
+    channels, rows = [], []
+    frames = plan_.frames.size
+    for b in np.flatnonzero(plan_.moved):
+        bone = plan_.bones[b]
+        pose_bone = plan_.obj.pose.bones[bone.name]
+        path = f'pose.bones["{bpy.utils.escape_identifier(bone.name)}"]'
+        if b == 0:
+            channels += [(f"{path}.location", k, bone.name) for k in range(3)]
+            rows.append(plan_.root_locations.T)
+        mode = pose_bone.rotation_mode
+        prop, size = rotation_channels.channel_property(mode)
+        previous = np.array(tuple(getattr(pose_bone, prop)), dtype=np.float64)
+        q = np.ascontiguousarray(plan_.rotations[:, 4 * b:4 * b + 4])
+        values = rotation_channels.from_quaternions(native, mode, q, previous=previous)
+        channels += [(f"{path}.{prop}", k, bone.name) for k in range(size)]
+        rows.append(values.T.reshape(size, frames))
+    values = np.vstack(rows) if rows else np.empty((0, frames))
+    if not np.all(np.isfinite(values)):
+        raise ValueError("the IK solution is not finite")
+    return channels, values
+
+
+def apply_pose(plan_: Plan) -> None:
+    """Put the plan's first frame on the pose (no keys)."""
+    channels, values = _channels(plan_)
+    obj = plan_.obj
+    for (path, index, _), value in zip(channels, values[:, 0]):
+        owner, prop = path.rsplit(".", 1)
+        getattr(obj.path_resolve(owner), prop)[index] = value
+
+
+def apply_keys(plan_: Plan, *, new_action: bool = True, action_name: str | None = None) -> bpy.types.Action:
+    """Key the plan's frames on the solved bones: in a new action (the current one is copied
+    first, so that the other bones keep their motion) or in the current action."""
+    channels, values = _channels(plan_)
+    obj = plan_.obj
+    current = animdata.assigned_action(obj)
+    if new_action or current is None:
+        action = current.copy() if current is not None else animdata.new_action(action_name or f"{obj.name} IK")
+        action.name = action_name or f"{current.name if current else obj.name} IK"
+        try:
+            animdata.write_keys(obj, action, channels, plan_.frames, values)
+            if current is not None and current.users == 1 and not current.use_fake_user:
+                current.use_fake_user = True
+            animdata.assign(obj, action)
+        except BaseException:
+            bpy.data.actions.remove(action)
+            raise
+        return action
+    animdata.write_keys(obj, current, channels, plan_.frames, values)
+    return current
+
+
+def solve(armature, effectors, frame_range=None, method: str = "dls", *, new_action: bool = True, **options):
+    """Solve full-body IK; returns a Result (errors per frame and effector, iterations).
+
+    effectors: Effector objects or dicts with their fields. frame_range None
+    solves the current frame and poses the armature; (start, end) solves every
+    frame (each warm-started from the one before, the armature's action as the
+    input pose) and keys the solved bones, in a new action (a copy of the
+    current one: the other bones keep their motion) or, with new_action=False,
+    in the current action. method: "dls", "pinv", "transpose" or "ccd".
+    options: root_translation, root_rotation (default True: the hips may
+    move), max_iterations, tolerance (default 1e-5 of the rig's size),
+    damping, regularization, use_limits (the bones' IK limits, default True),
+    reference ("previous" or "input"). A ValueError changes nothing.
+    """
+    plan_ = plan(armature, effectors, frame_range, method, **options)
+    if frame_range is None:
+        apply_pose(plan_)
+    else:
+        apply_keys(plan_, new_action=new_action)
+    return plan_.result
