@@ -32,7 +32,9 @@ class Effector:
     target: an Object (its world location, and rotation with orientation=True),
     (armature Object, bone name) for a bone's head, a world position (3,), or
     per-frame world positions (frames, 3). pin=True holds the tail where the
-    input pose has it on each frame (no target needed).
+    input pose has it on each frame (no target needed). chain_count limits the
+    bones this effector moves, as Blender's IK constraint does; when any
+    effector has one, bones on no effector's chain stay as they are.
     """
     bone: str
     target: object = None
@@ -41,6 +43,7 @@ class Effector:
     position: bool = True
     orientation: bool = False
     name: str = ""
+    chain_count: int = 0  # as Blender's IK constraint: bones solved up from this one; 0 = up to the root
 
     def label(self) -> str:
         return self.name or f"effector on '{self.bone}'"
@@ -249,6 +252,8 @@ def plan(obj, effectors, frame_range=None, method: str = "dls", *, root_translat
     positions, orientations = _targets(obj, effectors, frames)
     height = max(np.ptp(np.array([b.head_local for b in bones] + [b.tail_local for b in bones]), axis=0))
     options = joint_limits(obj, bones) if use_limits else {}
+    if any(e.chain_count > 0 for e in effectors):
+        options["excluded"] = _outside_chains(bones, names, effectors)
     solved = native.ik_solve(
         rig, np.ascontiguousarray(input_rotations), np.ascontiguousarray(input_locations),
         np.ascontiguousarray(positions), np.ascontiguousarray(orientations),
@@ -266,6 +271,18 @@ def plan(obj, effectors, frame_range=None, method: str = "dls", *, root_translat
         moved[0] = True
     result = Result(frames, solved["errors"], solved["iterations"], [names[i] for i in np.flatnonzero(moved)])
     return Plan(obj, bones, frames, rotations, solved["root_locations"], moved, result)
+
+
+def _outside_chains(bones, names, effectors) -> np.ndarray:
+    """Bones that no effector's chain reaches (True = not solved)."""
+    index = {name: i for i, name in enumerate(names)}
+    reached = np.zeros(len(bones), dtype=bool)
+    for effector in effectors:
+        bone, count = bones[index[effector.bone]], 0
+        while bone is not None and (effector.chain_count <= 0 or count < effector.chain_count):
+            reached[index[bone.name]] = True
+            bone, count = bone.parent, count + 1
+    return ~reached
 
 
 def _channels(plan_: Plan) -> tuple[list, np.ndarray]:

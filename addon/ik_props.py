@@ -20,13 +20,15 @@ class MOTIONKIT_PG_ik_effector(bpy.types.PropertyGroup):
     weight: FloatProperty(name="Weight", default=1.0, min=1e-3, max=1e3)
     use_position: BoolProperty(name="Position", default=True)
     use_orientation: BoolProperty(name="Orientation", description="Also match the target's rotation")
+    chain_count: IntProperty(name="Chain Length", default=0, min=0, max=255,
+                             description="Bones this effector moves, up from its bone; 0: up to the root")
 
     def effector(self) -> ik.Effector:
         target = self.target
         if target is not None and target.type == 'ARMATURE' and self.subtarget:
             target = (target, self.subtarget)
         return ik.Effector(self.bone, None if self.pin else target, self.pin, self.weight, self.use_position,
-                           self.use_orientation, name=f"effector on '{self.bone}'")
+                           self.use_orientation, name=f"effector on '{self.bone}'", chain_count=self.chain_count)
 
 
 class MOTIONKIT_PG_ik(bpy.types.PropertyGroup):

@@ -135,6 +135,7 @@ class MOTIONKIT_PT_ik(bpy.types.Panel):
             row.prop(item, "weight")
             row.prop(item, "use_position", toggle=True)
             row.prop(item, "use_orientation", toggle=True)
+            layout.prop(item, "chain_count")
         layout.use_property_split = True
         layout.use_property_decorate = False
         layout.prop(settings, "method")
