@@ -75,6 +75,7 @@ def native_rig(armature, bones=None):
     bones = bones if bones is not None else depth_first(armature)
     index = {bone.name: i for i, bone in enumerate(bones)}
     rest = rest_quaternions(armature)
+    rest = {name: q / np.linalg.norm(q) for name, q in rest.items()}  # float32 matrices: unit to ~1e-6 only
     rig = native.Rig([b.name for b in bones], [index[b.parent.name] if b.parent else -1 for b in bones],
                      np.array([rest[b.name] for b in bones], dtype=np.float64).reshape(-1, 4),
                      np.array([b.head_local for b in bones], dtype=np.float64).reshape(-1, 3),

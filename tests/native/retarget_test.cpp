@@ -321,3 +321,19 @@ TEST(Rig, RefusesChildrenBeforeParents) {
 
 }  // namespace
 }  // namespace motionkit
+
+namespace motionkit {
+namespace {
+
+TEST(Rig, TakesBlendersFloat32RestRotationsAndRefusesGarbage) {
+  RowMatrixXd rest(1, 4), heads = RowMatrixXd::Zero(1, 3);
+  Eigen::VectorXd lengths = Eigen::VectorXd::Ones(1);
+  rest << 1.0 + 5e-6, 0, 0, 0;  // a float32 matrix's quaternion
+  const RigModel rig({"a"}, {-1}, rest, heads, lengths);
+  EXPECT_NEAR(rig.rest(0).norm(), 1.0, 1e-15);
+  rest << 0.5, 0, 0, 0;
+  EXPECT_THROW(RigModel({"a"}, {-1}, rest, heads, lengths), Error);
+}
+
+}  // namespace
+}  // namespace motionkit

@@ -29,7 +29,7 @@ class RigModel {
            const RowMatrixXd& rest_heads, const Eigen::VectorXd& lengths);
 
   // Names unique and non-empty, parents before children, rest rotations
-  // finite and unit (to 1e-6), heads finite, lengths finite and positive.
+  // finite and unit (to 1e-3; they are normalised), heads finite, lengths finite and positive.
   Status Validate() const;
 
   int size() const { return static_cast<int>(parents_.size()); }
