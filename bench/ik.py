@@ -1,0 +1,169 @@
+"""Benchmark: baking full-body IK over a 10,000-frame clip on a 60-bone rig, MotionKit against Blender's IK.
+
+Run inside Blender (`make bench` runs it on both Blenders):
+
+    tools/with_blender.sh 5.2 -b --factory-startup --python bench/ik.py -- \\
+        --zip dist/motionkit-0.1.0-linux-x64-py314.zip
+
+The rig is bench/retarget.py's humanoid (--bones bones) with its random clip
+(one key per frame on every bone). Four empties follow smooth paths near the
+hands' and feet's tails in the clip (reachable: each is the tail's own path
+plus a slow circle of 6 cm), and each of the four bones must reach its empty:
+the arms through clavicle, upper arm, forearm and hand (chain of 4), the legs
+through thigh, shin and foot (chain of 3), the root as the clip has it. That
+is what Blender's IK constraint can express, so both ways solve the same
+problem:
+- MotionKit: motionkit.ik.solve over the whole range (DLS, warm-started frame
+  to frame), keys on the solved bones in a new action, end to end, median of
+  --repeat runs from the same state;
+- Blender: an IK constraint per effector with the same target and chain
+  length, then bpy.ops.nla.bake with visual keying, timed on --bake-frames
+  frames and scaled linearly to --frames (stated in the output).
+Residual: the effectors' distance to their targets on sampled frames (the
+depsgraph's pose matrices), for both; MotionKit's must be no larger.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import sys
+import time
+
+import bpy
+import numpy as np
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path[:0] = [os.path.join(os.path.dirname(HERE), "tools"), HERE]
+
+import install_addon  # noqa: E402
+import retarget as rig_bench  # noqa: E402  (the humanoid rig and its clip)
+
+EFFECTORS = (("arm_L_3", 4), ("arm_R_3", 4), ("leg_L_2", 3), ("leg_R_2", 3))  # bone, chain length
+
+
+def tails(mk, obj, names, frames) -> np.ndarray:
+    """World tails of the bones on each frame, (frames, bones, 3), posed natively from the clip."""
+    import importlib
+    pose_channels = importlib.import_module(mk.__name__ + ".pose_channels")
+    rig, bones = pose_channels.native_rig(obj.data)
+    action = obj.animation_data.action
+    rotations = pose_channels.rotations(obj, action, bones, frames)
+    locations, _ = pose_channels.locations(obj, action, bones, frames)
+    g, heads = mk.native().armature_pose(rig, rotations, np.ascontiguousarray(locations))
+    index = [b.name for b in bones]
+    out = []
+    for name in names:
+        i = index.index(name)
+        w, x, y, z = g[:, 4 * i:4 * i + 4].T
+        axis = np.stack([2 * (x * y - w * z), 1 - 2 * (x * x + z * z), 2 * (y * z + w * x)], axis=1)
+        out.append(heads[:, 3 * i:3 * i + 3] + bones[i].length * axis)
+    return np.stack(out, axis=1)
+
+
+def add_targets(mk, obj, frames):
+    """One empty per effector, keyed on every frame along the tail's path plus a slow circle."""
+    paths = tails(mk, obj, [b for b, _ in EFFECTORS], frames)
+    phase = 2.0 * np.pi * frames / 240.0
+    empties = []
+    for e, (bone, _) in enumerate(EFFECTORS):
+        empty = bpy.data.objects.new(f"Goal_{bone}", None)
+        bpy.context.scene.collection.objects.link(empty)
+        path = paths[:, e] + 0.06 * np.stack([np.cos(phase + e), np.sin(phase + e), 0.5 * np.sin(2 * phase)], 1)
+        action = mk.animdata.new_action(empty.name)
+        mk.animdata.write_keys(empty, action, [("location", k) for k in range(3)], frames, path.T)
+        mk.animdata.assign(empty, action)
+        empties.append(empty)
+    return empties
+
+
+def residuals(obj, empties, frames) -> np.ndarray:
+    scene = bpy.context.scene
+    out = []
+    for frame in frames:
+        scene.frame_set(int(frame))
+        out.append([(obj.matrix_world @ obj.pose.bones[b].tail - g.matrix_world.translation).length
+                    for (b, _), g in zip(EFFECTORS, empties)])
+    return np.array(out)
+
+
+def run_blender_ik(obj, empties, bake_frames: int):
+    for other in bpy.context.view_layer.objects:
+        other.select_set(other == obj)
+    bpy.context.view_layer.objects.active = obj
+    start = time.perf_counter()
+    bpy.ops.object.mode_set(mode='POSE')
+    for (bone, chain), goal in zip(EFFECTORS, empties):
+        con = obj.pose.bones[bone].constraints.new('IK')
+        con.target, con.chain_count = goal, chain
+    setup = time.perf_counter() - start
+    options = dict(frame_start=1, frame_end=bake_frames, only_selected=False, visual_keying=True,
+                   clear_constraints=True, bake_types={'POSE'})
+    if "channel_types" in bpy.ops.nla.bake.get_rna_type().properties:
+        options["channel_types"] = {'LOCATION', 'ROTATION'}
+    start = time.perf_counter()
+    result = bpy.ops.nla.bake(**options)
+    bake = time.perf_counter() - start
+    bpy.ops.object.mode_set(mode='OBJECT')
+    if result != {'FINISHED'}:
+        raise SystemExit(f"ik.py: nla.bake returned {result}")
+    return setup, bake
+
+
+def main() -> None:
+    argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
+    parser = argparse.ArgumentParser(prog="ik.py")
+    parser.add_argument("--zip", required=True)
+    parser.add_argument("--frames", type=int, default=10_000)
+    parser.add_argument("--bones", type=int, default=60)
+    parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--bake-frames", type=int, default=500)
+    args = parser.parse_args(argv)
+    install_addon.install(args.zip)
+    import motionkit as mk
+
+    scene = bpy.context.scene
+    scene.frame_start, scene.frame_end = 1, args.frames
+    obj = rig_bench.build_rig("Rig", args.bones, target=False)
+    clip = rig_bench.source_action(mk.animdata, obj, args.frames)
+    frames = np.arange(1, args.frames + 1, dtype=np.float64)
+    empties = add_targets(mk, obj, frames)
+    effectors = [mk.ik.Effector(bone, target=goal, chain_count=chain) for (bone, chain), goal in zip(EFFECTORS, empties)]
+
+    times, action = [], None
+    for _ in range(args.repeat):
+        if action is not None and action != clip:
+            obj.animation_data.action = clip
+            bpy.data.actions.remove(action)
+        start = time.perf_counter()
+        result = mk.ik.solve(obj, effectors, frame_range=(1, args.frames), root_translation=False,
+                             root_rotation=False)
+        times.append(time.perf_counter() - start)
+        action = obj.animation_data.action
+    ours_s = statistics.median(times)
+    check = np.unique(np.linspace(1, args.bake_frames, 12).round())
+    ours = residuals(obj, empties, check)
+    solver = result.errors
+
+    obj.animation_data.action = clip
+    bpy.data.actions.remove(action)
+    setup_s, bake_s = run_blender_ik(obj, empties, args.bake_frames)
+    theirs = residuals(obj, empties, check)
+    blender_full = setup_s + bake_s * args.frames / args.bake_frames
+
+    print(f"\nBlender {bpy.app.version_string}: {args.bones} bones, {args.frames:,} frames, 4 effectors "
+          f"(chains 4, 4, 3, 3), root from the clip")
+    print("| method | seconds | residual mean / max (m) | MotionKit faster by |")
+    print("|---|---:|---:|---:|")
+    print(f"| motionkit.ik.solve, DLS, keys in a new action (median of {args.repeat}) | {ours_s:.3f} | "
+          f"{ours.mean():.1e} / {ours.max():.1e} | {blender_full / ours_s:.0f}x |")
+    print(f"| IK constraints + nla.bake, {args.bake_frames} frames timed ({bake_s:.2f} s + {setup_s:.2f} s "
+          f"setup), scaled to {args.frames:,} | {blender_full:.1f} | {theirs.mean():.1e} / {theirs.max():.1e} | |")
+    print(f"MotionKit's own residuals over all {args.frames:,} frames: mean {solver.mean():.1e}, "
+          f"max {solver.max():.1e} m; median iterations {np.median(result.iterations):.0f}")
+    if ours.max() > theirs.max() + 1e-6:
+        raise SystemExit("ik.py: MotionKit's residual is larger than Blender's")
+
+
+if __name__ == "__main__":
+    main()
