@@ -122,6 +122,63 @@ void CholeskySolve(const double* l, int n, double* x) {
   }
 }
 
+// A swing's rotation vector is at most pi long, and a half turn has two (x,
+// z) for one rotation; a twist of pi is one of -pi. Limits are kept a hair
+// inside both, so that what is clamped decomposes back to the same numbers.
+constexpr double kSwingReach = kPi - 1e-6;
+constexpr double kTwistReach = kPi - 1e-9;
+
+// The nearest coordinates within the limits' box that a rotation can have:
+// the twist in (-pi, pi), the swing (x, z) in the disk of radius pi. When
+// the box's clamp leaves the disk, the nearest point of box and disk lies on
+// the circle: the radial projection, or where the circle meets the box's
+// edges, or a corner of the box.
+Vec3 ClampToLimits(const Vec3& a, const Vec3& lo, const Vec3& hi) {
+  Vec3 c = a.cwiseMax(lo).cwiseMin(hi);
+  c.y() = std::clamp(c.y(), std::max(lo.y(), -kTwistReach), std::min(hi.y(), kTwistReach));
+  const double x0 = c.x(), z0 = c.z(), r2 = kSwingReach * kSwingReach;
+  if (x0 * x0 + z0 * z0 <= r2) return c;
+  double best = kInf, bx = x0, bz = z0;
+  const auto consider = [&](double x, double z) {
+    const double slack = 1e-12;
+    if (!(x >= lo.x() - slack && x <= hi.x() + slack && z >= lo.z() - slack && z <= hi.z() + slack)) return;
+    if (x * x + z * z > r2 * (1.0 + 1e-12)) return;
+    const double d = (x - x0) * (x - x0) + (z - z0) * (z - z0);
+    if (d < best) {
+      best = d;
+      bx = x;
+      bz = z;
+    }
+  };
+  const double r = std::hypot(x0, z0);
+  consider(x0 * kSwingReach / r, z0 * kSwingReach / r);
+  for (const double x : {lo.x(), hi.x()}) {
+    if (std::abs(x) > kSwingReach) continue;
+    const double h = std::sqrt(r2 - x * x);
+    consider(x, h);
+    consider(x, -h);
+    for (const double z : {lo.z(), hi.z()}) consider(x, z);
+  }
+  for (const double z : {lo.z(), hi.z()}) {
+    if (std::abs(z) > kSwingReach) continue;
+    const double h = std::sqrt(r2 - z * z);
+    consider(h, z);
+    consider(-h, z);
+  }
+  if (best == kInf) {  // no swing meets the limits (Validate refuses them): the nearest the disk allows
+    bx = x0 * kSwingReach / r;
+    bz = z0 * kSwingReach / r;
+  }
+  c.x() = std::clamp(bx, lo.x(), hi.x());
+  c.z() = std::clamp(bz, lo.z(), hi.z());
+  const double n = std::hypot(c.x(), c.z());
+  if (n > kSwingReach) {
+    c.x() *= kSwingReach / n;
+    c.z() *= kSwingReach / n;
+  }
+  return c;
+}
+
 std::string FrameIndex(Eigen::Index f) { return "frame index " + std::to_string(f); }
 
 std::string EffectorName(const IkEffector& e, std::size_t i) {
@@ -220,6 +277,8 @@ class Solver {
   void ClampStep(double* u) const;
   void Apply(const Pose& from, const double* u, Pose& to) const;
   bool Kick(double mu, Cost& cost);
+  void FindBounds();
+  bool Freeze(const double* u);
   Vec3 BestRotation(const std::array<Vec3, 3>& p, const std::array<Vec3, 3>& t, int count,
                     const Vec3& pivot) const;
 
@@ -257,6 +316,11 @@ class Solver {
   // joint's columns), and the joint's block of W.
   std::vector<Eigen::Matrix3d> bend_world_, bend_, weight_;
   double bend_weight_ = 0.0;  // how much of the curvature DLS uses: 0 until a step fails
+  // Unknowns held for this iteration: on a bound (a limit, a scale range)
+  // that the step would push past. Per column, and each limited joint's
+  // coordinates (swing x, twist, swing z) at the iteration's start.
+  std::vector<char> frozen_;
+  std::vector<Vec3> coordinates_;
   std::vector<char> met_, kick_;
 };
 
@@ -303,6 +367,8 @@ Solver::Solver(IkClipJob& job) : job_(job), rig_(job.rig), options_(job.options)
   for (std::vector<double>* v : {&u_, &u0_, &g_, &w_, &rho_}) v->assign(cols, 0.0);
   for (auto* v : {&bend_world_, &bend_, &weight_}) v->assign(joints_.size(), Eigen::Matrix3d::Zero());
   met_.assign(static_cast<std::size_t>(effector_count_), 0);
+  frozen_.assign(cols, 0);
+  coordinates_.assign(joints_.size(), Vec3::Zero());
   kick_.assign(joints_.size(), 0);
 }
 
@@ -571,7 +637,7 @@ void Solver::ClampJoint(const Joint& j, Pose& pose) const {
   if (!j.limited) return;
   Quat& q = At(pose.basis, j.bone);
   const Vec3 a = IkSwingTwist(q);
-  const Vec3 c = a.cwiseMax(j.lo).cwiseMin(j.hi);
+  const Vec3 c = ClampToLimits(a, j.lo, j.hi);
   if (c != a) q = IkFromSwingTwist(c);
 }
 
@@ -734,19 +800,28 @@ bool Solver::Direction(double lambda2, double mu) {
       // from overshooting, so lambda need not grow to do it.
       for (int j = 0; j < cols_; ++j) {
         const double d = columns_[static_cast<std::size_t>(j)].scale;
-        At(w_, j) = 1.0 / (lambda2 + mu * d * d);
-        At(g_, j) = mu > 0.0 ? -mu * d * At(rho_, j) : 0.0;  // b
+        const bool held = At(frozen_, j);
+        At(w_, j) = held ? 0.0 : 1.0 / (lambda2 + mu * d * d);
+        At(g_, j) = mu > 0.0 && !held ? -mu * d * At(rho_, j) : 0.0;  // b
       }
       for (std::size_t jo = 0; jo < joints_.size(); ++jo) {
         const Joint& j = joints_[jo];
         if (j.axis_count == 0) continue;
         Eigen::Matrix3d m = Eigen::Matrix3d::Identity();
         for (int k = 0; k < j.axis_count; ++k) {
-          for (int l = 0; l < j.axis_count; ++l) m(k, l) = bend_weight_ * bend_[jo](k, l);
+          if (At(frozen_, j.first_column + k)) continue;
+          for (int l = 0; l < j.axis_count; ++l) {
+            if (!At(frozen_, j.first_column + l)) m(k, l) = bend_weight_ * bend_[jo](k, l);
+          }
           const double d = j.axis_scale[static_cast<std::size_t>(k)];
           m(k, k) += lambda2 + mu * d * d;
         }
         weight_[jo] = m.inverse();
+        for (int k = 0; k < j.axis_count; ++k) {
+          if (!At(frozen_, j.first_column + k)) continue;
+          weight_[jo].row(k).setZero();
+          weight_[jo].col(k).setZero();
+        }
       }
       MultiplyW(g_.data(), u0_.data());  // u0 = W b
       MultiplyA(u0_.data(), h_.data());
@@ -853,6 +928,52 @@ void Solver::Apply(const Pose& from, const double* u, Pose& to) const {
     if (j.stretch_column >= 0) At(to.scale, b) = At(from.scale, b) + j.stretch * u[j.stretch_column];
     ClampJoint(j, to);
   }
+}
+
+// Where each limited joint stands in its limits' coordinates, at the
+// iteration's start; nothing is held yet.
+void Solver::FindBounds() {
+  std::fill(frozen_.begin(), frozen_.end(), 0);
+  for (std::size_t jo = 0; jo < joints_.size(); ++jo) {
+    if (joints_[jo].limited) coordinates_[jo] = IkSwingTwist(At(current_.basis, joints_[jo].bone));
+  }
+}
+
+// Holds the unknowns that sit on a bound the step `u` would push them past
+// (their columns drop out of the Jacobian for this iteration), so that the
+// rest of the step is solved for what can move instead of being clamped
+// afterwards. A rotation column stands for its own coordinate (X and Z for
+// the swing, Y for the twist), to first order. True if any was newly held.
+bool Solver::Freeze(const double* u) {
+  bool any = false;
+  const auto hold = [&](int column) {
+    if (At(frozen_, column)) return;
+    At(frozen_, column) = 1;
+    any = true;
+  };
+  for (std::size_t jo = 0; jo < joints_.size(); ++jo) {
+    const Joint& j = joints_[jo];
+    if (j.stretch_column >= 0) {
+      const double s = At(current_.scale, j.bone), du = u[j.stretch_column];
+      if ((du > 0.0 && s >= j.max_scale) || (du < 0.0 && s <= j.min_scale)) hold(j.stretch_column);
+    }
+    if (!j.limited) continue;
+    const Vec3& a = coordinates_[jo];
+    for (int k = 0; k < j.axis_count; ++k) {
+      const int axis = j.axes[static_cast<std::size_t>(k)], column = j.first_column + k;
+      const double du = u[column];
+      if ((du > 0.0 && a[axis] >= j.hi[axis] - 1e-9) || (du < 0.0 && a[axis] <= j.lo[axis] + 1e-9)) hold(column);
+    }
+  }
+  if (!any) return false;
+  for (Effector& e : effectors_) {
+    const std::size_t n = e.columns.size();
+    for (std::size_t i = 0; i < n; ++i) {
+      if (!At(frozen_, e.columns[i])) continue;
+      for (int r = 0; r < e.rows; ++r) e.block[static_cast<std::size_t>(r) * n + i] = 0.0;
+    }
+  }
+  return true;
 }
 
 // A stationary point that is not a solution (a straight chain asked to fold,
@@ -1005,26 +1126,35 @@ int Solver::SolveJacobian() {
       floor2 = 1e-12 * trace / std::max(rows_, 1) + 1e-300;
     }
     damp2 = std::max(damp2, floor2);
+    FindBounds();
     bool have_direction = false, accepted = false, stalled = false, broken = false;
     double fraction = 1.0, next_merit = 0.0;
     Cost next;
     while (it < limit) {
       ++it;
       if (!damped) {
-        if (!have_direction && !Direction(0.0, 0.0)) {
-          stalled = true;
-          break;
+        if (!have_direction) {
+          bool ok = Direction(0.0, 0.0);
+          while (ok && Freeze(u0_.data())) ok = Direction(0.0, 0.0);
+          if (!ok) {
+            stalled = true;
+            break;
+          }
         }
         have_direction = true;
         for (int j = 0; j < cols_; ++j) At(u_, j) = fraction * At(u0_, j);
-      } else if (!Direction(damp2, mu)) {
-        damp2 *= nu;
-        nu *= 2.0;
-        if (damp2 > 1e30 * floor2) {
-          stalled = true;
-          break;
+      } else {
+        bool ok = Direction(damp2, mu);
+        while (ok && Freeze(u_.data())) ok = Direction(damp2, mu);
+        if (!ok) {
+          damp2 *= nu;
+          nu *= 2.0;
+          if (damp2 > 1e30 * floor2) {
+            stalled = true;
+            break;
+          }
+          continue;
         }
-        continue;
       }
       double largest = 0.0;
       for (double v : u_) largest = std::max(largest, std::abs(v));
@@ -1407,6 +1537,16 @@ Status IkClipJob::Validate() const {
       if (!(std::isfinite(j.stiffness[k]) && j.stiffness[k] >= 0 && j.stiffness[k] < 1)) {
         return fail(name + ": stiffness must be in [0, 1)");
       }
+    }
+    // Something must lie within the limits: a twist in [-pi, pi], a swing
+    // whose rotation vector is at most pi long.
+    Eigen::Vector3d lo = j.min, hi = j.max;
+    for (int k = 0; k < 3; ++k) {
+      if (j.locked[static_cast<std::size_t>(k)]) lo[k] = hi[k] = 0.0;
+    }
+    const double near_x = std::clamp(0.0, lo.x(), hi.x()), near_z = std::clamp(0.0, lo.z(), hi.z());
+    if (lo.y() > kPi - 1e-6 || hi.y() < -kPi + 1e-6 || std::hypot(near_x, near_z) > kSwingReach) {
+      return fail(name + ": the limits leave no rotation (twist within [-pi, pi], swing at most pi)");
     }
     if (!(std::isfinite(j.stretch) && j.stretch >= 0)) return fail(name + ": stretch must be finite and >= 0");
     if (j.stretch > 0 && !(std::isfinite(j.min_scale) && std::isfinite(j.max_scale) && j.min_scale > 0 &&
