@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <limits>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -409,9 +410,11 @@ struct FullBody {
   // hands of the same pose with spine and arms posed anew.
   void Reachable(Problem& p, Eigen::Index f, std::mt19937& rng, double spread) const {
     std::uniform_real_distribution<double> u(-1.0, 1.0);
-    if (p.input_rotations.rows() <= f) {
-      p.input_rotations.conservativeResize(f + 1, Eigen::NoChange);
+    if (p.input_rotations.rows() <= f) p.input_rotations.conservativeResize(f + 1, Eigen::NoChange);
+    if (p.input_locations.rows() <= f) {
+      const Eigen::Index had = p.input_locations.rows();
       p.input_locations.conservativeResize(f + 1, Eigen::NoChange);
+      for (Eigen::Index r = had; r < f + 1; ++r) p.input_locations.row(r) = p.input_locations.row(0);
     }
     RandomPose(p.input_rotations, f, rig.size(), rng, spread);
     SetQuat(p.input_rotations, f, 0, RandomRotation(rng, 0.2));
@@ -546,5 +549,408 @@ TEST(IkConvergence, DlsMeetsRandomReachableFullBodyTargets) {
   }
 }
 
+
+// Which bones the solver may move: those on a path from the root to an
+// effector, less excluded ones, the root itself only with root_rotation.
+std::vector<bool> SolvedBones(const Problem& p) {
+  std::vector<bool> solved(static_cast<std::size_t>(p.rig->size()), false);
+  for (const IkEffector& e : p.effectors) {
+    for (int b = e.bone; b >= 0; b = p.rig->parent(b)) {
+      const bool excluded = !p.joints.empty() && p.joints[static_cast<std::size_t>(b)].excluded;
+      solved[static_cast<std::size_t>(b)] = !excluded && (b != 0 || p.options.root_rotation);
+    }
+  }
+  return solved;
+}
+
+// Every output inside its limits (decomposed as ik.hpp defines them), locked
+// axes at zero, scales in range, and every bone not solved as it came in.
+void ExpectWithinLimits(const Problem& p, const std::string& what) {
+  const std::vector<bool> solved = SolvedBones(p);
+  for (Eigen::Index f = 0; f < p.rotations.rows(); ++f) {
+    ASSERT_TRUE(p.rotations.row(f).allFinite() && p.root_locations.row(f).allFinite() &&
+                p.scales.row(f).allFinite() && p.errors.row(f).allFinite())
+        << what << " frame " << f;
+    const Eigen::Index in_row = p.input_rotations.rows() == 1 ? 0 : f;
+    for (int b = 0; b < p.rig->size(); ++b) {
+      const auto i = static_cast<std::size_t>(b);
+      if (!solved[i]) {
+        ASSERT_EQ(p.rotations.row(f).segment<4>(4 * b), p.input_rotations.row(in_row).segment<4>(4 * b))
+            << what << ": bone " << b << " is not solved but moved, frame " << f;
+        continue;
+      }
+      if (p.joints.empty()) continue;
+      const IkJoint& j = p.joints[i];
+      const Vec3 a = IkSwingTwist(QuatAt(p.rotations, f, b).normalized());
+      for (int k = 0; k < 3; ++k) {
+        const bool locked = j.locked[static_cast<std::size_t>(k)];
+        const double lo = locked ? 0.0 : j.min[k], hi = locked ? 0.0 : j.max[k];
+        ASSERT_GE(a[k], lo - 1e-9) << what << ": bone " << b << " axis " << k << " frame " << f;
+        ASSERT_LE(a[k], hi + 1e-9) << what << ": bone " << b << " axis " << k << " frame " << f;
+      }
+      const double s = p.scales(f, b);
+      if (j.stretch > 0) {
+        ASSERT_GE(s, j.min_scale - 1e-12) << what;
+        ASSERT_LE(s, j.max_scale + 1e-12) << what;
+      } else {
+        ASSERT_EQ(s, 1.0) << what;
+      }
+    }
+  }
+}
+
+TEST(IkLimits, NeverExceededWithRandomTargets) {
+  std::mt19937 rng(31);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  const FullBody body(&rng);
+  for (IkMethod method : kMethods) {
+    const int frames = 40;
+    Problem p(body.rig, frames, body.Effectors());
+    p.joints.resize(static_cast<std::size_t>(body.rig.size()));
+    for (IkJoint& j : p.joints) {
+      for (int k = 0; k < 3; ++k) {
+        j.min[k] = -0.1 - 1.2 * u(rng);
+        j.max[k] = 0.1 + 1.2 * u(rng);
+        j.locked[static_cast<std::size_t>(k)] = u(rng) < 0.15;
+        j.stiffness[k] = u(rng) < 0.3 ? 0.8 * u(rng) : 0.0;
+      }
+    }
+    p.input_rotations = Identity(body.rig.size(), frames);
+    for (int f = 0; f < frames; ++f) {
+      RandomPose(p.input_rotations, f, body.rig.size(), rng, 0.6);  // often outside the limits
+      for (int e = 0; e < 2; ++e) {
+        const Vec3 t(2 * u(rng) - 1, 2 * u(rng) - 1, 2 * u(rng));
+        p.SetTarget(f, e, u(rng) < 0.2 ? Vec3(3.0 * t) : t);  // some far out of reach
+      }
+    }
+    p.input_locations = RowMatrixXd::Zero(1, 3);
+    p.options.method = method;
+    p.options.root_translation = true;
+    p.options.root_rotation = true;
+    p.Run();
+    ExpectWithinLimits(p, MethodName(method));
+  }
+}
+
+TEST(IkLimits, LockedAxesStayAtZero) {
+  std::mt19937 rng(37);
+  const FullBody body(&rng);
+  for (IkMethod method : kMethods) {
+    Problem p(body.rig, 10, body.Effectors());
+    p.joints.resize(static_cast<std::size_t>(body.rig.size()));
+    for (int b = 0; b < body.rig.size(); ++b) {
+      const std::string& n = body.rig.name(b);
+      IkJoint& j = p.joints[static_cast<std::size_t>(b)];
+      if (n.rfind("forearm", 0) == 0 || n.rfind("shin", 0) == 0) j.locked = {{false, true, true}};  // hinges about X
+      if (n.rfind("spine", 0) == 0) j.locked = {{false, true, false}};  // no twist
+    }
+    p.input_rotations = Identity(body.rig.size(), 10);
+    for (int f = 0; f < 10; ++f) {
+      RandomPose(p.input_rotations, f, body.rig.size(), rng, 0.5);
+      body.Reachable(p, f, rng, 0.5);
+    }
+    p.options.method = method;
+    p.options.root_translation = true;
+    p.options.root_rotation = true;
+    p.Run();
+    ExpectWithinLimits(p, MethodName(method));
+    for (int f = 0; f < 10; ++f) {
+      const Vec3 knee = IkSwingTwist(QuatAt(p.rotations, f, body.rig.Find("shin_l")));
+      EXPECT_EQ(knee.y(), 0.0);
+      EXPECT_EQ(knee.z(), 0.0);
+    }
+  }
+}
+
+TEST(IkExcluded, BonesNotSolvedKeepTheirInput) {
+  std::mt19937 rng(41);
+  const FullBody body(&rng);
+  for (IkMethod method : kMethods) {
+    Problem p(body.rig, 6, body.Effectors());
+    p.joints.resize(static_cast<std::size_t>(body.rig.size()));
+    for (const char* name : {"spine1", "clavicle_l", "shin_r"}) {
+      p.joints[static_cast<std::size_t>(body.rig.Find(name))].excluded = true;
+    }
+    p.input_rotations = Identity(body.rig.size(), 6);
+    for (int f = 0; f < 6; ++f) body.Reachable(p, f, rng, 0.4);
+    p.options.method = method;
+    p.options.root_translation = true;
+    p.options.root_rotation = true;
+    p.Run();
+    ExpectWithinLimits(p, MethodName(method));  // checks unsolved bones bit for bit
+    for (const char* name : {"spine1", "clavicle_l", "shin_r", "head"}) {
+      const int b = body.rig.Find(name);
+      EXPECT_EQ(p.rotations.col(4 * b), p.input_rotations.col(4 * b)) << name;
+    }
+  }
+  // Without root unknowns the hips keep their rotation and location too.
+  Problem p(body.rig, 3, body.Effectors());
+  p.input_rotations = Identity(body.rig.size(), 3);
+  for (int f = 0; f < 3; ++f) body.Reachable(p, f, rng, 0.4);
+  p.Run();
+  EXPECT_EQ(p.rotations.leftCols(4), p.input_rotations.leftCols(4));
+  EXPECT_EQ(p.root_locations, p.input_locations);
+}
+
+TEST(IkStretch, ReachesBeyondTheChainWithinItsScaleRange) {
+  const RigModel rig = MakeRig(Chain({0.6, 0.4}, Vec3(0.3, 1, 0.2), 0.5));
+  for (IkMethod method : {IkMethod::kCcd, IkMethod::kDls}) {
+    for (const double beyond : {1.3, 2.0}) {
+      Problem p(rig, 1, {Effector("tip", 1)});
+      p.joints.resize(2);
+      for (IkJoint& j : p.joints) {
+        j.stretch = 1.0;
+        j.min_scale = 0.5;
+        j.max_scale = 1.5;
+      }
+      const Vec3 target = beyond * Vec3(0.7, 0.2, -0.6).normalized();  // the chain is 1.0 long
+      p.SetTarget(0, 0, target);
+      p.options.method = method;
+      p.options.root_rotation = true;
+      p.options.tolerance = 1e-8;
+      p.options.max_iterations = method == IkMethod::kCcd ? 500 : 64;
+      p.Run();
+      ExpectWithinLimits(p, MethodName(method));
+      const Vec3 tip = p.Tip(0, 0);  // the test's own FK, with the scales
+      EXPECT_NEAR(p.errors(0, 0), (tip - target).norm(), 1e-12);
+      if (beyond < 1.5) {
+        EXPECT_LT(p.errors(0, 0), 1e-8) << MethodName(method);
+        EXPECT_GT(p.scales.row(0).maxCoeff(), 1.0);
+      } else {
+        // As far as it stretches, straight at the target.
+        EXPECT_NEAR(p.scales(0, 0), 1.5, 1e-9) << MethodName(method);
+        EXPECT_NEAR(p.scales(0, 1), 1.5, 1e-9) << MethodName(method);
+        EXPECT_NEAR(p.errors(0, 0), 0.5, 1e-6) << MethodName(method);
+      }
+    }
+  }
+}
+
+// A foot pinned, a hand pulled down and forward: the hips must move, the foot
+// must not.
+TEST(IkPins, HoldThroughTheRoot) {
+  const FullBody body;
+  const Vec3 reach_for(0.35, -0.45, 0.45);  // low and in front: the arm alone cannot
+  for (IkMethod method : {IkMethod::kCcd, IkMethod::kDls}) {
+    Problem p(body.rig, 1, {Effector("hand_r", body.hand_r), Effector("toe_l", body.toe_l, true)});
+    p.SetTarget(0, 0, reach_for);
+    p.options.method = method;
+    p.options.root_translation = true;
+    p.options.root_rotation = true;
+    p.options.tolerance = 1e-8;
+    p.options.max_iterations = method == IkMethod::kCcd ? 400 : 100;
+    p.Run();
+    const Posed in = p.Input(0), out = p.Output(0);
+    const auto toe = static_cast<std::size_t>(body.toe_l);
+    EXPECT_LT((out.tail[toe] - in.tail[toe]).norm(), 1e-6) << MethodName(method);
+    EXPECT_LT(p.errors(0, 0), method == IkMethod::kDls ? 1e-8 : 1e-3) << MethodName(method);
+    EXPECT_GT(p.root_locations.row(0).norm(), 0.05) << MethodName(method);  // the hips did move
+  }
+}
+
+// Hands circling smoothly, feet pinned, hips free: warm-started frames follow
+// without jumps.
+TEST(IkWarmStart, SmoothTargetsGiveSmoothPoses) {
+  const FullBody body;
+  const int frames = 240;
+  Problem p(body.rig, frames, body.Effectors());
+  const Posed rest = p.Input(0);
+  for (int f = 0; f < frames; ++f) {
+    const double t = 2 * kPi * f / frames;
+    // Inside the arms' reach all along (a straight arm is a singular one).
+    const Vec3 circle(0.12 * std::cos(t) - 0.22, 0.12 * std::sin(t), 0.08 * std::sin(2 * t));
+    p.SetTarget(f, 0, rest.tail[static_cast<std::size_t>(body.hand_l)] + circle);
+    p.SetTarget(f, 1, rest.tail[static_cast<std::size_t>(body.hand_r)] + Vec3(-circle.x(), circle.y(), circle.z()));
+  }
+  p.options.root_translation = true;
+  p.options.root_rotation = true;
+  p.options.tolerance = 1e-7;
+  p.Run();
+  // Per frame and bone, the turn from the frame before (a rotation vector);
+  // smooth means small turns that change little from frame to frame.
+  double largest_turn = 0.0, largest_change = 0.0, largest_shift = 0.0;
+  std::vector<Vec3> before(static_cast<std::size_t>(body.rig.size()), Vec3::Zero());
+  for (int f = 0; f < frames; ++f) {
+    EXPECT_LT(p.errors.row(f).maxCoeff(), 1e-7) << "frame " << f;
+    if (f == 0) continue;
+    for (int b = 0; b < body.rig.size(); ++b) {
+      const Quat q = QuatAt(p.rotations, f, b), q0 = QuatAt(p.rotations, f - 1, b);
+      EXPECT_GT(q.dot(q0), 0.0);  // one hemisphere from frame to frame
+      const Vec3 turn = Log(q * q0.conjugate());
+      largest_turn = std::max(largest_turn, turn.norm());
+      if (f > 1) largest_change = std::max(largest_change, (turn - before[static_cast<std::size_t>(b)]).norm());
+      before[static_cast<std::size_t>(b)] = turn;
+    }
+    largest_shift = std::max(largest_shift, (p.root_locations.row(f) - p.root_locations.row(f - 1)).norm());
+  }
+  // The targets move about 3 mm a frame.
+  std::printf("[ IK smooth] per frame: largest turn %.4f rad, largest change of turn %.5f rad, largest hip shift %.5f\n",
+              largest_turn, largest_change, largest_shift);
+  EXPECT_LT(largest_turn, 0.03);
+  EXPECT_LT(largest_change, 0.1 * largest_turn);
+  EXPECT_LT(largest_shift, 0.005);
+}
+
+TEST(IkValidate, NonFiniteInputsNameTheEffectorAndFrame) {
+  const FullBody body;
+  Problem p(body.rig, 5, body.Effectors());
+  p.target_positions(3, 4) = std::nan("");  // hand_r's y at frame 3
+  try {
+    p.Run();
+    FAIL() << "a NaN target was accepted";
+  } catch (const Error& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("'hand_r'"), std::string::npos) << m;
+    EXPECT_NE(m.find("frame index 3"), std::string::npos) << m;
+  }
+  // Nothing was written.
+  EXPECT_TRUE((p.rotations.array() == -7.0).all());
+  EXPECT_TRUE((p.iterations.array() == -7).all());
+  // A pin's target is its input: a NaN there is ignored, but not in the input.
+  p.target_positions.setZero();
+  p.target_positions(2, 6) = std::numeric_limits<double>::infinity();  // toe_l is a pin
+  EXPECT_NO_THROW(p.Run());
+  p.input_rotations = Identity(body.rig.size(), 5);
+  p.input_rotations(4, 4 * body.toe_l + 2) = std::nan("");
+  try {
+    p.Run();
+    FAIL() << "a NaN input rotation was accepted";
+  } catch (const Error& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("'toe_l'"), std::string::npos) << m;
+    EXPECT_NE(m.find("frame index 4"), std::string::npos) << m;
+  }
+  // An orientation target that is not a rotation.
+  Problem q(body.rig, 2, {Effector("hand_l", body.hand_l)});
+  q.effectors[0].orientation = true;
+  q.target_orientations = RowMatrixXd::Zero(2, 4);
+  q.target_orientations(0, 0) = 1.0;
+  EXPECT_THROW(q.Run(), Error);
+  q.effectors[0].weight = -1.0;
+  EXPECT_THROW(q.Run(), Error);
+  // Limits no rotation can meet: a swing more than a half turn long.
+  Problem r(body.rig, 1, {Effector("hand_l", body.hand_l)});
+  r.joints.resize(static_cast<std::size_t>(body.rig.size()));
+  r.joints[static_cast<std::size_t>(body.rig.Find("forearm_l"))].min = Vec3(2.5, -1.0, 2.5);
+  try {
+    r.Run();
+    FAIL() << "impossible limits were accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("'forearm_l'"), std::string::npos) << e.what();
+  }
+}
+
+// Random rigs (tiny bones among them, several roots), random effectors,
+// limits, locks, stiffness, stretch, exclusions and options, random,
+// unreachable, huge and coincident targets, every method: at least 100,000
+// frames solved, no output ever non-finite, every limit respected.
+TEST(IkRobustness, RandomProblemsNeverGoNonFiniteOrLeaveTheirLimits) {
+  std::mt19937 rng(99);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  std::normal_distribution<double> n(0.0, 1.0);
+  const auto chance = [&](double p) { return u(rng) < p; };
+  const auto pick = [&](int count) { return static_cast<int>(u(rng) * count) % count; };
+  long solves = 0, nonconverged = 0;
+  int jobs = 0;
+  const auto start = std::chrono::steady_clock::now();
+  while (solves < 100000) {
+    // A rig.
+    const int bones = 1 + pick(9);
+    std::vector<BoneSpec> spec;
+    for (int b = 0; b < bones; ++b) {
+      const int parent = b == 0 ? -1 : chance(0.08) ? -1 : pick(b);
+      Vec3 head = parent < 0 ? Vec3(n(rng), n(rng), n(rng)) : spec[static_cast<std::size_t>(parent)].tail;
+      if (parent >= 0 && chance(0.2)) head += 0.3 * Vec3(n(rng), n(rng), n(rng));  // not connected
+      double length = 0.1 + u(rng);
+      if (chance(0.15)) length = std::pow(10.0, -3.0 - 6.0 * u(rng));  // tiny: 1e-3 .. 1e-9
+      Vec3 dir(n(rng), n(rng), n(rng));
+      if (dir.norm() < 1e-3) dir = Vec3::UnitY();
+      spec.push_back({"b" + std::to_string(b), parent, head, head + length * dir.normalized(), (2 * u(rng) - 1) * kPi});
+    }
+    const RigModel rig = MakeRig(spec);
+    // Effectors.
+    std::vector<IkEffector> effectors;
+    const int count = 1 + pick(3);
+    for (int e = 0; e < count; ++e) {
+      IkEffector ef = Effector("e" + std::to_string(e), pick(bones), chance(0.25));
+      ef.orientation = chance(0.25);
+      ef.position = !ef.orientation || chance(0.5);
+      ef.weight = 0.1 + 3.0 * u(rng);
+      effectors.push_back(ef);
+    }
+    const int frames = 25;
+    Problem p(rig, frames, effectors);
+    // Joints.
+    if (chance(0.7)) {
+      p.joints.resize(static_cast<std::size_t>(bones));
+      for (IkJoint& j : p.joints) {
+        for (int k = 0; k < 3; ++k) {
+          if (chance(0.5)) {
+            j.min[k] = -kPi * u(rng);
+            j.max[k] = chance(0.1) ? j.min[k] : kPi * u(rng);
+          }
+          j.locked[static_cast<std::size_t>(k)] = chance(0.15);
+          j.stiffness[k] = chance(0.2) ? 0.99 * u(rng) : 0.0;
+        }
+        j.excluded = chance(0.1);
+        if (chance(0.2)) {
+          j.stretch = 0.05 + u(rng);
+          j.min_scale = 0.2 + 0.8 * u(rng);
+          j.max_scale = j.min_scale + 2.0 * u(rng);
+        }
+      }
+    }
+    // Options.
+    p.options.method = kMethods[pick(4)];
+    p.options.max_iterations = 8 + pick(57);
+    p.options.tolerance = chance(0.2) ? 0.0 : std::pow(10.0, -3.0 - 6.0 * u(rng));
+    p.options.max_step = 0.05 + u(rng);
+    p.options.damping = chance(0.5) ? 0.0 : std::pow(10.0, -6.0 + 5.0 * u(rng));
+    p.options.regularization = chance(0.3) ? 0.0 : std::pow(10.0, -6.0 + 5.0 * u(rng));
+    p.options.reference = chance(0.5) ? IkReference::kPrevious : IkReference::kInput;
+    p.options.orientation_scale = chance(0.5) ? 0.0 : 0.01 + u(rng);
+    p.options.root_translation = chance(0.5);
+    p.options.root_rotation = chance(0.5);
+    p.options.warm_start = chance(0.8);
+    // Inputs and targets.
+    const bool per_frame = chance(0.5);
+    p.input_rotations = Identity(bones, per_frame ? frames : 1);
+    p.input_locations = RowMatrixXd::Zero(per_frame ? frames : 1, 3);
+    for (Eigen::Index f = 0; f < p.input_rotations.rows(); ++f) {
+      RandomPose(p.input_rotations, f, bones, rng, chance(0.1) ? 0.0 : 1.0);
+      p.input_locations.row(f) << n(rng), n(rng), n(rng);
+      if (chance(0.1)) p.input_rotations.row(f) *= 3.0;  // not normalised
+    }
+    if (count > 0) p.target_orientations = RowMatrixXd::Zero(frames, 4 * count);
+    const Vec3 base(n(rng), n(rng), n(rng));
+    for (int f = 0; f < frames; ++f) {
+      for (int e = 0; e < count; ++e) {
+        Vec3 t = base + Vec3(n(rng), n(rng), n(rng));
+        const double kind = u(rng);
+        if (kind < 0.1) t *= 50.0;                                    // far out of reach
+        else if (kind < 0.12) t *= 1e6;                                // absurdly far
+        else if (kind < 0.2 && e > 0) t = p.target_positions.row(f).segment<3>(0).transpose();  // coincident
+        else if (kind < 0.25) t = rig.head(effectors[static_cast<std::size_t>(e)].bone);         // on a joint
+        else if (kind < 0.3 && f > 0) t = p.target_positions.row(f - 1).segment<3>(3 * e).transpose();
+        p.SetTarget(f, e, t);
+        const Quat q = RandomRotation(rng, 2.0);
+        SetQuat(p.target_orientations, f, e, chance(0.5) ? q : Quat(-q.coeffs()));
+      }
+    }
+    if (!p.Job().Validate().ok()) continue;  // limits that leave no rotation: refused, as they should be
+    p.Run();
+    ++jobs;
+    solves += frames;
+    for (int f = 0; f < frames; ++f) {
+      nonconverged += p.errors.row(f).maxCoeff() > std::max(p.options.tolerance, 1e-12);
+      ASSERT_TRUE((p.iterations.array() >= 0).all() && (p.iterations.array() <= p.options.max_iterations).all());
+    }
+    ExpectWithinLimits(p, std::string("job ") + std::to_string(jobs) + " (" + MethodName(p.options.method) + ")");
+    if (HasFatalFailure()) return;
+  }
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  std::printf("[ IK robust] %ld frames in %d jobs, %.1f s; %ld not within their tolerance (unreachable or cut short)\n",
+              solves, jobs, seconds, nonconverged);
+}
 }  // namespace
 }  // namespace motionkit
