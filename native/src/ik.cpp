@@ -219,6 +219,7 @@ class Solver {
   struct Link {
     int joint = -1;
     bool body = false;
+    int anchor = -1;  // a body link: the pin it turns about
     double lever = 0.0;  // how far the effector moves per unit of the bone's scale
   };
   // A run of an effector's columns: one joint's rotation columns, or one
@@ -279,8 +280,7 @@ class Solver {
   bool Kick(double mu, Cost& cost);
   void FindBounds();
   bool Freeze(const double* u);
-  Vec3 BestRotation(const std::array<Vec3, 3>& p, const std::array<Vec3, 3>& t, int count,
-                    const Vec3& pivot) const;
+  Vec3 BestRotation(int count, const Vec3& pivot) const;
 
   void StartFrame(Eigen::Index f);
   int SolveJacobian();
@@ -306,7 +306,7 @@ class Solver {
 
   std::vector<Vec3> target_position_;
   std::vector<Quat> target_orientation_;
-  Pose input_, current_, trial_, reference_, solution_, backup_;
+  Pose input_, current_, trial_, reference_, solution_, backup_, best_;
   Fk fk_, trial_fk_;
   bool have_solution_ = false;
 
@@ -322,6 +322,10 @@ class Solver {
   std::vector<char> frozen_;
   std::vector<Vec3> coordinates_;
   std::vector<char> met_, kick_;
+  // CCD's points: the effector's own (up to three), then the pins a body link carries.
+  std::vector<Vec3> ccd_points_, ccd_targets_;
+  std::vector<double> ccd_weights_;
+  std::vector<char> ccd_placed_;
 };
 
 Solver::Solver(IkClipJob& job) : job_(job), rig_(job.rig), options_(job.options) {
@@ -357,6 +361,7 @@ Solver::Solver(IkClipJob& job) : job_(job), rig_(job.rig), options_(job.options)
   reference_ = MakePose();
   solution_ = MakePose();
   backup_ = MakePose();
+  best_ = MakePose();
   fk_ = MakeFk();
   trial_fk_ = MakeFk();
   target_position_.assign(static_cast<std::size_t>(effector_count_), Vec3::Zero());
@@ -368,6 +373,11 @@ Solver::Solver(IkClipJob& job) : job_(job), rig_(job.rig), options_(job.options)
   for (auto* v : {&bend_world_, &bend_, &weight_}) v->assign(joints_.size(), Eigen::Matrix3d::Zero());
   met_.assign(static_cast<std::size_t>(effector_count_), 0);
   frozen_.assign(cols, 0);
+  const auto points = static_cast<std::size_t>(3 + effector_count_);
+  ccd_points_.assign(points, Vec3::Zero());
+  ccd_targets_.assign(points, Vec3::Zero());
+  ccd_weights_.assign(points, 0.0);
+  ccd_placed_.assign(points, 0);
   coordinates_.assign(joints_.size(), Vec3::Zero());
   kick_.assign(joints_.size(), 0);
 }
@@ -489,7 +499,7 @@ void Solver::PlanCcd() {
         const int jo = At(joint_of_, b);
         if (jo < 0) continue;
         const double lever = child < 0 ? rig_.length(b) : rig_.offset(child).y();
-        e.ccd.push_back({jo, false, lever});
+        e.ccd.push_back({jo, false, -1, lever});
       }
     };
     if (e.pin) {
@@ -514,7 +524,7 @@ void Solver::PlanCcd() {
     if (anchor >= 0) {
       const std::size_t first = e.ccd.size();
       for (int b = At(effectors_, anchor).bone; b != meet; b = rig_.parent(b)) {
-        if (At(joint_of_, b) >= 0) e.ccd.push_back({At(joint_of_, b), true, 0.0});
+        if (At(joint_of_, b) >= 0) e.ccd.push_back({At(joint_of_, b), true, anchor, 0.0});
       }
       std::reverse(e.ccd.begin() + static_cast<std::ptrdiff_t>(first), e.ccd.end());
     }
@@ -1248,11 +1258,16 @@ int Solver::SolveJacobian() {
   return it;
 }
 
-Vec3 Solver::BestRotation(const std::array<Vec3, 3>& p, const std::array<Vec3, 3>& t, int count,
-                          const Vec3& pivot) const {
+// The rotation about `pivot` that best takes the first `count` CCD points
+// onto their targets (weighted; directions turn about nothing): the shortest
+// arc for one point, Kabsch for more.
+Vec3 Solver::BestRotation(int count, const Vec3& pivot) const {
+  const auto offset = [&](const std::vector<Vec3>& v, std::size_t i) {
+    return ccd_placed_[i] ? Vec3(v[i] - pivot) : v[i];
+  };
   const double tiny = 1e-12 * size_;
   if (count == 1) {
-    const Vec3 v = p[0] - pivot, u = t[0] - pivot;
+    const Vec3 v = offset(ccd_points_, 0), u = offset(ccd_targets_, 0);
     if (v.norm() < tiny || u.norm() < tiny) return Vec3::Zero();
     const Vec3 axis = v.cross(u);
     const double s = axis.norm(), c = v.dot(u);
@@ -1260,10 +1275,10 @@ Vec3 Solver::BestRotation(const std::array<Vec3, 3>& p, const std::array<Vec3, 3
     if (c < 0.0) return kPi * v.unitOrthogonal();
     return Vec3::Zero();
   }
-  // Kabsch: the rotation taking the points' offsets onto the targets' best.
   Eigen::Matrix3d h = Eigen::Matrix3d::Zero();
   for (int i = 0; i < count; ++i) {
-    h += (p[static_cast<std::size_t>(i)] - pivot) * (t[static_cast<std::size_t>(i)] - pivot).transpose();
+    const auto k = static_cast<std::size_t>(i);
+    h += ccd_weights_[k] * offset(ccd_points_, k) * offset(ccd_targets_, k).transpose();
   }
   const Eigen::JacobiSVD<Eigen::Matrix3d> svd(h, Eigen::ComputeFullU | Eigen::ComputeFullV);
   Eigen::Matrix3d fix = Eigen::Matrix3d::Identity();
@@ -1278,34 +1293,51 @@ void Solver::CcdPass(int ei) {
   Forward(current_, fk_);
   if (EffectorError(ei, fk_, false) <= tolerance_) return;
   // The points to move: the tip, and for an orientation two more at ls along
-  // the bone's X and Z (about the tip; as bare directions without a position).
-  std::array<Vec3, 3> p, t;
-  int count = 0;
-  const bool centred = e.position;
+  // the bone's X and Z (about the tip; bare directions without a position).
+  std::vector<Vec3>& p = ccd_points_;
+  std::vector<Vec3>& t = ccd_targets_;
+  std::vector<double>& w = ccd_weights_;
+  std::vector<char>& placed = ccd_placed_;  // a position, not a direction
+  int own = 0;
+  const double weight = e.sqrt_weight * e.sqrt_weight;
   const auto gather = [&]() {
-    count = 0;
-    if (e.position) {
-      p[0] = At(fk_.tip, ei);
-      t[0] = At(target_position_, ei);
-      count = 1;
-    }
+    own = 0;
+    const auto add = [&](const Vec3& point, const Vec3& target, bool position) {
+      const auto i = static_cast<std::size_t>(own++);
+      p[i] = point;
+      t[i] = target;
+      w[i] = weight;
+      placed[i] = position;
+    };
+    if (e.position) add(At(fk_.tip, ei), At(target_position_, ei), true);
     if (e.orientation) {
       const Quat& g = At(fk_.global, e.bone);
       const Quat& q = At(target_orientation_, ei);
-      const Vec3 bp = centred ? p[0] : Vec3::Zero(), bt = centred ? t[0] : Vec3::Zero();
-      for (int axis : {0, 2}) {
-        p[static_cast<std::size_t>(count)] = bp + ls_ * (g * Unit(axis));
-        t[static_cast<std::size_t>(count)] = bt + ls_ * (q * Unit(axis));
-        ++count;
-      }
+      const Vec3 bp = e.position ? p[0] : Vec3::Zero(), bt = e.position ? t[0] : Vec3::Zero();
+      for (int axis : {0, 2}) add(bp + ls_ * (g * Unit(axis)), bt + ls_ * (q * Unit(axis)), e.position);
     }
   };
   gather();
   for (const Link& link : e.ccd) {
     const Joint& j = At(joints_, link.joint);
     const int b = j.bone;
-    const Vec3 pivot = centred ? At(fk_.head, b) : Vec3::Zero();
+    const Vec3 pivot = At(fk_.head, b);
     const Quat frame = At(fk_.frame, b);
+    // A body link also carries the other pins that hang from the body: they
+    // join the fit, so that the turn serves the effector without tearing
+    // them away.
+    int count = own;
+    if (link.body) {
+      for (int o = 0; o < effector_count_; ++o) {
+        const Effector& pin = At(effectors_, o);
+        if (!pin.pin || !pin.position || o == link.anchor || o == ei || rig_.IsAncestor(b, pin.bone)) continue;
+        const auto i = static_cast<std::size_t>(count++);
+        p[i] = At(fk_.tip, o);
+        t[i] = At(target_position_, o);
+        w[i] = pin.sqrt_weight * pin.sqrt_weight;
+        placed[i] = 1;
+      }
+    }
     Vec3 omega = Vec3::Zero();  // in the bone's rest frame
     if (j.axis_count == 1) {
       // A hinge: the best angle about its one axis.
@@ -1313,13 +1345,14 @@ void Solver::CcdPass(int ei) {
       const Vec3 a = frame * Unit(axis);
       double num = 0.0, den = 0.0;
       for (int i = 0; i < count; ++i) {
-        const Vec3 v = p[static_cast<std::size_t>(i)] - pivot, u = t[static_cast<std::size_t>(i)] - pivot;
-        num += a.dot(v.cross(u));
-        den += v.dot(u) - a.dot(v) * a.dot(u);
+        const auto k = static_cast<std::size_t>(i);
+        const Vec3 v = placed[k] ? Vec3(p[k] - pivot) : p[k], u = placed[k] ? Vec3(t[k] - pivot) : t[k];
+        num += w[k] * a.dot(v.cross(u));
+        den += w[k] * (v.dot(u) - a.dot(v) * a.dot(u));
       }
       if (num != 0.0 || den != 0.0) omega[axis] = std::atan2(num, den);
     } else if (j.axis_count > 1) {
-      omega = frame.conjugate() * BestRotation(p, t, count, pivot);
+      omega = frame.conjugate() * BestRotation(count, pivot);
       for (int k = 0; k < 3; ++k) {
         if (!j.free[static_cast<std::size_t>(k)]) omega[k] = 0.0;
       }
@@ -1337,9 +1370,9 @@ void Solver::CcdPass(int ei) {
     const Quat turn = basis * old.conjugate();  // what the bone did, in its rest frame
     if (!link.body) {
       const Quat world = frame * turn * frame.conjugate();
-      for (int i = 0; i < count; ++i) {
-        Vec3& q = p[static_cast<std::size_t>(i)];
-        q = pivot + world * (q - pivot);
+      for (int i = 0; i < own; ++i) {
+        const auto k = static_cast<std::size_t>(i);
+        p[k] = placed[k] ? Vec3(pivot + world * (p[k] - pivot)) : Vec3(world * p[k]);
       }
       if (j.stretch_column >= 0 && e.position && std::abs(link.lever) > 1e-12 * size_) {
         // The length that leaves the residual perpendicular to the bone.
@@ -1349,7 +1382,9 @@ void Solver::CcdPass(int ei) {
                                      j.min_scale, j.max_scale);
         At(current_.scale, b) = s1;
         const Vec3 shift = ((s1 - s0) * link.lever) * dir;
-        for (int i = 0; i < count; ++i) p[static_cast<std::size_t>(i)] += shift;
+        for (int i = 0; i < own; ++i) {
+          if (placed[static_cast<std::size_t>(i)]) p[static_cast<std::size_t>(i)] += shift;
+        }
       }
     } else {
       // The body (root and all but this bone's subtree) turns about the joint.
@@ -1358,7 +1393,7 @@ void Solver::CcdPass(int ei) {
       Quat& root = At(current_.basis, 0);
       root = (rest.conjugate() * body * rest * root).normalized();
       ClampJoint(At(joints_, At(joint_of_, 0)), current_);
-      current_.root = At(fk_.head, b) + body * (current_.root - At(fk_.head, b));
+      current_.root = pivot + body * (current_.root - pivot);
       Forward(current_, fk_);
       gather();
     }
@@ -1368,35 +1403,52 @@ void Solver::CcdPass(int ei) {
 int Solver::SolveCcd() {
   Forward(current_, fk_);
   Cost cost = Evaluate(fk_, e_.data());
+  best_ = current_;
+  Cost best = cost;
   const int limit = options_.max_iterations;
-  int it = 0, kicks = 0;
-  while (cost.worst > tolerance_ && it < limit) {
+  int it = 0, kicks = 0, stale = 0;
+  while (best.worst > tolerance_ && it < limit) {
     ++it;
     backup_ = current_;
     for (int e : ccd_order_) CcdPass(e);
     Forward(current_, fk_);
-    Cost next = Evaluate(fk_, e_.data());
-    bool finite = std::isfinite(next.task) && current_.root.allFinite();
+    cost = Evaluate(fk_, e_.data());
+    bool finite = std::isfinite(cost.task) && current_.root.allFinite();
     for (const Joint& j : joints_) {
       finite = finite && At(current_.basis, j.bone).coeffs().allFinite() && std::isfinite(At(current_.scale, j.bone));
     }
-    if (!finite || next.task > cost.task) {  // keep the better pose
+    if (!finite) {  // keep the previous iterate
       std::swap(current_, backup_);
-      Forward(current_, fk_);
-      next = Evaluate(fk_, e_.data());
-      if (!finite) break;
+      break;
     }
-    const bool progress = next.task < cost.task * (1.0 - 1e-12);
-    cost = next;
-    if (progress) continue;
-    if (cost.worst > tolerance_ && kicks < 2 && it < limit) {
+    // Several effectors pull against each other, so a sweep may lose ground
+    // before it gains: carry on, keep the best pose, and stop after a few
+    // sweeps without a new best.
+    if (cost.task < best.task * (1.0 - 1e-12)) {
+      best_ = current_;
+      best = cost;
+      stale = 0;
+      continue;
+    }
+    if (++stale < 4) continue;
+    stale = 0;
+    current_ = best_;
+    Forward(current_, fk_);
+    cost = best;
+    if (best.worst > tolerance_ && kicks < 2 && it < limit) {
       ++it;
       ++kicks;
       trial_ = current_;
-      if (Kick(0.0, cost)) continue;
+      if (Kick(0.0, cost)) {
+        best_ = current_;
+        best = cost;
+        continue;
+      }
     }
     break;
   }
+  if (best.task < cost.task || !(cost.task == cost.task)) current_ = best_;
+  Forward(current_, fk_);
   return it;
 }
 

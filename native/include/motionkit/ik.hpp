@@ -95,8 +95,20 @@
 //     translation serves CCD only to carry the body about a pinned chain
 //     (both root unknowns on): a non-pinned effector's chain then runs up to
 //     where it meets the first pin on another branch and down that pin's
-//     chain, whose joints turn the rest of the body about themselves. A sweep
-//     that raises the cost is undone and ends the frame.
+//     chain, whose joints turn the rest of the body about themselves; the
+//     other pins the body carries join that turn's fit (weighted Kabsch), so
+//     that it does not tear them away. Several effectors pull against each
+//     other, so a sweep may lose ground: CCD keeps the best pose and stops
+//     after 4 sweeps without a better one.
+//   - An unknown on a bound (a joint limit, a scale range) that the step
+//     would push past is held for that iteration (its column drops out), so
+//     that the rest of the step is solved for what can move rather than
+//     clamped afterwards; a rotation column stands for its own coordinate
+//     (X, Z: swing; Y: twist) to first order.
+//   - Limits are met within a rotation's reach: the twist in (-pi, pi), the
+//     swing's rotation vector at most pi long (a hair less for both, so
+//     that a clamped pose decomposes back to the same numbers). Validate
+//     refuses limits that no rotation meets.
 //   - The rig's size is the diagonal of its rest pose's bounding box (heads
 //     and tails).
 //   - errors: the position error of a position effector; for an
