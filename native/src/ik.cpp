@@ -270,6 +270,7 @@ class Solver {
   void ClampJoint(const Joint& j, Pose& pose) const;
 
   void BuildJacobian(const Fk& fk);
+  void BuildBend();
   void MultiplyA(const double* x, double* out) const;   // out (rows) = A x
   void MultiplyAt(const double* y, double* out) const;  // out (columns) = A^T y
   void MultiplyW(const double* x, double* out) const;   // out = W x (DLS)
@@ -314,7 +315,8 @@ class Solver {
   std::vector<double> e_, r_, y_, h_, u_, u0_, g_, w_, rho_, s_;
   // Per joint: the residual curvature DLS adds (armature space, then in the
   // joint's columns), and the joint's block of W.
-  std::vector<Eigen::Matrix3d> bend_world_, bend_, weight_;
+  std::vector<Eigen::Matrix3d> axes_, bend_world_, bend_, weight_;
+  bool bend_ready_ = false;
   double bend_weight_ = 0.0;  // how much of the curvature DLS uses: 0 until a step fails
   // Unknowns held for this iteration: on a bound (a limit, a scale range)
   // that the step would push past. Per column, and each limited joint's
@@ -370,7 +372,7 @@ Solver::Solver(IkClipJob& job) : job_(job), rig_(job.rig), options_(job.options)
   for (std::vector<double>* v : {&e_, &r_, &y_, &h_}) v->assign(rows, 0.0);
   s_.assign(rows * rows, 0.0);
   for (std::vector<double>* v : {&u_, &u0_, &g_, &w_, &rho_}) v->assign(cols, 0.0);
-  for (auto* v : {&bend_world_, &bend_, &weight_}) v->assign(joints_.size(), Eigen::Matrix3d::Zero());
+  for (auto* v : {&axes_, &bend_world_, &bend_, &weight_}) v->assign(joints_.size(), Eigen::Matrix3d::Zero());
   met_.assign(static_cast<std::size_t>(effector_count_), 0);
   frozen_.assign(cols, 0);
   const auto points = static_cast<std::size_t>(3 + effector_count_);
@@ -676,18 +678,15 @@ Eigen::Matrix3d PositiveBend(const Vec3& r, const Vec3& v) {
 }
 
 void Solver::BuildJacobian(const Fk& fk) {
-  const bool dls = options_.method == IkMethod::kDls;
-  if (dls) std::fill(bend_world_.begin(), bend_world_.end(), Eigen::Matrix3d::Zero());
+  for (std::size_t jo = 0; jo < joints_.size(); ++jo) axes_[jo] = At(fk.frame, joints_[jo].bone).toRotationMatrix();
+  bend_ready_ = false;
   for (int ei = 0; ei < effector_count_; ++ei) {
     Effector& e = At(effectors_, ei);
     const Vec3& tip = At(fk.tip, ei);
-    const Vec3 residual = e.position ? Vec3(At(target_position_, ei) - tip) : Vec3::Zero();
     const std::size_t n = e.columns.size();
     double* pos = e.block.data();
     double* ori = pos + (e.position ? 3 * n : 0);
     const double sw = e.sqrt_weight;
-    int last_joint = -1;
-    Eigen::Matrix3d axes;
     for (std::size_t i = 0; i < n; ++i) {
       const Column& c = columns_[static_cast<std::size_t>(e.columns[i])];
       Vec3 dp = Vec3::Zero(), dr = Vec3::Zero();
@@ -695,17 +694,10 @@ void Solver::BuildJacobian(const Fk& fk) {
         dp[c.axis] = ls_;
       } else {
         const Joint& j = At(joints_, c.joint);
-        if (c.joint != last_joint) {
-          axes = At(fk.frame, j.bone).toRotationMatrix();
-          last_joint = c.joint;
-        }
         if (c.kind == Kind::kRotate) {
-          const Vec3 a = axes.col(c.axis), v = tip - At(fk.head, j.bone);
-          dp = c.scale * a.cross(v);
+          const Vec3 a = At(axes_, c.joint).col(c.axis);
+          dp = c.scale * a.cross(tip - At(fk.head, j.bone));
           dr = (c.scale * ls_) * a;
-          if (dls && e.position && c.axis == j.axes[0]) {
-            At(bend_world_, c.joint) += (sw * sw) * PositiveBend(residual, v);
-          }
         } else {
           dp = (c.scale * e.levers[i]) * (At(fk.global, j.bone) * Vec3::UnitY());
         }
@@ -718,21 +710,34 @@ void Solver::BuildJacobian(const Fk& fk) {
       }
     }
   }
-  if (!dls) return;
-  // Into each joint's columns: C = (A D)^T S (A D), A its free axes.
+}
+
+// The residuals' curvature per joint (DLS), at the pose the Jacobian was
+// built at (fk_): summed over the effectors below the joint in armature
+// space, then C = (A D)^T S (A D) in the joint's columns, A its free axes.
+void Solver::BuildBend() {
+  std::fill(bend_world_.begin(), bend_world_.end(), Eigen::Matrix3d::Zero());
+  for (int ei = 0; ei < effector_count_; ++ei) {
+    const Effector& e = At(effectors_, ei);
+    if (!e.position) continue;
+    const Vec3& tip = At(fk_.tip, ei);
+    const Vec3 residual = At(target_position_, ei) - tip;
+    const double weight = e.sqrt_weight * e.sqrt_weight;
+    for (const Segment& sg : e.segments) {
+      if (sg.joint < 0) continue;
+      At(bend_world_, sg.joint) += weight * PositiveBend(residual, tip - At(fk_.head, At(joints_, sg.joint).bone));
+    }
+  }
   for (std::size_t jo = 0; jo < joints_.size(); ++jo) {
     const Joint& j = joints_[jo];
-    Eigen::Matrix3d& c = bend_[jo];
-    c.setZero();
-    if (j.axis_count == 0) continue;
-    const Eigen::Matrix3d axes = At(fk.frame, j.bone).toRotationMatrix();
     Eigen::Matrix3d a = Eigen::Matrix3d::Zero();
     for (int k = 0; k < j.axis_count; ++k) {
       const auto slot = static_cast<std::size_t>(k);
-      a.col(k) = j.axis_scale[slot] * axes.col(j.axes[slot]);
+      a.col(k) = j.axis_scale[slot] * axes_[jo].col(j.axes[slot]);
     }
-    c = a.transpose() * bend_world_[jo] * a;
+    bend_[jo] = a.transpose() * bend_world_[jo] * a;
   }
+  bend_ready_ = true;
 }
 
 void Solver::MultiplyA(const double* x, double* out) const {
@@ -808,6 +813,7 @@ bool Solver::Direction(double lambda2, double mu) {
       // residual's curvature at each joint that Gauss-Newton leaves out
       // (BuildJacobian): it stops a chain reaching for an unreachable target
       // from overshooting, so lambda need not grow to do it.
+      if (bend_weight_ > 0.0 && !bend_ready_) BuildBend();
       for (int j = 0; j < cols_; ++j) {
         const double d = columns_[static_cast<std::size_t>(j)].scale;
         const bool held = At(frozen_, j);
@@ -821,7 +827,8 @@ bool Solver::Direction(double lambda2, double mu) {
         for (int k = 0; k < j.axis_count; ++k) {
           if (At(frozen_, j.first_column + k)) continue;
           for (int l = 0; l < j.axis_count; ++l) {
-            if (!At(frozen_, j.first_column + l)) m(k, l) = bend_weight_ * bend_[jo](k, l);
+            const bool bend = bend_weight_ > 0.0 && !At(frozen_, j.first_column + l);
+            m(k, l) = bend ? bend_weight_ * bend_[jo](k, l) : 0.0;
           }
           const double d = j.axis_scale[static_cast<std::size_t>(k)];
           m(k, k) += lambda2 + mu * d * d;
@@ -1185,7 +1192,7 @@ int Solver::SolveJacobian() {
             model += mu * v * v;
           }
         }
-        if (dls) {
+        if (dls && bend_weight_ > 0.0) {
           for (std::size_t jo = 0; jo < joints_.size(); ++jo) {
             const Joint& j = joints_[jo];
             for (int k = 0; k < j.axis_count; ++k) {
