@@ -198,6 +198,9 @@ class Solver {
     int joint = -1;      // index into joints_ (kRotate, kStretch)
     int axis = 0;        // X, Y, Z (kTranslate, kRotate)
     double scale = 1.0;  // 1 - stiffness, the stretch factor, or 1
+    // How DLS's damping and regulariser weigh a unit of it: 1, or 1 / ls^2
+    // for the root's translation (a move of ls counts as a turn of a radian).
+    double metric = 1.0;
   };
   // A solved bone.
   struct Joint {
@@ -390,7 +393,7 @@ void Solver::PlanJoints() {
   const bool root_needed = !needed_.empty() && needed_.front() == 0;
   translate_ = options_.root_translation && root_needed && !limits_of(0).excluded;
   if (translate_) {
-    for (int k = 0; k < 3; ++k) columns_.push_back({Kind::kTranslate, -1, k, 1.0});
+    for (int k = 0; k < 3; ++k) columns_.push_back({Kind::kTranslate, -1, k, 1.0, 1.0 / (ls_ * ls_)});
   }
   for (int b : needed_) {
     const IkJoint limits = limits_of(b);
@@ -616,7 +619,7 @@ Solver::Cost Solver::Evaluate(const Fk& fk, double* residual) const {
 // Where each unknown stands from the reference, in its column's units.
 void Solver::RegulariserResidual(const Pose& pose, double* rho) const {
   if (translate_) {
-    const Vec3 d = (pose.root - reference_.root) / ls_;
+    const Vec3 d = pose.root - reference_.root;
     for (int k = 0; k < 3; ++k) rho[k] = d[k];
   }
   for (const Joint& j : joints_) {
@@ -691,7 +694,7 @@ void Solver::BuildJacobian(const Fk& fk) {
       const Column& c = columns_[static_cast<std::size_t>(e.columns[i])];
       Vec3 dp = Vec3::Zero(), dr = Vec3::Zero();
       if (c.kind == Kind::kTranslate) {
-        dp[c.axis] = ls_;
+        dp[c.axis] = 1.0;  // the root's head moves every effector below it one to one
       } else {
         const Joint& j = At(joints_, c.joint);
         if (c.kind == Kind::kRotate) {
@@ -806,8 +809,9 @@ void Solver::Gram(bool weighted, double diagonal) {
 bool Solver::Direction(double lambda2, double mu) {
   switch (options_.method) {
     case IkMethod::kDls: {
-      // min |A u - e|^2 + lambda^2 |u|^2 + mu |rho + D u|^2 + u^T C u: with
-      // M = lambda^2 + mu D^2 + C (block diagonal: 3 x 3 per joint) and
+      // min |A u - e|^2 + lambda^2 |u|_G^2 + mu |rho + D u|_G^2 + u^T C u (G
+      // the columns' metric: 1, or 1 / ls^2 for the root's move): with
+      // M = (lambda^2 + mu D^2) G + C (block diagonal: 3 x 3 per joint) and
       // W = M^-1, u = W b + W A^T (I + A W A^T)^-1 (e - A W b),
       // b = -mu D rho (Woodbury): an effector-space system. C is the
       // residual's curvature at each joint that Gauss-Newton leaves out
@@ -815,10 +819,11 @@ bool Solver::Direction(double lambda2, double mu) {
       // from overshooting, so lambda need not grow to do it.
       if (bend_weight_ > 0.0 && !bend_ready_) BuildBend();
       for (int j = 0; j < cols_; ++j) {
-        const double d = columns_[static_cast<std::size_t>(j)].scale;
+        const Column& c = columns_[static_cast<std::size_t>(j)];
+        const double d = c.scale;
         const bool held = At(frozen_, j);
-        At(w_, j) = held ? 0.0 : 1.0 / (lambda2 + mu * d * d);
-        At(g_, j) = mu > 0.0 && !held ? -mu * d * At(rho_, j) : 0.0;  // b
+        At(w_, j) = held ? 0.0 : 1.0 / ((lambda2 + mu * d * d) * c.metric);
+        At(g_, j) = mu > 0.0 && !held ? -mu * d * c.metric * At(rho_, j) : 0.0;  // b
       }
       for (std::size_t jo = 0; jo < joints_.size(); ++jo) {
         const Joint& j = joints_[jo];
@@ -912,7 +917,7 @@ bool Solver::Direction(double lambda2, double mu) {
 // changes more than max_step and the root moves at most max_step * ls.
 void Solver::ClampStep(double* u) const {
   double largest = 0.0;
-  if (translate_) largest = std::sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
+  if (translate_) largest = std::sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]) / ls_;
   for (const Joint& j : joints_) {
     double sum = 0.0;
     for (int k = 0; k < j.axis_count; ++k) {
@@ -929,7 +934,7 @@ void Solver::ClampStep(double* u) const {
 }
 
 void Solver::Apply(const Pose& from, const double* u, Pose& to) const {
-  if (translate_) to.root = from.root + ls_ * Vec3(u[0], u[1], u[2]);
+  if (translate_) to.root = from.root + Vec3(u[0], u[1], u[2]);
   for (const Joint& j : joints_) {
     const int b = j.bone;
     if (j.axis_count > 0) {
@@ -1188,8 +1193,9 @@ int Solver::SolveJacobian() {
         for (int i = 0; i < rows_; ++i) model += (At(e_, i) - At(h_, i)) * (At(e_, i) - At(h_, i));
         if (mu > 0.0) {
           for (int j = 0; j < cols_; ++j) {
-            const double v = At(rho_, j) + columns_[static_cast<std::size_t>(j)].scale * At(u_, j);
-            model += mu * v * v;
+            const Column& c = columns_[static_cast<std::size_t>(j)];
+            const double v = At(rho_, j) + c.scale * At(u_, j);
+            model += mu * c.metric * v * v;
           }
         }
         if (dls && bend_weight_ > 0.0) {

@@ -328,7 +328,7 @@ TEST(IkJacobian, ColumnsMatchFiniteDifferencesOfFk) {
       RowMatrixXd rot = p.input_rotations;
       Vec3 loc = p.input_locations.row(0).transpose();
       if (cols[c].bone < 0) {
-        loc += rig.relative(0).conjugate() * (ls * step * Vec3::Unit(cols[c].axis));
+        loc += rig.relative(0).conjugate() * (step * Vec3::Unit(cols[c].axis));
       } else {
         const Quat q = QuatAt(rot, 0, cols[c].bone);
         SetQuat(rot, 0, cols[c].bone,

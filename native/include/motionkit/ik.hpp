@@ -58,11 +58,12 @@
 //     children stay at its tail; the children are not scaled themselves.
 //     `stretch` (Blender's ik_stretch) scales the stretch column; CCD takes
 //     min(stretch, 1) of the length change it computes per visit.
-//   - The root translation's unknown is in units of ls = orientation_scale
-//     (its column is ls I), so that damping, the regulariser and the step
-//     clamp treat it like an angle.
-//   - The regulariser acts on each unknown in its column's units (the
-//     rotation vector from the reference, the scale, the translation / ls).
+//   - The root translation's columns are the identity (armature units);
+//     DLS's damping and regulariser weigh a move of the root by 1 / ls^2, so
+//     that a move of ls counts as much as a turn of one radian (the
+//     pseudo-inverse and the transpose use J as it is).
+//   - The regulariser acts on each unknown in its own units (the rotation
+//     vector from the reference, the scale, the root's move / ls).
 //     Its weight on an iteration is mu * min(1, worst error / (0.01 size))^2:
 //     it steers the redundancy while the targets are far and fades as they
 //     are met, so that a reachable target is reached (to the tolerance)
@@ -228,7 +229,7 @@ struct IkClipJob {
   // For tests: the Jacobian the solver builds at `frame`'s input pose (as a
   // cold start sees it), rows per effector (position, then orientation, each
   // times sqrt(weight); orientation rows also times ls), columns the root
-  // translation (3, its column ls I), then per solved bone in bone order its
+  // translation (3, identity), then per solved bone in bone order its
   // free axes (X, Y, Z; times 1 - stiffness) and its stretch column. Throws
   // like Run().
   RowMatrixXd Jacobian(Eigen::Index frame) const;
