@@ -177,7 +177,8 @@ void BindIk(py::module_& m) {
         effectors: a list of dicts {"name": str, "bone": int, "weight": 1.0,
         "position": True, "orientation": False, "pin": False} (only "bone"
         is required); an effector is its bone's tail, a pin holds where the
-        frame's input pose has it.
+        frame's input pose has it (weighted like any effector: pins and
+        targets that cannot all be met share the error).
 
         Per bone (all optional): limit_min, limit_max float64 (b, 3) radians
         (swing x, twist y, swing z; Blender's ik_min/ik_max), locked bool
@@ -197,8 +198,9 @@ void BindIk(py::module_& m) {
         Returns a dict: "rotations" (frames, 4b) pose quaternions (bones the
         solver does not move keep their input), "root_locations" (frames, 3),
         "scales" (frames, b) length scale per bone, "errors" (frames, e) each
-        effector's position error after the solve, "iterations" (frames,)
-        int32. Errors name the effector or bone and the frame. The GIL is
+        effector's position error after the solve (an orientation-only
+        effector's angle times orientation_scale), "iterations" (frames,)
+        int32, the steps tried. Errors name the effector or bone and the frame. The GIL is
         released while it runs.
       )pbdoc");
 }
