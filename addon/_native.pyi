@@ -1,5 +1,5 @@
 # Hand-kept stub of the compiled module native/python/module.cpp.
-from typing import Literal, overload
+from typing import Literal, Required, TypedDict, overload
 
 import numpy as np
 import numpy.typing as npt
@@ -156,3 +156,48 @@ def retarget(
     root_motion: Literal["scaled", "in_place", "offset", "none"] = "scaled",
     ground_bones: list[int] = ...,
 ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
+
+# Full-body inverse kinematics (native/python/bind_ik.cpp).
+class IkEffector(TypedDict, total=False):
+    name: str
+    bone: Required[int]
+    weight: float
+    position: bool
+    orientation: bool
+    pin: bool
+
+class IkResult(TypedDict):
+    rotations: npt.NDArray[np.float64]
+    root_locations: npt.NDArray[np.float64]
+    scales: npt.NDArray[np.float64]
+    errors: npt.NDArray[np.float64]
+    iterations: npt.NDArray[np.int32]
+
+def ik_solve(
+    rig: Rig,
+    input_rotations: npt.NDArray[np.float64],
+    input_locations: npt.NDArray[np.float64],
+    target_positions: npt.NDArray[np.float64],
+    target_orientations: npt.NDArray[np.float64],
+    effectors: list[IkEffector],
+    *,
+    limit_min: npt.NDArray[np.float64] | None = None,
+    limit_max: npt.NDArray[np.float64] | None = None,
+    locked: npt.NDArray[np.bool_] | None = None,
+    stiffness: npt.NDArray[np.float64] | None = None,
+    excluded: npt.NDArray[np.bool_] | None = None,
+    stretch: npt.NDArray[np.float64] | None = None,
+    scale_range: npt.NDArray[np.float64] | None = None,
+    method: Literal["dls", "pinv", "transpose", "ccd"] = "dls",
+    max_iterations: int = 64,
+    tolerance: float = 1e-5,
+    max_step: float = 0.3,
+    damping: float = 0.0,
+    regularization: float = 1e-4,
+    reference: Literal["previous", "input"] = "previous",
+    orientation_scale: float = 0.0,
+    root_translation: bool = False,
+    root_rotation: bool = False,
+    warm_start: bool = True,
+) -> IkResult:
+    """Whole-clip full-body IK; see native/include/motionkit/ik.hpp. Bones the solver does not move keep their input."""

@@ -12,5 +12,6 @@ void BindRotationInterpolation(pybind11::module_& m);
 void BindKeyReduction(pybind11::module_& m);
 void BindInterpolation(pybind11::module_& m);
 void BindRetarget(pybind11::module_& m);
+void BindIk(pybind11::module_& m);
 
 }  // namespace motionkit::python

@@ -89,4 +89,5 @@ PYBIND11_MODULE(_native, m) {
   motionkit::python::BindKeyReduction(m);
   motionkit::python::BindInterpolation(m);
   motionkit::python::BindRetarget(m);
+  motionkit::python::BindIk(m);
 }

@@ -44,7 +44,76 @@
 // axis and swing (a rotation about an axis in the X-Z plane); the twist angle
 // is limited to [min.y, max.y] and the swing's rotation-vector components to
 // [min.x, max.x] and [min.z, max.z]. A locked axis has range [0, 0]. Stiffness
-// s in [0, 1) scales that axis's column by 1 - s.
+// s in [0, 1) scales that axis's column by 1 - s. Limits bind the solved
+// bones only (a bone the solver does not move keeps its input, in limits or
+// not); a solved bone's starting pose is brought into its limits first.
+//
+// Details the outline above leaves open (implementation notes, ik.cpp):
+//   - "The root" is bone 0 (always parentless); its location channel is
+//     input_locations. Other parentless bones are solved like any bone.
+//     Root translation and rotation are unknowns only for effectors below
+//     bone 0, and not if bone 0 is excluded.
+//   - Stretch: a stretched bone's scale s multiplies its length and the
+//     component along it (Y) of its children's head offsets, so connected
+//     children stay at its tail; the children are not scaled themselves.
+//     `stretch` (Blender's ik_stretch) scales the stretch column; CCD takes
+//     min(stretch, 1) of the length change it computes per visit.
+//   - The root translation's columns are the identity (armature units);
+//     DLS's damping and regulariser weigh a move of the root by 1 / ls^2, so
+//     that a move of ls counts as much as a turn of one radian (the
+//     pseudo-inverse and the transpose use J as it is).
+//   - The regulariser acts on each unknown in its own units (the rotation
+//     vector from the reference, the scale, the root's move / ls).
+//     Its weight on an iteration is mu * min(1, worst error / (0.01 size))^2:
+//     it steers the redundancy while the targets are far and fades as they
+//     are met, so that a reachable target is reached (to the tolerance)
+//     rather than traded against the reference. Unreachable targets keep the
+//     full weight.
+//   - A Jacobian step is accepted only if it lowers the (weighted,
+//     regularised) cost, so the error never grows from one iteration to the
+//     next and an unreachable target is approached without jitter. DLS and
+//     the pseudo-inverse then adapt their damping term (lambda^2, eps;
+//     Levenberg-Marquardt with Nielsen's update, never below lambda^2 or
+//     eps); the transpose halves its step. Before DLS raises its damping it
+//     adds, per joint, the positive part of the curvature of the position
+//     residuals that Gauss-Newton leaves out (a 3 x 3 block per joint, so M
+//     stays block diagonal and the Woodbury form holds): at a chain
+//     stretched towards an unreachable target it holds the overshoot back
+//     without damping the null space, and it is relaxed again while the
+//     steps go well. An iteration counts every step tried.
+//   - A frame stops when every effector is within the tolerance, after
+//     max_iterations, when an accepted step lowers the cost by less than a
+//     relative 1e-13, or when a step would produce a non-finite value (the
+//     previous iterate is kept). At a stationary point that is not a
+//     solution (a straight chain asked to fold, a target straight behind),
+//     the joints serving only unmet effectors are bent about their first
+//     free swing axis, less the part that moves any effector to first order
+//     (the Jacobian's null space), so far that no joint turns more than
+//     0.05 rad (or max_step), one way then the other; the bend is kept if it
+//     lowers the cost (at most twice a frame; deterministic).
+//   - CCD: an iteration is one sweep, non-pinned effectors first, then pins.
+//     A pin's sweep turns only the bones no other effector hangs from. Root
+//     translation serves CCD only to carry the body about a pinned chain
+//     (both root unknowns on): a non-pinned effector's chain then runs up to
+//     where it meets the first pin on another branch and down that pin's
+//     chain, whose joints turn the rest of the body about themselves; the
+//     other pins the body carries join that turn's fit (weighted Kabsch), so
+//     that it does not tear them away. Several effectors pull against each
+//     other, so a sweep may lose ground: CCD keeps the best pose and stops
+//     after 4 sweeps without a better one.
+//   - An unknown on a bound (a joint limit, a scale range) that the step
+//     would push past is held for that iteration (its column drops out), so
+//     that the rest of the step is solved for what can move rather than
+//     clamped afterwards; a rotation column stands for its own coordinate
+//     (X, Z: swing; Y: twist) to first order.
+//   - Limits are met within a rotation's reach: the twist in (-pi, pi), the
+//     swing's rotation vector at most pi long (a hair less for both, so
+//     that a clamped pose decomposes back to the same numbers). Validate
+//     refuses limits that no rotation meets.
+//   - The rig's size is the diagonal of its rest pose's bounding box (heads
+//     and tails).
+//   - errors: the position error of a position effector; for an
+//     orientation-only one, its angle times ls.
 //
 // Quaternions are (w, x, y, z) in arrays.
 #pragma once
@@ -57,6 +126,7 @@
 #include <vector>
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 
 #include "motionkit/error.hpp"
 #include "motionkit/rig.hpp"
@@ -67,6 +137,12 @@ namespace motionkit {
 enum class IkMethod { kCcd, kTranspose, kPseudoInverse, kDls };
 
 std::optional<IkMethod> ParseIkMethod(std::string_view text);  // "ccd", "transpose", "pinv", "dls"
+
+// The limits' coordinates of a basis rotation: (swing x, twist angle, swing
+// z) with q = swing * twist, twist about Y in [-pi, pi], swing the rotation
+// vector (x, 0, z); and back. (A half-turn swing has no defined twist: 0.)
+Eigen::Vector3d IkSwingTwist(const Eigen::Quaterniond& q);
+Eigen::Quaterniond IkFromSwingTwist(const Eigen::Vector3d& angles);
 
 struct IkJoint {
   static constexpr double kFree = std::numeric_limits<double>::infinity();
@@ -149,6 +225,14 @@ struct IkClipJob {
   Status Validate() const;
   // Throws Error when Validate() fails, having written nothing.
   void Run();
+
+  // For tests: the Jacobian the solver builds at `frame`'s input pose (as a
+  // cold start sees it), rows per effector (position, then orientation, each
+  // times sqrt(weight); orientation rows also times ls), columns the root
+  // translation (3, identity), then per solved bone in bone order its
+  // free axes (X, Y, Z; times 1 - stiffness) and its stretch column. Throws
+  // like Run().
+  RowMatrixXd Jacobian(Eigen::Index frame) const;
 };
 
 }  // namespace motionkit

@@ -1,0 +1,208 @@
+// Full-body inverse kinematics over a whole clip (native/include/motionkit/ik.hpp).
+#include <pybind11/eigen.h>
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "bindings.hpp"
+#include "motionkit/error.hpp"
+#include "motionkit/ik.hpp"
+#include "motionkit/rig.hpp"
+#include "motionkit/types.hpp"
+
+namespace py = pybind11;
+using namespace pybind11::literals;
+
+namespace motionkit::python {
+namespace {
+
+using DoubleArray = py::array_t<double, py::array::c_style>;
+using BoolArray = py::array_t<bool, py::array::c_style>;
+using IntArray = py::array_t<int, py::array::c_style>;
+using RowMap = Eigen::Map<RowMatrixXd>;
+
+// A per-bone table's checked shape: (bones, width), or (bones,) for width 0.
+template <class Array>
+void CheckShape(const Array& a, py::ssize_t bones, py::ssize_t width, const char* what) {
+  const bool ok = width == 0 ? a.ndim() == 1 && a.shape(0) == bones
+                             : a.ndim() == 2 && a.shape(0) == bones && a.shape(1) == width;
+  if (!ok) {
+    throw Error(std::string(what) + " must have shape (" + std::to_string(bones) +
+                (width == 0 ? ",)" : ", " + std::to_string(width) + ")"));
+  }
+}
+
+std::vector<IkEffector> Effectors(const py::list& list) {
+  std::vector<IkEffector> out;
+  for (const py::handle item : list) {
+    if (!py::isinstance<py::dict>(item)) throw Error("ik_solve: every effector must be a dict");
+    const auto d = py::reinterpret_borrow<py::dict>(item);
+    IkEffector e;
+    bool has_bone = false;
+    for (const auto& [key, value] : d) {
+      const std::string k = py::cast<std::string>(key);
+      if (k == "name") {
+        e.name = py::cast<std::string>(value);
+      } else if (k == "bone") {
+        e.bone = py::cast<int>(value);
+        has_bone = true;
+      } else if (k == "weight") {
+        e.weight = py::cast<double>(value);
+      } else if (k == "position") {
+        e.position = py::cast<bool>(value);
+      } else if (k == "orientation") {
+        e.orientation = py::cast<bool>(value);
+      } else if (k == "pin") {
+        e.pin = py::cast<bool>(value);
+      } else {
+        throw Error("ik_solve: unknown effector key '" + k +
+                    "' (expected name, bone, weight, position, orientation, pin)");
+      }
+    }
+    if (!has_bone) {
+      throw Error("ik_solve: effector " + std::to_string(out.size()) + (e.name.empty() ? "" : " '" + e.name + "'") +
+                  " has no bone");
+    }
+    out.push_back(e);
+  }
+  return out;
+}
+
+py::dict IkSolve(const RigModel& rig, const ConstMatrixView& input_rotations, const ConstMatrixView& input_locations,
+                 const ConstMatrixView& target_positions, const ConstMatrixView& target_orientations,
+                 const py::list& effector_list, const std::optional<DoubleArray>& limit_min,
+                 const std::optional<DoubleArray>& limit_max, const std::optional<BoolArray>& locked,
+                 const std::optional<DoubleArray>& stiffness, const std::optional<BoolArray>& excluded,
+                 const std::optional<DoubleArray>& stretch, const std::optional<DoubleArray>& scale_range,
+                 const std::string& method, int max_iterations, double tolerance, double max_step, double damping,
+                 double regularization, const std::string& reference, double orientation_scale,
+                 bool root_translation, bool root_rotation, bool warm_start) {
+  const auto parsed = ParseIkMethod(method);
+  if (!parsed) throw Error("ik_solve: unknown method '" + method + "'; expected ccd, transpose, pinv or dls");
+  if (reference != "previous" && reference != "input") {
+    throw Error("ik_solve: unknown reference '" + reference + "'; expected previous or input");
+  }
+  const py::ssize_t bones = rig.size();
+  std::vector<IkJoint> joints;
+  if (limit_min || limit_max || locked || stiffness || excluded || stretch || scale_range) {
+    joints.resize(static_cast<std::size_t>(bones));
+    if (limit_min) CheckShape(*limit_min, bones, 3, "limit_min");
+    if (limit_max) CheckShape(*limit_max, bones, 3, "limit_max");
+    if (locked) CheckShape(*locked, bones, 3, "locked");
+    if (stiffness) CheckShape(*stiffness, bones, 3, "stiffness");
+    if (excluded) CheckShape(*excluded, bones, 0, "excluded");
+    if (stretch) CheckShape(*stretch, bones, 0, "stretch");
+    if (scale_range) CheckShape(*scale_range, bones, 2, "scale_range");
+    for (py::ssize_t b = 0; b < bones; ++b) {
+      IkJoint& j = joints[static_cast<std::size_t>(b)];
+      for (py::ssize_t k = 0; k < 3; ++k) {
+        const auto i = static_cast<Eigen::Index>(k);
+        if (limit_min) j.min[i] = limit_min->at(b, k);
+        if (limit_max) j.max[i] = limit_max->at(b, k);
+        if (locked) j.locked[static_cast<std::size_t>(k)] = locked->at(b, k);
+        if (stiffness) j.stiffness[i] = stiffness->at(b, k);
+      }
+      if (excluded) j.excluded = excluded->at(b);
+      if (stretch) j.stretch = stretch->at(b);
+      if (scale_range) {
+        j.min_scale = scale_range->at(b, 0);
+        j.max_scale = scale_range->at(b, 1);
+      }
+    }
+  }
+  std::vector<IkEffector> effectors = Effectors(effector_list);
+  const Eigen::Index frames = target_positions.rows(), n = bones;
+  const auto count = static_cast<Eigen::Index>(effectors.size());
+  DoubleArray rotations({frames, 4 * n}), root_locations({frames, Eigen::Index{3}}), scales({frames, n}),
+      errors({frames, count});
+  IntArray iterations(frames);
+  RowMap rotations_view(rotations.mutable_data(), frames, 4 * n);
+  RowMap root_view(root_locations.mutable_data(), frames, 3);
+  RowMap scales_view(scales.mutable_data(), frames, n);
+  RowMap errors_view(errors.mutable_data(), frames, count);
+  Eigen::Map<Eigen::VectorXi> iterations_view(iterations.mutable_data(), frames);
+  IkClipJob job(rig, input_rotations, input_locations, target_positions, target_orientations, rotations_view,
+                root_view, scales_view, errors_view, iterations_view);
+  job.joints = std::move(joints);
+  job.effectors = std::move(effectors);
+  job.options.method = *parsed;
+  job.options.max_iterations = max_iterations;
+  job.options.tolerance = tolerance;
+  job.options.max_step = max_step;
+  job.options.damping = damping;
+  job.options.regularization = regularization;
+  job.options.reference = reference == "input" ? IkReference::kInput : IkReference::kPrevious;
+  job.options.orientation_scale = orientation_scale;
+  job.options.root_translation = root_translation;
+  job.options.root_rotation = root_rotation;
+  job.options.warm_start = warm_start;
+  job.Validate().ThrowIfFailed();
+  {
+    py::gil_scoped_release release;
+    job.Run();
+  }
+  py::dict out;
+  out["rotations"] = rotations;
+  out["root_locations"] = root_locations;
+  out["scales"] = scales;
+  out["errors"] = errors;
+  out["iterations"] = iterations;
+  return out;
+}
+
+}  // namespace
+
+void BindIk(py::module_& m) {
+  m.def("ik_solve", &IkSolve, "rig"_a, "input_rotations"_a.noconvert(), "input_locations"_a.noconvert(),
+        "target_positions"_a.noconvert(), "target_orientations"_a.noconvert(), "effectors"_a, py::kw_only(),
+        "limit_min"_a.noconvert() = py::none(), "limit_max"_a.noconvert() = py::none(),
+        "locked"_a.noconvert() = py::none(), "stiffness"_a.noconvert() = py::none(),
+        "excluded"_a.noconvert() = py::none(), "stretch"_a.noconvert() = py::none(),
+        "scale_range"_a.noconvert() = py::none(), "method"_a = "dls", "max_iterations"_a = 64,
+        "tolerance"_a = 1e-5, "max_step"_a = 0.3, "damping"_a = 0.0, "regularization"_a = 1e-4,
+        "reference"_a = "previous", "orientation_scale"_a = 0.0, "root_translation"_a = false,
+        "root_rotation"_a = false, "warm_start"_a = true,
+        R"pbdoc(
+        Full-body inverse kinematics on a whole clip.
+
+        rig: the Rig. input_rotations: float64 (frames or 1, 4b), the pose
+        rotations (w x y z per bone, Blender's basis); input_locations:
+        (frames or 1, 3), the root bone's location channel.
+        target_positions: (frames, 3e) armature space; target_orientations:
+        (frames, 4e) w x y z, or (frames, 0) when no effector asks for one.
+        effectors: a list of dicts {"name": str, "bone": int, "weight": 1.0,
+        "position": True, "orientation": False, "pin": False} (only "bone"
+        is required); an effector is its bone's tail, a pin holds where the
+        frame's input pose has it (weighted like any effector: pins and
+        targets that cannot all be met share the error).
+
+        Per bone (all optional): limit_min, limit_max float64 (b, 3) radians
+        (swing x, twist y, swing z; Blender's ik_min/ik_max), locked bool
+        (b, 3), stiffness float64 (b, 3) in [0, 1), excluded bool (b,),
+        stretch float64 (b,) (0: rigid), scale_range float64 (b, 2) (min and
+        max length scale of a stretching bone).
+
+        method: "dls" (damped least squares), "pinv", "transpose" or "ccd".
+        tolerance: armature units; max_step: radians per joint per iteration;
+        damping: 0 picks 1e-3 of the rig's size; regularization: the pull
+        towards the reference ("previous": the previous frame's solution,
+        "input": the frame's input pose); orientation_scale: armature units
+        per radian (0: a tenth of the rig's size). root_translation and
+        root_rotation make the root bone's location and rotation unknowns;
+        warm_start starts each frame from the previous one's solution.
+
+        Returns a dict: "rotations" (frames, 4b) pose quaternions (bones the
+        solver does not move keep their input), "root_locations" (frames, 3),
+        "scales" (frames, b) length scale per bone, "errors" (frames, e) each
+        effector's position error after the solve (an orientation-only
+        effector's angle times orientation_scale), "iterations" (frames,)
+        int32, the steps tried. Errors name the effector or bone and the frame. The GIL is
+        released while it runs.
+      )pbdoc");
+}
+
+}  // namespace motionkit::python
