@@ -1,0 +1,220 @@
+"""motionkit.ik in a real Blender, checked with Blender's own evaluation (depsgraph pose matrices).
+
+The brief's lab checks on walk60's skeleton (simple, hard through the root,
+the clip, the bonus), joint limits, Blender's own IK constraint as a peer,
+live re-solving, the operators, and bad input.
+"""
+import math
+import os
+
+import bpy
+import numpy as np
+import pytest
+from mathutils import Vector
+
+LAB_TOLERANCE = 0.01  # metres, the brief's pass mark
+
+
+@pytest.fixture()
+def walk60(shared_dir):
+    return os.path.join(shared_dir, "data", "bvh", "walk60.bvh")
+
+
+@pytest.fixture()
+def ik(mk):
+    import importlib
+    return importlib.import_module(mk.__name__ + ".ik")
+
+
+def still_walker(mk, walk60, name="walker"):
+    """walk60's skeleton standing in its rest (T) pose, no action."""
+    obj, action = mk.bvh.load(walk60, name=name)
+    obj.animation_data.action = None
+    bpy.data.actions.remove(action)
+    for pose_bone in obj.pose.bones:
+        pose_bone.location = (0, 0, 0)
+        pose_bone.rotation_quaternion = (1, 0, 0, 0)
+    bpy.context.view_layer.update()
+    return obj
+
+
+def tail(obj, bone):
+    bpy.context.view_layer.update()
+    return obj.matrix_world @ obj.pose.bones[bone].tail
+
+
+def empty(name, location):
+    obj = bpy.data.objects.new(name, None)
+    obj.location = location
+    bpy.context.scene.collection.objects.link(obj)
+    bpy.context.view_layer.update()
+    return obj
+
+
+def test_lab_simple_root_fixed_wrist_to_a_target(mk, ik, walk60):
+    obj = still_walker(mk, walk60)
+    start = tail(obj, "lWrist")
+    target = start + Vector((-0.25, -0.2, 0.3))
+    result = mk.ik.solve(obj, [ik.Effector("lWrist", target=tuple(target))], root_translation=False,
+                         root_rotation=False)
+    assert (tail(obj, "lWrist") - target).length < LAB_TOLERANCE
+    assert result.errors.max() < 1e-4
+    assert obj.pose.bones["RootJoint"].rotation_quaternion.angle < 1e-9  # the root stayed
+
+
+def test_lab_hard_toe_fixed_through_the_root(mk, ik, walk60):
+    obj = still_walker(mk, walk60)
+    toe = tail(obj, "lToeJoint")
+    target = tail(obj, "lWrist") + Vector((0.1, -0.3, -0.6))  # low and forward: the body must bend
+    mk.ik.solve(obj, [ik.Effector("lToeJoint", pin=True, orientation=True),
+                      ik.Effector("lWrist", target=tuple(target))])
+    assert (tail(obj, "lWrist") - target).length < LAB_TOLERANCE
+    assert (tail(obj, "lToeJoint") - toe).length < 1e-4
+    assert obj.pose.bones["RootJoint"].location.length > 0.01  # the hips moved
+
+
+def test_lab_clip_wrist_held_while_the_body_plays(mk, ik, walk60):
+    obj, action = mk.bvh.load(walk60, name="clip")
+    scene = bpy.context.scene
+    frames = np.arange(1, 183)
+    roots, legs = [], []
+    for f in frames:
+        scene.frame_set(int(f))
+        roots.append(tuple(obj.matrix_world @ obj.pose.bones["RootJoint"].head))
+        legs.append(tuple(obj.matrix_world @ obj.pose.bones["rToeJoint"].tail))
+    roots = np.array(roots)
+    # The left wrist 1.3 m up and 0.25 m to the root's left and 0.3 m ahead of it.
+    targets = np.column_stack([roots[:, 0] + 0.25, roots[:, 1] - 0.3, np.full(len(frames), 1.3)])
+    result = mk.ik.solve(obj, [ik.Effector("lWrist", target=targets)], frame_range=(1, 182),
+                         root_translation=False, root_rotation=False)
+    assert result.errors.max() < 1e-4
+    worst = legs_moved = 0.0
+    for i, f in enumerate(frames):
+        scene.frame_set(int(f))
+        worst = max(worst, (tail(obj, "lWrist") - Vector(targets[i])).length)
+        legs_moved = max(legs_moved, (tail(obj, "rToeJoint") - Vector(legs[i])).length)
+    assert worst < LAB_TOLERANCE
+    assert legs_moved < 1e-5  # the rest of the body still plays the clip
+    # Warm starts: no popping between frames on the solved arm.
+    fc = mk.animdata.find_fcurve(obj.animation_data.action, obj, 'pose.bones["lElbow"].rotation_quaternion', 0)
+    assert np.abs(np.diff(mk.animdata.read_keys(fc)[1])).max() < 0.1
+
+
+def test_lab_bonus_both_hands_left_foot_fixed(mk, ik, walk60):
+    obj = still_walker(mk, walk60)
+    foot = tail(obj, "lToeJoint")
+    left = tail(obj, "lWrist") + Vector((-0.3, -0.35, -0.2))
+    right = tail(obj, "rWrist") + Vector((0.2, -0.4, 0.25))
+    mk.ik.solve(obj, [ik.Effector("lToeJoint", pin=True, orientation=True),
+                      ik.Effector("lWrist", target=tuple(left)), ik.Effector("rWrist", target=tuple(right))])
+    assert (tail(obj, "lWrist") - left).length < LAB_TOLERANCE
+    assert (tail(obj, "rWrist") - right).length < LAB_TOLERANCE
+    assert (tail(obj, "lToeJoint") - foot).length < 1e-4
+
+
+def swing_twist(q):
+    """Blender pose quaternion -> (swing x, twist y, swing z) as ik.hpp defines the limits."""
+    w, x, y, z = q
+    twist = 2.0 * math.atan2(y, w)
+    ct, st = math.cos(twist / 2), math.sin(twist / 2)
+    # swing = q * twist^-1
+    sw, sx, sy, sz = w * ct + y * st, x * ct - z * st, y * ct - w * st, z * ct + x * st
+    if sw < 0:
+        sw, sx, sz = -sw, -sx, -sz
+    angle = 2.0 * math.atan2(math.hypot(sx, sz), sw)
+    norm = math.hypot(sx, sz)
+    return (angle * sx / norm if norm > 1e-12 else 0.0, (twist + math.pi) % (2 * math.pi) - math.pi,
+            angle * sz / norm if norm > 1e-12 else 0.0)
+
+
+def test_joint_limits_hold_on_random_targets(mk, ik, walk60):
+    obj = still_walker(mk, walk60)
+    limited = ("lShoulder", "lElbow", "lWrist", "pelvis_lowerback", "lowerback_torso")
+    for name in limited:
+        pb = obj.pose.bones[name]
+        pb.use_ik_limit_x = pb.use_ik_limit_z = True
+        pb.ik_min_x, pb.ik_max_x = math.radians(-30), math.radians(40)
+        pb.ik_min_z, pb.ik_max_z = math.radians(-50), math.radians(20)
+        pb.lock_ik_y = True
+    rng = np.random.default_rng(5)
+    start = tail(obj, "lWrist")
+    for _ in range(20):
+        target = start + Vector(rng.uniform(-0.6, 0.6, 3))
+        mk.ik.solve(obj, [ik.Effector("lWrist", target=tuple(target))], root_translation=False, root_rotation=False)
+        for name in limited:
+            x, y, z = swing_twist(tuple(obj.pose.bones[name].rotation_quaternion))
+            assert math.radians(-30) - 1e-6 <= x <= math.radians(40) + 1e-6, (name, x)
+            assert math.radians(-50) - 1e-6 <= z <= math.radians(20) + 1e-6, (name, z)
+            assert abs(y) < 1e-6, (name, y)
+
+
+@pytest.mark.parametrize("offset", [(-0.25, -0.2, 0.3), (0.1, -0.5, -0.4), (-2.0, -1.0, 1.0)],
+                         ids=["reachable", "low", "unreachable"])
+def test_residual_no_larger_than_blenders_ik_constraint(mk, ik, walk60, offset):
+    obj = still_walker(mk, walk60)
+    goal = empty("Goal", tail(obj, "lWrist") + Vector(offset))
+    constraint = obj.pose.bones["lWrist"].constraints.new('IK')
+    constraint.target = goal
+    constraint.chain_count = 4  # lWrist, lElbow, lShoulder, lTorso_Clavicle
+    bpy.context.view_layer.update()
+    theirs = (tail(obj, "lWrist") - goal.location).length
+    obj.pose.bones["lWrist"].constraints.remove(constraint)
+    bpy.context.view_layer.update()
+    mk.ik.solve(obj, [ik.Effector("lWrist", target=goal, chain_count=4)], root_translation=False,
+                root_rotation=False)
+    ours = (tail(obj, "lWrist") - goal.location).length
+    assert obj.pose.bones["lowerback_torso"].rotation_quaternion.angle < 1e-9  # the same four bones only
+    print(f"\n{offset}: Blender's IK constraint {theirs:.2e} m, MotionKit {ours:.2e} m")
+    assert ours <= theirs + 1e-6
+
+
+def test_live_mode_follows_a_moving_target(mk, ik, walk60):
+    obj = still_walker(mk, walk60)
+    goal = empty("Goal", tail(obj, "lWrist") + Vector((-0.2, -0.2, 0.2)))
+    item = obj.motionkit_ik.effectors.add()
+    item.bone, item.target = "lWrist", goal
+    obj.motionkit_ik.root_translation = obj.motionkit_ik.root_rotation = False
+    obj.motionkit_ik.live = True
+    try:
+        bpy.context.view_layer.update()
+        assert (tail(obj, "lWrist") - goal.location).length < 1e-3
+        goal.location += Vector((0.05, -0.1, 0.1))
+        bpy.context.view_layer.update()
+        assert (tail(obj, "lWrist") - goal.location).length < 1e-3
+    finally:
+        obj.motionkit_ik.live = False
+
+
+def test_operators_solve_bake_and_cancel_on_errors(mk, ik, walk60):
+    obj, action = mk.bvh.load(walk60, name="baked")
+    bpy.context.view_layer.objects.active = obj
+    settings = obj.motionkit_ik
+    assert not bpy.ops.motionkit.ik_solve.poll()
+    bad = settings.effectors.add()
+    bad.bone = "no such bone"
+    bad.pin = True
+    actions = set(bpy.data.actions)
+    with pytest.raises(RuntimeError, match="no such bone"):
+        bpy.ops.motionkit.ik_bake()
+    assert set(bpy.data.actions) == actions and obj.animation_data.action == action
+    bad.bone = "lToeJoint"
+    hand = settings.effectors.add()
+    hand.bone, hand.target = "lWrist", empty("Goal", (0.3, -0.4, 1.4))
+    settings.use_scene_range = False
+    settings.frame_start, settings.frame_end = 1, 40
+    assert bpy.ops.motionkit.ik_bake() == {'FINISHED'}
+    baked = obj.animation_data.action
+    assert baked != action and action.use_fake_user
+    assert bpy.ops.motionkit.ik_solve() == {'FINISHED'}
+
+
+def test_bad_input_names_the_effector_and_changes_nothing(mk, ik, walk60):
+    obj = still_walker(mk, walk60)
+    before = [tuple(pb.rotation_quaternion) for pb in obj.pose.bones]
+    with pytest.raises(ValueError, match="effector on 'lWrist'"):
+        mk.ik.solve(obj, [ik.Effector("lWrist", target=(float("nan"), 0.0, 1.0))])
+    with pytest.raises(ValueError, match="no target"):
+        mk.ik.solve(obj, [ik.Effector("lWrist")])
+    with pytest.raises(ValueError, match="unknown IK method"):
+        mk.ik.solve(obj, [ik.Effector("lWrist", pin=True)], method="magic")
+    assert [tuple(pb.rotation_quaternion) for pb in obj.pose.bones] == before
