@@ -246,9 +246,15 @@ def plan(obj, effectors, frame_range=None, method: str = "dls", *, root_translat
         input_rotations = np.array(rows).reshape(1, -1)
         input_locations = np.array([tuple(obj.pose.bones[names[0]].location)], dtype=np.float64)
     else:
-        input_rotations = pose_channels.rotations(obj, action, bones, frames)
-        locations, _ = pose_channels.locations(obj, action, bones, frames)
-        input_locations = np.ascontiguousarray(locations[:, :3])
+        # Only the effectors' bones and their ancestors place the effectors;
+        # the other bones are neither solved nor keyed, so their keys are not read.
+        needed = sorted(_ancestors(bones, names, [e.bone for e in effectors]))
+        input_rotations = np.tile([1.0, 0.0, 0.0, 0.0], (frames.size, len(bones)))
+        read = pose_channels.rotations(obj, action, [bones[i] for i in needed], frames)
+        columns = (4 * np.array(needed)[:, None] + np.arange(4)).ravel()
+        input_rotations[:, columns] = read
+        locations, _ = pose_channels.locations(obj, action, bones[:1], frames)
+        input_locations = np.ascontiguousarray(locations)
     positions, orientations = _targets(obj, effectors, frames)
     height = max(np.ptp(np.array([b.head_local for b in bones] + [b.tail_local for b in bones]), axis=0))
     options = joint_limits(obj, bones) if use_limits else {}
@@ -271,6 +277,18 @@ def plan(obj, effectors, frame_range=None, method: str = "dls", *, root_translat
         moved[0] = True
     result = Result(frames, solved["errors"], solved["iterations"], [names[i] for i in np.flatnonzero(moved)])
     return Plan(obj, bones, frames, rotations, solved["root_locations"], moved, result)
+
+
+def _ancestors(bones, names, starts) -> set:
+    """Indices of the named bones and everything above them."""
+    index = {name: i for i, name in enumerate(names)}
+    out = set()
+    for name in starts:
+        bone = bones[index[name]]
+        while bone is not None and index[bone.name] not in out:
+            out.add(index[bone.name])
+            bone = bone.parent
+    return out
 
 
 def _outside_chains(bones, names, effectors) -> np.ndarray:
