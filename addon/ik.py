@@ -23,6 +23,11 @@ METHODS = (
     ("ccd", "CCD", "Cyclic coordinate descent, joint by joint"),
 )
 _AXES = "xyz"
+# The solver's effectors are soft: a pin outweighs a target by this much, so
+# that a target out of reach is approached as far as the pins allow instead
+# of dragging them (on a walk that leaves a fixed target behind: pins within
+# 0.1 mm where equal weights let them slide half a metre).
+PIN_WEIGHT = 1e4
 
 
 @dataclass
@@ -263,7 +268,8 @@ def plan(obj, effectors, frame_range=None, method: str = "dls", *, root_translat
     solved = native.ik_solve(
         rig, np.ascontiguousarray(input_rotations), np.ascontiguousarray(input_locations),
         np.ascontiguousarray(positions), np.ascontiguousarray(orientations),
-        [{"name": e.label(), "bone": names.index(e.bone), "weight": float(e.weight), "position": e.position,
+        [{"name": e.label(), "bone": names.index(e.bone), "weight": float(e.weight) * (PIN_WEIGHT if e.pin else 1.0),
+          "position": e.position,
           "orientation": e.orientation, "pin": e.pin} for e in effectors],
         method=method, max_iterations=max_iterations,
         tolerance=float(tolerance if tolerance is not None else 1e-5 * height),

@@ -172,6 +172,63 @@ def retarget_row(motionkit, source, y: float, placements, labels: dict, source_l
     return targets
 
 
+def raise_hand(motionkit, obj, labels: dict):
+    """Full-body IK over the retargeted walk: both feet pinned where the walk puts them, the left
+    hand up to a ball above the head; the hips are free to move."""
+    from motionkit.ik import Effector
+    spec = characters.UNREAL_A
+    bones = spec.canonical
+    ball = bpy.data.meshes.new("Goal")
+    goal = bpy.data.objects.new("Goal", ball)
+    bpy.context.scene.collection.objects.link(goal)
+    generate_sphere(ball, 0.06)
+    material = bpy.data.materials.new("GoalRed")
+    material.diffuse_color = (0.85, 0.1, 0.1, 1.0)
+    ball.materials.append(material)
+    # The ball rides above the left shoulder as the hips go (posed natively from the walk's keys).
+    action = motionkit.animdata.assigned_action(obj)
+    start, end = (int(v) for v in action.frame_range)
+    frames = np.arange(start, end + 1, dtype=np.float64)
+    rig, order = motionkit.pose_channels.native_rig(obj.data)
+    _, heads = motionkit.native().armature_pose(
+        rig, motionkit.pose_channels.rotations(obj, action, order, frames),
+        np.ascontiguousarray(motionkit.pose_channels.locations(obj, action, order, frames)[0]))
+    hips = order.index(obj.data.bones[bones["hips"]])
+    path = heads[:, 3 * hips:3 * hips + 3] + np.array(obj.matrix_world.translation) + (0.3, -0.1, 0.0)
+    path[:, 2] = 2.05
+    goal_path = motionkit.animdata.new_action("GoalPath")
+    motionkit.animdata.write_keys(goal, goal_path, [("location", k) for k in range(3)], frames, path.T)
+    motionkit.animdata.assign(goal, goal_path)
+    started = time.perf_counter()
+    result = motionkit.ik.solve(obj, [Effector(bones["foot.L"], pin=True, orientation=True),
+                                      Effector(bones["foot.R"], pin=True, orientation=True),
+                                      Effector(bones["hand.L"], target=goal)], frame_range=(start, end))
+    print(f"demo: IK on {obj.name}, {end - start + 1} frames in {time.perf_counter() - started:.3f} s, "
+          f"largest hand error {1000 * result.errors[:, 2].max():.2f} mm")
+    labels[obj] += "\n+ IK: feet pinned, hand raised"
+    return goal
+
+
+def generate_sphere(mesh, radius: float) -> None:
+    rings, segments = 8, 12
+    verts = [(0.0, 0.0, radius)]
+    for r in range(1, rings):
+        polar = math.pi * r / rings
+        verts += [(radius * math.sin(polar) * math.cos(2 * math.pi * k / segments),
+                   radius * math.sin(polar) * math.sin(2 * math.pi * k / segments), radius * math.cos(polar))
+                  for k in range(segments)]
+    verts.append((0.0, 0.0, -radius))
+    faces = [(0, 1 + (k + 1) % segments, 1 + k) for k in range(segments)]
+    for r in range(rings - 2):
+        a, b = 1 + r * segments, 1 + (r + 1) * segments
+        faces += [(a + k, a + (k + 1) % segments, b + (k + 1) % segments, b + k) for k in range(segments)]
+    last, base = len(verts) - 1, 1 + (rings - 2) * segments
+    faces += [(last, base + k, base + (k + 1) % segments) for k in range(segments)]
+    mesh.from_pydata(verts, [], faces)
+    for polygon in mesh.polygons:
+        polygon.use_smooth = True
+
+
 def place_labels(labels: dict, camera) -> None:
     """Each label at its character's feet, where the shown frame has it."""
     for obj, text in labels.items():
@@ -207,6 +264,8 @@ def main() -> None:
     animated += [source] + retarget_row(motionkit, source, FRONT,
                                         ((characters.RIGIFY_A, 0.0), (characters.UNREAL_A, 1.6)),
                                         labels, "MixamoT")
+
+    animated.append(raise_hand(motionkit, animated[-1], labels))  # the goal is resampled with the rest
 
     mocap = os.path.join(os.path.dirname(ROOT), "shared", "data", "bvh", "walk60.bvh")
     before = None
