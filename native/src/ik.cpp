@@ -268,8 +268,9 @@ class Solver {
   void Forward(const Pose& pose, Fk& fk) const;
   double EffectorError(int e, const Fk& fk, bool position_only) const;
   Cost Evaluate(const Fk& fk, double* residual) const;
-  void RegulariserResidual(const Pose& pose, double* rho) const;
   double RegulariserCost(const Pose& pose) const;
+  // Both at once (one Log per joint): writes rho, returns the cost.
+  double Regulariser(const Pose& pose, double* rho) const;
   void ClampJoint(const Joint& j, Pose& pose) const;
 
   void BuildJacobian(const Fk& fk);
@@ -315,7 +316,9 @@ class Solver {
   bool have_solution_ = false;
 
   // Scratch, sized once.
-  std::vector<double> e_, r_, y_, h_, u_, u0_, g_, w_, rho_, s_;
+  std::vector<double> e_, r_, y_, h_, u_, u0_, g_, w_, rho_, trial_rho_, s_;
+  // W is diagonal (w_) unless DLS adds the residuals' curvature: weight_ then.
+  bool full_weight_ = false;
   // Per joint: the residual curvature DLS adds (armature space, then in the
   // joint's columns), and the joint's block of W.
   std::vector<Eigen::Matrix3d> axes_, bend_world_, bend_, weight_;
@@ -374,7 +377,7 @@ Solver::Solver(IkClipJob& job) : job_(job), rig_(job.rig), options_(job.options)
   const auto rows = static_cast<std::size_t>(rows_), cols = static_cast<std::size_t>(cols_);
   for (std::vector<double>* v : {&e_, &r_, &y_, &h_}) v->assign(rows, 0.0);
   s_.assign(rows * rows, 0.0);
-  for (std::vector<double>* v : {&u_, &u0_, &g_, &w_, &rho_}) v->assign(cols, 0.0);
+  for (std::vector<double>* v : {&u_, &u0_, &g_, &w_, &rho_, &trial_rho_}) v->assign(cols, 0.0);
   for (auto* v : {&axes_, &bend_world_, &bend_, &weight_}) v->assign(joints_.size(), Eigen::Matrix3d::Zero());
   met_.assign(static_cast<std::size_t>(effector_count_), 0);
   frozen_.assign(cols, 0);
@@ -616,19 +619,31 @@ Solver::Cost Solver::Evaluate(const Fk& fk, double* residual) const {
   return cost;
 }
 
-// Where each unknown stands from the reference, in its column's units.
-void Solver::RegulariserResidual(const Pose& pose, double* rho) const {
+// Where each unknown stands from the reference, in its column's units (rho),
+// and the regulariser's cost.
+double Solver::Regulariser(const Pose& pose, double* rho) const {
+  double sum = 0.0;
   if (translate_) {
     const Vec3 d = pose.root - reference_.root;
     for (int k = 0; k < 3; ++k) rho[k] = d[k];
+    sum += d.squaredNorm() / (ls_ * ls_);
   }
   for (const Joint& j : joints_) {
     if (j.axis_count > 0) {
       const Vec3 d = Log(At(pose.basis, j.bone) * At(reference_.basis, j.bone).conjugate());
-      for (int k = 0; k < j.axis_count; ++k) rho[j.first_column + k] = d[j.axes[static_cast<std::size_t>(k)]];
+      for (int k = 0; k < j.axis_count; ++k) {
+        const double v = d[j.axes[static_cast<std::size_t>(k)]];
+        rho[j.first_column + k] = v;
+        sum += v * v;
+      }
     }
-    if (j.stretch_column >= 0) rho[j.stretch_column] = At(pose.scale, j.bone) - At(reference_.scale, j.bone);
+    if (j.stretch_column >= 0) {
+      const double d = At(pose.scale, j.bone) - At(reference_.scale, j.bone);
+      rho[j.stretch_column] = d;
+      sum += d * d;
+    }
   }
+  return sum;
 }
 
 double Solver::RegulariserCost(const Pose& pose) const {
@@ -757,6 +772,7 @@ void Solver::MultiplyA(const double* x, double* out) const {
 
 void Solver::MultiplyW(const double* x, double* out) const {
   for (int j = 0; j < cols_; ++j) out[j] = At(w_, j) * x[j];
+  if (!full_weight_) return;
   for (std::size_t jo = 0; jo < joints_.size(); ++jo) {
     const Joint& j = joints_[jo];
     const double* in = x + j.first_column;
@@ -825,7 +841,9 @@ bool Solver::Direction(double lambda2, double mu) {
         At(w_, j) = held ? 0.0 : 1.0 / ((lambda2 + mu * d * d) * c.metric);
         At(g_, j) = mu > 0.0 && !held ? -mu * d * c.metric * At(rho_, j) : 0.0;  // b
       }
-      for (std::size_t jo = 0; jo < joints_.size(); ++jo) {
+      // Without the curvature M is diagonal, and W is w_ (a held column's 0).
+      full_weight_ = bend_weight_ > 0.0;
+      for (std::size_t jo = 0; full_weight_ && jo < joints_.size(); ++jo) {
         const Joint& j = joints_[jo];
         if (j.axis_count == 0) continue;
         Eigen::Matrix3d m = Eigen::Matrix3d::Identity();
@@ -850,6 +868,16 @@ bool Solver::Direction(double lambda2, double mu) {
       for (int i = 0; i < rows_; ++i) At(y_, i) = At(e_, i) - At(h_, i);
       for (Effector& e : effectors_) {
         const std::size_t n = e.columns.size();
+        if (!full_weight_) {
+          for (std::size_t i = 0; i < n; ++i) {
+            const double w = At(w_, e.columns[i]);
+            for (int r = 0; r < e.rows; ++r) {
+              const std::size_t at = static_cast<std::size_t>(r) * n + i;
+              e.wblock[at] = e.block[at] * w;
+            }
+          }
+          continue;
+        }
         for (int r = 0; r < e.rows; ++r) {
           const double* in = e.block.data() + static_cast<std::size_t>(r) * n;
           double* out = e.wblock.data() + static_cast<std::size_t>(r) * n;
@@ -1131,13 +1159,20 @@ int Solver::SolveJacobian() {
   int it = 0, kicks = 0;
   double damp2 = 0.0, nu = 2.0;  // the damping term (lambda^2, or the pseudo-inverse's eps) and its growth
   bend_weight_ = 0.0;
+  // The regulariser's residual and cost at current_, kept from the accepted
+  // trial that produced it.
+  bool have_rho = false;
+  double regulariser = 0.0, trial_regulariser = 0.0;
   while (cost.worst > tolerance_ && it < limit) {
     // The regulariser steers while the targets are far and fades as they are
     // met, so that a reachable target is reached rather than traded for it.
     const double fade = std::min(1.0, cost.worst / (1e-2 * size_));
     const double mu = dls ? mu_ * fade * fade : 0.0;
-    if (mu > 0.0) RegulariserResidual(current_, rho_.data());
-    const double merit = cost.task + (mu > 0.0 ? mu * RegulariserCost(current_) : 0.0);
+    if (mu > 0.0 && !have_rho) {
+      regulariser = Regulariser(current_, rho_.data());
+      have_rho = true;
+    }
+    const double merit = cost.task + (mu > 0.0 ? mu * regulariser : 0.0);
     BuildJacobian(fk_);
     double floor2 = lambda_ * lambda_;
     if (method == IkMethod::kPseudoInverse) {  // eps ~ 1e-12 of the system's scale
@@ -1213,7 +1248,8 @@ int Solver::SolveJacobian() {
       Apply(current_, u_.data(), trial_);
       Forward(trial_, trial_fk_);
       next = Evaluate(trial_fk_, r_.data());
-      next_merit = next.task + (mu > 0.0 ? mu * RegulariserCost(trial_) : 0.0);
+      if (mu > 0.0) trial_regulariser = Regulariser(trial_, trial_rho_.data());
+      next_merit = next.task + (mu > 0.0 ? mu * trial_regulariser : 0.0);
       if (!std::isfinite(next_merit)) {
         broken = true;
         break;
@@ -1252,6 +1288,11 @@ int Solver::SolveJacobian() {
       std::swap(fk_, trial_fk_);
       std::swap(e_, r_);
       cost = next;
+      if (mu > 0.0) {
+        std::swap(rho_, trial_rho_);
+        regulariser = trial_regulariser;
+      }
+      have_rho = mu > 0.0;
       // A minimum that does not meet the targets: the cost no longer falls.
       if (merit - next_merit <= 1e-13 * merit) break;
       continue;
@@ -1260,6 +1301,7 @@ int Solver::SolveJacobian() {
       ++it;
       ++kicks;
       if (Kick(mu, cost)) {
+        have_rho = false;
         damp2 = 0.0;
         nu = 2.0;
         bend_weight_ = 0.0;
