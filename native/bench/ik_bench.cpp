@@ -8,11 +8,18 @@
 // CCD, the Jacobian transpose and the pseudo-inverse run the same clip for
 // comparison. iterations_per_frame is the mean; met is the fraction of frames
 // whose four effectors all end within the tolerance (1e-5 of the height).
+//
+// BM_IkDlsChains is the add-on's end-to-end case: the same rig, four position
+// effectors (the hands with a chain of four bones, hand to clavicle; the feet
+// with a chain of three, foot to thigh; every other bone excluded), no root
+// unknowns, targets moving smoothly (where a second animated pose puts the
+// four tips), 10,000 frames, DLS.
 //   motionkit_bench --benchmark_filter=Ik --benchmark_repetitions=9 --benchmark_report_aggregates_only=true
 #include <benchmark/benchmark.h>
 
 #include <cmath>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Geometry>
@@ -180,6 +187,91 @@ const Clip& TheClip() {
   return clip;
 }
 
+// The chains case: hands (chain 4) and feet (chain 3) reach for where a
+// second pose, with those chains' bones moved on, puts them.
+struct ChainClip {
+  motionkit::RigModel rig;
+  std::vector<motionkit::IkEffector> effectors;
+  std::vector<motionkit::IkJoint> joints;
+  RowMatrixXd rotations, locations, targets, orientations;
+  ChainClip() : rig(MakeRig(Humanoid60())) {
+    const Eigen::Index frames = 10000;
+    const int bones = rig.size();
+    const std::vector<std::pair<const char*, int>> chains = {{"hand_l", 4}, {"hand_r", 4}, {"foot_l", 3}, {"foot_r", 3}};
+    joints.assign(static_cast<std::size_t>(bones), motionkit::IkJoint{});
+    for (motionkit::IkJoint& j : joints) j.excluded = true;
+    std::vector<char> chain(static_cast<std::size_t>(bones), 0);
+    for (const auto& [name, length] : chains) {
+      int b = rig.Find(name);
+      for (int k = 0; k < length && b >= 0; ++k, b = rig.parent(b)) {
+        joints[static_cast<std::size_t>(b)].excluded = false;
+        chain[static_cast<std::size_t>(b)] = 1;
+      }
+      motionkit::IkEffector e;
+      e.name = name;
+      e.bone = rig.Find(name);
+      effectors.push_back(e);
+    }
+    rotations = RowMatrixXd::Zero(frames, 4 * bones);
+    locations = RowMatrixXd::Zero(frames, 3);
+    targets = RowMatrixXd::Zero(frames, 3 * static_cast<Eigen::Index>(chains.size()));
+    orientations = RowMatrixXd::Zero(frames, 0);
+    RowMatrixXd goal = RowMatrixXd::Zero(1, 4 * bones);
+    for (Eigen::Index f = 0; f < frames; ++f) {
+      const double t = static_cast<double>(f) / 60.0;
+      for (int b = 0; b < bones; ++b) {
+        const double phase = 0.7 * b;
+        Store(rotations, f, b, Turn(0.15 * std::sin(2.0 * t + phase), 0.05 * std::sin(1.3 * t + phase),
+                                    0.1 * std::sin(1.7 * t + 2 * phase)));
+      }
+      locations.row(f) << 0.02 * std::sin(t), 0.3 * t, 0.03 * std::sin(4 * t);
+      goal.row(0) = rotations.row(f);
+      for (int b = 0; b < bones; ++b) {
+        if (chain[static_cast<std::size_t>(b)]) {
+          Store(goal, 0, b, Turn(0.4 * std::sin(0.9 * t + b), 0.2 * std::cos(0.6 * t + b), 0.3 * std::sin(1.1 * t)));
+        }
+      }
+      for (std::size_t e = 0; e < effectors.size(); ++e) {
+        targets.row(f).segment<3>(3 * static_cast<Eigen::Index>(e)) =
+            Tail(rig, goal, 0, locations.row(f).transpose(), effectors[e].bone).transpose();
+      }
+    }
+  }
+};
+
+const ChainClip& TheChainClip() {
+  static const ChainClip clip;
+  return clip;
+}
+
+void BM_IkDlsChains(benchmark::State& state) {
+  const ChainClip& clip = TheChainClip();
+  const Eigen::Index frames = clip.rotations.rows();
+  const int bones = clip.rig.size();
+  const auto count = static_cast<Eigen::Index>(clip.effectors.size());
+  RowMatrixXd rotations(frames, 4 * bones), roots(frames, 3), scales(frames, bones), errors(frames, count);
+  Eigen::VectorXi iterations(frames);
+  const double height = 1.65;
+  for (auto _ : state) {
+    motionkit::IkClipJob job(clip.rig, clip.rotations, clip.locations, clip.targets, clip.orientations, rotations,
+                             roots, scales, errors, iterations);
+    job.effectors = clip.effectors;
+    job.joints = clip.joints;
+    job.options.method = motionkit::IkMethod::kDls;
+    job.options.tolerance = 1e-5 * height;
+    job.Run();
+    benchmark::DoNotOptimize(rotations.data());
+    benchmark::ClobberMemory();
+  }
+  int met = 0;
+  for (Eigen::Index f = 0; f < frames; ++f) met += errors.row(f).maxCoeff() <= 1e-5 * height;
+  state.counters["bones"] = bones;
+  state.counters["time_per_frame"] = benchmark::Counter(
+      static_cast<double>(frames), benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+  state.counters["iterations_per_frame"] = static_cast<double>(iterations.sum()) / static_cast<double>(frames);
+  state.counters["met"] = static_cast<double>(met) / static_cast<double>(frames);
+}
+
 void SolveClip(benchmark::State& state, motionkit::IkMethod method) {
   const Clip& clip = TheClip();
   const Eigen::Index frames = clip.rotations.rows();
@@ -216,5 +308,6 @@ BENCHMARK(BM_IkDls)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_IkCcd)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_IkTranspose)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_IkPseudoInverse)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_IkDlsChains)->Unit(benchmark::kMillisecond);
 
 }  // namespace

@@ -17,7 +17,8 @@
 // their columns, each effector's path as a list of columns root first, how
 // many leading columns any two effectors share, the CCD chains) and sizes
 // every buffer; the frame loop allocates nothing. A Jacobian method keeps one
-// dense block per effector (its rows x its path's columns). Two paths share
+// dense block per effector (its rows x its path's columns, stored column by
+// column so that a column's rows lie together). Two paths share
 // exactly their common ancestors' columns, and those come first in both
 // lists, so the effector-space matrix A W A^T is built block by block from
 // dot products of leading columns: its cost grows with the paths, not with
@@ -47,8 +48,10 @@ Vec3 Unit(int axis) { return Vec3::Unit(axis); }
 // Rotation vector -> unit quaternion.
 Quat Exp(const Vec3& v) {
   const double a = v.norm();
-  const double s = a < 1e-6 ? 0.5 - a * a / 48.0 : std::sin(0.5 * a) / a;  // sin(a/2) / a
-  return Quat(std::cos(0.5 * a), s * v.x(), s * v.y(), s * v.z());
+  // Both unconditionally, so that the compiler makes them one sincos call.
+  const double sine = std::sin(0.5 * a), cosine = std::cos(0.5 * a);
+  const double s = a < 1e-6 ? 0.5 - a * a / 48.0 : sine / a;  // sin(a/2) / a
+  return Quat(cosine, s * v.x(), s * v.y(), s * v.z());
 }
 
 // Unit quaternion -> rotation vector, angle in [0, pi].
@@ -185,6 +188,46 @@ std::string EffectorName(const IkEffector& e, std::size_t i) {
   return e.name.empty() ? "effector " + std::to_string(i) : "effector '" + e.name + "'";
 }
 
+// Kernels over an effector's column-major block (R rows: 3, or 6 with an
+// orientation), R a constant so that the rows' loops unroll.
+template <int R>
+void BlockTimes(const double* a, const int* columns, std::size_t n, const double* x, double* out) {
+  std::array<double, R> sum{};
+  for (std::size_t i = 0; i < n; ++i, a += R) {
+    const double v = x[columns[i]];
+    for (int r = 0; r < R; ++r) sum[static_cast<std::size_t>(r)] += a[r] * v;
+  }
+  for (int r = 0; r < R; ++r) out[r] = sum[static_cast<std::size_t>(r)];
+}
+
+template <int R>
+void BlockTransposeTimes(const double* a, const int* columns, std::size_t n, const double* y, double* out) {
+  for (std::size_t i = 0; i < n; ++i, a += R) {
+    double v = out[columns[i]];
+    for (int r = 0; r < R; ++r) v += a[r] * y[r];
+    out[columns[i]] = v;
+  }
+}
+
+// sum[ra][rb] = sum over the first c columns of x[ra] z[rb].
+template <int RA, int RB>
+void BlockDots(const double* x, const double* z, std::size_t c, std::array<std::array<double, 6>, 6>& sum) {
+  std::array<std::array<double, RB>, RA> acc{};
+  for (std::size_t i = 0; i < c; ++i, x += RA, z += RB) {
+    for (int ra = 0; ra < RA; ++ra) {
+      for (int rb = 0; rb < RB; ++rb) {
+        acc[static_cast<std::size_t>(ra)][static_cast<std::size_t>(rb)] += x[ra] * z[rb];
+      }
+    }
+  }
+  for (int ra = 0; ra < RA; ++ra) {
+    for (int rb = 0; rb < RB; ++rb) {
+      sum[static_cast<std::size_t>(ra)][static_cast<std::size_t>(rb)] =
+          acc[static_cast<std::size_t>(ra)][static_cast<std::size_t>(rb)];
+    }
+  }
+}
+
 class Solver {
  public:
   explicit Solver(IkClipJob& job);
@@ -239,7 +282,7 @@ class Solver {
     std::vector<double> levers;  // per column (stretch columns)
     std::vector<Segment> segments;
     std::vector<int> prefix;     // per effector: how many leading columns the two paths share
-    std::vector<double> block;   // rows x columns, row-major: its rows of A
+    std::vector<double> block;   // rows x columns, column-major (i * rows + r): its rows of A
     std::vector<double> wblock;  // the same times W
     std::vector<Link> ccd;
   };
@@ -268,8 +311,9 @@ class Solver {
   void Forward(const Pose& pose, Fk& fk) const;
   double EffectorError(int e, const Fk& fk, bool position_only) const;
   Cost Evaluate(const Fk& fk, double* residual) const;
-  void RegulariserResidual(const Pose& pose, double* rho) const;
   double RegulariserCost(const Pose& pose) const;
+  // Both at once (one Log per joint): writes rho, returns the cost.
+  double Regulariser(const Pose& pose, double* rho) const;
   void ClampJoint(const Joint& j, Pose& pose) const;
 
   void BuildJacobian(const Fk& fk);
@@ -315,7 +359,9 @@ class Solver {
   bool have_solution_ = false;
 
   // Scratch, sized once.
-  std::vector<double> e_, r_, y_, h_, u_, u0_, g_, w_, rho_, s_;
+  std::vector<double> e_, r_, y_, h_, u_, u0_, g_, w_, rho_, trial_rho_, s_;
+  // W is diagonal (w_) unless DLS adds the residuals' curvature: weight_ then.
+  bool full_weight_ = false;
   // Per joint: the residual curvature DLS adds (armature space, then in the
   // joint's columns), and the joint's block of W.
   std::vector<Eigen::Matrix3d> axes_, bend_world_, bend_, weight_;
@@ -374,7 +420,7 @@ Solver::Solver(IkClipJob& job) : job_(job), rig_(job.rig), options_(job.options)
   const auto rows = static_cast<std::size_t>(rows_), cols = static_cast<std::size_t>(cols_);
   for (std::vector<double>* v : {&e_, &r_, &y_, &h_}) v->assign(rows, 0.0);
   s_.assign(rows * rows, 0.0);
-  for (std::vector<double>* v : {&u_, &u0_, &g_, &w_, &rho_}) v->assign(cols, 0.0);
+  for (std::vector<double>* v : {&u_, &u0_, &g_, &w_, &rho_, &trial_rho_}) v->assign(cols, 0.0);
   for (auto* v : {&axes_, &bend_world_, &bend_, &weight_}) v->assign(joints_.size(), Eigen::Matrix3d::Zero());
   met_.assign(static_cast<std::size_t>(effector_count_), 0);
   frozen_.assign(cols, 0);
@@ -616,19 +662,31 @@ Solver::Cost Solver::Evaluate(const Fk& fk, double* residual) const {
   return cost;
 }
 
-// Where each unknown stands from the reference, in its column's units.
-void Solver::RegulariserResidual(const Pose& pose, double* rho) const {
+// Where each unknown stands from the reference, in its column's units (rho),
+// and the regulariser's cost.
+double Solver::Regulariser(const Pose& pose, double* rho) const {
+  double sum = 0.0;
   if (translate_) {
     const Vec3 d = pose.root - reference_.root;
     for (int k = 0; k < 3; ++k) rho[k] = d[k];
+    sum += d.squaredNorm() / (ls_ * ls_);
   }
   for (const Joint& j : joints_) {
     if (j.axis_count > 0) {
       const Vec3 d = Log(At(pose.basis, j.bone) * At(reference_.basis, j.bone).conjugate());
-      for (int k = 0; k < j.axis_count; ++k) rho[j.first_column + k] = d[j.axes[static_cast<std::size_t>(k)]];
+      for (int k = 0; k < j.axis_count; ++k) {
+        const double v = d[j.axes[static_cast<std::size_t>(k)]];
+        rho[j.first_column + k] = v;
+        sum += v * v;
+      }
     }
-    if (j.stretch_column >= 0) rho[j.stretch_column] = At(pose.scale, j.bone) - At(reference_.scale, j.bone);
+    if (j.stretch_column >= 0) {
+      const double d = At(pose.scale, j.bone) - At(reference_.scale, j.bone);
+      rho[j.stretch_column] = d;
+      sum += d * d;
+    }
   }
+  return sum;
 }
 
 double Solver::RegulariserCost(const Pose& pose) const {
@@ -686,30 +744,39 @@ void Solver::BuildJacobian(const Fk& fk) {
   for (int ei = 0; ei < effector_count_; ++ei) {
     Effector& e = At(effectors_, ei);
     const Vec3& tip = At(fk.tip, ei);
-    const std::size_t n = e.columns.size();
-    double* pos = e.block.data();
-    double* ori = pos + (e.position ? 3 * n : 0);
+    const auto rows = static_cast<std::size_t>(e.rows);
+    const std::size_t ori = e.position ? 3 : 0;  // the orientation rows' offset in a column
     const double sw = e.sqrt_weight;
-    for (std::size_t i = 0; i < n; ++i) {
-      const Column& c = columns_[static_cast<std::size_t>(e.columns[i])];
-      Vec3 dp = Vec3::Zero(), dr = Vec3::Zero();
-      if (c.kind == Kind::kTranslate) {
-        dp[c.axis] = 1.0;  // the root's head moves every effector below it one to one
-      } else {
-        const Joint& j = At(joints_, c.joint);
-        if (c.kind == Kind::kRotate) {
-          const Vec3 a = At(axes_, c.joint).col(c.axis);
-          dp = c.scale * a.cross(tip - At(fk.head, j.bone));
-          dr = (c.scale * ls_) * a;
-        } else {
-          dp = (c.scale * e.levers[i]) * (At(fk.global, j.bone) * Vec3::UnitY());
-        }
-      }
+    const auto store = [&](std::size_t i, const Vec3& dp, const Vec3& dr) {
+      double* out = e.block.data() + i * rows;
       if (e.position) {
-        for (int k = 0; k < 3; ++k) pos[static_cast<std::size_t>(k) * n + i] = sw * dp[k];
+        for (int k = 0; k < 3; ++k) out[k] = sw * dp[k];
       }
       if (e.orientation) {
-        for (int k = 0; k < 3; ++k) ori[static_cast<std::size_t>(k) * n + i] = sw * dr[k];
+        for (int k = 0; k < 3; ++k) out[ori + static_cast<std::size_t>(k)] = sw * dr[k];
+      }
+    };
+    for (const Segment& sg : e.segments) {
+      const auto at = static_cast<std::size_t>(sg.start);
+      if (sg.joint < 0) {  // the root's translation, or a stretch column
+        const Column& c = columns_[static_cast<std::size_t>(e.columns[at])];
+        Vec3 dp = Vec3::Zero();
+        if (c.kind == Kind::kTranslate) {
+          dp[c.axis] = 1.0;  // the root's head moves every effector below it one to one
+        } else {
+          const Joint& j = At(joints_, c.joint);
+          dp = (c.scale * e.levers[at]) * (At(fk.global, j.bone) * Vec3::UnitY());
+        }
+        store(at, dp, Vec3::Zero());
+        continue;
+      }
+      const Vec3 lever = tip - At(fk.head, At(joints_, sg.joint).bone);
+      const Eigen::Matrix3d& axes = At(axes_, sg.joint);
+      for (int k = 0; k < sg.count; ++k) {
+        const std::size_t i = at + static_cast<std::size_t>(k);
+        const Column& c = columns_[static_cast<std::size_t>(e.columns[i])];
+        const Vec3 a = axes.col(c.axis);
+        store(i, c.scale * a.cross(lever), (c.scale * ls_) * a);
       }
     }
   }
@@ -746,17 +813,17 @@ void Solver::BuildBend() {
 void Solver::MultiplyA(const double* x, double* out) const {
   for (const Effector& e : effectors_) {
     const std::size_t n = e.columns.size();
-    for (int r = 0; r < e.rows; ++r) {
-      const double* a = e.block.data() + static_cast<std::size_t>(r) * n;
-      double s = 0.0;
-      for (std::size_t i = 0; i < n; ++i) s += a[i] * x[e.columns[i]];
-      out[e.row + r] = s;
+    if (e.rows == 3) {
+      BlockTimes<3>(e.block.data(), e.columns.data(), n, x, out + e.row);
+    } else {
+      BlockTimes<6>(e.block.data(), e.columns.data(), n, x, out + e.row);
     }
   }
 }
 
 void Solver::MultiplyW(const double* x, double* out) const {
   for (int j = 0; j < cols_; ++j) out[j] = At(w_, j) * x[j];
+  if (!full_weight_) return;
   for (std::size_t jo = 0; jo < joints_.size(); ++jo) {
     const Joint& j = joints_[jo];
     const double* in = x + j.first_column;
@@ -772,10 +839,10 @@ void Solver::MultiplyAt(const double* y, double* out) const {
   std::fill(out, out + cols_, 0.0);
   for (const Effector& e : effectors_) {
     const std::size_t n = e.columns.size();
-    for (int r = 0; r < e.rows; ++r) {
-      const double* a = e.block.data() + static_cast<std::size_t>(r) * n;
-      const double yr = y[e.row + r];
-      for (std::size_t i = 0; i < n; ++i) out[e.columns[i]] += a[i] * yr;
+    if (e.rows == 3) {
+      BlockTransposeTimes<3>(e.block.data(), e.columns.data(), n, y + e.row, out);
+    } else {
+      BlockTransposeTimes<6>(e.block.data(), e.columns.data(), n, y + e.row, out);
     }
   }
 }
@@ -784,19 +851,26 @@ void Solver::Gram(bool weighted, double diagonal) {
   const int m = rows_;
   for (int a = 0; a < effector_count_; ++a) {
     const Effector& ea = At(effectors_, a);
-    const std::size_t na = ea.columns.size();
     const double* left = weighted ? ea.wblock.data() : ea.block.data();
+    const auto ra_count = static_cast<std::size_t>(ea.rows);
     for (int b = a; b < effector_count_; ++b) {
       const Effector& eb = At(effectors_, b);
-      const std::size_t nb = eb.columns.size();
+      const auto rb_count = static_cast<std::size_t>(eb.rows);
       const auto c = static_cast<std::size_t>(At(ea.prefix, b));
-      for (int ra = 0; ra < ea.rows; ++ra) {
-        const double* x = left + static_cast<std::size_t>(ra) * na;
-        for (int rb = (a == b ? ra : 0); rb < eb.rows; ++rb) {
-          const double* z = eb.block.data() + static_cast<std::size_t>(rb) * nb;
-          double s = 0.0;
-          for (std::size_t i = 0; i < c; ++i) s += x[i] * z[i];
-          const int i0 = ea.row + ra, i1 = eb.row + rb;
+      // Over the shared leading columns: sum[ra][rb] += x[ra] z[rb].
+      std::array<std::array<double, 6>, 6> sum;
+      const double* z = eb.block.data();
+      if (ra_count == 3) {
+        if (rb_count == 3) BlockDots<3, 3>(left, z, c, sum);
+        else BlockDots<3, 6>(left, z, c, sum);
+      } else {
+        if (rb_count == 3) BlockDots<6, 3>(left, z, c, sum);
+        else BlockDots<6, 6>(left, z, c, sum);
+      }
+      for (std::size_t ra = 0; ra < ra_count; ++ra) {
+        for (std::size_t rb = (a == b ? ra : 0); rb < rb_count; ++rb) {
+          double s = sum[ra][rb];
+          const int i0 = ea.row + static_cast<int>(ra), i1 = eb.row + static_cast<int>(rb);
           if (i0 == i1) s += diagonal;
           s_[static_cast<std::size_t>(i0 * m + i1)] = s;
           s_[static_cast<std::size_t>(i1 * m + i0)] = s;
@@ -825,7 +899,9 @@ bool Solver::Direction(double lambda2, double mu) {
         At(w_, j) = held ? 0.0 : 1.0 / ((lambda2 + mu * d * d) * c.metric);
         At(g_, j) = mu > 0.0 && !held ? -mu * d * c.metric * At(rho_, j) : 0.0;  // b
       }
-      for (std::size_t jo = 0; jo < joints_.size(); ++jo) {
+      // Without the curvature M is diagonal, and W is w_ (a held column's 0).
+      full_weight_ = bend_weight_ > 0.0;
+      for (std::size_t jo = 0; full_weight_ && jo < joints_.size(); ++jo) {
         const Joint& j = joints_[jo];
         if (j.axis_count == 0) continue;
         Eigen::Matrix3d m = Eigen::Matrix3d::Identity();
@@ -850,20 +926,28 @@ bool Solver::Direction(double lambda2, double mu) {
       for (int i = 0; i < rows_; ++i) At(y_, i) = At(e_, i) - At(h_, i);
       for (Effector& e : effectors_) {
         const std::size_t n = e.columns.size();
-        for (int r = 0; r < e.rows; ++r) {
-          const double* in = e.block.data() + static_cast<std::size_t>(r) * n;
-          double* out = e.wblock.data() + static_cast<std::size_t>(r) * n;
+        const auto rows = static_cast<std::size_t>(e.rows);
+        if (!full_weight_) {
+          for (std::size_t i = 0; i < n; ++i) {
+            const double w = At(w_, e.columns[i]);
+            for (std::size_t r = 0; r < rows; ++r) e.wblock[i * rows + r] = e.block[i * rows + r] * w;
+          }
+          continue;
+        }
+        for (std::size_t r = 0; r < rows; ++r) {
+          const double* in = e.block.data() + r;
+          double* out = e.wblock.data() + r;
           for (const Segment& sg : e.segments) {
             const auto at = static_cast<std::size_t>(sg.start);
             if (sg.joint < 0) {
-              out[at] = in[at] * At(w_, e.columns[at]);
+              out[at * rows] = in[at * rows] * At(w_, e.columns[at]);
               continue;
             }
             const Eigen::Matrix3d& w = At(weight_, sg.joint);
             for (int k = 0; k < sg.count; ++k) {
               double sum = 0.0;
-              for (int l = 0; l < sg.count; ++l) sum += in[at + static_cast<std::size_t>(l)] * w(l, k);
-              out[at + static_cast<std::size_t>(k)] = sum;
+              for (int l = 0; l < sg.count; ++l) sum += in[(at + static_cast<std::size_t>(l)) * rows] * w(l, k);
+              out[(at + static_cast<std::size_t>(k)) * rows] = sum;
             }
           }
         }
@@ -992,7 +1076,7 @@ bool Solver::Freeze(const double* u) {
     const std::size_t n = e.columns.size();
     for (std::size_t i = 0; i < n; ++i) {
       if (!At(frozen_, e.columns[i])) continue;
-      for (int r = 0; r < e.rows; ++r) e.block[static_cast<std::size_t>(r) * n + i] = 0.0;
+      for (int r = 0; r < e.rows; ++r) e.block[i * static_cast<std::size_t>(e.rows) + static_cast<std::size_t>(r)] = 0.0;
     }
   }
   return true;
@@ -1131,13 +1215,20 @@ int Solver::SolveJacobian() {
   int it = 0, kicks = 0;
   double damp2 = 0.0, nu = 2.0;  // the damping term (lambda^2, or the pseudo-inverse's eps) and its growth
   bend_weight_ = 0.0;
+  // The regulariser's residual and cost at current_, kept from the accepted
+  // trial that produced it.
+  bool have_rho = false;
+  double regulariser = 0.0, trial_regulariser = 0.0;
   while (cost.worst > tolerance_ && it < limit) {
     // The regulariser steers while the targets are far and fades as they are
     // met, so that a reachable target is reached rather than traded for it.
     const double fade = std::min(1.0, cost.worst / (1e-2 * size_));
     const double mu = dls ? mu_ * fade * fade : 0.0;
-    if (mu > 0.0) RegulariserResidual(current_, rho_.data());
-    const double merit = cost.task + (mu > 0.0 ? mu * RegulariserCost(current_) : 0.0);
+    if (mu > 0.0 && !have_rho) {
+      regulariser = Regulariser(current_, rho_.data());
+      have_rho = true;
+    }
+    const double merit = cost.task + (mu > 0.0 ? mu * regulariser : 0.0);
     BuildJacobian(fk_);
     double floor2 = lambda_ * lambda_;
     if (method == IkMethod::kPseudoInverse) {  // eps ~ 1e-12 of the system's scale
@@ -1213,7 +1304,8 @@ int Solver::SolveJacobian() {
       Apply(current_, u_.data(), trial_);
       Forward(trial_, trial_fk_);
       next = Evaluate(trial_fk_, r_.data());
-      next_merit = next.task + (mu > 0.0 ? mu * RegulariserCost(trial_) : 0.0);
+      if (mu > 0.0) trial_regulariser = Regulariser(trial_, trial_rho_.data());
+      next_merit = next.task + (mu > 0.0 ? mu * trial_regulariser : 0.0);
       if (!std::isfinite(next_merit)) {
         broken = true;
         break;
@@ -1252,6 +1344,11 @@ int Solver::SolveJacobian() {
       std::swap(fk_, trial_fk_);
       std::swap(e_, r_);
       cost = next;
+      if (mu > 0.0) {
+        std::swap(rho_, trial_rho_);
+        regulariser = trial_regulariser;
+      }
+      have_rho = mu > 0.0;
       // A minimum that does not meet the targets: the cost no longer falls.
       if (merit - next_merit <= 1e-13 * merit) break;
       continue;
@@ -1260,6 +1357,7 @@ int Solver::SolveJacobian() {
       ++it;
       ++kicks;
       if (Kick(mu, cost)) {
+        have_rho = false;
         damp2 = 0.0;
         nu = 2.0;
         bend_weight_ = 0.0;
@@ -1527,7 +1625,9 @@ RowMatrixXd Solver::Jacobian(Eigen::Index f) {
   for (const Effector& e : effectors_) {
     const std::size_t n = e.columns.size();
     for (int r = 0; r < e.rows; ++r) {
-      for (std::size_t i = 0; i < n; ++i) j(e.row + r, e.columns[i]) = e.block[static_cast<std::size_t>(r) * n + i];
+      for (std::size_t i = 0; i < n; ++i) {
+        j(e.row + r, e.columns[i]) = e.block[i * static_cast<std::size_t>(e.rows) + static_cast<std::size_t>(r)];
+      }
     }
   }
   return j;
