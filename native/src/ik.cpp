@@ -33,6 +33,15 @@ using Quat = Eigen::Quaterniond;
 
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kInf = std::numeric_limits<double>::infinity();
+// A DLS step that lowers the cost by less than this
+// fraction ends the frame: the
+// targets are out of reach (a reachable one converges quadratically, each step
+// taking a large share of what is left). Unreachable frames stop after a few
+// steps instead of running to max_iterations.
+constexpr double kStationary = 1e-9;
+// The transpose and the pseudo-inverse (without the curvature term, which lets
+// DLS settle at once) creep by small fractions: only a standstill ends them.
+constexpr double kCreeping = 1e-13;
 
 template <class T>
 T& At(std::vector<T>& v, int i) {
@@ -1350,7 +1359,7 @@ int Solver::SolveJacobian() {
       }
       have_rho = mu > 0.0;
       // A minimum that does not meet the targets: the cost no longer falls.
-      if (merit - next_merit <= 1e-13 * merit) break;
+      if (merit - next_merit <= (dls ? kStationary : kCreeping) * merit) break;
       continue;
     }
     if (stalled && kicks < 2 && it < limit) {
