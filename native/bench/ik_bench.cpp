@@ -26,44 +26,23 @@
 
 #include "motionkit/ik.hpp"
 #include "motionkit/rig.hpp"
+#include "rig_specs.hpp"
 
 namespace {
 
 using motionkit::RowMatrixXd;
+using motionkit::test_rigs::BoneSpec;
+using motionkit::test_rigs::MakeRig;
 using Vec3 = Eigen::Vector3d;
 using Quat = Eigen::Quaterniond;
 
-struct Bone {
-  std::string name;
-  int parent;
-  Vec3 head, tail;
-};
-
-motionkit::RigModel MakeRig(const std::vector<Bone>& bones) {
-  const auto n = static_cast<Eigen::Index>(bones.size());
-  std::vector<std::string> names;
-  std::vector<int> parents;
-  RowMatrixXd rest(n, 4), heads(n, 3);
-  Eigen::VectorXd lengths(n);
-  for (Eigen::Index i = 0; i < n; ++i) {
-    const Bone& b = bones[static_cast<std::size_t>(i)];
-    names.push_back(b.name);
-    parents.push_back(b.parent);
-    const Quat q = Quat::FromTwoVectors(Vec3::UnitY(), (b.tail - b.head).normalized());
-    rest.row(i) << q.w(), q.x(), q.y(), q.z();
-    heads.row(i) = b.head.transpose();
-    lengths[i] = (b.tail - b.head).norm();
-  }
-  return motionkit::RigModel(names, parents, rest, heads, lengths);
-}
-
-int Add(std::vector<Bone>& b, const std::string& name, int parent, const Vec3& head, const Vec3& tail) {
+int Add(std::vector<BoneSpec>& b, const std::string& name, int parent, const Vec3& head, const Vec3& tail) {
   b.push_back({name, parent, head, tail});
   return static_cast<int>(b.size()) - 1;
 }
 
-std::vector<Bone> Humanoid60() {
-  std::vector<Bone> b;
+std::vector<BoneSpec> Humanoid60() {
+  std::vector<BoneSpec> b;
   int parent = Add(b, "hips", -1, {0, 0, 1.0}, {0, 0, 1.08});
   Vec3 at = b.back().tail;
   for (int i = 0; i < 7; ++i) {

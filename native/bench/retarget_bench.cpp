@@ -20,20 +20,16 @@
 
 #include "motionkit/retarget.hpp"
 #include "motionkit/rig.hpp"
+#include "rig_specs.hpp"
 
 namespace {
 
 using motionkit::RowMatrixXd;
+using motionkit::test_rigs::BoneSpec;
+using motionkit::test_rigs::MakeRig;
 
 constexpr double kPi = 3.14159265358979323846;
 constexpr int kBones = 60;
-
-struct BoneSpec {
-  std::string name;
-  int parent;
-  Eigen::Vector3d head, tail;
-  double roll;
-};
 
 Eigen::Vector3d TurnDown(const Eigen::Vector3d& horizontal, double degrees) {
   const double a = -degrees * kPi / 180.0;
@@ -92,26 +88,6 @@ std::vector<BoneSpec> Humanoid(bool target) {
   for (int k = 0; k < 10; ++k) tail.emplace_back(0, 1, (target ? 0.3 : -0.3) * k);
   chain("tail", 0, {0, 0.05 * size, size}, tail, std::vector<double>(10, target ? 0.06 : 0.05));
   return bones;
-}
-
-motionkit::RigModel MakeRig(const std::vector<BoneSpec>& bones) {
-  const auto n = static_cast<Eigen::Index>(bones.size());
-  std::vector<std::string> names;
-  std::vector<int> parents;
-  RowMatrixXd rest(n, 4), heads(n, 3);
-  Eigen::VectorXd lengths(n);
-  for (Eigen::Index i = 0; i < n; ++i) {
-    const BoneSpec& b = bones[static_cast<std::size_t>(i)];
-    names.push_back(b.name);
-    parents.push_back(b.parent);
-    const Eigen::Vector3d d = (b.tail - b.head).normalized();
-    const Eigen::Quaterniond q =
-        (Eigen::AngleAxisd(b.roll, d) * Eigen::Quaterniond::FromTwoVectors(Eigen::Vector3d::UnitY(), d)).normalized();
-    rest.row(i) << q.w(), q.x(), q.y(), q.z();
-    heads.row(i) = b.head.transpose();
-    lengths[i] = (b.tail - b.head).norm();
-  }
-  return motionkit::RigModel(names, parents, rest, heads, lengths);
 }
 
 // The source's pose channels: per bone a random walk of its rotation vector

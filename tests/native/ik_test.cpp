@@ -12,44 +12,17 @@
 
 #include "motionkit/ik.hpp"
 #include "motionkit/rig.hpp"
+#include "rig_specs.hpp"
 
 namespace motionkit {
 namespace {
 
+using test_rigs::BoneSpec;
+using test_rigs::MakeRig;
+
 constexpr double kPi = 3.14159265358979323846;
 using Vec3 = Eigen::Vector3d;
 using Quat = Eigen::Quaterniond;
-
-struct BoneSpec {
-  std::string name;
-  int parent;
-  Vec3 head, tail;
-  double roll;
-};
-
-// Rest orientation as Blender makes it from head, tail and roll.
-Quat RestOf(const BoneSpec& b) {
-  const Vec3 d = (b.tail - b.head).normalized();
-  return (Eigen::AngleAxisd(b.roll, d) * Quat::FromTwoVectors(Vec3::UnitY(), d)).normalized();
-}
-
-RigModel MakeRig(const std::vector<BoneSpec>& bones) {
-  std::vector<std::string> names;
-  std::vector<int> parents;
-  const auto n = static_cast<Eigen::Index>(bones.size());
-  RowMatrixXd rest(n, 4), heads(n, 3);
-  Eigen::VectorXd lengths(n);
-  for (Eigen::Index i = 0; i < n; ++i) {
-    const BoneSpec& b = bones[static_cast<std::size_t>(i)];
-    names.push_back(b.name);
-    parents.push_back(b.parent);
-    const Quat q = RestOf(b);
-    rest.row(i) << q.w(), q.x(), q.y(), q.z();
-    heads.row(i) = b.head.transpose();
-    lengths[i] = (b.tail - b.head).norm();
-  }
-  return RigModel(names, parents, rest, heads, lengths);
-}
 
 // A straight chain of `n` bones along `direction` from the origin.
 std::vector<BoneSpec> Chain(const std::vector<double>& lengths, const Vec3& direction, double roll = 0.0) {

@@ -8,43 +8,17 @@
 
 #include "motionkit/retarget.hpp"
 #include "motionkit/rig.hpp"
+#include "rig_specs.hpp"
 
 namespace motionkit {
 namespace {
 
+using test_rigs::BoneSpec;
+using test_rigs::MakeRig;
+
 constexpr double kPi = 3.14159265358979323846;
 
-struct BoneSpec {
-  std::string name;
-  int parent;
-  Eigen::Vector3d head, tail;
-  double roll;
-};
-
 // Rest orientation as Blender makes it from head, tail and roll (the shortest
-// turn of Y onto the bone, then the roll about it).
-Eigen::Quaterniond RestOf(const BoneSpec& b) {
-  const Eigen::Vector3d d = (b.tail - b.head).normalized();
-  return (Eigen::AngleAxisd(b.roll, d) * Eigen::Quaterniond::FromTwoVectors(Eigen::Vector3d::UnitY(), d)).normalized();
-}
-
-RigModel MakeRig(const std::vector<BoneSpec>& bones) {
-  std::vector<std::string> names;
-  std::vector<int> parents;
-  RowMatrixXd rest(static_cast<Eigen::Index>(bones.size()), 4), heads(static_cast<Eigen::Index>(bones.size()), 3);
-  Eigen::VectorXd lengths(static_cast<Eigen::Index>(bones.size()));
-  for (std::size_t i = 0; i < bones.size(); ++i) {
-    const auto r = static_cast<Eigen::Index>(i);
-    names.push_back(bones[i].name);
-    parents.push_back(bones[i].parent);
-    const Eigen::Quaterniond q = RestOf(bones[i]);
-    rest.row(r) << q.w(), q.x(), q.y(), q.z();
-    heads.row(r) = bones[i].head.transpose();
-    lengths[r] = (bones[i].tail - bones[i].head).norm();
-  }
-  return RigModel(names, parents, rest, heads, lengths);
-}
-
 // A small humanoid: hips, a spine of `spine` bones, a left arm whose rest
 // points `arm_down` radians below horizontal, a left leg. Optional extra roll
 // on every bone.
