@@ -19,8 +19,8 @@ import sys
 import bpy
 
 from . import (animdata, bone_mapping, bvh, ik, ik_live, ik_props, native_state, operators_bvh, operators_ik,
-               operators_keys, operators_retarget, preferences, resample_plan, resampling, retarget_props,
-               retargeting, ui_panels)
+               operators_keys, operators_retarget, pose_channels, preferences, resample_plan, resampling,
+               retarget_props, retargeting, rotation_channels, ui_panels)
 from .native_state import native
 from .resampling import reduce_keys, resample
 from .retargeting import retarget, retarget_files

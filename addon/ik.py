@@ -23,11 +23,6 @@ METHODS = (
     ("ccd", "CCD", "Cyclic coordinate descent, joint by joint"),
 )
 _AXES = "xyz"
-# The solver's effectors are soft: a pin outweighs a target by this much, so
-# that a target out of reach is approached as far as the pins allow instead
-# of dragging them (on a walk that leaves a fixed target behind: pins within
-# 0.1 mm where equal weights let them slide half a metre).
-PIN_WEIGHT = 1e4
 
 
 @dataclass
@@ -63,26 +58,27 @@ class Result:
 
 
 def joint_limits(obj, bones) -> dict:
-    """The bones' IK settings (ik_min_*, ik_max_*, use_ik_limit_*, lock_ik_*, ik_stiffness_*, ik_stretch)."""
-    count = len(bones)
-    lo, hi = np.full((count, 3), -np.inf), np.full((count, 3), np.inf)
-    locked = np.zeros((count, 3), dtype=bool)
-    stiffness = np.zeros((count, 3))
-    stretch = np.zeros(count)
-    scale_range = np.ones((count, 2))
-    for i, bone in enumerate(bones):
-        pose_bone = obj.pose.bones[bone.name]
-        for k, axis in enumerate(_AXES):
-            locked[i, k] = getattr(pose_bone, f"lock_ik_{axis}")
-            if getattr(pose_bone, f"use_ik_limit_{axis}"):
-                lo[i, k] = getattr(pose_bone, f"ik_min_{axis}")
-                hi[i, k] = getattr(pose_bone, f"ik_max_{axis}")
-            stiffness[i, k] = min(getattr(pose_bone, f"ik_stiffness_{axis}"), 0.99)
-        stretch[i] = pose_bone.ik_stretch
-        if stretch[i] > 0:
-            scale_range[i] = (0.5, 2.0)
-    return {"limit_min": lo, "limit_max": hi, "locked": locked, "stiffness": stiffness, "stretch": stretch,
-            "scale_range": scale_range}
+    """The bones' IK settings (ik_min_*, ik_max_*, use_ik_limit_*, lock_ik_*, ik_stiffness_*, ik_stretch),
+    read in bulk, in the order of bones."""
+    pose_bones = obj.pose.bones
+    order = [pose_bones.find(bone.name) for bone in bones]
+
+    def read(prop, dtype=np.float64):
+        values = np.empty(len(pose_bones), dtype=dtype)
+        pose_bones.foreach_get(prop, values)
+        return values[order]
+
+    def per_axis(pattern, dtype=np.float64):
+        return np.stack([read(pattern.format(axis), dtype) for axis in _AXES], axis=1)
+
+    limited = per_axis("use_ik_limit_{}", bool)
+    stretch = read("ik_stretch")
+    scale_range = np.ones((len(bones), 2))
+    scale_range[stretch > 0] = (0.5, 2.0)
+    return {"limit_min": np.where(limited, per_axis("ik_min_{}"), -np.inf),
+            "limit_max": np.where(limited, per_axis("ik_max_{}"), np.inf),
+            "locked": per_axis("lock_ik_{}", bool), "stiffness": np.minimum(per_axis("ik_stiffness_{}"), 0.99),
+            "stretch": stretch, "scale_range": scale_range}
 
 
 def _frames(obj, frame_range) -> np.ndarray:
@@ -94,40 +90,31 @@ def _frames(obj, frame_range) -> np.ndarray:
     return np.arange(start, end + 1, dtype=np.float64)
 
 
-def _world_matrices(obj, frames) -> np.ndarray:
-    """An object's world matrix on each frame (frames, 4, 4), from its own keys, without frame_set."""
+def _world_placements(obj, frames) -> tuple[np.ndarray, np.ndarray]:
+    """An object's world location (frames, 3) and rotation (frames, 4) on each frame, from its own keys,
+    without frame_set."""
     action = animdata.assigned_action(obj)
     if action is None or frames.size == 1 and frames[0] == bpy.context.scene.frame_current:
-        return np.tile(np.array(obj.matrix_world), (frames.size, 1, 1))
+        location, rotation, _ = obj.matrix_world.decompose()
+        return (np.tile(np.array(location, dtype=np.float64), (frames.size, 1)),
+                np.tile(np.array(rotation, dtype=np.float64), (frames.size, 1)))
     if obj.parent is not None or len(obj.constraints):
         raise ValueError(f"target '{obj.name}' is animated and parented or constrained: bake its motion first")
     native = native_state.native()
     mode = obj.rotation_mode
     prop, size = rotation_channels.channel_property(mode)
-    channels = ([("location", k) for k in range(3)] + [(prop, k) for k in range(size)] +
-                [("scale", k) for k in range(3)])
-    static = list(obj.location) + list(getattr(obj, prop)) + list(obj.scale)
+    channels = [("location", k) for k in range(3)] + [(prop, k) for k in range(size)]
+    static = list(obj.location) + list(getattr(obj, prop))
     values, found = animdata.sample(action, obj, channels, frames)
     values[~found] = np.array(static)[~found, None]
-    q = rotation_channels.to_quaternions(native, mode, values[3:3 + size].T, f"target '{obj.name}' rotation", frames)
-    w, x, y, z = q.T
-    rot = np.stack([np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
-                    np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], -1),
-                    np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1)], 1)
-    out = np.tile(np.eye(4), (frames.size, 1, 1))
-    out[:, :3, :3] = rot * values[3 + size:].T[:, None, :]
-    out[:, :3, 3] = values[:3].T
-    return out
+    q = rotation_channels.to_quaternions(native, mode, values[3:].T, f"target '{obj.name}' rotation", frames)
+    return values[:3].T, q
 
 
 def _bone_heads(obj, bone_name, frames) -> np.ndarray:
     """World heads of another armature's bone on each frame (frames, 3), posed natively."""
-    native = native_state.native()
     rig, bones = pose_channels.native_rig(obj.data)
-    action = animdata.assigned_action(obj)
-    rotations = pose_channels.rotations(obj, action, bones, frames)
-    locations, _ = pose_channels.locations(obj, action, bones, frames)
-    _, heads = native.armature_pose(rig, rotations, np.ascontiguousarray(locations))
+    _, heads = pose_channels.armature_motion(obj, animdata.assigned_action(obj), frames, rig, bones)
     index = [b.name for b in bones].index(bone_name)
     world = np.array(obj.matrix_world)
     return heads[:, 3 * index:3 * index + 3] @ world[:3, :3].T + world[:3, 3]
@@ -147,9 +134,7 @@ def _targets(obj, effectors, frames):
             raise ValueError(f"{effector.label()} has no target (give one, or pin it)")
         rotation = None
         if isinstance(target, bpy.types.Object):
-            matrices = _world_matrices(target, frames)
-            world = matrices[:, :3, 3]
-            rotation = matrices[:, :3, :3]
+            world, rotation = _world_placements(target, frames)
         elif isinstance(target, tuple) and len(target) == 2 and isinstance(target[0], bpy.types.Object):
             armature, bone_name = target
             if armature.type != 'ARMATURE' or bone_name not in armature.data.bones:
@@ -167,43 +152,9 @@ def _targets(obj, effectors, frames):
         if effector.orientation:
             if rotation is None:
                 raise ValueError(f"{effector.label()}: an orientation target needs an object target")
-            q = _matrix_quaternions(rotation / np.linalg.norm(rotation, axis=1, keepdims=True))
-            orientations[:, 4 * e:4 * e + 4] = _multiply(arm_rotation * [1, -1, -1, -1], q)
+            orientations[:, 4 * e:4 * e + 4] = rotation_channels.multiply(rotation_channels.conjugate(arm_rotation),
+                                                                          rotation)
     return positions, orientations
-
-
-def _matrix_quaternions(m: np.ndarray) -> np.ndarray:
-    """Rotation matrices (n, 3, 3) to unit w x y z quaternions (n, 4), w >= 0 (Shepperd's method)."""
-    trace = m[:, 0, 0] + m[:, 1, 1] + m[:, 2, 2]
-    candidates = np.stack([trace, m[:, 0, 0], m[:, 1, 1], m[:, 2, 2]], axis=1)
-    pick = np.argmax(candidates, axis=1)
-    q = np.empty((len(m), 4))
-    for k in range(4):  # at most four vectorised cases, not a loop over frames
-        rows = pick == k
-        r = m[rows]
-        if k == 0:
-            s = 2.0 * np.sqrt(1.0 + trace[rows])
-            q[rows] = np.stack([0.25 * s, (r[:, 2, 1] - r[:, 1, 2]) / s, (r[:, 0, 2] - r[:, 2, 0]) / s,
-                                (r[:, 1, 0] - r[:, 0, 1]) / s], axis=1)
-            continue
-        i, j, l = k - 1, k % 3, (k + 1) % 3
-        s = 2.0 * np.sqrt(1.0 + r[:, i, i] - r[:, j, j] - r[:, l, l])
-        out = np.empty((len(r), 4))
-        out[:, 0] = (r[:, l, j] - r[:, j, l]) / s
-        out[:, 1 + i] = 0.25 * s
-        out[:, 1 + j] = (r[:, j, i] + r[:, i, j]) / s
-        out[:, 1 + l] = (r[:, l, i] + r[:, i, l]) / s
-        q[rows] = out
-    q *= np.where(q[:, :1] < 0, -1.0, 1.0)
-    return q / np.linalg.norm(q, axis=1, keepdims=True)
-
-
-def _multiply(a, b) -> np.ndarray:
-    """a (4,) times each row of b (n, 4)."""
-    w1, x1, y1, z1 = a
-    w2, x2, y2, z2 = b.T
-    return np.stack([w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2, w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
-                     w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2, w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2], axis=1)
 
 
 @dataclass
@@ -240,16 +191,10 @@ def plan(obj, effectors, frame_range=None, method: str = "dls", *, root_translat
     frames = _frames(obj, frame_range)
     action = animdata.assigned_action(obj)
     if action is None or frame_range is None:
-        # The pose as it stands (one frame): the current pose channels.
-        rows = []
-        for bone in bones:
-            pose_bone = obj.pose.bones[bone.name]
-            prop, _ = rotation_channels.channel_property(pose_bone.rotation_mode)
-            rows.append(rotation_channels.to_quaternions(
-                native, pose_bone.rotation_mode, np.array([tuple(getattr(pose_bone, prop))]),
-                f"bone '{bone.name}' rotation")[0])
-        input_rotations = np.array(rows).reshape(1, -1)
-        input_locations = np.array([tuple(obj.pose.bones[names[0]].location)], dtype=np.float64)
+        # The pose as it stands (one frame).
+        rotations, locations = pose_channels.current_pose(obj, bones)
+        input_rotations = rotations.reshape(1, -1)
+        input_locations = np.ascontiguousarray(locations[:1])
     else:
         # Only the effectors' bones and their ancestors place the effectors;
         # the other bones are neither solved nor keyed, so their keys are not read.
@@ -268,7 +213,7 @@ def plan(obj, effectors, frame_range=None, method: str = "dls", *, root_translat
     solved = native.ik_solve(
         rig, np.ascontiguousarray(input_rotations), np.ascontiguousarray(input_locations),
         np.ascontiguousarray(positions), np.ascontiguousarray(orientations),
-        [{"name": e.label(), "bone": names.index(e.bone), "weight": float(e.weight) * (PIN_WEIGHT if e.pin else 1.0),
+        [{"name": e.label(), "bone": names.index(e.bone), "weight": float(e.weight),
           "position": e.position,
           "orientation": e.orientation, "pin": e.pin} for e in effectors],
         method=method, max_iterations=max_iterations,

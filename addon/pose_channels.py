@@ -81,3 +81,37 @@ def native_rig(armature, bones=None):
                      np.array([b.head_local for b in bones], dtype=np.float64).reshape(-1, 3),
                      np.array([b.length for b in bones], dtype=np.float64))
     return rig, bones
+
+
+def armature_motion(obj, action, frames, rig=None, bones=None) -> tuple[np.ndarray, np.ndarray]:
+    """The action's armature-space bone orientations (frames, 4B) and heads (frames, 3B), posed natively
+    from its keys (bones parents first; the armature's own order unless given with their rig)."""
+    if rig is None:
+        rig, bones = native_rig(obj.data)
+    moved, _ = locations(obj, action, bones, frames)
+    return native_state.native().armature_pose(rig, rotations(obj, action, bones, frames),
+                                               np.ascontiguousarray(moved))
+
+
+def current_pose(obj, bones) -> tuple[np.ndarray, np.ndarray]:
+    """The pose as it stands, read in bulk: rotations as quaternions (bones, 4), whatever each bone's
+    rotation mode, and locations (bones, 3), in the order of bones."""
+    native = native_state.native()
+    pose_bones = obj.pose.bones
+    count = len(pose_bones)
+    arrays = {}
+    for prop, size in (("rotation_quaternion", 4), ("rotation_euler", 3), ("rotation_axis_angle", 4),
+                       ("location", 3)):
+        arrays[prop] = np.empty(count * size)
+        pose_bones.foreach_get(prop, arrays[prop])
+        arrays[prop] = arrays[prop].reshape(count, size)
+    # foreach_get gives an enum's storage, not its values: the modes one by one.
+    modes = np.array([pose_bone.rotation_mode for pose_bone in pose_bones])
+    quaternions = np.empty((count, 4))
+    for mode in np.unique(modes):
+        rows = modes == mode
+        prop, _ = rotation_channels.channel_property(mode)
+        quaternions[rows] = rotation_channels.to_quaternions(native, mode, arrays[prop][rows],
+                                                             f"'{obj.name}' pose rotation")
+    order = [pose_bones.find(bone.name) for bone in bones]
+    return quaternions[order], arrays["location"][order]

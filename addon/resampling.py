@@ -211,14 +211,7 @@ def _smooth_rotation_keys(native, group, times, quats, values, grid, kind, optio
     if group.mode == 'QUATERNION':
         # dq/dt = (0, w) q / 2 exactly, kept with the hemisphere the keys take.
         q = rotation_channels.sign_continuous(q, quats[0])
-        slopes = np.empty_like(q)
-        w, x, y, z = q.T
-        wx, wy, wz = omega.T
-        slopes[:, 0] = -(wx * x + wy * y + wz * z)
-        slopes[:, 1] = wx * w + wy * z - wz * y
-        slopes[:, 2] = wy * w + wz * x - wx * z
-        slopes[:, 3] = wz * w + wx * y - wy * x
-        slopes *= 0.5
+        slopes = 0.5 * rotation_channels.multiply(np.hstack([np.zeros((len(omega), 1)), omega]), q)
         return q, 'BEZIER', (slopes, slopes)
     rows = np.stack([_turn(q, omega, -_TANGENT_STEP), q, _turn(q, omega, _TANGENT_STEP)], axis=1)
     channels = rotation_channels.from_quaternions(native, group.mode, rows.reshape(-1, 4), previous=values[0])
@@ -232,9 +225,7 @@ def _turn(q, omega, dt):
     angle = np.linalg.norm(omega, axis=1, keepdims=True) * dt
     axis = np.divide(omega, np.linalg.norm(omega, axis=1, keepdims=True), out=np.zeros_like(omega),
                      where=angle != 0)
-    w1, v1 = np.cos(0.5 * angle), np.sin(0.5 * angle) * axis
-    w2, v2 = q[:, :1], q[:, 1:]
-    return np.hstack([w1 * w2 - np.sum(v1 * v2, axis=1, keepdims=True), w1 * v2 + w2 * v1 + np.cross(v1, v2)])
+    return rotation_channels.multiply(np.hstack([np.cos(0.5 * angle), np.sin(0.5 * angle) * axis]), q)
 
 
 def _handles(frames, values, slopes) -> animdata.Handles:

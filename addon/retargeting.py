@@ -111,45 +111,6 @@ def _frames(action, frame_range) -> np.ndarray:
     return np.arange(start, end + 1, dtype=np.float64)
 
 
-def _source_motion(native, side: _Side, action, frames) -> tuple[np.ndarray, np.ndarray]:
-    rotations = pose_channels.rotations(side.obj, action, side.bones, frames)
-    locations, _ = pose_channels.locations(side.obj, action, side.bones, frames)
-    return native.armature_pose(side.rig, rotations, np.ascontiguousarray(locations))
-
-
-def _current_basis(native, side: _Side) -> tuple[np.ndarray, np.ndarray]:
-    """The target's pose as it stands now: rotations (bones, 4) and locations (bones, 3)."""
-    rows, locations = [], []
-    for bone in side.bones:
-        pose_bone = side.obj.pose.bones[bone.name]
-        prop, _ = rotation_channels.channel_property(pose_bone.rotation_mode)
-        block = np.array([tuple(getattr(pose_bone, prop))], dtype=np.float64)
-        rows.append(rotation_channels.to_quaternions(native, pose_bone.rotation_mode, block,
-                                                     f"the current rotation of '{bone.name}'")[0])
-        locations.append(tuple(pose_bone.location))
-    return np.array(rows), np.array(locations, dtype=np.float64)
-
-
-def _tails(rotations: np.ndarray, heads: np.ndarray, lengths: np.ndarray) -> np.ndarray:
-    """Bone tails (bones, 3) from orientations (bones, 4) and heads: head + length * (G Y)."""
-    w, x, y, z = rotations.T
-    axis = np.stack([2 * (x * y - w * z), 1 - 2 * (x * x + z * z), 2 * (y * z + w * x)], axis=1)
-    return heads + lengths[:, None] * axis
-
-
-def _rotate(q: np.ndarray, points: np.ndarray) -> np.ndarray:
-    w, v = q[0], q[1:]
-    t = 2.0 * np.cross(v, points)
-    return points + w * t + np.cross(v, t)
-
-
-def _quat_mul(a, b) -> np.ndarray:
-    w1, x1, y1, z1 = a
-    w2, x2, y2, z2 = b
-    return np.array([w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2, w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
-                     w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2, w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2])
-
-
 @dataclass
 class _Pose:
     """A rig standing in its match pose, in its own armature space."""
@@ -159,7 +120,8 @@ class _Pose:
 
     @property
     def points(self) -> np.ndarray:
-        return np.vstack([self.heads, _tails(self.rotations, self.heads, self.lengths)])
+        tails = self.heads + self.lengths[:, None] * rotation_channels.y_axes(self.rotations)
+        return np.vstack([self.heads, tails])
 
 
 def _lengths(side: _Side) -> np.ndarray:
@@ -181,7 +143,7 @@ def _facing(space, source_pose: _Pose, target_pose: _Pose, pairs_idx, source_roo
     roots, rounded to a multiple of 90 degrees, so that a character facing +Y
     retargets onto one facing -Y walking forwards, not backwards.
     """
-    src = _rotate(space, source_pose.heads[[a for a, _ in pairs_idx]] - source_pose.heads[source_root])
+    src = rotation_channels.rotate(space, source_pose.heads[[a for a, _ in pairs_idx]] - source_pose.heads[source_root])
     tgt = target_pose.heads[[b for _, b in pairs_idx]] - target_pose.heads[target_root]
     cross = np.sum(src[:, 0] * tgt[:, 1] - src[:, 1] * tgt[:, 0])
     dot = np.sum(src[:, 0] * tgt[:, 0] + src[:, 1] * tgt[:, 1])
@@ -228,17 +190,18 @@ def plan(source, target, bone_map=None, frame_range=None, root: str = "scaled", 
     pairs = _pairs(bone_map, src, tgt)
     frames = _frames(action, frame_range)
 
-    source_rotations, source_heads = _source_motion(native, src, action, frames)
+    source_rotations, source_heads = pose_channels.armature_motion(src.obj, action, frames, src.rig, src.bones)
     if source_match == 'FRAME':
         if match_frame is None:
             raise ValueError("a source match pose on a frame needs match_frame")
-        match_rot, match_heads = _source_motion(native, src, action, np.array([float(match_frame)]))
+        match_rot, match_heads = pose_channels.armature_motion(src.obj, action, np.array([float(match_frame)]),
+                                                                     src.rig, src.bones)
         source_pose = _Pose(match_rot.reshape(-1, 4), match_heads.reshape(-1, 3), _lengths(src))
     else:
         source_pose = _Pose(np.array([pose_channels.rest_quaternions(src.obj.data)[n] for n in src.names]),
                             np.array([b.head_local for b in src.bones], dtype=np.float64), _lengths(src))
     if target_match == 'CURRENT':
-        target_basis, target_locations = _current_basis(native, tgt)
+        target_basis, target_locations = pose_channels.current_pose(tgt.obj, tgt.bones)
     else:
         target_basis = np.tile(_IDENTITY, (len(tgt.bones), 1))
         target_locations = np.zeros((len(tgt.bones), 3))
@@ -258,11 +221,11 @@ def plan(source, target, bone_map=None, frame_range=None, root: str = "scaled", 
 
     source_world, source_scale = _world_rotation_scale(src.obj)
     target_world, target_scale = _world_rotation_scale(tgt.obj)
-    space = _quat_mul(target_world * np.array([1, -1, -1, -1]), source_world)
+    space = rotation_channels.multiply(rotation_channels.conjugate(target_world), source_world)
     if align_facing:
-        space = _quat_mul(_facing(space, source_pose, target_pose, pairs_idx, source_root, target_root), space)
+        space = rotation_channels.multiply(_facing(space, source_pose, target_pose, pairs_idx, source_root, target_root), space)
     up = np.array([0.0, 0.0, 1.0])
-    source_up = _rotate(space * np.array([1, -1, -1, -1]), up[None, :])[0]
+    source_up = rotation_channels.rotate(rotation_channels.conjugate(space), up[None, :])[0]
     source_height = _hip_height(source_pose, source_root, source_up)
     target_height = _hip_height(target_pose, target_root, up)
     if not (source_height > 1e-9 and target_height > 1e-9):

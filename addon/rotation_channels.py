@@ -113,3 +113,29 @@ def sign_continuous(q, previous=None) -> np.ndarray:
                             dots < 0.0])
     sign = np.where(np.logical_xor.accumulate(flips), -1.0, 1.0)
     return q * sign[:, None]
+
+
+def multiply(a, b) -> np.ndarray:
+    """Quaternion products a b, w x y z, broadcasting over leading axes."""
+    a, b = np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64)
+    w1, x1, y1, z1 = np.moveaxis(a, -1, 0)
+    w2, x2, y2, z2 = np.moveaxis(b, -1, 0)
+    return np.stack([w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2, w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
+                     w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2, w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2], axis=-1)
+
+
+def conjugate(q) -> np.ndarray:
+    return np.asarray(q, dtype=np.float64) * np.array([1.0, -1.0, -1.0, -1.0])
+
+
+def rotate(q, points) -> np.ndarray:
+    """Points (..., 3) turned by the unit quaternion q (4,)."""
+    w, v = q[0], np.asarray(q[1:], dtype=np.float64)
+    t = 2.0 * np.cross(v, points)
+    return points + w * t + np.cross(v, t)
+
+
+def y_axes(q) -> np.ndarray:
+    """The Y axes (..., 3) of unit quaternions (..., 4): where Blender bones point."""
+    w, x, y, z = np.moveaxis(np.asarray(q, dtype=np.float64), -1, 0)
+    return np.stack([2 * (x * y - w * z), 1 - 2 * (x * x + z * z), 2 * (y * z + w * x)], axis=-1)

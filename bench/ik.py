@@ -46,22 +46,14 @@ EFFECTORS = (("arm_L_3", 4), ("arm_R_3", 4), ("leg_L_2", 3), ("leg_R_2", 3))  # 
 
 
 def tails(mk, obj, names, frames) -> np.ndarray:
-    """World tails of the bones on each frame, (frames, bones, 3), posed natively from the clip."""
-    import importlib
-    pose_channels = importlib.import_module(mk.__name__ + ".pose_channels")
-    rig, bones = pose_channels.native_rig(obj.data)
-    action = obj.animation_data.action
-    rotations = pose_channels.rotations(obj, action, bones, frames)
-    locations, _ = pose_channels.locations(obj, action, bones, frames)
-    g, heads = mk.native().armature_pose(rig, rotations, np.ascontiguousarray(locations))
-    index = [b.name for b in bones]
-    out = []
-    for name in names:
-        i = index.index(name)
-        w, x, y, z = g[:, 4 * i:4 * i + 4].T
-        axis = np.stack([2 * (x * y - w * z), 1 - 2 * (x * x + z * z), 2 * (y * z + w * x)], axis=1)
-        out.append(heads[:, 3 * i:3 * i + 3] + bones[i].length * axis)
-    return np.stack(out, axis=1)
+    """World tails of the bones on each frame, (frames, bones, 3), posed natively from the clip (the rig
+    sits at the origin)."""
+    rig, bones = mk.pose_channels.native_rig(obj.data)
+    g, heads = mk.pose_channels.armature_motion(obj, obj.animation_data.action, frames, rig, bones)
+    index = [[b.name for b in bones].index(name) for name in names]
+    lengths = np.array([bones[i].length for i in index])
+    axes = mk.rotation_channels.y_axes(g.reshape(len(frames), -1, 4)[:, index])
+    return heads.reshape(len(frames), -1, 3)[:, index] + lengths[None, :, None] * axes
 
 
 def add_targets(mk, obj, frames):

@@ -49,9 +49,10 @@ import numpy as np
 from mathutils import Vector
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-sys.path.insert(0, os.path.join(ROOT, "tools"))
+sys.path[:0] = [os.path.join(ROOT, "tools"), os.path.dirname(os.path.abspath(__file__))]
 
 import install_addon  # noqa: E402
+import resample as resample_bench  # noqa: E402
 
 CORE_BONES = 26  # hips, 6 spine, 2 neck, head, 2 x (clavicle, upper arm, forearm, hand), 2 x 4 leg bones
 FINGER_CHAINS, FINGER_BONES = 8, 3  # up to 4 fingers per hand, 3 bones each; the tail takes the rest
@@ -147,24 +148,9 @@ def build_rig(name: str, bones: int, target: bool):
 
 
 def source_action(animdata, obj, frames_count: int):
-    """One linear key per frame: smooth random rotations on every bone, a random walk on the root."""
-    rng = np.random.default_rng(7)
-    frames = np.arange(1, frames_count + 1, dtype=np.float64)
-    channels, rows = [], []
-    names = [b.name for b in obj.pose.bones]
-    for name in names:
-        path = f'pose.bones["{name}"]'
-        if name == names[0]:
-            channels += [(f"{path}.location", k, name) for k in range(3)]
-            rows += list(np.cumsum(rng.normal(scale=0.01, size=(3, frames.size)), axis=1))
-        vectors = np.cumsum(rng.normal(scale=0.02, size=(frames.size, 3)), axis=0)
-        angle = np.linalg.norm(vectors, axis=1, keepdims=True)
-        q = np.hstack([np.cos(angle / 2), np.sin(angle / 2) * vectors / np.maximum(angle, 1e-12)])
-        q *= np.where(np.cumsum(np.r_[0, np.einsum("ij,ij->i", q[1:], q[:-1]) < 0]) % 2, -1.0, 1.0)[:, None]
-        channels += [(f"{path}.rotation_quaternion", k, name) for k in range(4)]
-        rows += list(q.T)
-    action = animdata.new_action("Source")
-    animdata.write_keys(obj, action, channels, frames, np.array(rows))
+    """One linear key per frame: bench/resample.py's clip (smooth random rotations on every bone, a random
+    walk on the root), assigned to obj."""
+    action = resample_bench.source_action(animdata, obj, frames_count)
     animdata.assign(obj, action)
     return action
 

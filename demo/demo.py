@@ -190,9 +190,7 @@ def raise_hand(motionkit, obj, labels: dict):
     start, end = (int(v) for v in action.frame_range)
     frames = np.arange(start, end + 1, dtype=np.float64)
     rig, order = motionkit.pose_channels.native_rig(obj.data)
-    _, heads = motionkit.native().armature_pose(
-        rig, motionkit.pose_channels.rotations(obj, action, order, frames),
-        np.ascontiguousarray(motionkit.pose_channels.locations(obj, action, order, frames)[0]))
+    _, heads = motionkit.pose_channels.armature_motion(obj, action, frames, rig, order)
     hips = order.index(obj.data.bones[bones["hips"]])
     path = heads[:, 3 * hips:3 * hips + 3] + np.array(obj.matrix_world.translation) + (0.3, -0.1, 0.0)
     path[:, 2] = 2.05
@@ -204,7 +202,7 @@ def raise_hand(motionkit, obj, labels: dict):
                                       Effector(bones["foot.R"], pin=True, orientation=True),
                                       Effector(bones["hand.L"], target=goal)], frame_range=(start, end))
     print(f"demo: IK on {obj.name}, {end - start + 1} frames in {time.perf_counter() - started:.3f} s, "
-          f"largest hand error {1000 * result.errors[:, 2].max():.2f} mm")
+          f"largest hand error {1000 * result.errors[:, 2].max():.2f} mm, feet {1000 * result.errors[:, :2].max():.2f} mm")
     labels[obj] += "\n+ IK: feet pinned, hand raised"
     return goal
 

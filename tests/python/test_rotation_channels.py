@@ -67,3 +67,16 @@ def test_zero_quaternion_names_the_frame(native):
 def test_sign_continuity_flips_runs():
     q = np.array([[1.0, 0, 0, 0], [-1.0, 0, 0, 0], [-1.0, 0, 0, 0], [1.0, 0, 0, 0]])
     assert np.allclose(rc.sign_continuous(q)[:, 0], 1.0)
+
+
+def test_quaternion_helpers_match_scipy():
+    from scipy.spatial.transform import Rotation
+    a, b = Rotation.random(50, random_state=1), Rotation.random(50, random_state=2)
+    wxyz = lambda r: r.as_quat()[..., [3, 0, 1, 2]]  # noqa: E731
+    product = rc.multiply(wxyz(a), wxyz(b))
+    expected = wxyz(a * b)
+    assert np.allclose(np.abs(np.sum(product * expected, axis=1)), 1.0, atol=1e-12)
+    np.testing.assert_allclose(rc.y_axes(wxyz(a)), a.apply([0.0, 1.0, 0.0]), atol=1e-12)
+    points = np.random.default_rng(3).normal(size=(7, 3))
+    np.testing.assert_allclose(rc.rotate(wxyz(a[0]), points), a[0].apply(points), atol=1e-12)
+    np.testing.assert_allclose(rc.multiply(wxyz(a), rc.conjugate(wxyz(a)))[:, 0], 1.0, atol=1e-12)
