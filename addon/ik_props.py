@@ -3,11 +3,10 @@ import bpy
 from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProperty, IntProperty,
                        PointerProperty, StringProperty)
 
-from . import ik
+from . import ik, ik_live
 
 
 def _live_changed(self, context):
-    from . import ik_live
     ik_live.sync()
 
 

@@ -1,7 +1,7 @@
 """Full-body IK operators behind the MotionKit > Full-body IK panel."""
 import bpy
 
-from . import ik, native_state
+from . import ik, native_state, operator_runs
 
 
 def _armature(context):
@@ -35,14 +35,11 @@ class MOTIONKIT_OT_ik_solve(bpy.types.Operator):
     def execute(self, context):
         obj = _armature(context)
         settings = obj.motionkit_ik
-        try:
-            result = ik.solve(obj, settings.effector_list(), None, settings.method, **settings.options())
-        except ValueError as ex:
-            self.report({'ERROR'}, str(ex))
-            return {'CANCELLED'}
-        self.report({'INFO'}, f"Solved in {int(result.iterations[0])} iterations, largest error "
-                              f"{result.errors.max():.2e}")
-        return {'FINISHED'}
+        return operator_runs.run(
+            self, context,
+            lambda progress: ik.solve(obj, settings.effector_list(), None, settings.method, **settings.options()),
+            lambda result: f"Solved in {int(result.iterations[0])} iterations, largest error "
+                           f"{result.errors.max():.2e}")
 
 
 class MOTIONKIT_OT_ik_bake(bpy.types.Operator):
@@ -61,21 +58,17 @@ class MOTIONKIT_OT_ik_bake(bpy.types.Operator):
         scene = context.scene
         frame_range = ((scene.frame_start, scene.frame_end) if settings.use_scene_range
                        else (settings.frame_start, settings.frame_end))
-        wm = context.window_manager
-        wm.progress_begin(0, 2)
-        try:
+
+        def bake(progress):
+            progress(0, 2)
             plan = ik.plan(obj, settings.effector_list(), frame_range, settings.method, **settings.options())
-            wm.progress_update(1)
-            action = ik.apply_keys(plan, new_action=settings.new_action)
-        except ValueError as ex:
-            self.report({'ERROR'}, str(ex))
-            return {'CANCELLED'}
-        finally:
-            wm.progress_end()
-        result = plan.result
-        self.report({'INFO'}, f"Baked {len(result.frames)} frames of {len(result.bones)} bones into "
-                              f"'{action.name}'; largest error {result.errors.max():.2e}")
-        return {'FINISHED'}
+            progress(1, 2)
+            return plan.result, ik.apply_keys(plan, new_action=settings.new_action)
+
+        return operator_runs.run(
+            self, context, bake,
+            lambda done: f"Baked {len(done[0].frames)} frames of {len(done[0].bones)} bones into "
+                         f"'{done[1].name}'; largest error {done[0].errors.max():.2e}")
 
 
 class MOTIONKIT_OT_ik_effector_add(bpy.types.Operator):

@@ -4,7 +4,7 @@ import math
 import bpy
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty
 
-from . import animdata, native_state, resample_plan, resampling
+from . import animdata, native_state, operator_runs, resample_plan, resampling
 
 
 def _targets(context):
@@ -42,32 +42,7 @@ class _KeysOperator:
     def run(self, context, work, done_message):
         """work(objects, bones, progress) -> result; done_message(result) -> the report."""
         objects, bones = _targets(context)
-        progress = _Progress(context)
-        try:
-            result = work(objects, bones, progress)
-        except (ValueError, TypeError) as ex:
-            self.report({'ERROR'}, str(ex))
-            return {'CANCELLED'}
-        finally:
-            progress.end()
-        self.report({'INFO'}, done_message(result))
-        return {'FINISHED'}
-
-
-class _Progress:
-    def __init__(self, context):
-        self.wm = context.window_manager
-        self.started = False
-
-    def __call__(self, done, total):
-        if not self.started:
-            self.wm.progress_begin(0, max(total, 1))
-            self.started = True
-        self.wm.progress_update(done)
-
-    def end(self):
-        if self.started:
-            self.wm.progress_end()
+        return operator_runs.run(self, context, lambda progress: work(objects, bones, progress), done_message)
 
 
 class MOTIONKIT_OT_resample_keys(_KeysOperator, bpy.types.Operator):

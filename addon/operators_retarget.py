@@ -5,7 +5,7 @@ import bpy
 from bpy.props import EnumProperty, StringProperty
 from bpy_extras.io_utils import ExportHelper, ImportHelper
 
-from . import bone_mapping, bvh, native_state, retargeting
+from . import bone_mapping, bvh, native_state, operator_runs, retargeting
 
 
 def _settings(context):
@@ -26,6 +26,27 @@ def _source_rig(settings):
     return retargeting.mapping_rig(settings.source)
 
 
+def _poll_rigs(cls, context) -> bool:
+    settings = _settings(context)
+    why = _source_ready(settings) or ("" if settings.target is not None else "Pick a target armature")
+    if why:
+        cls.poll_message_set(why)
+        return False
+    return True
+
+
+def _fill_map(operator, context, pairs_of) -> set:
+    """Put pairs_of(settings) into the bone map, reporting how many."""
+    settings = _settings(context)
+
+    def fill(progress):
+        pairs = pairs_of(settings)
+        settings.set_bone_map(pairs)
+        return pairs
+
+    return operator_runs.run(operator, context, fill, lambda pairs: f"Mapped {len(pairs)} bones")
+
+
 class MOTIONKIT_OT_retarget(bpy.types.Operator):
     """Retarget the source's motion onto the target armature as a new action (MotionKit)"""
     bl_idname = "motionkit.retarget"
@@ -34,43 +55,23 @@ class MOTIONKIT_OT_retarget(bpy.types.Operator):
 
     @classmethod
     def poll(cls, context):
-        if not native_state.poll_native(cls):
-            return False
-        settings = _settings(context)
-        why = _source_ready(settings) or ("" if settings.target is not None else "Pick a target armature")
-        if why:
-            cls.poll_message_set(why)
-            return False
-        return True
+        return native_state.poll_native(cls) and _poll_rigs(cls, context)
 
     def execute(self, context):
         settings = _settings(context)
-        wm = context.window_manager
-        wm.progress_begin(0, 3)
-        imported = None
-        try:
-            source = settings.source
-            if settings.source_kind == 'BVH':
-                imported, _ = bvh.load(bpy.path.abspath(settings.bvh_path), context=context)
-                source = imported
-            wm.progress_update(1)
-            frame_range = (settings.frame_start, settings.frame_end) if settings.use_frame_range else None
-            plan = retargeting.plan(
+        source = bpy.path.abspath(settings.bvh_path) if settings.source_kind == 'BVH' else settings.source
+        frame_range = (settings.frame_start, settings.frame_end) if settings.use_frame_range else None
+
+        def work(progress):
+            progress(0, 1)
+            return retargeting.retarget(
                 source, settings.target, settings.bone_map() or None, frame_range, settings.root_motion,
                 source_match=settings.source_match, match_frame=settings.match_frame,
-                target_match=settings.target_match, ground=settings.ground, align_facing=settings.align_facing)
-            wm.progress_update(2)
-            action = retargeting.apply(plan, overwrite=settings.overwrite)
-        except (ValueError, OSError) as ex:
-            if imported is not None:
-                retargeting.remove_armature(imported)
-            self.report({'ERROR'}, str(ex))
-            return {'CANCELLED'}
-        finally:
-            wm.progress_end()
-        self.report({'INFO'}, f"Retargeted {len(plan.frames)} frames, {len(plan.pairs)} bones onto "
-                              f"'{plan.target.name}' as action '{action.name}'")
-        return {'FINISHED'}
+                target_match=settings.target_match, ground=settings.ground, align_facing=settings.align_facing,
+                overwrite=settings.overwrite)
+
+        return operator_runs.run(self, context, work,
+                                 lambda action: f"Retargeted onto '{settings.target.name}' as action '{action.name}'")
 
 
 class MOTIONKIT_OT_bone_map_auto(bpy.types.Operator):
@@ -81,23 +82,11 @@ class MOTIONKIT_OT_bone_map_auto(bpy.types.Operator):
 
     @classmethod
     def poll(cls, context):
-        settings = _settings(context)
-        why = _source_ready(settings) or ("" if settings.target is not None else "Pick a target armature")
-        if why:
-            cls.poll_message_set(why)
-            return False
-        return True
+        return _poll_rigs(cls, context)
 
     def execute(self, context):
-        settings = _settings(context)
-        try:
-            pairs = bone_mapping.auto_map(_source_rig(settings), retargeting.mapping_rig(settings.target))
-        except (ValueError, OSError) as ex:
-            self.report({'ERROR'}, str(ex))
-            return {'CANCELLED'}
-        settings.set_bone_map(pairs)
-        self.report({'INFO'}, f"Mapped {len(pairs)} bones")
-        return {'FINISHED'}
+        return _fill_map(self, context, lambda settings: bone_mapping.auto_map(
+            _source_rig(settings), retargeting.mapping_rig(settings.target)))
 
 
 def _scheme_items(self, context):
@@ -115,22 +104,14 @@ class MOTIONKIT_OT_bone_map_scheme(bpy.types.Operator):
 
     @classmethod
     def poll(cls, context):
-        return MOTIONKIT_OT_bone_map_auto.poll(context)
+        return _poll_rigs(cls, context)
 
     def invoke(self, context, event):
         return context.window_manager.invoke_props_dialog(self)
 
     def execute(self, context):
-        settings = _settings(context)
-        try:
-            pairs = bone_mapping.map_from_presets(_source_rig(settings), self.source_scheme,
-                                                  retargeting.mapping_rig(settings.target), self.target_scheme)
-        except (ValueError, OSError) as ex:
-            self.report({'ERROR'}, str(ex))
-            return {'CANCELLED'}
-        settings.set_bone_map(pairs)
-        self.report({'INFO'}, f"Mapped {len(pairs)} bones")
-        return {'FINISHED'}
+        return _fill_map(self, context, lambda settings: bone_mapping.map_from_presets(
+            _source_rig(settings), self.source_scheme, retargeting.mapping_rig(settings.target), self.target_scheme))
 
 
 class MOTIONKIT_OT_bone_map_add(bpy.types.Operator):
@@ -176,12 +157,9 @@ class MOTIONKIT_OT_bone_map_save(bpy.types.Operator, ExportHelper):
     filter_glob: StringProperty(default="*.json", options={'HIDDEN'})
 
     def execute(self, context):
-        try:
-            bone_mapping.save_map(self.filepath, _settings(context).bone_map())
-        except (ValueError, OSError) as ex:
-            self.report({'ERROR'}, str(ex))
-            return {'CANCELLED'}
-        return {'FINISHED'}
+        return operator_runs.run(self, context,
+                                 lambda progress: bone_mapping.save_map(self.filepath, _settings(context).bone_map()),
+                                 lambda _: "")
 
 
 class MOTIONKIT_OT_bone_map_load(bpy.types.Operator, ImportHelper):
@@ -194,13 +172,7 @@ class MOTIONKIT_OT_bone_map_load(bpy.types.Operator, ImportHelper):
     filter_glob: StringProperty(default="*.json", options={'HIDDEN'})
 
     def execute(self, context):
-        try:
-            pairs = bone_mapping.load_map(self.filepath)
-        except (ValueError, OSError) as ex:
-            self.report({'ERROR'}, str(ex))
-            return {'CANCELLED'}
-        _settings(context).set_bone_map(pairs)
-        return {'FINISHED'}
+        return _fill_map(self, context, lambda settings: bone_mapping.load_map(self.filepath))
 
 
 classes = (MOTIONKIT_OT_retarget, MOTIONKIT_OT_bone_map_auto, MOTIONKIT_OT_bone_map_scheme,

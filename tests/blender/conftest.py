@@ -58,3 +58,9 @@ def shared_dir():
             pytest.fail(f"{SHARED}/data/bvh is missing, and CI=true requires it")
         pytest.skip(f"{SHARED}/data/bvh is absent (set up ../shared to run this test)")
     return SHARED
+
+
+@pytest.fixture()
+def walk60(shared_dir):
+    """The real motion capture walk beside the repository."""
+    return os.path.join(shared_dir, "data", "bvh", "walk60.bvh")

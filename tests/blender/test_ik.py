@@ -5,7 +5,6 @@ the clip, the bonus), joint limits, Blender's own IK constraint as a peer,
 live re-solving, the operators, and bad input.
 """
 import math
-import os
 
 import bpy
 import numpy as np
@@ -16,14 +15,8 @@ LAB_TOLERANCE = 0.01  # metres, the brief's pass mark
 
 
 @pytest.fixture()
-def walk60(shared_dir):
-    return os.path.join(shared_dir, "data", "bvh", "walk60.bvh")
-
-
-@pytest.fixture()
 def ik(mk):
-    import importlib
-    return importlib.import_module(mk.__name__ + ".ik")
+    return mk.ik
 
 
 def still_walker(mk, walk60, name="walker"):
@@ -118,7 +111,7 @@ def swing_twist(q):
     twist = 2.0 * math.atan2(y, w)
     ct, st = math.cos(twist / 2), math.sin(twist / 2)
     # swing = q * twist^-1
-    sw, sx, sy, sz = w * ct + y * st, x * ct - z * st, y * ct - w * st, z * ct + x * st
+    sw, sx, _, sz = w * ct + y * st, x * ct - z * st, y * ct - w * st, z * ct + x * st
     if sw < 0:
         sw, sx, sz = -sw, -sx, -sz
     angle = 2.0 * math.atan2(math.hypot(sx, sz), sw)

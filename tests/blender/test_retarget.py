@@ -23,19 +23,12 @@ FEET = {  # per rig kind: (ankle bone, toe bone) for each side
 
 
 @pytest.fixture()
-def walk60(shared_dir):
-    return os.path.join(shared_dir, "data", "bvh", "walk60.bvh")
-
-
-@pytest.fixture()
 def retargeting(mk):
-    import importlib
-    return importlib.import_module(mk.__name__ + ".retargeting")
+    return mk.retargeting
 
 
 def load(mk, path, name):
-    obj, action = mk.bvh.load(path, name=name)
-    return obj, action
+    return mk.bvh.load(path, name=name)
 
 
 def a_pose_file(native, walk60, path):
