@@ -1,0 +1,60 @@
+"""Benchmark: one live IK re-solve on a 60-bone rig, as dragging a target in the viewport triggers it.
+
+    tools/with_blender.sh 5.2 -b --factory-startup --python bench/ik_live.py -- \\
+        --zip dist/motionkit-0.1.0-linux-x64-py314.zip
+
+bench/retarget.py's humanoid at rest, four effectors (hands and feet, each to
+an empty at its tail), root from the pose. An empty is moved 3 mm, the
+depsgraph updated, and motionkit's live re-solve (ik_live.solve_live: read the
+pose, the limits and the targets, solve natively, write the pose) timed; the
+median and worst of --moves moves are printed.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+
+import bpy
+import numpy as np
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path[:0] = [os.path.join(os.path.dirname(HERE), "tools"), HERE]
+
+import install_addon  # noqa: E402
+import ik as ik_bench  # noqa: E402
+import retarget as rig_bench  # noqa: E402
+
+
+def main() -> None:
+    argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
+    parser = argparse.ArgumentParser(prog="ik_live.py")
+    parser.add_argument("--zip", required=True)
+    parser.add_argument("--moves", type=int, default=50)
+    args = parser.parse_args(argv)
+    module = install_addon.install(args.zip)
+    live = __import__(module + ".ik_live", fromlist=["solve_live"])
+    obj = rig_bench.build_rig("Rig", 60, target=False)
+    goals = []
+    for bone, _ in ik_bench.EFFECTORS:
+        goal = bpy.data.objects.new("Goal_" + bone, None)
+        bpy.context.scene.collection.objects.link(goal)
+        goal.location = obj.matrix_world @ obj.pose.bones[bone].tail
+        item = obj.motionkit_ik.effectors.add()
+        item.bone, item.target = bone, goal
+        goals.append(goal)
+    obj.motionkit_ik.root_translation = obj.motionkit_ik.root_rotation = False
+    times = []
+    for _ in range(args.moves):
+        goals[0].location.x += 0.003
+        bpy.context.view_layer.update()
+        start = time.perf_counter()
+        live.solve_live(obj)
+        times.append(time.perf_counter() - start)
+    print(f"\nBlender {bpy.app.version_string}: live IK re-solve, 60 bones, 4 effectors: median "
+          f"{1000 * float(np.median(times)):.2f} ms, worst {1000 * max(times):.2f} ms over {args.moves} moves")
+
+
+if __name__ == "__main__":
+    main()
