@@ -83,25 +83,13 @@ def residuals(obj, empties, frames) -> np.ndarray:
 
 
 def run_blender_ik(obj, empties, bake_frames: int, into_current: bool):
-    for other in bpy.context.view_layer.objects:
-        other.select_set(other == obj)
-    bpy.context.view_layer.objects.active = obj
-    start = time.perf_counter()
-    bpy.ops.object.mode_set(mode='POSE')
-    for (bone, chain), goal in zip(EFFECTORS, empties):
-        con = obj.pose.bones[bone].constraints.new('IK')
-        con.target, con.chain_count = goal, chain
-    setup = time.perf_counter() - start
-    options = dict(frame_start=1, frame_end=bake_frames, only_selected=False, visual_keying=True,
-                   clear_constraints=True, use_current_action=into_current, bake_types={'POSE'})
-    if "channel_types" in bpy.ops.nla.bake.get_rna_type().properties:
-        options["channel_types"] = {'LOCATION', 'ROTATION'}
-    start = time.perf_counter()
-    result = bpy.ops.nla.bake(**options)
-    bake = time.perf_counter() - start
-    bpy.ops.object.mode_set(mode='OBJECT')
-    if result != {'FINISHED'}:
-        raise SystemExit(f"ik.py: nla.bake returned {result}")
+    """An IK constraint per effector (same target and chain length), then nla.bake: (setup, bake) seconds."""
+    def add_constraints():
+        for (bone, chain), goal in zip(EFFECTORS, empties):
+            con = obj.pose.bones[bone].constraints.new('IK')
+            con.target, con.chain_count = goal, chain
+
+    setup, bake, _ = rig_bench.constrain_and_bake(obj, add_constraints, bake_frames, use_current_action=into_current)
     return setup, bake
 
 

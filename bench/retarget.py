@@ -189,33 +189,22 @@ def run_motionkit(mk, source, target, pairs):
     return time.perf_counter() - start, action
 
 
-def run_constraint_way(source, target, pairs, bake_frames: int, all_channels: bool):
-    """COPY_ROTATION (world -> world) on every mapped bone, COPY_LOCATION on the root, nla.bake."""
-    clear_action(target)
-    for pose_bone in target.pose.bones:
-        pose_bone.rotation_quaternion = (1.0, 0.0, 0.0, 0.0)
-        pose_bone.location = (0.0, 0.0, 0.0)
-    root = target.data.bones[0].name
-    for obj in bpy.context.view_layer.objects:
-        obj.select_set(obj == target)
-    bpy.context.view_layer.objects.active = target
+def constrain_and_bake(obj, add_constraints, bake_frames: int, all_channels: bool = False,
+                       use_current_action: bool = False):
+    """Blender's recipe, timed: add_constraints() on obj in pose mode, then bpy.ops.nla.bake with visual
+    keying over frames 1..bake_frames. Returns (seconds to set up, seconds to bake, the bake's options)."""
+    for other in bpy.context.view_layer.objects:
+        other.select_set(other == obj)
+    bpy.context.view_layer.objects.active = obj
     start = time.perf_counter()
     bpy.ops.object.mode_set(mode='POSE')
-    for src, tgt in pairs:
-        pose_bone = target.pose.bones[tgt]
-        con = pose_bone.constraints.new('COPY_ROTATION')
-        con.target, con.subtarget = source, src
-        con.target_space = con.owner_space = 'WORLD'
-        if tgt == root:
-            con = pose_bone.constraints.new('COPY_LOCATION')
-            con.target, con.subtarget = source, src
-            con.target_space = con.owner_space = 'WORLD'
+    add_constraints()
     setup = time.perf_counter() - start
     options = dict(frame_start=1, frame_end=bake_frames, only_selected=False, visual_keying=True,
-                   clear_constraints=True, bake_types={'POSE'})
+                   clear_constraints=True, use_current_action=use_current_action, bake_types={'POSE'})
     # 4.1 and later bake only the channels asked for: location and rotation, what MotionKit writes, unless
-    # --bake-all-channels keeps Blender's default (scale, B-Bone and custom properties too). 3.4 bakes
-    # location, rotation and scale of every bone.
+    # all_channels keeps Blender's default (scale, B-Bone and custom properties too). 3.4 bakes location,
+    # rotation and scale of every bone.
     if "channel_types" in bpy.ops.nla.bake.get_rna_type().properties and not all_channels:
         options["channel_types"] = {'LOCATION', 'ROTATION'}
     start = time.perf_counter()
@@ -223,10 +212,30 @@ def run_constraint_way(source, target, pairs, bake_frames: int, all_channels: bo
     bake = time.perf_counter() - start
     bpy.ops.object.mode_set(mode='OBJECT')
     if result != {'FINISHED'}:
-        raise SystemExit(f"retarget.py: nla.bake returned {result}")
-    if any(len(pb.constraints) for pb in target.pose.bones):
-        raise SystemExit("retarget.py: nla.bake left constraints on the target")
+        raise SystemExit(f"nla.bake returned {result}")
+    if any(len(pb.constraints) for pb in obj.pose.bones):
+        raise SystemExit("nla.bake left constraints behind")
     return setup, bake, options
+
+
+def run_constraint_way(source, target, pairs, bake_frames: int, all_channels: bool):
+    """COPY_ROTATION (world -> world) on every mapped bone, COPY_LOCATION on the root, nla.bake."""
+    clear_action(target)
+    for pose_bone in target.pose.bones:
+        pose_bone.rotation_quaternion = (1.0, 0.0, 0.0, 0.0)
+        pose_bone.location = (0.0, 0.0, 0.0)
+    root = target.data.bones[0].name
+
+    def add_constraints():
+        for src, tgt in pairs:
+            pose_bone = target.pose.bones[tgt]
+            kinds = ('COPY_ROTATION', 'COPY_LOCATION') if tgt == root else ('COPY_ROTATION',)
+            for kind in kinds:
+                con = pose_bone.constraints.new(kind)
+                con.target, con.subtarget = source, src
+                con.target_space = con.owner_space = 'WORLD'
+
+    return constrain_and_bake(target, add_constraints, bake_frames, all_channels)
 
 
 def main() -> None:
