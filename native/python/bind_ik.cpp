@@ -80,7 +80,7 @@ py::dict IkSolve(const RigModel& rig, const ConstMatrixView& input_rotations, co
                  const std::optional<DoubleArray>& stretch, const std::optional<DoubleArray>& scale_range,
                  const std::string& method, int max_iterations, double tolerance, double max_step, double damping,
                  double regularization, const std::string& reference, double orientation_scale,
-                 bool root_translation, bool root_rotation, bool warm_start) {
+                 bool root_translation, bool root_rotation, bool warm_start, int threads) {
   const auto parsed = ParseIkMethod(method);
   if (!parsed) throw Error("ik_solve: unknown method '" + method + "'; expected ccd, transpose, pinv or dls");
   if (reference != "previous" && reference != "input") {
@@ -140,6 +140,7 @@ py::dict IkSolve(const RigModel& rig, const ConstMatrixView& input_rotations, co
   job.options.root_translation = root_translation;
   job.options.root_rotation = root_rotation;
   job.options.warm_start = warm_start;
+  job.options.threads = threads;
   job.Validate().ThrowIfFailed();
   {
     py::gil_scoped_release release;
@@ -165,7 +166,7 @@ void BindIk(py::module_& m) {
         "scale_range"_a.noconvert() = py::none(), "method"_a = "dls", "max_iterations"_a = 64,
         "tolerance"_a = 1e-5, "max_step"_a = 0.3, "damping"_a = 0.0, "regularization"_a = 1e-4,
         "reference"_a = "previous", "orientation_scale"_a = 0.0, "root_translation"_a = false,
-        "root_rotation"_a = false, "warm_start"_a = true,
+        "root_rotation"_a = false, "warm_start"_a = true, "threads"_a = 0,
         R"pbdoc(
         Full-body inverse kinematics on a whole clip.
 
@@ -194,13 +195,16 @@ void BindIk(py::module_& m) {
         per radian (0: a tenth of the rig's size). root_translation and
         root_rotation make the root bone's location and rotation unknowns;
         warm_start starts each frame from the previous one's solution.
+        Effectors that share no unknown (say, chains cut off by excluded
+        bones) are solved as separate problems, on up to `threads` threads
+        (0, the default: all; the result does not depend on it).
 
         Returns a dict: "rotations" (frames, 4b) pose quaternions (bones the
         solver does not move keep their input), "root_locations" (frames, 3),
         "scales" (frames, b) length scale per bone, "errors" (frames, e) each
         effector's position error after the solve (an orientation-only
         effector's angle times orientation_scale), "iterations" (frames,)
-        int32, the steps tried. Errors name the effector or bone and the frame. The GIL is
+        int32, the steps tried (by the slowest group). Errors name the effector or bone and the frame. The GIL is
         released while it runs.
       )pbdoc");
 }

@@ -4,13 +4,17 @@
 #include <array>
 #include <cmath>
 #include <cstddef>
+#include <exception>
 #include <limits>
 #include <string>
+#include <thread>
 #include <utility>
 #include <vector>
 
 #include <Eigen/Geometry>
 #include <Eigen/SVD>
+
+#include "parallel.hpp"
 
 // How it is organised: Run() validates, then builds a Solver, which works out
 // once what every frame shares (the bones FK visits, the solved joints and
@@ -237,9 +241,15 @@ void BlockDots(const double* x, const double* z, std::size_t c, std::array<std::
   }
 }
 
+// Solves the job for some of its effectors (`ids`, indices into
+// job.effectors). With owns_all (every effector), each frame's output rows
+// are written whole; otherwise only the bones this solver moves, its
+// effectors' errors and, if it moves the root, the root's location, so that
+// solvers of independent groups can share the outputs (IkClipJob::Run fills
+// the rest first). iterations: one int per frame.
 class Solver {
  public:
-  explicit Solver(IkClipJob& job);
+  Solver(IkClipJob& job, std::vector<int> ids, bool owns_all, int* iterations);
   void Run();
   RowMatrixXd Jacobian(Eigen::Index f);
 
@@ -317,6 +327,9 @@ class Solver {
   Pose MakePose() const;
   Fk MakeFk() const;
 
+  // FK of bone b (its parent placed already).
+  void Place(int b, const Pose& pose, Fk& fk) const;
+  // FK of the bones the unknowns move (fixed_ is placed once a frame, by StartFrame).
   void Forward(const Pose& pose, Fk& fk) const;
   double EffectorError(int e, const Fk& fk, bool position_only) const;
   Cost Evaluate(const Fk& fk, double* residual) const;
@@ -348,12 +361,19 @@ class Solver {
   IkClipJob& job_;
   const RigModel& rig_;
   const IkOptions& options_;
+  std::vector<int> ids_;  // per effector: its index in job_.effectors
+  bool owns_all_ = true;
+  int* iterations_ = nullptr;
   int bones_ = 0, effector_count_ = 0;
   double size_ = 1.0, lambda_ = 0.0, mu_ = 0.0, ls_ = 0.0, tolerance_ = 0.0;
   bool translate_ = false;  // bone 0's head is an unknown
   bool body_ = false;       // CCD may carry the body through the root
 
   std::vector<int> needed_;    // bones FK visits: the effectors' ancestors, parents first
+  // needed_ split: bones no unknown moves (no solved bone above them, and the
+  // root's location is not an unknown), the same in every pose of a frame;
+  // and the rest.
+  std::vector<int> fixed_, moving_;
   std::vector<int> joint_of_;  // per bone: its index in joints_, or -1
   std::vector<Joint> joints_;
   std::vector<Column> columns_;
@@ -363,9 +383,10 @@ class Solver {
 
   std::vector<Vec3> target_position_;
   std::vector<Quat> target_orientation_;
-  Pose input_, current_, trial_, reference_, solution_, backup_, best_;
+  Pose input_, current_, trial_, reference_, solution_, earlier_, backup_, best_;
   Fk fk_, trial_fk_;
   bool have_solution_ = false;
+  bool have_earlier_ = false;  // earlier_: the solution of the frame before solution_'s
 
   // Scratch, sized once.
   std::vector<double> e_, r_, y_, h_, u_, u0_, g_, w_, rho_, trial_rho_, s_;
@@ -388,9 +409,11 @@ class Solver {
   std::vector<char> ccd_placed_;
 };
 
-Solver::Solver(IkClipJob& job) : job_(job), rig_(job.rig), options_(job.options) {
+Solver::Solver(IkClipJob& job, std::vector<int> ids, bool owns_all, int* iterations)
+    : job_(job), rig_(job.rig), options_(job.options), ids_(std::move(ids)), owns_all_(owns_all),
+      iterations_(iterations) {
   bones_ = rig_.size();
-  effector_count_ = static_cast<int>(job.effectors.size());
+  effector_count_ = static_cast<int>(ids_.size());
   // The rig's size: the diagonal of its rest pose's bounding box.
   Vec3 lo = Vec3::Constant(kInf), hi = Vec3::Constant(-kInf);
   for (int b = 0; b < bones_; ++b) {
@@ -405,13 +428,19 @@ Solver::Solver(IkClipJob& job) : job_(job), rig_(job.rig), options_(job.options)
   tolerance_ = options_.tolerance;
 
   std::vector<char> need(static_cast<std::size_t>(bones_), 0);
-  for (const IkEffector& e : job.effectors) {
-    for (int b = e.bone; b >= 0; b = rig_.parent(b)) At(need, b) = 1;
+  for (int id : ids_) {
+    for (int b = At(job.effectors, id).bone; b >= 0; b = rig_.parent(b)) At(need, b) = 1;
   }
   for (int b = 0; b < bones_; ++b) {
     if (At(need, b)) needed_.push_back(b);
   }
   PlanJoints();
+  std::vector<char> moves(static_cast<std::size_t>(bones_), 0);
+  for (int b : needed_) {
+    const int p = rig_.parent(b);
+    At(moves, b) = At(joint_of_, b) >= 0 || (p >= 0 ? At(moves, p) : b == 0 && translate_);
+    (At(moves, b) ? moving_ : fixed_).push_back(b);
+  }
   PlanEffectors();
   PlanCcd();
 
@@ -420,6 +449,7 @@ Solver::Solver(IkClipJob& job) : job_(job), rig_(job.rig), options_(job.options)
   trial_ = MakePose();
   reference_ = MakePose();
   solution_ = MakePose();
+  earlier_ = MakePose();
   backup_ = MakePose();
   best_ = MakePose();
   fk_ = MakeFk();
@@ -485,7 +515,8 @@ void Solver::PlanJoints() {
 void Solver::PlanEffectors() {
   rows_ = 0;
   std::vector<int> path;
-  for (const IkEffector& in : job_.effectors) {
+  for (int id : ids_) {
+    const IkEffector& in = At(job_.effectors, id);
     Effector e;
     e.bone = in.bone;
     e.position = in.position;
@@ -612,21 +643,23 @@ Solver::Fk Solver::MakeFk() const {
   return fk;
 }
 
-void Solver::Forward(const Pose& pose, Fk& fk) const {
-  for (int b : needed_) {
-    const int p = rig_.parent(b);
-    if (p < 0) {
-      At(fk.frame, b) = rig_.relative(b);
-      At(fk.head, b) = b == 0 ? pose.root : rig_.offset(b);
-    } else {
-      const Quat& gp = At(fk.global, p);
-      At(fk.frame, b) = gp * rig_.relative(b);
-      Vec3 offset = rig_.offset(b);
-      offset.y() *= At(pose.scale, p);
-      At(fk.head, b) = At(fk.head, p) + gp * offset;
-    }
-    At(fk.global, b) = At(fk.frame, b) * At(pose.basis, b);
+void Solver::Place(int b, const Pose& pose, Fk& fk) const {
+  const int p = rig_.parent(b);
+  if (p < 0) {
+    At(fk.frame, b) = rig_.relative(b);
+    At(fk.head, b) = b == 0 ? pose.root : rig_.offset(b);
+  } else {
+    const Quat& gp = At(fk.global, p);
+    At(fk.frame, b) = gp * rig_.relative(b);
+    Vec3 offset = rig_.offset(b);
+    offset.y() *= At(pose.scale, p);
+    At(fk.head, b) = At(fk.head, p) + gp * offset;
   }
+  At(fk.global, b) = At(fk.frame, b) * At(pose.basis, b);
+}
+
+void Solver::Forward(const Pose& pose, Fk& fk) const {
+  for (int b : moving_) Place(b, pose, fk);
   for (int e = 0; e < effector_count_; ++e) {
     const int b = At(effectors_, e).bone;
     At(fk.tip, e) = At(fk.head, b) + At(fk.global, b) * Vec3(0.0, At(pose.scale, b) * rig_.length(b), 0.0);
@@ -1178,6 +1211,13 @@ void Solver::StartFrame(Eigen::Index f) {
   if (bones_ > 0) {
     input_.root = rig_.offset(0) + rig_.relative(0) * job_.input_locations.row(loc_row).transpose();
   }
+  // Every pose of the frame has the input's basis, scale and root on these.
+  for (int b : fixed_) {
+    Place(b, input_, fk_);
+    At(trial_fk_.frame, b) = At(fk_.frame, b);
+    At(trial_fk_.global, b) = At(fk_.global, b);
+    At(trial_fk_.head, b) = At(fk_.head, b);
+  }
   // Pins hold where this frame's input pose has them.
   bool pins = false;
   for (const Effector& e : effectors_) pins = pins || e.pin;
@@ -1189,9 +1229,10 @@ void Solver::StartFrame(Eigen::Index f) {
       At(target_orientation_, e) = At(fk_.global, ef.bone);
       continue;
     }
-    if (ef.position) At(target_position_, e) = job_.target_positions.row(f).segment<3>(3 * e).transpose();
+    const int id = At(ids_, e);
+    if (ef.position) At(target_position_, e) = job_.target_positions.row(f).segment<3>(3 * id).transpose();
     if (ef.orientation) {
-      const double* q = job_.target_orientations.data() + f * job_.target_orientations.outerStride() + 4 * e;
+      const double* q = job_.target_orientations.data() + f * job_.target_orientations.outerStride() + 4 * id;
       At(target_orientation_, e) = Quat(q[0], q[1], q[2], q[3]).normalized();
     }
   }
@@ -1213,6 +1254,25 @@ void Solver::StartFrame(Eigen::Index f) {
     At(reference_.scale, j.bone) = previous ? At(solution_.scale, j.bone) : 1.0;
   }
   trial_ = current_;
+  // Targets that move smoothly move the solution smoothly: carried on as the
+  // last two frames' solutions went, the start is often close enough for one
+  // step to meet the tolerance (from the last solution alone, two). Kept
+  // only when it starts nearer the targets.
+  if (warm && have_earlier_ && !joints_.empty()) {
+    for (const Joint& j : joints_) {
+      const Quat& last = At(solution_.basis, j.bone);
+      At(trial_.basis, j.bone) = (last * (At(earlier_.basis, j.bone).conjugate() * last)).normalized();
+      At(trial_.scale, j.bone) = 2.0 * At(solution_.scale, j.bone) - At(earlier_.scale, j.bone);
+      ClampJoint(j, trial_);
+    }
+    if (translate_) trial_.root = 2.0 * solution_.root - earlier_.root;
+    Forward(current_, fk_);
+    Forward(trial_, trial_fk_);
+    if (Evaluate(trial_fk_, r_.data()).task < Evaluate(fk_, e_.data()).task) {
+      std::swap(current_, trial_);
+    }
+    trial_ = current_;
+  }
 }
 
 int Solver::SolveJacobian() {
@@ -1582,18 +1642,22 @@ void Solver::FinishFrame(Eigen::Index f, int iterations) {
     StartFrame(f);
     Forward(current_, fk_);
   }
-  for (int e = 0; e < effector_count_; ++e) job_.errors(f, e) = EffectorError(e, fk_, true);
-  job_.iterations[f] = iterations;
+  for (int e = 0; e < effector_count_; ++e) job_.errors(f, At(ids_, e)) = EffectorError(e, fk_, true);
+  iterations_[f] = iterations;
   const Eigen::Index rot_row = job_.input_rotations.rows() == 1 ? 0 : f;
   const Eigen::Index loc_row = job_.input_locations.rows() == 1 ? 0 : f;
-  for (int b = 0; b < bones_; ++b) {
-    double* out = job_.rotations.data() + f * job_.rotations.outerStride() + 4 * b;
-    const double* in = job_.input_rotations.data() + rot_row * job_.input_rotations.outerStride() + 4 * b;
-    job_.scales(f, b) = 1.0;
-    if (At(joint_of_, b) < 0) {
-      std::copy(in, in + 4, out);  // not solved: the input as it was
-      continue;
+  double* const out_row = job_.rotations.data() + f * job_.rotations.outerStride();
+  const double* const in_row = job_.input_rotations.data() + rot_row * job_.input_rotations.outerStride();
+  for (int b = 0; owns_all_ && b < bones_; ++b) {
+    if (At(joint_of_, b) < 0) {  // not solved: the input as it was
+      std::copy(in_row + 4 * b, in_row + 4 * b + 4, out_row + 4 * b);
+      job_.scales(f, b) = 1.0;
     }
+  }
+  for (const Joint& j : joints_) {
+    const int b = j.bone;
+    double* out = out_row + 4 * b;
+    const double* in = in_row + 4 * b;
     Quat q = At(current_.basis, b);
     // Continuous with the previous frame's output (the input's on the first).
     const double* near = f > 0 ? out - job_.rotations.outerStride() : in;
@@ -1606,9 +1670,15 @@ void Solver::FinishFrame(Eigen::Index f, int iterations) {
   }
   if (translate_) {
     job_.root_locations.row(f) = (rig_.relative(0).conjugate() * (current_.root - rig_.offset(0))).transpose();
-  } else {
+  } else if (owns_all_) {
     job_.root_locations.row(f) = job_.input_locations.row(loc_row);
   }
+  earlier_.root = solution_.root;
+  for (const Joint& j : joints_) {
+    At(earlier_.basis, j.bone) = At(solution_.basis, j.bone);
+    At(earlier_.scale, j.bone) = At(solution_.scale, j.bone);
+  }
+  have_earlier_ = have_solution_;
   solution_.root = current_.root;
   for (const Joint& j : joints_) {
     At(solution_.basis, j.bone) = At(current_.basis, j.bone);
@@ -1627,6 +1697,7 @@ void Solver::Run() {
 
 RowMatrixXd Solver::Jacobian(Eigen::Index f) {
   have_solution_ = false;
+  have_earlier_ = false;
   StartFrame(f);
   Forward(current_, fk_);
   BuildJacobian(fk_);
@@ -1640,6 +1711,59 @@ RowMatrixXd Solver::Jacobian(Eigen::Index f) {
     }
   }
   return j;
+}
+
+}  // namespace
+
+namespace {
+
+std::vector<int> AllEffectors(const IkClipJob& job) {
+  std::vector<int> ids(job.effectors.size());
+  for (std::size_t e = 0; e < ids.size(); ++e) ids[e] = static_cast<int>(e);
+  return ids;
+}
+
+// Effectors that share no unknown are independent problems: the cost is a
+// sum of one term per group, so each group is solved on its own (smaller
+// systems, and a group stops when its own targets are met). Two effectors
+// share an unknown when a bone the solver may move (not excluded; bone 0
+// only with root_rotation) lies on both paths to the root, or when both hang
+// from bone 0 and its location is an unknown.
+std::vector<std::vector<int>> IndependentGroups(const IkClipJob& job) {
+  const int bones = job.rig.size(), count = static_cast<int>(job.effectors.size());
+  const auto excluded = [&](int b) { return !job.joints.empty() && At(job.joints, b).excluded; };
+  // Union-find over effectors, through the first effector seen on each unknown.
+  std::vector<int> parent(static_cast<std::size_t>(count));
+  for (int e = 0; e < count; ++e) At(parent, e) = e;
+  const auto find = [&](int e) {
+    while (At(parent, e) != e) e = At(parent, e) = At(parent, At(parent, e));
+    return e;
+  };
+  std::vector<int> owner(static_cast<std::size_t>(bones) + 1, -1);  // the last slot: the root's location
+  const auto claim = [&](std::size_t slot, int e) {
+    if (owner[slot] < 0) {
+      owner[slot] = e;
+    } else {
+      At(parent, find(e)) = find(owner[slot]);
+    }
+  };
+  for (int e = 0; e < count; ++e) {
+    for (int b = At(job.effectors, e).bone; b >= 0; b = job.rig.parent(b)) {
+      if (!excluded(b) && (b != 0 || job.options.root_rotation)) claim(static_cast<std::size_t>(b), e);
+      if (b == 0 && job.options.root_translation && !excluded(0)) claim(static_cast<std::size_t>(bones), e);
+    }
+  }
+  std::vector<std::vector<int>> groups;
+  std::vector<int> group_of(static_cast<std::size_t>(count), -1);
+  for (int e = 0; e < count; ++e) {
+    int& g = At(group_of, find(e));
+    if (g < 0) {
+      g = static_cast<int>(groups.size());
+      groups.emplace_back();
+    }
+    groups[static_cast<std::size_t>(g)].push_back(e);
+  }
+  return groups;
 }
 
 }  // namespace
@@ -1682,6 +1806,7 @@ Status IkClipJob::Validate() const {
   }
   const IkOptions& o = options;
   if (o.max_iterations < 0) return fail("max_iterations must not be negative");
+  if (o.threads < 0) return fail("threads must be 0 (all) or more, got " + std::to_string(o.threads));
   if (!(std::isfinite(o.tolerance) && o.tolerance >= 0)) return fail("tolerance must be finite and >= 0");
   if (!(std::isfinite(o.max_step) && o.max_step > 0)) return fail("max_step must be finite and > 0");
   if (!(std::isfinite(o.damping) && o.damping >= 0)) return fail("damping must be finite and >= 0");
@@ -1761,15 +1886,50 @@ Status IkClipJob::Validate() const {
 
 void IkClipJob::Run() {
   Validate().ThrowIfFailed();
-  Solver solver(*this);
-  solver.Run();
+  std::vector<std::vector<int>> groups = IndependentGroups(*this);
+  const Eigen::Index frames = target_positions.rows();
+  if (groups.size() <= 1) {
+    Solver solver(*this, AllEffectors(*this), true, iterations.data());
+    solver.Run();
+    return;
+  }
+  // Every output as the input has it; each group's solver then writes its own bones and effectors.
+  for (Eigen::Index f = 0; f < frames; ++f) {
+    rotations.row(f) = input_rotations.row(input_rotations.rows() == 1 ? 0 : f);
+    root_locations.row(f) = input_locations.row(input_locations.rows() == 1 ? 0 : f);
+  }
+  scales.setOnes();
+  // Larger groups first, so that the threads finish together.
+  std::stable_sort(groups.begin(), groups.end(),
+                   [](const std::vector<int>& a, const std::vector<int>& b) { return a.size() > b.size(); });
+  std::vector<std::vector<int>> counts(groups.size(), std::vector<int>(static_cast<std::size_t>(frames), 0));
+  std::vector<std::exception_ptr> failures(groups.size());
+  int threads = options.threads;
+  if (threads == 0) threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  internal::ParallelFor(static_cast<int>(groups.size()), threads, [&](int g) {
+    const auto i = static_cast<std::size_t>(g);
+    try {
+      Solver solver(*this, groups[i], false, counts[i].data());
+      solver.Run();
+    } catch (...) {
+      failures[i] = std::current_exception();
+    }
+  });
+  for (const std::exception_ptr& failure : failures) {
+    if (failure) std::rethrow_exception(failure);
+  }
+  for (Eigen::Index f = 0; f < frames; ++f) {
+    int most = 0;
+    for (const std::vector<int>& c : counts) most = std::max(most, c[static_cast<std::size_t>(f)]);
+    iterations[f] = most;
+  }
 }
 
 RowMatrixXd IkClipJob::Jacobian(Eigen::Index frame) const {
   Validate().ThrowIfFailed();
   if (frame < 0 || frame >= target_positions.rows()) throw Error("ik: frame index out of range");
   IkClipJob job = *this;  // views and settings: the solver writes nothing here
-  Solver solver(job);
+  Solver solver(job, AllEffectors(job), true, nullptr);
   return solver.Jacobian(frame);
 }
 

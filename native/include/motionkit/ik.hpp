@@ -177,7 +177,14 @@ struct IkOptions {
   double orientation_scale = 0.0;  // length units per radian; 0 picks 0.1 of the rig's size
   bool root_translation = false;   // the root bone's location is an unknown
   bool root_rotation = false;      // the root bone's rotation is an unknown
-  bool warm_start = true;          // start each frame from the previous frame's solution
+  // Start each frame from the previous frame's solution, or, from the third
+  // frame on, from where the last two solutions were heading when that
+  // starts nearer the targets (smooth targets then take one step a frame).
+  bool warm_start = true;
+  // Independent groups of effectors (see Run) may be solved on up to this
+  // many threads; 0 means std::thread::hardware_concurrency(). The results
+  // are the same whatever the count.
+  int threads = 1;
 };
 
 // Inputs (caller-owned):
@@ -223,7 +230,12 @@ struct IkClipJob {
   // to reach); limits (min <= max, stiffness in [0, 1), scales positive);
   // every input finite, naming the effector (or bone) and the frame.
   Status Validate() const;
-  // Throws Error when Validate() fails, having written nothing.
+  // Throws Error when Validate() fails, having written nothing. Effectors
+  // that share no unknown (their paths meet only at bones the solver does
+  // not move, and not both through the root's location) are independent
+  // problems: each group is solved on its own, as if the job had only its
+  // effectors, so that its system is small and it stops when its own targets
+  // are met. iterations[f] is then the most any group took on frame f.
   void Run();
 
   // For tests: the Jacobian the solver builds at `frame`'s input pose (as a
