@@ -193,12 +193,15 @@ def write_keys(id_data: bpy.types.ID, action: bpy.types.Action, channels: Iterab
         fcurve = _new_fcurve(curves, channel)
         points = fcurve.keyframe_points
         points.add(frames.size)
-        points.foreach_set("co", co[row])
+        keys = _write_co(points, co[row])
         if interpolation != 'BEZIER':  # add() makes Bezier keys already
             _set_enum(points, "interpolation", interp, _INTERPOLATION)
         if handles is not None:
-            points.foreach_set("handle_left", left[row])
-            points.foreach_set("handle_right", right[row])
+            for prop, array in (("handle_left", left[row]), ("handle_right", right[row])):
+                if keys is not None:
+                    keys[:, _POINT_BYTES[prop]] = array.view(np.uint8).reshape(-1, 8)
+                else:
+                    points.foreach_set(prop, array)
             _set_enum(points, "handle_left_type", types[row], _HANDLE_TYPE)
             _set_enum(points, "handle_right_type", types[row], _HANDLE_TYPE)
         fcurve.update()
@@ -265,6 +268,62 @@ def _key_bytes(points) -> np.ndarray:
     return keys
 
 
+# A key's frame and value are BezTriple.vec[1][0] and vec[1][1], float32 at
+# byte 12. Blender's foreach_get and foreach_set of "co" take 35-50 ns a key
+# (RNA, key by key); the keys' own array takes about 1. It is used only where
+# the layout is seen to hold: consecutive keys 72 bytes apart, and the first
+# and last keys' bytes equal to what RNA reports for their co, interpolation
+# and handle types (their frames differ, so the check cannot pass on zeros).
+_CO_BYTES = slice(12, 20)
+_POINT_BYTES = {"handle_left": slice(0, 8), "co": _CO_BYTES, "handle_right": slice(24, 32)}  # vec[0], vec[1], vec[2]
+
+
+def _key_view(points) -> np.ndarray | None:
+    """The keys' BezTriple array as (count, 72) bytes, or None where its layout is not seen to hold."""
+    count = len(points)
+    if count < 2:
+        return None
+    first, last = points[0], points[count - 1]
+    base = first.as_pointer()
+    if points[1].as_pointer() - base != _BEZTRIPLE_SIZE or last.as_pointer() - base != (count - 1) * _BEZTRIPLE_SIZE:
+        return None
+    keys = np.ctypeslib.as_array((ctypes.c_uint8 * (count * _BEZTRIPLE_SIZE)).from_address(base))
+    keys = keys.reshape(count, _BEZTRIPLE_SIZE)
+    for row, key in ((0, first), (count - 1, last)):
+        if (keys[row, _CO_BYTES].view(np.float32).tolist() != list(np.array(key.co, dtype=np.float32))
+                or keys[row, _KEY_BYTE["interpolation"]] != _INTERPOLATION[key.interpolation]
+                or keys[row, _KEY_BYTE["handle_left_type"]] != _HANDLE_TYPE[key.handle_left_type]
+                or keys[row, _KEY_BYTE["handle_right_type"]] != _HANDLE_TYPE[key.handle_right_type]):
+            return None
+    return keys
+
+
+def _read_co(points, keys: np.ndarray | None, prop: str = "co") -> np.ndarray:
+    """Every key's (frame, value) of co, handle_left or handle_right, interleaved float32 (2 count,), from
+    keys (_key_view(points)) or else through RNA."""
+    if keys is not None:
+        return np.ascontiguousarray(keys[:, _POINT_BYTES[prop]]).view(np.float32).reshape(-1)
+    co = np.empty(2 * len(points), dtype=np.float32)
+    points.foreach_get(prop, co)
+    return co
+
+
+def _write_co(points, co: np.ndarray) -> np.ndarray | None:
+    """Set every key's (frame, value) from interleaved float32 co (2 count,), C-contiguous; returns the
+    keys' array (_key_view) when that is how they were written, for more of the same."""
+    count = len(points)
+    if count >= 2:
+        # The two ends through RNA first: the layout check then compares real, distinct frames.
+        points[0].co = co[0:2]
+        points[count - 1].co = co[-2:]
+        keys = _key_view(points)
+        if keys is not None:
+            keys[:, _CO_BYTES] = co.view(np.uint8).reshape(count, 8)
+            return keys
+    points.foreach_set("co", co)
+    return None
+
+
 def _pack(native, id_data, channels, frames, values, what: str = "") -> np.ndarray:
     """Keys as Blender's interleaved float32 (frame, value) rows, NaN and infinity refused."""
     frames = np.ascontiguousarray(frames, dtype=np.float64)
@@ -283,8 +342,7 @@ def _pack(native, id_data, channels, frames, values, what: str = "") -> np.ndarr
 def read_keys(fcurve: bpy.types.FCurve) -> tuple[np.ndarray, np.ndarray]:
     """(frames, values) of every key, as float32 arrays exactly as Blender stores them."""
     points = fcurve.keyframe_points
-    co = np.empty(2 * len(points), dtype=np.float32)
-    points.foreach_get("co", co)
+    co = _read_co(points, _key_view(points))
     return co[0::2].copy(), co[1::2].copy()
 
 
@@ -312,20 +370,22 @@ def sample(action: bpy.types.Action, id_data: bpy.types.ID, channels: Iterable,
         points = fcurve.keyframe_points
         count = len(points)
         modified = len(fcurve.modifiers) > 0
-        arrays = [np.empty(2 * count, dtype=np.float32) for _ in range(3)]
-        points.foreach_get("co", arrays[0])
-        if not modified and count == frames.size and np.array_equal(arrays[0][0::2], frames.astype(np.float32)):
+        view = _key_view(points)
+        co = _read_co(points, view)
+        if not modified and count == frames.size and np.array_equal(co[0::2], frames.astype(np.float32)):
             # A key on every frame asked for (baked or imported motion): a curve
             # passes through its keys whatever their interpolation.
-            values[row] = arrays[0][1::2]
+            values[row] = co[1::2]
             continue
-        interp = np.empty(count, dtype=np.int32)
-        points.foreach_get("interpolation", interp)
+        if view is not None:
+            interp = view[:, _KEY_BYTE["interpolation"]].astype(np.int32)
+        else:
+            interp = np.empty(count, dtype=np.int32)
+            points.foreach_get("interpolation", interp)
         if modified or not count or np.any(interp > _INTERPOLATION['BEZIER']):
             values[row] = [fcurve.evaluate(f) for f in frames]  # modifiers or easing keys
             continue
-        for name, array in zip(("handle_left", "handle_right"), arrays[1:]):
-            points.foreach_get(name, array)
+        arrays = [co] + [_read_co(points, view, name) for name in ("handle_left", "handle_right")]
         native_rows.append(row)
         keys.append((arrays, interp, fcurve.extrapolation == 'LINEAR'))
     if keys:

@@ -95,6 +95,31 @@ def test_a_million_keys_read_back_exactly(animdata):
     np.testing.assert_allclose(mid, 0.75 * e[:-1] + 0.25 * e[1:], rtol=1e-5, atol=1e-5)
 
 
+def test_the_key_array_path_agrees_with_rna(animdata):
+    """Keys are read and written through the keys' own array where its layout checks out: every key's
+    co and handles must be what RNA's foreach_get reports, and short curves take RNA's way."""
+    obj = make_armature()
+    action = animdata.new_action("Layout")
+    rng = np.random.default_rng(3)
+    frames = np.cumsum(rng.uniform(0.5, 2.0, 500))
+    values = rng.normal(size=(2, 500))
+    written = animdata.write_keys(obj, action, [("location", 0), ("location", 1)], frames, values,
+                                  interpolation='BEZIER')
+    for fcurve, row in zip(written, values):
+        points = fcurve.keyframe_points
+        view = animdata._key_view(points)
+        assert view is not None, "the key array's layout check failed on this Blender"
+        for prop in ("co", "handle_left", "handle_right"):
+            rna = np.empty(2 * len(points), dtype=np.float32)
+            points.foreach_get(prop, rna)
+            np.testing.assert_array_equal(animdata._read_co(points, view, prop), rna, err_msg=prop)
+        np.testing.assert_array_equal(animdata.read_keys(fcurve)[1], row.astype(np.float32))
+    (single,) = animdata.write_keys(obj, action, [("location", 2)], [7.0], [[1.5]])
+    assert animdata._key_view(single.keyframe_points) is None
+    assert tuple(single.keyframe_points[0].co) == (7.0, 1.5)
+    assert [a.tolist() for a in animdata.read_keys(single)] == [[7.0], [1.5]]
+
+
 def test_rewriting_a_channel_replaces_its_keys(animdata):
     obj = make_armature()
     action = animdata.new_action("Again")
