@@ -9,6 +9,7 @@ the file changes.
 """
 from __future__ import annotations
 
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
 import bpy
@@ -171,8 +172,9 @@ class Plan:
 def plan(obj, effectors, frame_range=None, method: str = "dls", *, root_translation: bool = True,
          root_rotation: bool = True, max_iterations: int = 64, tolerance: float | None = None,
          damping: float = 0.0, regularization: float = 1e-4, use_limits: bool = True,
-         reference: str = "previous") -> Plan:
-    """Solve without touching the file (see solve)."""
+         reference: str = "previous", alongside=None) -> Plan:
+    """Solve without touching the file (see solve). alongside: a callable run on this thread while the
+    native solve runs on another (Blender's data may only be touched from this one)."""
     native = native_state.native()
     if obj is None or not isinstance(obj, bpy.types.Object) or obj.type != 'ARMATURE':
         raise ValueError(f"'{getattr(obj, 'name', obj)}' is not an armature object")
@@ -199,7 +201,8 @@ def plan(obj, effectors, frame_range=None, method: str = "dls", *, root_translat
         # Only the effectors' bones and their ancestors place the effectors;
         # the other bones are neither solved nor keyed, so their keys are not read.
         needed = sorted(_ancestors(bones, names, [e.bone for e in effectors]))
-        input_rotations = np.tile([1.0, 0.0, 0.0, 0.0], (frames.size, len(bones)))
+        input_rotations = np.zeros((frames.size, 4 * len(bones)))
+        input_rotations[:, 0::4] = 1.0
         read = pose_channels.rotations(obj, action, [bones[i] for i in needed], frames)
         columns = (4 * np.array(needed)[:, None] + np.arange(4)).ravel()
         input_rotations[:, columns] = read
@@ -210,20 +213,33 @@ def plan(obj, effectors, frame_range=None, method: str = "dls", *, root_translat
     options = joint_limits(obj, bones) if use_limits else {}
     if any(e.chain_count > 0 for e in effectors):
         options["excluded"] = _outside_chains(bones, names, effectors)
-    solved = native.ik_solve(
-        rig, np.ascontiguousarray(input_rotations), np.ascontiguousarray(input_locations),
-        np.ascontiguousarray(positions), np.ascontiguousarray(orientations),
-        [{"name": e.label(), "bone": names.index(e.bone), "weight": float(e.weight),
-          "position": e.position,
-          "orientation": e.orientation, "pin": e.pin} for e in effectors],
-        method=method, max_iterations=max_iterations,
-        tolerance=float(tolerance if tolerance is not None else 1e-5 * height),
-        damping=damping, regularization=regularization, reference=reference,
-        root_translation=root_translation, root_rotation=root_rotation, **options)
+    def run():
+        return native.ik_solve(
+            rig, np.ascontiguousarray(input_rotations), np.ascontiguousarray(input_locations),
+            np.ascontiguousarray(positions), np.ascontiguousarray(orientations),
+            [{"name": e.label(), "bone": names.index(e.bone), "weight": float(e.weight),
+              "position": e.position,
+              "orientation": e.orientation, "pin": e.pin} for e in effectors],
+            method=method, max_iterations=max_iterations,
+            tolerance=float(tolerance if tolerance is not None else 1e-5 * height),
+            damping=damping, regularization=regularization, reference=reference,
+            root_translation=root_translation, root_rotation=root_rotation, **options)
+
+    if alongside is None:
+        solved = run()
+    else:
+        with ThreadPoolExecutor(max_workers=1) as pool:
+            solving = pool.submit(run)  # the GIL is released while it runs
+            alongside()  # should this raise, the pool still waits for the solve
+            solved = solving.result()
     rotations = solved["rotations"]
-    base = np.broadcast_to(input_rotations, rotations.shape)
-    dots = np.abs(np.einsum("fbk,fbk->fb", rotations.reshape(frames.size, -1, 4), base.reshape(frames.size, -1, 4)))
-    moved = np.any(dots < 1.0 - 1e-12, axis=0)
+    # Only the effectors' bones and their ancestors can have moved.
+    moved = np.zeros(len(bones), dtype=bool)
+    candidates = np.array(sorted(_ancestors(bones, names, [e.bone for e in effectors])))
+    columns = (4 * candidates[:, None] + np.arange(4)).ravel()
+    out = rotations[:, columns].reshape(frames.size, -1, 4)
+    base = np.broadcast_to(input_rotations[:, columns].reshape(-1, len(candidates), 4), out.shape)
+    moved[candidates] = np.any(np.abs(np.einsum("fbk,fbk->fb", out, base)) < 1.0 - 1e-12, axis=0)
     if root_translation:
         moved[0] = True
     result = Result(frames, solved["errors"], solved["iterations"], [names[i] for i in np.flatnonzero(moved)])
@@ -287,14 +303,18 @@ def apply_pose(plan_: Plan) -> None:
         getattr(obj.path_resolve(owner), prop)[index] = value
 
 
-def apply_keys(plan_: Plan, *, new_action: bool = True, action_name: str | None = None) -> bpy.types.Action:
-    """Key the plan's frames on the solved bones: in a new action (the current one is copied
-    first, so that the other bones keep their motion) or in the current action."""
+def apply_keys(plan_: Plan, *, new_action: bool = True, action_name: str | None = None,
+               copy: bpy.types.Action | None = None) -> bpy.types.Action:
+    """Key the plan's frames on the solved bones: in a new action (a copy of the current one, so that
+    the other bones keep their motion: `copy` if the caller made it already) or in the current action.
+    A copy made here is removed again on failure; the caller's is the caller's."""
     channels, values = _channels(plan_)
     obj = plan_.obj
     current = animdata.assigned_action(obj)
     if new_action or current is None:
-        action = current.copy() if current is not None else animdata.new_action(action_name or f"{obj.name} IK")
+        action = copy
+        if action is None:
+            action = current.copy() if current is not None else animdata.new_action(action_name or f"{obj.name} IK")
         action.name = action_name or f"{current.name if current else obj.name} IK"
         try:
             animdata.write_keys(obj, action, channels, plan_.frames, values)
@@ -302,7 +322,8 @@ def apply_keys(plan_: Plan, *, new_action: bool = True, action_name: str | None 
                 current.use_fake_user = True
             animdata.assign(obj, action)
         except BaseException:
-            bpy.data.actions.remove(action)
+            if copy is None:
+                bpy.data.actions.remove(action)
             raise
         return action
     animdata.write_keys(obj, current, channels, plan_.frames, values)
@@ -323,9 +344,30 @@ def solve(armature, effectors, frame_range=None, method: str = "dls", *, new_act
     damping, regularization, use_limits (the bones' IK limits, default True),
     reference ("previous" or "input"). A ValueError changes nothing.
     """
-    plan_ = plan(armature, effectors, frame_range, method, **options)
     if frame_range is None:
+        plan_ = plan(armature, effectors, frame_range, method, **options)
         apply_pose(plan_)
-    else:
-        apply_keys(plan_, new_action=new_action)
-    return plan_.result
+        return plan_.result
+    return bake(armature, effectors, frame_range, method, new_action=new_action, **options)[0]
+
+
+def bake(armature, effectors, frame_range, method: str = "dls", *, new_action: bool = True,
+         **options) -> tuple[Result, bpy.types.Action]:
+    """Solve every frame of frame_range and key the solved bones (see solve); returns the Result and
+    the action keyed. A ValueError changes nothing."""
+    current = animdata.assigned_action(armature) if isinstance(armature, bpy.types.Object) else None
+    copies = []
+
+    def copy_current():
+        # Blender's own copy of the clip, made while the native solve runs.
+        copies.append(current.copy())
+
+    try:
+        plan_ = plan(armature, effectors, frame_range, method,
+                     alongside=copy_current if new_action and current is not None else None, **options)
+        action = apply_keys(plan_, new_action=new_action, copy=copies[0] if copies else None)
+    except BaseException:
+        for copy in copies:
+            bpy.data.actions.remove(copy)
+        raise
+    return plan_.result, action

@@ -60,10 +60,9 @@ class MOTIONKIT_OT_ik_bake(bpy.types.Operator):
                        else (settings.frame_start, settings.frame_end))
 
         def bake(progress):
-            progress(0, 2)
-            plan = ik.plan(obj, settings.effector_list(), frame_range, settings.method, **settings.options())
-            progress(1, 2)
-            return plan.result, ik.apply_keys(plan, new_action=settings.new_action)
+            progress(0, 1)
+            return ik.bake(obj, settings.effector_list(), frame_range, settings.method,
+                           new_action=settings.new_action, **settings.options())
 
         return operator_runs.run(
             self, context, bake,

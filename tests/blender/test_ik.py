@@ -201,6 +201,24 @@ def test_operators_solve_bake_and_cancel_on_errors(mk, ik, walk60):
     assert bpy.ops.motionkit.ik_solve() == {'FINISHED'}
 
 
+def test_a_bake_that_fails_leaves_no_copy(mk, ik, walk60, animdata):
+    """The new action is copied while the native solve runs; when the solve refuses its input, or the
+    clip is refused before it, the copy goes again and the armature plays what it played."""
+    obj, action = mk.bvh.load(walk60, name="broken")
+    effectors = [ik.Effector("lWrist", target=(0.3, -0.4, 1.4))]
+    actions = set(bpy.data.actions)
+    with pytest.raises(ValueError, match="damping must be finite and >= 0"):  # only the native job checks it
+        ik.bake(obj, effectors, (1, 40), new_action=True, damping=-1.0)
+    assert set(bpy.data.actions) == actions and obj.animation_data.action == action
+    path = 'pose.bones["lWrist"].rotation_quaternion'
+    for k in range(4):
+        points = animdata.find_fcurve(action, obj, path, k).keyframe_points
+        points[9].co = (points[9].co[0], 0.0)
+    with pytest.raises(ValueError, match="bone 'lWrist' rotation is zero or not finite at frame 10"):
+        ik.bake(obj, effectors, (1, 40), new_action=True)
+    assert set(bpy.data.actions) == actions and obj.animation_data.action == action
+
+
 def test_bad_input_names_the_effector_and_changes_nothing(mk, ik, walk60):
     obj = still_walker(mk, walk60)
     before = [tuple(pb.rotation_quaternion) for pb in obj.pose.bones]
