@@ -200,5 +200,6 @@ def ik_solve(
     root_rotation: bool = False,
     warm_start: bool = True,
     threads: int = 0,
+    size: float = 0.0,
 ) -> IkResult:
     """Whole-clip full-body IK; see native/include/motionkit/ik.hpp. Bones the solver does not move keep their input."""

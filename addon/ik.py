@@ -161,7 +161,7 @@ def _targets(obj, effectors, frames):
 @dataclass
 class Plan:
     obj: bpy.types.Object
-    bones: list
+    bones: list                 # the B bones solved over: the effectors' bones, their ancestors and the root
     frames: np.ndarray
     rotations: np.ndarray       # (frames, 4B) solved pose rotations
     root_locations: np.ndarray  # (frames, 3)
@@ -183,13 +183,23 @@ def plan(obj, effectors, frame_range=None, method: str = "dls", *, root_translat
     effectors = [e if isinstance(e, Effector) else Effector(**e) for e in effectors]
     if not effectors:
         raise ValueError("no effectors: give at least one bone and target")
-    rig, bones = pose_channels.native_rig(obj.data)
-    names = [b.name for b in bones]
+    all_bones = pose_channels.depth_first(obj.data)
+    all_names = [b.name for b in all_bones]
     for effector in effectors:
-        if effector.bone not in names:
+        if effector.bone not in all_names:
             raise ValueError(f"{effector.label()}: '{effector.bone}' is not a bone of '{obj.name}'")
         if not (np.isfinite(effector.weight) and effector.weight > 0):
             raise ValueError(f"{effector.label()}: the weight must be positive")
+    # Only the effectors' bones and their ancestors place the effectors: the
+    # solve sees that part of the rig (with the root, whose location channel
+    # it reads), sized as the whole rig so that it is solved as the whole would
+    # be; the other bones are neither read, solved nor keyed.
+    part = sorted(_ancestors(all_bones, all_names, [e.bone for e in effectors]) | {0})
+    rig, bones = pose_channels.native_rig(obj.data, [all_bones[i] for i in part])
+    names = [b.name for b in bones]
+    rest = np.array([b.head_local for b in all_bones] + [b.tail_local for b in all_bones])
+    size = float(np.linalg.norm(np.ptp(rest, axis=0)))
+    height = float(np.max(np.ptp(rest, axis=0)))
     frames = _frames(obj, frame_range)
     action = animdata.assigned_action(obj)
     if action is None or frame_range is None:
@@ -198,21 +208,14 @@ def plan(obj, effectors, frame_range=None, method: str = "dls", *, root_translat
         input_rotations = rotations.reshape(1, -1)
         input_locations = np.ascontiguousarray(locations[:1])
     else:
-        # Only the effectors' bones and their ancestors place the effectors;
-        # the other bones are neither solved nor keyed, so their keys are not read.
-        needed = sorted(_ancestors(bones, names, [e.bone for e in effectors]))
-        input_rotations = np.zeros((frames.size, 4 * len(bones)))
-        input_rotations[:, 0::4] = 1.0
-        read = pose_channels.rotations(obj, action, [bones[i] for i in needed], frames)
-        columns = (4 * np.array(needed)[:, None] + np.arange(4)).ravel()
-        input_rotations[:, columns] = read
+        input_rotations = pose_channels.rotations(obj, action, bones, frames)
         locations, _ = pose_channels.locations(obj, action, bones[:1], frames)
         input_locations = np.ascontiguousarray(locations)
     positions, orientations = _targets(obj, effectors, frames)
-    height = max(np.ptp(np.array([b.head_local for b in bones] + [b.tail_local for b in bones]), axis=0))
     options = joint_limits(obj, bones) if use_limits else {}
     if any(e.chain_count > 0 for e in effectors):
         options["excluded"] = _outside_chains(bones, names, effectors)
+
     def run():
         return native.ik_solve(
             rig, np.ascontiguousarray(input_rotations), np.ascontiguousarray(input_locations),
@@ -223,7 +226,7 @@ def plan(obj, effectors, frame_range=None, method: str = "dls", *, root_translat
             method=method, max_iterations=max_iterations,
             tolerance=float(tolerance if tolerance is not None else 1e-5 * height),
             damping=damping, regularization=regularization, reference=reference,
-            root_translation=root_translation, root_rotation=root_rotation, **options)
+            root_translation=root_translation, root_rotation=root_rotation, size=size, **options)
 
     if alongside is None:
         solved = run()
@@ -233,13 +236,10 @@ def plan(obj, effectors, frame_range=None, method: str = "dls", *, root_translat
             alongside()  # should this raise, the pool still waits for the solve
             solved = solving.result()
     rotations = solved["rotations"]
-    # Only the effectors' bones and their ancestors can have moved.
-    moved = np.zeros(len(bones), dtype=bool)
-    candidates = np.array(sorted(_ancestors(bones, names, [e.bone for e in effectors])))
-    columns = (4 * candidates[:, None] + np.arange(4)).ravel()
-    out = rotations[:, columns].reshape(frames.size, -1, 4)
-    base = np.broadcast_to(input_rotations[:, columns].reshape(-1, len(candidates), 4), out.shape)
-    moved[candidates] = np.any(np.abs(np.einsum("fbk,fbk->fb", out, base)) < 1.0 - 1e-12, axis=0)
+    count = len(bones)
+    out = rotations.reshape(frames.size, count, 4)
+    base = np.broadcast_to(np.asarray(input_rotations).reshape(-1, count, 4), out.shape)
+    moved = np.any(np.abs(np.einsum("fbk,fbk->fb", out, base)) < 1.0 - 1e-12, axis=0)
     if root_translation:
         moved[0] = True
     result = Result(frames, solved["errors"], solved["iterations"], [names[i] for i in np.flatnonzero(moved)])

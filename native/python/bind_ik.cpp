@@ -80,7 +80,7 @@ py::dict IkSolve(const RigModel& rig, const ConstMatrixView& input_rotations, co
                  const std::optional<DoubleArray>& stretch, const std::optional<DoubleArray>& scale_range,
                  const std::string& method, int max_iterations, double tolerance, double max_step, double damping,
                  double regularization, const std::string& reference, double orientation_scale,
-                 bool root_translation, bool root_rotation, bool warm_start, int threads) {
+                 bool root_translation, bool root_rotation, bool warm_start, int threads, double size) {
   const auto parsed = ParseIkMethod(method);
   if (!parsed) throw Error("ik_solve: unknown method '" + method + "'; expected ccd, transpose, pinv or dls");
   if (reference != "previous" && reference != "input") {
@@ -141,6 +141,7 @@ py::dict IkSolve(const RigModel& rig, const ConstMatrixView& input_rotations, co
   job.options.root_rotation = root_rotation;
   job.options.warm_start = warm_start;
   job.options.threads = threads;
+  job.options.size = size;
   job.Validate().ThrowIfFailed();
   {
     py::gil_scoped_release release;
@@ -166,7 +167,7 @@ void BindIk(py::module_& m) {
         "scale_range"_a.noconvert() = py::none(), "method"_a = "dls", "max_iterations"_a = 64,
         "tolerance"_a = 1e-5, "max_step"_a = 0.3, "damping"_a = 0.0, "regularization"_a = 1e-4,
         "reference"_a = "previous", "orientation_scale"_a = 0.0, "root_translation"_a = false,
-        "root_rotation"_a = false, "warm_start"_a = true, "threads"_a = 0,
+        "root_rotation"_a = false, "warm_start"_a = true, "threads"_a = 0, "size"_a = 0.0,
         R"pbdoc(
         Full-body inverse kinematics on a whole clip.
 
@@ -197,7 +198,10 @@ void BindIk(py::module_& m) {
         warm_start starts each frame from the previous one's solution.
         Effectors that share no unknown (say, chains cut off by excluded
         bones) are solved as separate problems, on up to `threads` threads
-        (0, the default: all; the result does not depend on it).
+        (0, the default: all; the result does not depend on it). size: the
+        rig's size, which the defaults scale with (0: the diagonal of the
+        rest pose's bounding box; give the whole rig's when solving part of
+        one).
 
         Returns a dict: "rotations" (frames, 4b) pose quaternions (bones the
         solver does not move keep their input), "root_locations" (frames, 3),

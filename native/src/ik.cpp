@@ -421,7 +421,7 @@ Solver::Solver(IkClipJob& job, std::vector<int> ids, bool owns_all, int* iterati
     lo = lo.cwiseMin(head).cwiseMin(tail);
     hi = hi.cwiseMax(head).cwiseMax(tail);
   }
-  size_ = std::max((hi - lo).norm(), 1e-300);
+  size_ = options_.size > 0 ? options_.size : std::max((hi - lo).norm(), 1e-300);
   lambda_ = options_.damping > 0 ? options_.damping : 1e-3 * size_;
   ls_ = options_.orientation_scale > 0 ? options_.orientation_scale : 0.1 * size_;
   mu_ = options_.regularization;
@@ -1813,6 +1813,7 @@ Status IkClipJob::Validate() const {
   if (!(std::isfinite(o.regularization) && o.regularization >= 0)) {
     return fail("regularization must be finite and >= 0");
   }
+  if (!(std::isfinite(o.size) && o.size >= 0)) return fail("size must be finite and >= 0");
   if (!(std::isfinite(o.orientation_scale) && o.orientation_scale >= 0)) {
     return fail("orientation_scale must be finite and >= 0");
   }

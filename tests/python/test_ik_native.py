@@ -72,3 +72,50 @@ def test_errors_name_the_effector_and_frame(native):
     with pytest.raises(TypeError):  # float32 is not converted silently
         native.ik_solve(rig, identity(1, 2).astype(np.float32), np.zeros((1, 3)), np.zeros((1, 3)),
                         np.zeros((1, 0)), [{"bone": 1}])
+
+
+def test_part_of_a_rig_solves_as_the_whole_given_its_size(native):
+    """The add-on solves only the effectors' bones and their ancestors: with the whole rig's size (which
+    the damping and the regulariser's fade scale with) the part gives the whole's numbers, bit for bit;
+    and effectors that share no unknown give the same numbers on one thread as on two."""
+    # A root with two 3-bone arms; the whole rig also has a long tail the effector does not hang from.
+    names, parents, heads, lengths = ["root"], [-1], [[0.0, 0.0, 0.0]], [0.2]
+    for side in (1.0, -1.0):
+        for i in range(3):
+            names.append(f"arm{side:+.0f}{i}")
+            parents.append(0 if i == 0 else len(names) - 2)
+            heads.append([side * 0.3 * i, 0.0, 0.2])
+            lengths.append(0.3)
+    for i in range(4):
+        names.append(f"tail{i}")
+        parents.append(0 if i == 0 else len(names) - 2)
+        heads.append([0.0, -1.0 * i - 0.5, 0.0])
+        lengths.append(1.0)
+    n = len(names)
+    rest = np.tile([1.0, 0.0, 0.0, 0.0], (n, 1))
+    rest[1:7] = [np.cos(-np.pi / 4), 0.0, 0.0, np.sin(-np.pi / 4)]
+    whole = native.Rig(names, parents, rest, np.array(heads), np.array(lengths))
+    frames = 30
+    rotations = identity(frames, n)
+    t = np.linspace(0, 1, frames)[:, None]
+    targets = np.hstack([[0.5, 0.3, 0.2] + 0.1 * np.sin(3 * t), [-0.5, 0.3, 0.2] + 0.1 * np.cos(2 * t)])
+    effectors = [{"bone": 3}, {"bone": 6}]
+    out = native.ik_solve(whole, rotations, np.zeros((1, 3)), targets, np.zeros((frames, 0)), effectors,
+                          threads=1)
+    part = list(range(7))
+    piece = native.Rig([names[i] for i in part], [parents[i] for i in part], rest[part], np.array(heads)[part],
+                       np.array(lengths)[part])
+    size = float(np.linalg.norm(np.ptp(np.vstack([heads, whole_tails(heads, rest, lengths)]), axis=0)))
+    for threads in (1, 2):
+        got = native.ik_solve(piece, identity(frames, 7), np.zeros((1, 3)), targets, np.zeros((frames, 0)),
+                              effectors, size=size, threads=threads)
+        np.testing.assert_array_equal(got["rotations"], out["rotations"][:, :28])
+        np.testing.assert_array_equal(got["errors"], out["errors"])
+    assert out["errors"].max() < 1e-4
+
+
+def whole_tails(heads, rest, lengths):
+    """Rest tails: each head plus its rest orientation's Y axis times the length."""
+    w, x, y, z = np.asarray(rest).T
+    y_axis = np.stack([2 * (x * y - w * z), 1 - 2 * (x * x + z * z), 2 * (y * z + w * x)], axis=1)
+    return np.asarray(heads) + np.asarray(lengths)[:, None] * y_axis

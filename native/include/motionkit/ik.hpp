@@ -111,7 +111,7 @@
 //     that a clamped pose decomposes back to the same numbers). Validate
 //     refuses limits that no rotation meets.
 //   - The rig's size is the diagonal of its rest pose's bounding box (heads
-//     and tails).
+//     and tails), unless options.size gives it.
 //   - errors: the position error of a position effector; for an
 //     orientation-only one, its angle times ls.
 //
@@ -175,6 +175,10 @@ struct IkOptions {
   double regularization = 1e-4;  // mu, towards the reference pose
   IkReference reference = IkReference::kPrevious;
   double orientation_scale = 0.0;  // length units per radian; 0 picks 0.1 of the rig's size
+  // The rig's size, which the defaults above scale with; 0: the diagonal of
+  // its rest pose's bounding box. A caller solving part of a rig gives the
+  // whole rig's, so that the part is solved as the whole would be.
+  double size = 0.0;
   bool root_translation = false;   // the root bone's location is an unknown
   bool root_rotation = false;      // the root bone's rotation is an unknown
   // Start each frame from the previous frame's solution, or, from the third
