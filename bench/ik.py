@@ -19,7 +19,7 @@ problem:
 - Blender: an IK constraint per effector with the same target and chain
   length, then bpy.ops.nla.bake with visual keying, timed on --bake-frames
   frames and scaled linearly to --frames (stated in the output).
-Both ways twice: keys in a new action (MotionKit copies the clip, so the other
+Both ways twice (--keys-into new|current|both): keys in a new action (MotionKit copies the clip, so the other
 bones keep their motion; nla.bake's default) and keys in the action the rig
 plays (new_action=False; use_current_action=True).
 Residual: the effectors' distance to their targets on sampled frames (the
@@ -101,6 +101,8 @@ def main() -> None:
     parser.add_argument("--bones", type=int, default=60)
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--bake-frames", type=int, default=500)
+    parser.add_argument("--keys-into", choices=("new", "current", "both"), default="both",
+                        help="time keying a new action, the current one, or both (the default)")
     args = parser.parse_args(argv)
     install_addon.install(args.zip)
     import motionkit as mk
@@ -116,7 +118,7 @@ def main() -> None:
     check = np.unique(np.linspace(1, args.bake_frames, 12).round())
     rows = []
     kept = set(bpy.data.actions)  # the clip and the targets' paths
-    for into_current in (False, True):
+    for into_current in {"new": (False,), "current": (True,), "both": (False, True)}[args.keys_into]:
         # Each run on a fresh copy of the clip; both ways key a new action, or the action the rig plays.
         times, result = [], None
         for _ in range(args.repeat):
