@@ -11,6 +11,7 @@ through the same forward/up axis options as Blender's own importer.
 from __future__ import annotations
 
 import os
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import bpy
@@ -185,16 +186,22 @@ def load(filepath: str, options: ImportOptions | None = None, *, context=None, n
             prop, size = ("rotation_quaternion", 4) if mode == 'QUATERNION' else ("rotation_euler", 3)
             channels += [(f"{path}.{prop}", k, bone) for k in range(size)]
         matrix = np.empty((len(channels), motion.frames))
-        angles = np.empty((motion.frames, 3))
-        for row, kind, i in fills:
+
+        def fill(row, kind, i):
             if kind == 'LOCATION':
                 matrix[row:row + 3] = locations[:, 3 * i:3 * i + 3].T
             elif kind == 'QUATERNION':
                 matrix[row:row + 4] = rotations[:, 4 * i:4 * i + 4].T
             else:
                 order, axes = rotation_channels.euler_order(kind)
+                angles = np.empty((motion.frames, 3))
                 native.quaternion_to_euler(np.ascontiguousarray(rotations[:, 4 * i:4 * i + 4]), order, angles)
                 matrix[[row + a for a in axes]] = angles.T
+
+        # Each joint's continuous Euler angles are a native call that releases the GIL: joints in parallel.
+        with ThreadPoolExecutor(max_workers=os.cpu_count() or 1) as pool:
+            for done in [pool.submit(fill, *f) for f in fills]:
+                done.result()
 
         action = animdata.new_action(name)
         created.append(action)

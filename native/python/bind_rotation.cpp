@@ -58,8 +58,8 @@ void BindRotation(py::module_& m) {
           if (!q.allFinite() || !(q.norm() > 1e-12)) {
             throw Error("quaternion_to_euler: quaternion " + std::to_string(i) + " is zero or not finite");
           }
-          const Eigen::Matrix3d r = Eigen::Quaterniond(q[0], q[1], q[2], q[3]).normalized().toRotationMatrix();
-          last = continuous ? MatrixToEulerCompatible(r, order, last) : MatrixToEuler(r, order);
+          const Eigen::Quaterniond unit = Eigen::Quaterniond(q[0], q[1], q[2], q[3]).normalized();
+          last = continuous ? QuaternionToEulerCompatible(unit, order, last) : QuaternionToEuler(unit, order);
           out.row(i) = last.transpose();
         }
       },

@@ -179,8 +179,14 @@ Eigen::Vector3d QuaternionToEuler(const Eigen::Quaterniond& q, EulerOrder order)
 // precision, where it zeroes the first angle; ours is |a1 -+ pi/2| <= 1e-9.)
 Eigen::Vector3d MatrixToEulerCompatible(const Eigen::Matrix3d& rotation, EulerOrder order,
                                         const Eigen::Vector3d& previous) {
+  // Eigen's matrix-to-quaternion conversion picks the best-conditioned branch.
+  return QuaternionToEulerCompatible(Eigen::Quaterniond(rotation), order, previous);
+}
+
+Eigen::Vector3d QuaternionToEulerCompatible(const Eigen::Quaterniond& q, EulerOrder order,
+                                            const Eigen::Vector3d& previous) {
   bool locked = false;
-  const Eigen::Vector3d principal = FromRotation(rotation, order, &locked);
+  const Eigen::Vector3d principal = FromUnitQuaternion(q.normalized(), order, &locked);
   if (locked) {
     // R_i(a0) R_j(+-pi/2) R_k(a2) = R_i(a0 + s a2) R_j(+-pi/2), where s is +1
     // for a cyclic order at +pi/2, and flips with either.

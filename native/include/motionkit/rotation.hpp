@@ -38,5 +38,7 @@ Eigen::Vector3d QuaternionToEuler(const Eigen::Quaterniond& q, EulerOrder order)
 // Matrix.to_euler(order, compat) picks it, so that curves stay continuous.
 Eigen::Vector3d MatrixToEulerCompatible(const Eigen::Matrix3d& rotation, EulerOrder order,
                                         const Eigen::Vector3d& previous);
+Eigen::Vector3d QuaternionToEulerCompatible(const Eigen::Quaterniond& q, EulerOrder order,
+                                            const Eigen::Vector3d& previous);
 
 }  // namespace motionkit
