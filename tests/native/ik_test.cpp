@@ -8,6 +8,7 @@
 #include <cstdlib>
 #include <random>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "motionkit/ik.hpp"
@@ -857,6 +858,19 @@ TEST(IkValidate, NonFiniteInputsNameTheEffectorAndFrame) {
   EXPECT_THROW(q.Run(), Error);
   q.effectors[0].weight = -1.0;
   EXPECT_THROW(q.Run(), Error);
+  // Settings: a negative thread count or size names itself.
+  for (const auto& [threads, size, what] : {std::tuple{-1, 0.0, "threads"}, std::tuple{1, -2.0, "size"},
+                                            std::tuple{1, std::nan(""), "size"}}) {
+    Problem t(body.rig, 2, body.Effectors());
+    t.options.threads = threads;
+    t.options.size = size;
+    try {
+      t.Run();
+      FAIL() << what << " was accepted";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find(what), std::string::npos) << e.what();
+    }
+  }
   // Limits no rotation can meet: a swing more than a half turn long.
   Problem r(body.rig, 1, {Effector("hand_l", body.hand_l)});
   r.joints.resize(static_cast<std::size_t>(body.rig.size()));
