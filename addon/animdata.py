@@ -274,6 +274,9 @@ def _key_bytes(points) -> np.ndarray:
 # the layout is seen to hold: consecutive keys 72 bytes apart, and the first
 # and last keys' bytes equal to what RNA reports for their co, interpolation
 # and handle types (their frames differ, so the check cannot pass on zeros).
+# False: every co and handle goes through RNA's foreach_get / foreach_set, the
+# documented bulk path (slower; results are the same).
+KEY_ARRAY = True
 _CO_BYTES = slice(12, 20)
 _POINT_BYTES = {"handle_left": slice(0, 8), "co": _CO_BYTES, "handle_right": slice(24, 32)}  # vec[0], vec[1], vec[2]
 
@@ -281,7 +284,7 @@ _POINT_BYTES = {"handle_left": slice(0, 8), "co": _CO_BYTES, "handle_right": sli
 def _key_view(points) -> np.ndarray | None:
     """The keys' BezTriple array as (count, 72) bytes, or None where its layout is not seen to hold."""
     count = len(points)
-    if count < 2:
+    if count < 2 or not KEY_ARRAY:
         return None
     first, last = points[0], points[count - 1]
     base = first.as_pointer()

@@ -95,6 +95,12 @@ def test_a_million_keys_read_back_exactly(animdata):
     np.testing.assert_allclose(mid, 0.75 * e[:-1] + 0.25 * e[1:], rtol=1e-5, atol=1e-5)
 
 
+def _rna(points, prop):
+    out = np.empty(2 * len(points), dtype=np.float32)
+    points.foreach_get(prop, out)
+    return out
+
+
 def test_the_key_array_path_agrees_with_rna(animdata):
     """Keys are read and written through the keys' own array where its layout checks out: every key's
     co and handles must be what RNA's foreach_get reports, and short curves take RNA's way."""
@@ -110,10 +116,18 @@ def test_the_key_array_path_agrees_with_rna(animdata):
         view = animdata._key_view(points)
         assert view is not None, "the key array's layout check failed on this Blender"
         for prop in ("co", "handle_left", "handle_right"):
-            rna = np.empty(2 * len(points), dtype=np.float32)
-            points.foreach_get(prop, rna)
-            np.testing.assert_array_equal(animdata._read_co(points, view, prop), rna, err_msg=prop)
+            np.testing.assert_array_equal(animdata._read_co(points, view, prop), _rna(points, prop), err_msg=prop)
         np.testing.assert_array_equal(animdata.read_keys(fcurve)[1], row.astype(np.float32))
+    # Switched off, RNA's way writes the same keys (and Blender computes the same handles from them).
+    expected = {prop: _rna(written[0].keyframe_points, prop) for prop in ("co", "handle_left", "handle_right")}
+    animdata.KEY_ARRAY = False
+    try:
+        (again,) = animdata.write_keys(obj, action, [("location", 0)], frames, values[:1], interpolation='BEZIER')
+        assert animdata._key_view(again.keyframe_points) is None
+        for prop, keys in expected.items():
+            np.testing.assert_array_equal(animdata._read_co(again.keyframe_points, None, prop), keys, err_msg=prop)
+    finally:
+        animdata.KEY_ARRAY = True
     (single,) = animdata.write_keys(obj, action, [("location", 2)], [7.0], [[1.5]])
     assert animdata._key_view(single.keyframe_points) is None
     assert tuple(single.keyframe_points[0].co) == (7.0, 1.5)
