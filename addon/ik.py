@@ -9,6 +9,7 @@ the file changes.
 """
 from __future__ import annotations
 
+import threading
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
@@ -231,8 +232,16 @@ def plan(obj, effectors, frame_range=None, method: str = "dls", *, root_translat
     if alongside is None:
         solved = run()
     else:
+        started = threading.Event()
+
+        def run_started():
+            started.set()
+            return run()
+
         with ThreadPoolExecutor(max_workers=1) as pool:
-            solving = pool.submit(run)  # the GIL is released while it runs
+            solving = pool.submit(run_started)
+            # Blender's calls keep the GIL: let the worker reach the native call, which releases it, first.
+            started.wait()
             alongside()  # should this raise, the pool still waits for the solve
             solved = solving.result()
     rotations = solved["rotations"]
