@@ -242,14 +242,13 @@ void BlockDots(const double* x, const double* z, std::size_t c, std::array<std::
 }
 
 // Solves the job for some of its effectors (`ids`, indices into
-// job.effectors). With owns_all (every effector), each frame's output rows
-// are written whole; otherwise only the bones this solver moves, its
-// effectors' errors and, if it moves the root, the root's location, so that
-// solvers of independent groups can share the outputs (IkClipJob::Run fills
-// the rest first). iterations: one int per frame.
+// job.effectors). It writes only the bones it moves, its effectors' errors
+// and, if it moves the root, the root's location, so that solvers of
+// independent groups share the outputs (IkClipJob::Run fills the rest with
+// the input first). iterations: one int per frame.
 class Solver {
  public:
-  Solver(IkClipJob& job, std::vector<int> ids, bool owns_all, int* iterations);
+  Solver(IkClipJob& job, std::vector<int> ids, int* iterations);
   void Run();
   RowMatrixXd Jacobian(Eigen::Index f);
 
@@ -362,7 +361,6 @@ class Solver {
   const RigModel& rig_;
   const IkOptions& options_;
   std::vector<int> ids_;  // per effector: its index in job_.effectors
-  bool owns_all_ = true;
   int* iterations_ = nullptr;
   int bones_ = 0, effector_count_ = 0;
   double size_ = 1.0, lambda_ = 0.0, mu_ = 0.0, ls_ = 0.0, tolerance_ = 0.0;
@@ -409,9 +407,8 @@ class Solver {
   std::vector<char> ccd_placed_;
 };
 
-Solver::Solver(IkClipJob& job, std::vector<int> ids, bool owns_all, int* iterations)
-    : job_(job), rig_(job.rig), options_(job.options), ids_(std::move(ids)), owns_all_(owns_all),
-      iterations_(iterations) {
+Solver::Solver(IkClipJob& job, std::vector<int> ids, int* iterations)
+    : job_(job), rig_(job.rig), options_(job.options), ids_(std::move(ids)), iterations_(iterations) {
   bones_ = rig_.size();
   effector_count_ = static_cast<int>(ids_.size());
   // The rig's size: the diagonal of its rest pose's bounding box.
@@ -1645,15 +1642,8 @@ void Solver::FinishFrame(Eigen::Index f, int iterations) {
   for (int e = 0; e < effector_count_; ++e) job_.errors(f, At(ids_, e)) = EffectorError(e, fk_, true);
   iterations_[f] = iterations;
   const Eigen::Index rot_row = job_.input_rotations.rows() == 1 ? 0 : f;
-  const Eigen::Index loc_row = job_.input_locations.rows() == 1 ? 0 : f;
   double* const out_row = job_.rotations.data() + f * job_.rotations.outerStride();
   const double* const in_row = job_.input_rotations.data() + rot_row * job_.input_rotations.outerStride();
-  for (int b = 0; owns_all_ && b < bones_; ++b) {
-    if (At(joint_of_, b) < 0) {  // not solved: the input as it was
-      std::copy(in_row + 4 * b, in_row + 4 * b + 4, out_row + 4 * b);
-      job_.scales(f, b) = 1.0;
-    }
-  }
   for (const Joint& j : joints_) {
     const int b = j.bone;
     double* out = out_row + 4 * b;
@@ -1670,8 +1660,6 @@ void Solver::FinishFrame(Eigen::Index f, int iterations) {
   }
   if (translate_) {
     job_.root_locations.row(f) = (rig_.relative(0).conjugate() * (current_.root - rig_.offset(0))).transpose();
-  } else if (owns_all_) {
-    job_.root_locations.row(f) = job_.input_locations.row(loc_row);
   }
   earlier_.root = solution_.root;
   for (const Joint& j : joints_) {
@@ -1716,12 +1704,6 @@ RowMatrixXd Solver::Jacobian(Eigen::Index f) {
 }  // namespace
 
 namespace {
-
-std::vector<int> AllEffectors(const IkClipJob& job) {
-  std::vector<int> ids(job.effectors.size());
-  for (std::size_t e = 0; e < ids.size(); ++e) ids[e] = static_cast<int>(e);
-  return ids;
-}
 
 // Effectors that share no unknown are independent problems: the cost is a
 // sum of one term per group, so each group is solved on its own (smaller
@@ -1889,11 +1871,6 @@ void IkClipJob::Run() {
   Validate().ThrowIfFailed();
   std::vector<std::vector<int>> groups = IndependentGroups(*this);
   const Eigen::Index frames = target_positions.rows();
-  if (groups.size() <= 1) {
-    Solver solver(*this, AllEffectors(*this), true, iterations.data());
-    solver.Run();
-    return;
-  }
   // Every output as the input has it; each group's solver then writes its own bones and effectors.
   for (Eigen::Index f = 0; f < frames; ++f) {
     rotations.row(f) = input_rotations.row(input_rotations.rows() == 1 ? 0 : f);
@@ -1910,7 +1887,7 @@ void IkClipJob::Run() {
   internal::ParallelFor(static_cast<int>(groups.size()), threads, [&](int g) {
     const auto i = static_cast<std::size_t>(g);
     try {
-      Solver solver(*this, groups[i], false, counts[i].data());
+      Solver solver(*this, groups[i], counts[i].data());
       solver.Run();
     } catch (...) {
       failures[i] = std::current_exception();
@@ -1930,7 +1907,9 @@ RowMatrixXd IkClipJob::Jacobian(Eigen::Index frame) const {
   Validate().ThrowIfFailed();
   if (frame < 0 || frame >= target_positions.rows()) throw Error("ik: frame index out of range");
   IkClipJob job = *this;  // views and settings: the solver writes nothing here
-  Solver solver(job, AllEffectors(job), true, nullptr);
+  std::vector<int> ids(job.effectors.size());
+  for (std::size_t e = 0; e < ids.size(); ++e) ids[e] = static_cast<int>(e);
+  Solver solver(job, std::move(ids), nullptr);
   return solver.Jacobian(frame);
 }
 
