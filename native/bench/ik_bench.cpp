@@ -121,6 +121,7 @@ Vec3 Tail(const motionkit::RigModel& rig, const RowMatrixXd& rotations, Eigen::I
 struct Clip {
   motionkit::RigModel rig;
   std::vector<motionkit::IkEffector> effectors;
+  std::vector<motionkit::IkJoint> joints;  // none: every bone free
   RowMatrixXd rotations, locations, targets, orientations;
   Clip() : rig(MakeRig(Humanoid60())) {
     const Eigen::Index frames = 1000;
@@ -224,28 +225,29 @@ const ChainClip& TheChainClip() {
   return clip;
 }
 
-void BM_IkDlsChains(benchmark::State& state) {
-  const ChainClip& clip = TheChainClip();
+constexpr double kHeight = 1.65;
+
+// The clip's job in the benchmark loop; counters: time and iterations per
+// frame, and the share of frames whose effectors all end within the tolerance.
+template <class AnyClip>
+void SolveClip(benchmark::State& state, const AnyClip& clip, const motionkit::IkOptions& options) {
   const Eigen::Index frames = clip.rotations.rows();
   const int bones = clip.rig.size();
   const auto count = static_cast<Eigen::Index>(clip.effectors.size());
   RowMatrixXd rotations(frames, 4 * bones), roots(frames, 3), scales(frames, bones), errors(frames, count);
   Eigen::VectorXi iterations(frames);
-  const double height = 1.65;
   for (auto _ : state) {
     motionkit::IkClipJob job(clip.rig, clip.rotations, clip.locations, clip.targets, clip.orientations, rotations,
                              roots, scales, errors, iterations);
     job.effectors = clip.effectors;
     job.joints = clip.joints;
-    job.options.method = motionkit::IkMethod::kDls;
-    job.options.tolerance = 1e-5 * height;
-    job.options.threads = static_cast<int>(state.range(0));
+    job.options = options;
     job.Run();
     benchmark::DoNotOptimize(rotations.data());
     benchmark::ClobberMemory();
   }
   int met = 0;
-  for (Eigen::Index f = 0; f < frames; ++f) met += errors.row(f).maxCoeff() <= 1e-5 * height;
+  for (Eigen::Index f = 0; f < frames; ++f) met += errors.row(f).maxCoeff() <= options.tolerance;
   state.counters["bones"] = bones;
   state.counters["time_per_frame"] = benchmark::Counter(
       static_cast<double>(frames), benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
@@ -253,32 +255,21 @@ void BM_IkDlsChains(benchmark::State& state) {
   state.counters["met"] = static_cast<double>(met) / static_cast<double>(frames);
 }
 
+void BM_IkDlsChains(benchmark::State& state) {
+  motionkit::IkOptions options;
+  options.method = motionkit::IkMethod::kDls;
+  options.tolerance = 1e-5 * kHeight;
+  options.threads = static_cast<int>(state.range(0));
+  SolveClip(state, TheChainClip(), options);
+}
+
 void SolveClip(benchmark::State& state, motionkit::IkMethod method) {
-  const Clip& clip = TheClip();
-  const Eigen::Index frames = clip.rotations.rows();
-  const int bones = clip.rig.size();
-  RowMatrixXd rotations(frames, 4 * bones), roots(frames, 3), scales(frames, bones), errors(frames, 4);
-  Eigen::VectorXi iterations(frames);
-  const double height = 1.65;
-  for (auto _ : state) {
-    motionkit::IkClipJob job(clip.rig, clip.rotations, clip.locations, clip.targets, clip.orientations, rotations,
-                             roots, scales, errors, iterations);
-    job.effectors = clip.effectors;
-    job.options.method = method;
-    job.options.root_translation = true;
-    job.options.root_rotation = true;
-    job.options.tolerance = 1e-5 * height;
-    job.Run();
-    benchmark::DoNotOptimize(rotations.data());
-    benchmark::ClobberMemory();
-  }
-  int met = 0;
-  for (Eigen::Index f = 0; f < frames; ++f) met += errors.row(f).maxCoeff() <= 1e-5 * height;
-  state.counters["bones"] = bones;
-  state.counters["time_per_frame"] = benchmark::Counter(
-      static_cast<double>(frames), benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
-  state.counters["iterations_per_frame"] = static_cast<double>(iterations.sum()) / static_cast<double>(frames);
-  state.counters["met"] = static_cast<double>(met) / static_cast<double>(frames);
+  motionkit::IkOptions options;
+  options.method = method;
+  options.root_translation = true;
+  options.root_rotation = true;
+  options.tolerance = 1e-5 * kHeight;
+  SolveClip(state, TheClip(), options);
 }
 
 void BM_IkDls(benchmark::State& state) { SolveClip(state, motionkit::IkMethod::kDls); }
