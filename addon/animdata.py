@@ -199,7 +199,7 @@ def write_keys(id_data: bpy.types.ID, action: bpy.types.Action, channels: Iterab
         if handles is not None:
             for prop, array in (("handle_left", left[row]), ("handle_right", right[row])):
                 if keys is not None:
-                    keys[:, _POINT_BYTES[prop]] = array.view(np.uint8).reshape(-1, 8)
+                    keys.view(np.float32)[:, _POINT_FLOATS[prop]] = array.reshape(-1, 2)
                 else:
                     points.foreach_set(prop, array)
             _set_enum(points, "handle_left_type", types[row], _HANDLE_TYPE)
@@ -214,10 +214,9 @@ def write_keys(id_data: bpy.types.ID, action: bpy.types.Action, channels: Iterab
 # buffer goes through RNA key by key at ~70 ns); Blender 3.x takes the uint8
 # call and changes nothing, and also ignores int32 for the handle types (fixed
 # by 4.x). So each property keeps the first way that is seen to work, checked
-# on every curve: uint8, int32, then the keys' BezTriple bytes directly, after
-# checking their layout against what RNA reports for the first key (DNA's
-# BezTriple: ipo, h1, h2 after vec[3][3], tilt, weight, radius; unchanged since
-# 2.8).
+# on every curve: uint8, int32, then the keys' BezTriple bytes directly
+# (_key_view; DNA's BezTriple: ipo, h1, h2 after vec[3][3], tilt, weight,
+# radius; unchanged since 2.8).
 _BEZTRIPLE_SIZE = 72
 _KEY_BYTE = {"interpolation": 48, "handle_left_type": 49, "handle_right_type": 50}
 # Blender 4.x and later copy uint8 buffers straight in; 3.x goes through RNA
@@ -228,17 +227,23 @@ _enum_way: dict[str, str] = {}
 
 
 def _set_enum(points, prop: str, codes: np.ndarray, values: dict) -> None:
-    """One enum value per key (codes: their integer values), in bulk."""
+    """One enum value per key (codes: their integer values), in bulk; the keys' co already written."""
     if not len(points):
         return
     names = {value: name for name, value in values.items()}
+    if len(points) == 1:  # nothing to do in bulk, and no second key for the layout check
+        setattr(points[0], prop, names[int(codes[0])])
+        return
     # The check must see a change: make the first key differ from what comes.
     if values[getattr(points[0], prop)] == codes[0]:
         setattr(points[0], prop, next(name for name, value in values.items() if value != codes[0]))
     known = _enum_way.get(prop)
     for way in ((known,) if known else ()) + tuple(w for w in _WAYS if w != known):
         if way == "keys":
-            _key_bytes(points)[:, _KEY_BYTE[prop]] = codes
+            keys = _key_view(points)
+            if keys is None:
+                continue
+            keys[:, _KEY_BYTE[prop]] = codes
         else:
             points.foreach_set(prop, np.ascontiguousarray(codes, dtype=way))
         if values[getattr(points[0], prop)] == codes[0] and values[getattr(points[-1], prop)] == codes[-1]:
@@ -248,43 +253,24 @@ def _set_enum(points, prop: str, codes: np.ndarray, values: dict) -> None:
                        f"(wanted {names[int(codes[0])]}); please report its version")
 
 
-def _key_bytes(points) -> np.ndarray:
-    """The keys' BezTriple array as (count, 72) bytes, once its layout is seen to match RNA's."""
-    count = len(points)
-    first = points[0]
-    base = first.as_pointer()
-    kept = first.interpolation, first.handle_left_type, first.handle_right_type
-    first.interpolation, first.handle_left_type, first.handle_right_type = 'CONSTANT', 'VECTOR', 'ALIGNED'
-    keys = np.ctypeslib.as_array((ctypes.c_uint8 * (count * _BEZTRIPLE_SIZE)).from_address(base))
-    keys = keys.reshape(count, _BEZTRIPLE_SIZE)
-    laid_out = (count < 2 or points[1].as_pointer() - base == _BEZTRIPLE_SIZE) and all(
-        keys[0, _KEY_BYTE[prop]] == table[name] for prop, table, name in (
-            ("interpolation", _INTERPOLATION, 'CONSTANT'), ("handle_left_type", _HANDLE_TYPE, 'VECTOR'),
-            ("handle_right_type", _HANDLE_TYPE, 'ALIGNED')))
-    first.interpolation, first.handle_left_type, first.handle_right_type = kept
-    if not laid_out:
-        raise RuntimeError("MotionKit: this Blender lays out keyframes in a way MotionKit does not know; "
-                           "please report its version")
-    return keys
-
-
 # A key's frame and value are BezTriple.vec[1][0] and vec[1][1], float32 at
-# byte 12. Blender's foreach_get and foreach_set of "co" take 35-50 ns a key
-# (RNA, key by key); the keys' own array takes about 1. It is used only where
-# the layout is seen to hold: consecutive keys 72 bytes apart, and the first
-# and last keys' bytes equal to what RNA reports for their co, interpolation
-# and handle types (their frames differ, so the check cannot pass on zeros).
-# False: every co and handle goes through RNA's foreach_get / foreach_set, the
-# documented bulk path (slower; results are the same).
+# byte 12, its handles vec[0] and vec[2]. Blender's foreach_get and foreach_set
+# of "co" go through RNA key by key (35-50 ns a key); the keys' own array is a
+# memory copy. It is used only where the layout is seen to hold: consecutive
+# keys 72 bytes apart, and the first and last keys' bytes equal to what RNA
+# reports for their co, interpolation and handle types (their frames differ,
+# so the check cannot pass on zeros).
+# KEY_ARRAY = False: every co and handle goes through RNA's foreach_get /
+# foreach_set, the documented bulk path (slower; results are the same).
 KEY_ARRAY = True
-_CO_BYTES = slice(12, 20)
-_POINT_BYTES = {"handle_left": slice(0, 8), "co": _CO_BYTES, "handle_right": slice(24, 32)}  # vec[0], vec[1], vec[2]
+# vec[0], vec[1] and vec[2]'s x and y, as float32 columns of a key (18 floats).
+_POINT_FLOATS = {"handle_left": slice(0, 2), "co": slice(3, 5), "handle_right": slice(6, 8)}
 
 
 def _key_view(points) -> np.ndarray | None:
     """The keys' BezTriple array as (count, 72) bytes, or None where its layout is not seen to hold."""
     count = len(points)
-    if count < 2 or not KEY_ARRAY:
+    if count < 2:
         return None
     first, last = points[0], points[count - 1]
     base = first.as_pointer()
@@ -293,7 +279,7 @@ def _key_view(points) -> np.ndarray | None:
     keys = np.ctypeslib.as_array((ctypes.c_uint8 * (count * _BEZTRIPLE_SIZE)).from_address(base))
     keys = keys.reshape(count, _BEZTRIPLE_SIZE)
     for row, key in ((0, first), (count - 1, last)):
-        if (keys[row, _CO_BYTES].view(np.float32).tolist() != list(np.array(key.co, dtype=np.float32))
+        if (keys[row].view(np.float32)[_POINT_FLOATS["co"]].tolist() != list(np.array(key.co, dtype=np.float32))
                 or keys[row, _KEY_BYTE["interpolation"]] != _INTERPOLATION[key.interpolation]
                 or keys[row, _KEY_BYTE["handle_left_type"]] != _HANDLE_TYPE[key.handle_left_type]
                 or keys[row, _KEY_BYTE["handle_right_type"]] != _HANDLE_TYPE[key.handle_right_type]):
@@ -301,11 +287,16 @@ def _key_view(points) -> np.ndarray | None:
     return keys
 
 
+def _co_view(points) -> np.ndarray | None:
+    """_key_view for co and handles, unless KEY_ARRAY is off."""
+    return _key_view(points) if KEY_ARRAY else None
+
+
 def _read_co(points, keys: np.ndarray | None, prop: str = "co") -> np.ndarray:
     """Every key's (frame, value) of co, handle_left or handle_right, interleaved float32 (2 count,), from
-    keys (_key_view(points)) or else through RNA."""
+    keys (_co_view(points)) or else through RNA."""
     if keys is not None:
-        return np.ascontiguousarray(keys[:, _POINT_BYTES[prop]]).view(np.float32).reshape(-1)
+        return np.ascontiguousarray(keys.view(np.float32)[:, _POINT_FLOATS[prop]]).reshape(-1)
     co = np.empty(2 * len(points), dtype=np.float32)
     points.foreach_get(prop, co)
     return co
@@ -313,15 +304,15 @@ def _read_co(points, keys: np.ndarray | None, prop: str = "co") -> np.ndarray:
 
 def _write_co(points, co: np.ndarray) -> np.ndarray | None:
     """Set every key's (frame, value) from interleaved float32 co (2 count,), C-contiguous; returns the
-    keys' array (_key_view) when that is how they were written, for more of the same."""
+    keys' array (_co_view) when that is how they were written, for more of the same."""
     count = len(points)
     if count >= 2:
         # The two ends through RNA first: the layout check then compares real, distinct frames.
         points[0].co = co[0:2]
         points[count - 1].co = co[-2:]
-        keys = _key_view(points)
+        keys = _co_view(points)
         if keys is not None:
-            keys[:, _CO_BYTES] = co.view(np.uint8).reshape(count, 8)
+            keys.view(np.float32)[:, _POINT_FLOATS["co"]] = co.reshape(count, 2)
             return keys
     points.foreach_set("co", co)
     return None
@@ -345,7 +336,7 @@ def _pack(native, id_data, channels, frames, values, what: str = "") -> np.ndarr
 def read_keys(fcurve: bpy.types.FCurve) -> tuple[np.ndarray, np.ndarray]:
     """(frames, values) of every key, as float32 arrays exactly as Blender stores them."""
     points = fcurve.keyframe_points
-    co = _read_co(points, _key_view(points))
+    co = _read_co(points, _co_view(points))
     return co[0::2].copy(), co[1::2].copy()
 
 
@@ -373,7 +364,7 @@ def sample(action: bpy.types.Action, id_data: bpy.types.ID, channels: Iterable,
         points = fcurve.keyframe_points
         count = len(points)
         modified = len(fcurve.modifiers) > 0
-        view = _key_view(points)
+        view = _co_view(points)
         co = _read_co(points, view)
         if not modified and count == frames.size and np.array_equal(co[0::2], frames.astype(np.float32)):
             # A key on every frame asked for (baked or imported motion): a curve

@@ -123,7 +123,7 @@ def test_the_key_array_path_agrees_with_rna(animdata):
     animdata.KEY_ARRAY = False
     try:
         (again,) = animdata.write_keys(obj, action, [("location", 0)], frames, values[:1], interpolation='BEZIER')
-        assert animdata._key_view(again.keyframe_points) is None
+        assert animdata._co_view(again.keyframe_points) is None
         for prop, keys in expected.items():
             np.testing.assert_array_equal(animdata._read_co(again.keyframe_points, None, prop), keys, err_msg=prop)
     finally:
