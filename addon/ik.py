@@ -198,7 +198,10 @@ def plan(obj, effectors, frame_range=None, method: str = "dls", *, root_translat
     part = sorted(_ancestors(all_bones, all_names, [e.bone for e in effectors]) | {0})
     rig, bones = pose_channels.native_rig(obj.data, [all_bones[i] for i in part])
     names = [b.name for b in bones]
-    rest = np.array([b.head_local for b in all_bones] + [b.tail_local for b in all_bones])
+    rest = np.empty(6 * len(all_bones), dtype=np.float32)  # every head, then every tail
+    obj.data.bones.foreach_get("head_local", rest[:3 * len(all_bones)])
+    obj.data.bones.foreach_get("tail_local", rest[3 * len(all_bones):])
+    rest = rest.reshape(-1, 3).astype(np.float64)
     size = float(np.linalg.norm(np.ptp(rest, axis=0)))
     height = float(np.max(np.ptp(rest, axis=0)))
     frames = _frames(obj, frame_range)

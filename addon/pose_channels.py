@@ -58,14 +58,10 @@ def locations(obj, action, bones, frames) -> tuple[np.ndarray, list[bool]]:
         path = f'pose.bones["{bpy.utils.escape_identifier(bone.name)}"]'
         channels += [(f"{path}.location", k) for k in range(3)]
     values, found = animdata.sample(action, obj, channels, frames)
-    out = np.empty((frames.size, 3 * len(bones)))
-    animated = []
-    for j, bone in enumerate(bones):
-        static = obj.pose.bones[bone.name].location
-        for k in range(3):
-            row = 3 * j + k
-            out[:, row] = values[row] if found[row] else static[k]
-        animated.append(bool(found[3 * j:3 * j + 3].any()) or obj.pose.bones[bone.name].location.length > 0)
+    static = np.array([obj.pose.bones[bone.name].location for bone in bones], dtype=np.float64).reshape(-1)
+    # Curves where there are any, the pose's own location elsewhere; one transpose, not a column at a time.
+    out = np.ascontiguousarray(np.where(found[:, None], values, static[:, None]).T)
+    animated = (found.reshape(-1, 3).any(axis=1) | (static.reshape(-1, 3) != 0).any(axis=1)).tolist()
     return out, animated
 
 
