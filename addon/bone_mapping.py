@@ -93,6 +93,7 @@ class Rig:
 class Body:
     """A humanoid's labelled bones (names), each with how it was found."""
     hips: str | None = None
+    root: str | None = None  # a bone above the hips (a game rig's floor root: Unreal's root, a dataset's Root)
     spine: list[str] = field(default_factory=list)  # above the hips up to the chest (inclusive)
     neck: list[str] = field(default_factory=list)   # above the chest, below the head
     head: str | None = None
@@ -543,7 +544,9 @@ def _names_only_body(shape: _Shape) -> Body:
         if shape.ignored[bone] or not info.keys:
             continue
         key = info.keys[0]
-        if key in ("hips", "head") and getattr(body, key) is None:
+        if key == "hips" and body.hips is not None and _is_ancestor(shape.rig.parents, names.index(body.hips), bone):
+            body.hips = names[bone]  # joint_Root above Hips: the lower one is the body's
+        elif key in ("hips", "head") and getattr(body, key) is None:
             setattr(body, key, names[bone])
             body.how[key] = "name"
         elif key in ("spine", "neck"):
@@ -583,7 +586,7 @@ def _check_scheme(path, data) -> dict:
         if key in ("spine", "neck"):
             if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
                 bad(f'"{key}" must be a list of bone names')
-        elif key in ("hips", "head") or key in LIMB_KEYS:
+        elif key in ("hips", "head", "root") or key in LIMB_KEYS:
             if not isinstance(value, str):
                 bad(f'"{key}" must be a bone name')
         else:
@@ -653,7 +656,7 @@ def _body_from_scheme(rig: Rig, scheme_id: str) -> Body:
             if chain:
                 body.how[key] = how
         elif value in present:
-            if key in ("hips", "head"):
+            if key in ("hips", "head", "root"):
                 setattr(body, key, value)
             else:
                 body.limbs[key] = value
@@ -672,12 +675,38 @@ def classify(rig: Rig, *, presets: bool = True) -> Body:
     if presets:
         scheme_id = detect_scheme(rig)
         if scheme_id is not None:
-            return _body_from_scheme(rig, scheme_id)
+            body = _body_from_scheme(rig, scheme_id)
+            _label_floor_root(body, rig)
+            return body
     shape = _Shape(rig)
     hips = _find_hips(shape)
-    if hips is None:
-        return _names_only_body(shape)
-    return _structural_body(shape, hips)
+    body = _names_only_body(shape) if hips is None else _structural_body(shape, hips)
+    _label_floor_root(body, rig)
+    return body
+
+
+def _is_ancestor(parents, ancestor: int, bone: int) -> bool:
+    while bone >= 0:
+        bone = parents[bone]
+        if bone == ancestor:
+            return True
+    return False
+
+
+def _label_floor_root(body: Body, rig: Rig) -> None:
+    """The top bone above the hips, if any: a game rig's root on the floor (Unreal's root, Bandai's joint_Root).
+
+    It carries the body's ground position and facing, not the pelvis, so it is
+    never mapped to a hips bone; retargeting handles it apart (see retargeting.FLOOR_ROOTS).
+    """
+    if body.hips is None or body.root is not None:
+        return
+    top = rig.names.index(body.hips)
+    while rig.parents[top] >= 0:
+        top = rig.parents[top]
+    if rig.names[top] != body.hips:
+        body.root = rig.names[top]
+        body.how["root"] = "structure"
 
 
 def _chain_pairs(source: list[str], target: list[str], neck: bool) -> list[tuple[str, str]]:
@@ -694,6 +723,8 @@ def _chain_pairs(source: list[str], target: list[str], neck: bool) -> list[tuple
 
 def _join(source: Body, target: Body, target_rig: Rig) -> list[tuple[str, str]]:
     pairs = []
+    if source.root and target.root:
+        pairs.append((source.root, target.root))
     if source.hips and target.hips:
         pairs.append((source.hips, target.hips))
     pairs += _chain_pairs(source.spine, target.spine, neck=False)

@@ -10,7 +10,7 @@ character  rest    names            height  torso/neck   bone rolls
 MixamoT    T-pose  mixamorig:...    1.80 m  3 / 1        all zero
 RigifyA    A-pose  spine.001, .L    1.65 m  3 / 2        ±90° arms, 180° feet
 UnrealA    A-pose  thigh_l, calf_l  1.90 m  3 / 1        ±90° limbs, 90° spine
-           +15° forward arms
+           +15° forward arms, a ``root`` bone on the floor above ``pelvis``
 =========  ======  ===============  ======  ===========  =================
 
 Coordinates are Blender's: Z up, the character faces -Y, its left is +X.
@@ -99,6 +99,7 @@ RIGIFY = {
     "hand": "hand.{S}", "thigh": "thigh.{S}", "shin": "shin.{S}", "foot": "foot.{S}", "toe": "toe.{S}",
 }
 UNREAL = {
+    "root": "root",  # the mannequin's bone on the floor, parent of pelvis
     "hips": "pelvis", "spine.1": "spine_01", "spine.2": "spine_02", "spine.3": "spine_03",
     "neck.1": "neck_01", "head": "head",
     "shoulder": "clavicle_{s}", "upper_arm": "upperarm_{s}", "forearm": "lowerarm_{s}",
@@ -128,7 +129,11 @@ def build_bones(p: Proportions, scheme: dict, roll) -> tuple[BoneSpec, ...]:
                               tuple(head), tuple(tail), roll(key, side)))
 
     z = p.hip_height
-    add("hips", None, None, (0, 0, z), (0, 0, z + p.pelvis))
+    root = None
+    if "root" in scheme:  # a game rig's floor root, pointing back along +Y as Unreal's does in Blender
+        add("root", None, None, (0, 0, 0), (0, 0.2, 0))
+        root = "root"
+    add("hips", None, root, (0, 0, z), (0, 0, z + p.pelvis))
     z += p.pelvis
     parent = "hips"
     for i in range(1, p.spine_bones + 1):

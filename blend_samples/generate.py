@@ -144,7 +144,7 @@ def add_walk(arm_obj, spec, animdata, fps: int = FPS, cycles: int = CYCLES) -> b
         path = f'pose.bones["{bone.name}"]'
         channels += [(f"{path}.rotation_quaternion", i, bone.name) for i in range(4)]
         rows.append(local[bone.canonical].T)
-        if bone.parent is None:
+        if bone.canonical == "hips":  # under a floor root too: the root stays on the floor
             channels += [(f"{path}.location", i, bone.name) for i in range(3)]
             rows.append(walk.hips_location(rest[bone.canonical], offset).T)
     action = animdata.new_action(spec.name + "Walk")

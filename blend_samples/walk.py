@@ -66,7 +66,7 @@ def global_rotations(spec, times: np.ndarray) -> tuple[dict[str, np.ndarray], np
         # The chest counter-rotates the pelvis, a little more with every bone.
         G[key] = axis_angle(Z, deg(6) * np.sin(phase) * (1.0 - 2.0 * i / len(spine_keys)))
     for key in spec.canonical:
-        if key.startswith("neck.") or key == "head":
+        if key.startswith("neck.") or key in ("head", "root"):
             G[key] = identity
 
     down_rest = spec.proportions.arm_down_deg

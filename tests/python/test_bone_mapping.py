@@ -78,6 +78,9 @@ GAMES105 = scheme_dict(["pelvis_lowerback", "lowerback_torso"], [], hips="RootJo
 UE5 = scheme_dict([f"spine_0{i}" for i in range(1, 6)], ["neck_01", "neck_02"], **{
     k: v for k, v in characters.UNREAL.items() if not k.startswith(("spine", "neck"))})
 RIGIFY_DEF = {k: "DEF-" + v for k, v in characters.RIGIFY.items()}
+BANDAI = scheme_dict(["Spine", "Chest"], ["Neck"], root="joint_Root", hips="Hips", head="Head",
+                     shoulder="Shoulder_{S}", upper_arm="UpperArm_{S}", forearm="LowerArm_{S}", hand="Hand_{S}",
+                     thigh="UpperLeg_{S}", shin="LowerLeg_{S}", foot="Foot_{S}", toe="Toes_{S}")
 
 
 def cmu_rig(**kwargs):
@@ -115,8 +118,8 @@ def unreal_like(**kwargs):
     """UnrealA under a root at the floor, with twist bones, fingers, heels and ik_ bones."""
     spec = SPECS["UnrealA"]
     bone = {b.canonical: b for b in spec.bones}
-    extra = [("root", None, (0, 0, 0), (0, 0.2, 0))]
-    bones = [dataclasses.replace(b, parent="root") if b.canonical == "hips" else b for b in spec.bones]
+    extra = []
+    bones = list(spec.bones)  # UnrealA has its root on the floor already
 
     def along(b, t):
         return tuple(np.array(b.head) + t * (np.array(b.tail) - b.head))
@@ -139,7 +142,7 @@ def unreal_like(**kwargs):
         extra.append((f"heel_02_{side}", foot.name, (x - 0.04, 0.05, 0.0), (x + 0.04, 0.05, 0.0)))
         extra.append((f"ik_foot_{side}", "ik_foot_root", foot.head, foot.tail))
         extra.append((f"ik_hand_{side}", "ik_hand_gun", hand.head, hand.tail))
-    extra[1:1] = [("ik_foot_root", "root", (0, 0, 0), (0, 0, 0.1)),
+    extra[0:0] = [("ik_foot_root", "root", (0, 0, 0), (0, 0, 0.1)),
                   ("ik_hand_root", "root", (0, 0, 0), (0, 0, 0.1)),
                   ("ik_hand_gun", "ik_hand_root", bone["hand.R"].head, bone["hand.R"].tail)]
     return from_bones(bones, extra=extra, **kwargs)
@@ -212,6 +215,8 @@ def expected_pairs(src, tgt):
         return [known.name(c) for c in sorted(c for c in known.canonical.values() if c and c.startswith(prefix))]
 
     pairs = [(src.name(k), tgt.name(k)) for k in ("hips", "head") + bm.LIMB_KEYS]
+    if "root" in src.canonical.values() and "root" in tgt.canonical.values():
+        pairs.append((src.name("root"), tgt.name("root")))  # floor roots pair with each other, never with hips
     s, t = chain(src, "spine."), chain(tgt, "spine.")
     if len(s) == len(t):
         pairs += list(zip(s, t))
@@ -464,6 +469,7 @@ SCHEME_RIGS = {
     "cmu": cmu_rig,
     "games105": lambda: from_bones(synthetic(GAMES105, spine_bones=2, neck_bones=0)),
     "rigify_def": lambda: from_bones(split_limbs(synthetic(RIGIFY_DEF, neck_bones=2))),
+    "bandai": lambda: from_bones(synthetic(BANDAI, spine_bones=2, neck_bones=1, base="UnrealA")),
 }
 
 
@@ -473,7 +479,8 @@ def test_the_shipped_schemes():
     for scheme_id, scheme in found.items():
         assert scheme["format"] == "motionkit-bone-scheme" and scheme["version"] == 1
         assert scheme["id"] == scheme_id and scheme["label"]
-        assert set(scheme["bones"]) == {"hips", "spine", "neck", "head"} | set(bm.LIMB_KEYS)
+        floor_root = {"root"} if scheme_id in ("unreal", "bandai") else set()
+        assert set(scheme["bones"]) == {"hips", "spine", "neck", "head"} | set(bm.LIMB_KEYS) | floor_root
     found["mixamo"]["bones"]["hips"] = "changed"
     assert bm.schemes()["mixamo"]["bones"]["hips"] == "mixamorig:Hips"  # callers get copies
 
