@@ -1,0 +1,147 @@
+"""Foot contact detection, plants and blend weights on hand-made trajectories (no Blender)."""
+import numpy as np
+import pytest
+
+import foot_contacts as fc
+
+LEG = 0.9
+
+
+def step_pattern(fps, seconds=4.0, period=1.0, stance=0.5, lift=0.2, stride=0.6, floor=0.05):
+    """One foot point walking: planted for `stance` of each `period`, then a smooth arc forward.
+    Returns points (frames, 1, 3) and the true contact mask."""
+    t = np.arange(int(round(seconds * fps))) / fps
+    phase = (t % period) / period
+    cycle = np.floor(t / period)
+    swing = np.clip((phase - stance) / (1 - stance), 0, 1)
+    ease = swing * swing * (3 - 2 * swing)
+    x = (cycle + ease) * stride
+    z = floor + lift * np.sin(np.pi * swing)
+    points = np.stack([x, np.zeros_like(x), z], axis=1)[:, None, :]
+    return points, t, phase < stance
+
+
+def test_step_pattern_contacts_match_stance():
+    points, t, stance = step_pattern(60)
+    contacts = fc.detect(points, 60, LEG)
+    runs = fc.intervals(contacts[:, 0])
+    assert len(runs) == 4
+    for s, e in runs:
+        # Contact lies within a stance (give a frame for the lift-off's ramp) and covers most of it.
+        assert stance[s:e - 1].all()
+        assert (e - s) / 60 > 0.4
+
+
+def test_floor_estimated_when_not_given():
+    points, _, _ = step_pattern(60, floor=1.7)
+    assert abs(fc.estimate_floor(points) - 1.7) < 1e-9
+    assert np.array_equal(fc.detect(points, 60, LEG, floor=None), fc.detect(points - [0, 0, 1.7], 60, LEG))
+    # Taken as given at 0, every point is far above the floor: it never lands.
+    assert not fc.detect(points, 60, LEG, floor=0.0).any()
+
+
+def test_units_do_not_matter():
+    points, _, _ = step_pattern(60)
+    assert np.array_equal(fc.detect(points, 60, LEG), fc.detect(points * 100, 60, LEG * 100))
+
+
+def test_frame_rate_independent():
+    a, ta, _ = step_pattern(60)
+    b, tb, _ = step_pattern(30)
+    ra = [(ta[s], ta[e - 1]) for s, e in fc.intervals(fc.detect(a, 60, LEG)[:, 0])]
+    rb = [(tb[s], tb[e - 1]) for s, e in fc.intervals(fc.detect(b, 30, LEG)[:, 0])]
+    assert len(ra) == len(rb) == 4
+    assert np.allclose(ra, rb, atol=1.0 / 30 + 1e-9)
+
+
+def test_hysteresis_does_not_flicker():
+    fps = 60
+    frames = 120
+    points = np.zeros((frames, 1, 3))
+    # Planted, with the speed dithering around the enter threshold: stays in once in.
+    rng = np.random.default_rng(1)
+    settings = fc.ContactSettings(smoothing=0.0)
+    speed = settings.speed_enter * LEG * (1 + 0.2 * rng.standard_normal(frames))
+    speed[:5] = 0.1 * settings.speed_enter * LEG
+    points[:, 0, 0] = np.cumsum(np.abs(speed)) / fps
+    contacts = fc.detect(points, fps, LEG, settings=settings)
+    assert len(fc.intervals(contacts[:, 0])) == 1
+    # Without hysteresis (leave == enter) the same motion flickers.
+    strict = fc.ContactSettings(smoothing=0.0, speed_leave=settings.speed_enter,
+                                height_leave=settings.height_enter, min_length=0, min_gap=0)
+    assert len(fc.intervals(fc.detect(points, fps, LEG, settings=strict)[:, 0])) > 3
+
+
+def test_minimum_length_and_gap():
+    c = np.zeros((40, 1), dtype=bool)
+    c[2:4] = True      # 2 frames: too short at 60 fps for 0.05 s
+    c[10:30] = True
+    c[31:35] = True    # a 1-frame gap: closed
+    out = fc._filter_runs(c, min_frames=3, min_gap_frames=1)
+    assert fc.intervals(out[:, 0]) == [(10, 35)]
+
+
+def test_hysteresis_vectorised_matches_state_machine():
+    rng = np.random.default_rng(3)
+    enter = rng.random((500, 3)) < 0.1
+    stay = enter | (rng.random((500, 3)) < 0.8)
+    expected = np.zeros_like(enter)
+    for p in range(3):
+        on = False
+        for f in range(500):
+            on = enter[f, p] or (on and stay[f, p])
+            expected[f, p] = on
+    assert np.array_equal(fc._hysteresis(enter, stay), expected)
+
+
+def test_blend_weights_ramp():
+    c = np.zeros((30, 1), dtype=bool)
+    c[10:15] = True
+    w = fc.blend_weights(c, 4)[:, 0]
+    assert np.all(w[10:15] == 1)
+    assert np.all(w[:5] == 0) and np.all(w[20:] == 0)
+    assert np.all(np.diff(w[5:11]) > 0) and np.all(np.diff(w[14:20]) < 0)
+    assert np.all((w >= 0) & (w <= 1))
+    assert np.allclose(w[5:10], w[19:14:-1])  # symmetric ramps
+    assert not fc.blend_weights(np.zeros((5, 2), bool), 3).any()
+
+
+def test_plants_and_targets():
+    points, _, _ = step_pattern(60)
+    contacts = fc.detect(points, 60, LEG)
+    plants = fc.plant_positions(points, contacts)[0]
+    runs = fc.intervals(contacts[:, 0])
+    for (s, e), plant in zip(runs, plants):
+        assert np.allclose(plant, points[s:e, 0].mean(axis=0))
+    targets, weights = fc.plant_targets(points, contacts, 6)
+    for (s, e), plant in zip(runs, plants):
+        assert np.allclose(targets[s:e, 0], plant)
+    ik = fc.foot_targets(np.repeat(points, 2, axis=1), np.repeat(targets, 2, axis=1),
+                         np.concatenate([weights, np.zeros_like(weights)], axis=1), feet=((0, 1),))
+    # The unplanted point rides along with the planted one.
+    assert np.allclose(ik[:, 1] - points[:, 0], ik[:, 0] - points[:, 0])
+    assert np.allclose(fc.foot_targets(points, targets, np.zeros_like(weights), feet=()), points)
+
+
+def test_rigid_pairs_keep_the_distance():
+    frames = 50
+    ankle = np.zeros((frames, 3)) + [0, 0, 0.08]
+    ankle[:, 0] += np.linspace(0, 0.02, frames)  # a slide: the two means differ by other spans
+    ball = ankle + [0.15, 0, -0.06]
+    points = np.stack([ankle, ball], axis=1)
+    contacts = np.zeros((frames, 2), dtype=bool)
+    contacts[0:30, 0] = True
+    contacts[20:50, 1] = True
+    a, b = fc.plant_positions(points, contacts, rigid_pairs=[(0, 1)])
+    assert np.isclose(np.linalg.norm(b[0] - a[0]), np.linalg.norm([0.15, 0, -0.06]))
+
+
+def test_errors():
+    with pytest.raises(ValueError, match="shape"):
+        fc.detect(np.zeros((5, 3)), 60, 1)
+    bad = np.zeros((5, 1, 3))
+    bad[3, 0, 1] = np.nan
+    with pytest.raises(ValueError, match="frame index 3"):
+        fc.detect(bad, 60, 1)
+    with pytest.raises(ValueError, match="leave"):
+        fc.detect(np.zeros((5, 1, 3)), 60, 1, settings=fc.ContactSettings(speed_leave=0.1))
