@@ -14,7 +14,8 @@ from dataclasses import dataclass
 import bpy
 import numpy as np
 
-from . import animdata, bone_mapping, bvh, native_state, pose_channels, rotation_channels
+from . import animdata, bone_mapping, bvh, native_state, pose_channels, root_motion, rotation_channels
+from .root_motion import FLOOR_ROOTS
 
 ROOT_MOTIONS = (
     ("scaled", "Scaled", "Translation scaled by the ratio of leg lengths"),
@@ -159,6 +160,69 @@ def _hip_height(pose: _Pose, root: int, up: np.ndarray) -> float:
     return float(pose.heads[root] @ up - heights.min())
 
 
+def _legs(side: _Side, body: bone_mapping.Body) -> list:
+    """The labelled legs (thigh and shin at least) as root_motion.Leg, by bone index."""
+    names = side.names
+    below = [[] for _ in names]  # each bone's subtree
+    for i in reversed(range(len(names))):
+        below[i].insert(0, i)
+        parent = side.bones[i].parent
+        if parent is not None:
+            below[names.index(parent.name)].extend(below[i])
+    legs = []
+    for s in bone_mapping.SIDES:
+        thigh, shin, foot = (body.limbs.get(f"{k}.{s}") for k in ("thigh", "shin", "foot"))
+        if thigh in names and shin in names:
+            f = names.index(foot) if foot in names else -1
+            legs.append(root_motion.Leg(names.index(thigh), names.index(shin), f,
+                                        tuple(below[f]) if f >= 0 else ()))
+    return legs
+
+
+def _leg_length(side: _Side, body, pose: _Pose, up, hips: int, heads_over_clip=None) -> tuple[float, str]:
+    """The rig's leg length in its own armature units, and how it was measured.
+
+    The hips' height above the soles measured along the legs: the hips' head
+    above the hip joints, then thigh + shin + the ankle's height above the
+    sole (the legs' mean), so that the same skeleton in any rest pose measures the same;
+    the hips' height above the lowest point only for a rig without labelled legs.
+    heads_over_clip (frames, 3B): the rig's motion, for a zero pose's feet.
+    """
+    legs = _legs(side, body)
+    if not legs:
+        return _hip_height(pose, hips, up), "hip height"
+    tails = pose.heads + pose.lengths[:, None] * rotation_channels.y_axes(pose.rotations)
+    lengths = []
+    for leg in legs:
+        lowest = None
+        if heads_over_clip is not None and leg.foot >= 0:
+            lowest = float(np.min(heads_over_clip[:, 3 * leg.foot:3 * leg.foot + 3] @ up))
+            lowest = lowest if lowest > 0 else None
+        lengths.append(root_motion.leg_length(leg, pose.heads, tails, lowest))
+    return root_motion.hips_drop(pose.heads[hips], legs, pose.heads, tails) + float(np.mean(lengths)), "legs"
+
+
+def _top(side: _Side, bone: int) -> int:
+    while side.bones[bone].parent is not None:
+        bone = side.index(side.bones[bone].parent.name)
+    return bone
+
+
+def _body_roots(side: _Side, body, mapped, depth) -> tuple[int | None, int | None]:
+    """(hips, floor root) by index: the hips found by the bone map among the mapped bones (else the highest
+    mapped bone other than a floor root), and the top bone above them, if any."""
+    names = side.names
+    hips = names.index(body.hips) if body.hips in names and names.index(body.hips) in mapped else None
+    if hips is None:
+        floor = names.index(body.root) if body.root in names else None
+        candidates = [b for b in mapped if b != floor]
+        if not candidates:
+            return None, None
+        hips = min(candidates, key=lambda b: (depth[b], b))
+    top = _top(side, hips)
+    return hips, (top if top != hips else None)
+
+
 @dataclass
 class Plan:
     """Everything the retarget computes, before anything is written."""
@@ -170,11 +234,15 @@ class Plan:
     pairs: list
     still_channels: list  # bones that keep the match pose: one key on the first frame
     still_values: np.ndarray  # (still_channels, 1)
+    leg_ratio: float = 1.0  # target leg length / source leg length, each along its legs
+    hips: tuple = (None, None)  # (source, target) bones that carry the body's translation
+    floor_roots: tuple = (None, None)  # (source, target) floor roots above the hips, or None
+    floor_root: str = "still"  # what the target's floor root did (FLOOR_ROOTS, "auto" resolved)
 
 
 def plan(source, target, bone_map=None, frame_range=None, root: str = "scaled", *, source_match: str = 'REST',
          match_frame: float | None = None, target_match: str = 'REST', ground: bool = False,
-         align_facing: bool = True) -> Plan:
+         align_facing: bool = True, floor_root: str = "auto", root_smoothing: float = 0.25) -> Plan:
     """Compute the retargeted keys without touching the file (see retarget)."""
     native = native_state.native()
     src, tgt = _side(source, "source"), _side(target, "target")
@@ -182,6 +250,10 @@ def plan(source, target, bone_map=None, frame_range=None, root: str = "scaled", 
         raise ValueError(f"the source and the target are the same armature '{src.obj.name}' (a cycle)")
     if root not in [r[0] for r in ROOT_MOTIONS]:
         raise ValueError(f"unknown root motion {root!r}; expected one of {[r[0] for r in ROOT_MOTIONS]}")
+    if floor_root not in [r[0] for r in FLOOR_ROOTS]:
+        raise ValueError(f"unknown floor root motion {floor_root!r}; expected one of {[r[0] for r in FLOOR_ROOTS]}")
+    if not (np.isfinite(root_smoothing) and root_smoothing >= 0):
+        raise ValueError(f"root_smoothing must be a non-negative number of seconds, not {root_smoothing!r}")
     if source_match not in [m[0] for m in SOURCE_MATCHES] or target_match not in [m[0] for m in TARGET_MATCHES]:
         raise ValueError(f"unknown match pose {source_match!r} / {target_match!r}")
     action = animdata.assigned_action(src.obj)
@@ -213,11 +285,23 @@ def plan(source, target, bone_map=None, frame_range=None, root: str = "scaled", 
     pairs_idx = [(src.index(a), tgt.index(b)) for a, b in pairs]
     for a, b in pairs_idx:
         bone_map_idx[b] = a
-    depth = [0] * len(tgt.bones)
-    for i, bone in enumerate(tgt.bones):
-        depth[i] = depth[tgt.index(bone.parent.name)] + 1 if bone.parent else 0
-    target_root = min((b for _, b in pairs_idx), key=lambda b: (depth[b], b))
+    src_depth, tgt_depth = _depths(src), _depths(tgt)
+    src_body = bone_mapping.classify(mapping_rig(src.obj))
+    tgt_body = bone_mapping.classify(mapping_rig(tgt.obj))
+    # The hips are the body's root for proportions and height; a game rig's floor root above them is
+    # carried apart (floor_root=), never mapped like a body bone.
+    target_root, target_floor = _body_roots(tgt, tgt_body, {b for _, b in pairs_idx}, tgt_depth)
+    if target_root is None:
+        raise ValueError(f"the bone map drives only the floor root of '{tgt.obj.name}'; map its hips too")
     source_root = int(bone_map_idx[target_root])
+    source_floor = _top(src, source_root)
+    source_floor = source_floor if source_floor != source_root else None
+    if src_body.root is not None and src.names[source_root] == src_body.root:
+        raise ValueError(f"the bone map pairs the source's floor root '{src_body.root}' with the target's hips "
+                         f"'{tgt.names[target_root]}'; map the source's hips '{src_body.hips}' to it instead")
+    if target_floor is not None:
+        bone_map_idx[target_floor] = -1
+    pairs_idx = [(a, b) for a, b in pairs_idx if b != target_floor]
 
     source_world, source_scale = _world_rotation_scale(src.obj)
     target_world, target_scale = _world_rotation_scale(tgt.obj)
@@ -226,29 +310,105 @@ def plan(source, target, bone_map=None, frame_range=None, root: str = "scaled", 
         space = rotation_channels.multiply(_facing(space, source_pose, target_pose, pairs_idx, source_root, target_root), space)
     up = np.array([0.0, 0.0, 1.0])
     source_up = rotation_channels.rotate(rotation_channels.conjugate(space), up[None, :])[0]
-    source_height = _hip_height(source_pose, source_root, source_up)
-    target_height = _hip_height(target_pose, target_root, up)
+    source_height, _ = _leg_length(src, src_body, source_pose, source_up, source_root, source_heads)
+    target_height, _ = _leg_length(tgt, tgt_body, target_pose, up, target_root, _own_heads(tgt))
     if not (source_height > 1e-9 and target_height > 1e-9):
         raise ValueError("the root stands at the lowest point of a rig: no leg length to scale the motion by")
+    scale = target_height / source_height
     rotations, root_locations = native.retarget(
         src.rig, tgt.rig, source_rotations, np.ascontiguousarray(source_heads[:, 3 * source_root:3 * source_root + 3]),
         [int(v) for v in bone_map_idx],
         source_match=np.ascontiguousarray(source_pose.rotations), source_match_root=source_pose.heads[source_root],
         target_match_basis=np.ascontiguousarray(target_basis), target_match_location=target_locations[target_root],
-        source_root=source_root, target_root=target_root, space=space, scale=target_height / source_height,
+        source_root=source_root, target_root=target_root, space=space, scale=scale,
         unit_scale=source_scale / target_scale,
         vertical_offset=target_height - source_scale / target_scale * source_height, root_motion=root,
         ground_bones=list(range(len(tgt.bones))) if ground else [])
+    locations = np.zeros((rotations.shape[0], 3 * len(tgt.bones)))
+    locations[:, 3 * target_root:3 * target_root + 3] = root_locations
+    located = [target_root]
+    mode = floor_root if floor_root != "auto" else ("copy" if source_floor is not None else "still")
+    if target_floor is not None and mode in ("copy", "extract"):
+        if mode == "copy" and source_floor is None:
+            mode = "still"  # nothing to copy: the hips carry the motion
+        else:
+            source_motion = (source_rotations[:, 4 * source_floor:4 * source_floor + 4],
+                             source_heads[:, 3 * source_floor:3 * source_floor + 3],
+                             source_pose.rotations[source_floor], source_pose.heads[source_floor]) \
+                if source_floor is not None else None
+            _move_floor_root(native, tgt, target_pose, rotations, locations, target_floor, target_root, mode,
+                             source_motion, space, scale, root, root_smoothing * _fps())
+            located.append(target_floor)
 
-    moving, still = _target_channels(native, tgt, rotations, target_basis, bone_map_idx, target_root,
-                                     root_locations)
-    plan_ = Plan(tgt.obj, frames, *moving, src.obj.name, pairs, *still)
+    moving, still = _target_channels(native, tgt, rotations, target_basis, bone_map_idx, located, locations)
+    plan_ = Plan(tgt.obj, frames, *moving, src.obj.name, pairs, *still, leg_ratio=scale,
+                 hips=(src.names[source_root], tgt.names[target_root]),
+                 floor_roots=(src.names[source_floor] if source_floor is not None else None,
+                              tgt.names[target_floor] if target_floor is not None else None), floor_root=mode)
     if not (np.all(np.isfinite(plan_.values)) and np.all(np.isfinite(plan_.still_values))):
         raise ValueError("the retargeted motion is not finite; check the rigs' rest poses")
     return plan_
 
 
-def _target_channels(native, tgt: _Side, rotations, target_basis, bone_map_idx, target_root, root_locations):
+def _depths(side: _Side) -> list[int]:
+    depth = [0] * len(side.bones)
+    for i, bone in enumerate(side.bones):
+        depth[i] = depth[side.index(bone.parent.name)] + 1 if bone.parent else 0
+    return depth
+
+
+def _fps() -> float:
+    render = bpy.context.scene.render
+    return render.fps / render.fps_base
+
+
+def _own_heads(side: _Side):
+    """The rig's heads over its own action's frames (for a zero pose's feet), or None without one."""
+    action = animdata.assigned_action(side.obj)
+    if action is None:
+        return None
+    _, heads = pose_channels.armature_motion(side.obj, action, _frames(action, None), side.rig, side.bones)
+    return heads
+
+
+def _move_floor_root(native, tgt: _Side, target_pose: _Pose, rotations, locations, floor, hips, mode,
+                     source_motion, space, scale, root, sigma_frames) -> None:
+    """Gives the target's floor root its motion (copy or extract) and re-expresses the hips under it so that
+    every bone keeps its armature-space pose. Writes rotations and locations in place."""
+    posed_rotations, posed_heads = native.armature_pose(tgt.rig, rotations, locations)
+    block = lambda a, b, n: a[:, n * b:n * b + n]  # noqa: E731
+    if mode == "extract":
+        track = root_motion.extract_track(block(posed_rotations, hips, 4), block(posed_heads, hips, 3),
+                                          target_pose.rotations[hips], target_pose.heads[hips],
+                                          target_pose.rotations[floor], target_pose.heads[floor], sigma_frames)
+    else:
+        track = root_motion.copy_track(*source_motion, space, target_pose.rotations[floor],
+                                       target_pose.heads[floor], scale, horizontal=root in ("scaled", "offset"),
+                                       vertical=root != "none")
+    parent = lambda b: tgt.index(tgt.bones[b].parent.name) if tgt.bones[b].parent else -1  # noqa: E731
+    rest = root_motion.FloorRootRest(floor, parent(floor), hips, parent(hips),
+                                     np.array([pose_channels.rest_quaternions(tgt.obj.data)[n] for n in tgt.names]),
+                                     np.array([b.head_local for b in tgt.bones], dtype=np.float64))
+    root_parent = parent(floor)
+    parent_pose = None if root_parent < 0 else (block(posed_rotations, root_parent, 4),
+                                                block(posed_heads, root_parent, 3))
+
+    def hips_parent_pose(root_basis, root_location):
+        trial_rotations, trial_locations = rotations.copy(), locations.copy()
+        trial_rotations[:, 4 * floor:4 * floor + 4] = root_basis
+        trial_locations[:, 3 * floor:3 * floor + 3] = root_location
+        r, h = native.armature_pose(tgt.rig, trial_rotations, trial_locations)
+        return block(r, rest.hips_parent, 4), block(h, rest.hips_parent, 3)
+
+    root_basis, root_location, hips_basis, hips_location = root_motion.carry(
+        rest, *track, parent_pose, hips_parent_pose, block(posed_rotations, hips, 4), block(posed_heads, hips, 3))
+    rotations[:, 4 * floor:4 * floor + 4] = root_basis
+    locations[:, 3 * floor:3 * floor + 3] = root_location
+    rotations[:, 4 * hips:4 * hips + 4] = hips_basis
+    locations[:, 3 * hips:3 * hips + 3] = hips_location
+
+
+def _target_channels(native, tgt: _Side, rotations, target_basis, bone_map_idx, located, locations):
     """The F-curves to key, in each bone's own rotation mode: (channels, values) for the bones the retarget
     moves and the root's location, one key per frame; (channels, values) for the bones that keep the match
     pose, one key."""
@@ -256,11 +416,11 @@ def _target_channels(native, tgt: _Side, rotations, target_basis, bone_map_idx, 
     frames = rotations.shape[0]
     for b, bone in enumerate(tgt.bones):
         q = rotations[:, 4 * b:4 * b + 4]
-        moved = bone_map_idx[b] >= 0 or bool(np.any(np.abs(q @ target_basis[b]) < 1.0 - 1e-12))
+        moved = bone_map_idx[b] >= 0 or b in located or bool(np.any(np.abs(q @ target_basis[b]) < 1.0 - 1e-12))
         path = f'pose.bones["{bpy.utils.escape_identifier(bone.name)}"]'
-        if b == target_root:
+        if b in located:
             moving[0].extend((f"{path}.location", k, bone.name) for k in range(3))
-            moving[1].append(root_locations.T)
+            moving[1].append(locations[:, 3 * b:3 * b + 3].T)
         pose_bone = tgt.obj.pose.bones[bone.name]
         mode = pose_bone.rotation_mode
         prop, size = rotation_channels.channel_property(mode)
@@ -302,8 +462,8 @@ def _write(target, action, plan_: Plan) -> None:
 
 def retarget(source, target, bone_map=None, frame_range=None, root: str = "scaled", *,
              source_match: str = 'REST', match_frame: float | None = None, target_match: str = 'REST',
-             ground: bool = False, align_facing: bool = True, action_name: str | None = None,
-             overwrite: bool = False):
+             ground: bool = False, align_facing: bool = True, floor_root: str = "auto",
+             root_smoothing: float = 0.25, action_name: str | None = None, overwrite: bool = False):
     """Retarget the source's action onto the target; returns the target's new action.
 
     source: an armature object with an action, or a BVH file path (imported
@@ -316,7 +476,11 @@ def retarget(source, target, bone_map=None, frame_range=None, root: str = "scale
     or 'CURRENT': the poses in which the two rigs stand alike. ground: move the
     root so that the target's lowest point touches its floor (armature Z = 0) on
     the first frame. align_facing: turn the motion so that each rig walks the
-    way it faces. The new action is assigned to the target (its previous
+    way it faces. floor_root: what a target's bone on the floor above the
+    hips (Unreal's root) does, "auto", "still", "copy" or "extract"
+    (FLOOR_ROOTS); root_smoothing: seconds of Gaussian smoothing for
+    "extract". The hips are the body's root on both sides and the translation
+    is scaled by the ratio of leg lengths measured along the legs. The new action is assigned to the target (its previous
     action keeps a fake user rather than being lost); with overwrite the keys
     replace the target's own action's curves instead. A ValueError leaves the
     file as it was (a BVH source is removed again).
@@ -328,7 +492,7 @@ def retarget(source, target, bone_map=None, frame_range=None, root: str = "scale
     try:
         result = plan(source, target, bone_map, frame_range, root, source_match=source_match,
                       match_frame=match_frame, target_match=target_match, ground=ground,
-                      align_facing=align_facing)
+                      align_facing=align_facing, floor_root=floor_root, root_smoothing=root_smoothing)
         return apply(result, action_name=action_name, overwrite=overwrite)
     except BaseException:
         if imported is not None:

@@ -31,8 +31,13 @@ def load(mk, path, name):
     return mk.bvh.load(path, name=name)
 
 
-def a_pose_file(native, walk60, path):
-    """walk60's skeleton with lShoulder turned (0, 0, -45 deg) and rShoulder (0, 0, +45 deg), as in the brief."""
+SHOULDERS = (("lShoulder", -45.0), ("rShoulder", 45.0))
+HIPS = (("lHip", 45.0), ("rHip", -45.0))  # the legs spread sideways, as the lab's own A-pose has them
+
+
+def a_pose_file(native, walk60, path, turns=SHOULDERS):
+    """walk60's skeleton with the joints below each of turns turned about the file's Z, as in the brief:
+    lShoulder (0, 0, -45 deg) and rShoulder (0, 0, +45 deg) bring the arms down; HIPS spreads the legs."""
     skeleton, motion = native.read_bvh(walk60)
     offsets = np.array(skeleton.offsets)
     parents = list(skeleton.parents)
@@ -44,7 +49,7 @@ def a_pose_file(native, walk60, path):
                 out += [i] + below(i)
         return out
 
-    for side, degrees in (("lShoulder", -45.0), ("rShoulder", 45.0)):
+    for side, degrees in turns:
         c, s = math.cos(math.radians(degrees)), math.sin(math.radians(degrees))
         rz = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
         for i in below(skeleton.names.index(side)):
@@ -116,6 +121,29 @@ def test_t_pose_to_a_pose_and_back_keeps_every_world_joint(mk, native, walk60, t
     assert np.abs(again - expected).max() < tolerance
 
 
+def test_a_pose_with_spread_legs_keeps_every_world_joint_both_ways(mk, retargeting, native, walk60, tmp_path):
+    """The lab's own A-pose turns the hips 45 deg too: the rig stands lower without shorter legs."""
+    source, _ = load(mk, walk60, "walkT")
+    a_rig, _ = load(mk, a_pose_file(native, walk60, tmp_path / "walk60_AA.bvh", SHOULDERS + HIPS), "walkAA")
+    thigh = a_rig.data.bones["lHip"]
+    assert abs((thigh.tail_local - thigh.head_local).normalized().x - math.sin(math.radians(45))) < 1e-6
+    frames = np.arange(1, 183)
+    tolerance = 1e-6 * height(source)
+
+    plan = retargeting.plan(source, a_rig, same_names(a_rig))
+    # The same legs, measured along them: 1 to Blender's float32 bone storage (the hip height gave 0.92).
+    assert plan.leg_ratio == pytest.approx(1.0, abs=1e-6)
+    retargeting.apply(plan)
+    expected = joints(source, frames)
+    assert np.abs(joints(a_rig, frames) - expected).max() < tolerance
+
+    back, _ = load(mk, walk60, "walkT2")
+    plan = retargeting.plan(a_rig, back, same_names(back))
+    assert plan.leg_ratio == pytest.approx(1.0, abs=1e-6)
+    retargeting.apply(plan)
+    assert np.abs(joints(back, frames) - expected).max() < tolerance
+
+
 def test_random_rolls_and_euler_modes_still_point_every_bone_where_the_source_does(mk, walk60):
     source, _ = load(mk, walk60, "walkT")
     target, _ = load(mk, walk60, "rolled")
@@ -163,11 +191,10 @@ def test_walk60_onto_each_sample_character(mk, retargeting, walk60, spec):
     # Feet: height above the floor (Z = 0 for both: the capture's floor, the
     # character's ground; walk60's rest pose hangs below it, its root OFFSET
     # being zero), the source's scaled by the ratio of leg lengths.
-    def leg_length(obj, hips):
-        bones = obj.data.bones
-        return bones[hips].head_local.z - min(min(b.head_local.z, b.tail_local.z) for b in bones)
-
-    ratio = leg_length(target, spec.canonical["hips"]) / leg_length(source, "RootJoint")
+    # Legs measured along thigh, shin and the ankle's height above the sole, the samples' known proportions.
+    p = spec.proportions
+    ratio = plan.leg_ratio
+    assert ratio * 0.85 < p.hip_height < ratio * 1.15  # walk60's legs are about 0.9 m
     floor_s = floor_t = 0.0
     errors = []
     for side, (ankle, toe) in zip("LR", FEET["walk60"]):
@@ -331,3 +358,106 @@ def test_bone_map_operators_save_load_and_edit_the_list(mk, walk60, tmp_path):
     assert settings.bone_map() == pairs
     assert bpy.ops.motionkit.bone_map_scheme(source_scheme="games105", target_scheme="rigify_metarig") == {'FINISHED'}
     assert dict(settings.bone_map())["lHip"] == "thigh.L"
+
+
+# ---------------------------------------------------------------------------
+# Game rigs: a floor root above the hips, and a rest pose that is neither T nor A
+
+
+@pytest.fixture()
+def bandai(shared_dir):
+    return os.path.join(shared_dir, "data", "bvh", "more", "bandai_dash_normal_001.bvh")
+
+
+def test_auto_map_pairs_floor_roots_with_each_other_and_hips_with_hips(mk, retargeting, bandai):
+    source, _ = load(mk, bandai, "dash")
+    target = generate.build_armature(characters.UNREAL_A)
+    pairs = dict(retargeting.auto_map(source, target))
+    assert pairs["joint_Root"] == "root" and pairs["Hips"] == "pelvis"
+    assert pairs["UpperLeg_L"] == "thigh_l" and pairs["Toes_R"] == "ball_r"
+
+
+def world_tracks(obj, names, frames):
+    """World heads and Y axes of the named bones, (frames, bones, 3) each, as the depsgraph poses them."""
+    heads, axes = [], []
+    for frame in frames:
+        bpy.context.scene.frame_set(int(frame))
+        world = obj.matrix_world
+        heads.append([tuple(world @ obj.pose.bones[n].head) for n in names])
+        axes.append([tuple((world.to_3x3() @ obj.pose.bones[n].matrix.to_3x3()).col[1].normalized())
+                     for n in names])
+    return np.array(heads), np.array(axes)
+
+
+@pytest.mark.parametrize("spec", characters.CHARACTERS, ids=lambda s: s.name)
+def test_bandai_dash_onto_each_sample_character_points_every_mapped_bone_alike(mk, retargeting, bandai, spec):
+    source, action = load(mk, bandai, "dash")
+    target = generate.build_armature(spec)
+    plan = retargeting.plan(source, target)
+    assert plan.hips == ("Hips", spec.canonical["hips"])
+    retargeting.apply(plan)
+    pairs = [(s, t) for s, t in plan.pairs if s != "joint_Root"]
+    assert len(pairs) >= 20
+    frames = np.arange(int(action.frame_range[0]), int(action.frame_range[1]) + 1)
+    _, src_dirs = world_tracks(source, [s for s, _ in pairs], frames)
+    _, tgt_dirs = world_tracks(target, [t for _, t in pairs], frames)
+    assert angles_deg(src_dirs, tgt_dirs).max() < 0.1
+    # The dash runs forward as far as the source's, scaled by the legs (centimetres onto metres).
+    src_hips, _ = world_tracks(source, ["Hips"], frames[[0, -1]])
+    tgt_hips, _ = world_tracks(target, [spec.canonical["hips"]], frames[[0, -1]])
+    travelled = np.linalg.norm(np.diff(src_hips[:, 0, :2], axis=0))
+    assert np.linalg.norm(np.diff(tgt_hips[:, 0, :2], axis=0)) == pytest.approx(plan.leg_ratio * travelled, rel=1e-6)
+    assert 0.005 < plan.leg_ratio < 0.02
+
+
+@pytest.mark.parametrize("mode", ["still", "copy", "extract", "auto"])
+@pytest.mark.parametrize("source_kind", ["bandai", "walk60"])
+def test_floor_root_modes_keep_the_world_pose(mk, retargeting, walk60, bandai, source_kind, mode):
+    """Onto UnrealA (root on the floor above pelvis), from a file with a floor root and from one without:
+    whatever the floor root does, every bone stands where it stands with the root kept still."""
+    source, action = load(mk, bandai if source_kind == "bandai" else walk60, "source")
+    target = generate.build_armature(characters.UNREAL_A)
+    frames = np.arange(int(action.frame_range[0]), int(action.frame_range[1]) + 1)
+    names = [b.name for b in target.data.bones]
+    retargeting.apply(retargeting.plan(source, target, floor_root="still"))
+    still_heads, still_axes = world_tracks(target, names, frames)
+    plan = retargeting.plan(source, target, floor_root=mode)
+    assert plan.floor_roots == ("joint_Root" if source_kind == "bandai" else None, "root")
+    retargeting.apply(plan)
+    heads, axes = world_tracks(target, names, frames)
+    root = names.index("root")
+    hips = names.index("pelvis")
+    body = [i for i in range(len(names)) if i != root]
+    assert np.abs(heads[:, body] - still_heads[:, body]).max() < 1e-5  # Blender's float32 pose matrices
+    assert angles_deg(axes[:, body], still_axes[:, body]).max() < 1e-3
+    expected = {"auto": "copy" if source_kind == "bandai" else "still"}.get(mode, mode)
+    if expected == "copy" and source_kind == "walk60":
+        expected = "still"  # nothing to copy from a source without a floor root
+    assert plan.floor_root == expected
+    if expected == "still":
+        assert np.abs(heads[:, root] - heads[:1, root]).max() < 1e-9
+    elif expected == "copy":  # the dash's joint_Root runs forward; the root follows it, scaled
+        src_root, _ = world_tracks(source, ["joint_Root"], frames)
+        moved = np.linalg.norm(heads[-1, root, :2] - heads[0, root, :2])
+        assert moved == pytest.approx(plan.leg_ratio * np.linalg.norm(src_root[-1, 0, :2] - src_root[0, 0, :2]),
+                                      rel=1e-6)
+        assert np.abs(heads[:, root, 2]).max() < 1e-6
+    else:  # extract: on the floor, under the hips on average, turning with them
+        assert np.abs(heads[:, root, 2]).max() < 1e-6
+        gap = np.linalg.norm(heads[:, root, :2] - heads[:, hips, :2], axis=1)
+        travel = np.linalg.norm(heads[-1, hips, :2] - heads[0, hips, :2])
+        assert travel > 0.5 and gap.max() < 0.15, (travel, gap.max())
+
+
+def test_walk60_onto_the_bandai_skeleton_and_back(mk, retargeting, walk60, bandai):
+    """Onto a zero pose (every joint along one axis at rest): directions still follow the source."""
+    source, action = load(mk, walk60, "walk60")
+    target, _ = load(mk, bandai, "dash")
+    plan = retargeting.plan(source, target, floor_root="extract")
+    retargeting.apply(plan)
+    pairs = [(s, t) for s, t in plan.pairs if t != "joint_Root"]
+    frames = np.arange(1, 183, 5)
+    _, src_dirs = world_tracks(source, [s for s, _ in pairs], frames)
+    _, tgt_dirs = world_tracks(target, [t for _, t in pairs], frames)
+    assert angles_deg(src_dirs, tgt_dirs).max() < 0.1
+    assert 50 < plan.leg_ratio < 150  # metres onto centimetres

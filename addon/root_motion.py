@@ -1,0 +1,207 @@
+"""A game rig's floor root and the body's proportions, in numpy (no bpy).
+
+Game rigs carry a bone on the floor above the hips (Unreal's ``root``, a
+dataset's ``joint_Root``). Retargeting places the hips in armature space
+whatever that bone does, so its motion is a choice (FLOOR_ROOTS): keep it
+still, copy the source's floor root, or extract root motion for game engines
+(it follows the hips' ground projection and facing, smoothed). Whatever it
+does, the hips are re-expressed under it so that the world pose is unchanged.
+
+Proportions: the ratio of leg lengths measured along the leg (thigh + shin +
+the ankle's height above the sole), which a rest pose with spread legs does
+not change, unlike the hips' height above the lowest point.
+
+Quaternions are w x y z; positions are armature space with Z up.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+try:
+    from .rotation_channels import conjugate, multiply
+except ImportError:  # plain Python tests import the helpers as top-level modules
+    from rotation_channels import conjugate, multiply
+
+FLOOR_ROOTS = (
+    ("auto", "Auto", "Copy the source's floor root if it has one, else keep the target's still"),
+    ("still", "Still", "The floor root stays where the match pose has it; the hips carry all the motion"),
+    ("copy", "Copy", "The floor root moves as the source's floor root does (translation scaled)"),
+    ("extract", "Extract root motion",
+     "The floor root follows the hips' ground projection and facing, smoothed, for game engines; "
+     "the hips keep the rest, so the world pose is the same"),
+)
+# A foot whose bones run on within this angle of the shin's line is a zero pose's, not a standing foot.
+_DEGENERATE_FOOT_DEG = 30.0
+
+
+def rotate(q, v) -> np.ndarray:
+    """Vectors v (..., 3) turned by unit quaternions q (..., 4), broadcasting."""
+    q, v = np.asarray(q, dtype=np.float64), np.asarray(v, dtype=np.float64)
+    w, u = q[..., :1], q[..., 1:]
+    t = 2.0 * np.cross(u, v)
+    return v + w * t + np.cross(u, t)
+
+
+def about_z(angles) -> np.ndarray:
+    half = 0.5 * np.asarray(angles, dtype=np.float64)
+    zero = np.zeros_like(half)
+    return np.stack([np.cos(half), zero, zero, np.sin(half)], axis=-1)
+
+
+def heading(q) -> np.ndarray:
+    """The turn about Z of rotations q (n, 4) (the twist of a swing-twist split), continuous over rows."""
+    q = np.asarray(q, dtype=np.float64)
+    return np.unwrap(2.0 * np.arctan2(q[:, 3], q[:, 0]))
+
+
+def smooth(x, sigma_frames: float) -> np.ndarray:
+    """Gaussian smoothing along the first axis; a straight line stays exactly as it is, ends included."""
+    x = np.asarray(x, dtype=np.float64)
+    if sigma_frames <= 0 or len(x) < 2:
+        return x.copy()
+    radius = int(np.ceil(3.0 * sigma_frames))
+    kernel = np.exp(-0.5 * (np.arange(-radius, radius + 1) / sigma_frames) ** 2)
+    kernel /= kernel.sum()
+    # Point-reflected ends keep a steady walk steady up to the last frame (held ends would lag behind it).
+    index = np.clip(np.arange(1, radius + 1), 0, len(x) - 1)
+    padded = np.concatenate([2.0 * x[:1] - x[index][::-1], x, 2.0 * x[-1:] - x[len(x) - 1 - index]])
+    flat = padded.reshape(len(padded), -1)
+    out = np.stack([np.convolve(flat[:, k], kernel, mode="valid") for k in range(flat.shape[1])], axis=1)
+    return out.reshape(x.shape)
+
+
+# ---------------------------------------------------------------------------
+# Proportions
+
+@dataclass(frozen=True)
+class Leg:
+    """One leg's bones as indices into a rig's bones (foot may be -1)."""
+    thigh: int
+    shin: int
+    foot: int
+    below_ankle: tuple[int, ...]  # the foot's bone and everything under it
+
+
+def leg_length(leg: Leg, heads: np.ndarray, tails: np.ndarray, ankle_lowest: float | None = None) -> float:
+    """thigh + shin + the ankle's height above the sole, in a pose given by its bones' heads and tails.
+
+    The ankle's height is measured along the shin (the farthest foot point
+    beyond the ankle in the shin's direction), so turning the whole leg at the
+    hip, as an A-pose with spread legs does, changes nothing. A zero pose's
+    foot runs on along the shin and has no sole to measure: then
+    ankle_lowest, the ankle's lowest height above the floor over a clip, is
+    used when given, else a tenth of thigh + shin (a person's proportion).
+    """
+    hip, knee = heads[leg.thigh], heads[leg.shin]
+    ankle = heads[leg.foot] if leg.foot >= 0 else tails[leg.shin]
+    upper, lower = float(np.linalg.norm(knee - hip)), float(np.linalg.norm(ankle - knee))
+    if not lower > 0:
+        return upper
+    down = (ankle - knee) / lower
+    points = np.vstack([heads[list(leg.below_ankle)], tails[list(leg.below_ankle)]]) if leg.below_ankle else ankle[None]
+    offsets = points - ankle
+    along = offsets @ down
+    reach = np.linalg.norm(offsets, axis=1)
+    spread = reach > 1e-9 * max(upper + lower, 1e-12)
+    cos_limit = np.cos(np.radians(_DEGENERATE_FOOT_DEG))
+    degenerate = bool(spread.any()) and bool(np.all(along[spread] >= cos_limit * reach[spread]))
+    if degenerate:
+        ankle_height = ankle_lowest if ankle_lowest is not None else 0.1 * (upper + lower)
+    else:
+        ankle_height = max(0.0, float(along.max()))
+    return upper + lower + ankle_height
+
+
+def hips_drop(hips_head: np.ndarray, legs: list, heads: np.ndarray, tails: np.ndarray) -> float:
+    """How far the hips' head stands above the hip joints, along the legs' own up (hip joints' midpoint
+    minus ankles' midpoint): the part of the hips' height that no leg bone measures. Spreading the legs
+    alike on both sides leaves it as it is."""
+    hip = np.mean([heads[leg.thigh] for leg in legs], axis=0)
+    ankle = np.mean([heads[leg.foot] if leg.foot >= 0 else tails[leg.shin] for leg in legs], axis=0)
+    up = hip - ankle
+    norm = np.linalg.norm(up)
+    return float((hips_head - hip) @ (up / norm)) if norm > 0 else 0.0
+
+
+# ---------------------------------------------------------------------------
+# The floor root's motion
+
+@dataclass
+class FloorRootRest:
+    """What re-expressing the floor root and the hips needs of the target's rest pose (armature space)."""
+    root: int           # the floor root's index
+    root_parent: int    # its parent (-1 for the top bone)
+    hips: int
+    hips_parent: int
+    rest_rotations: np.ndarray  # (bones, 4)
+    rest_heads: np.ndarray      # (bones, 3)
+
+
+def _local(rest: FloorRootRest, bone: int, parent: int, parent_rotations, parent_heads, rotations, heads):
+    """Pose channels (basis rotation, location) that put `bone` at rotations/heads (n, 4)/(n, 3) under its
+    parent posed at parent_rotations/parent_heads, as Blender composes them:
+    pose = parent_pose @ parent_rest^-1 @ rest @ basis."""
+    q_rest, h_rest = rest.rest_rotations[bone], rest.rest_heads[bone]
+    if parent < 0:
+        frame, anchor = np.broadcast_to(q_rest, rotations.shape), np.broadcast_to(h_rest, heads.shape)
+    else:
+        p_rest = conjugate(rest.rest_rotations[parent])
+        relative = multiply(p_rest, q_rest)
+        offset = rotate(p_rest, h_rest - rest.rest_heads[parent])
+        frame = multiply(parent_rotations, relative)
+        anchor = parent_heads + rotate(parent_rotations, offset)
+    inverse = conjugate(frame)
+    return multiply(inverse, rotations), rotate(inverse, heads - anchor)
+
+
+def continuous(q) -> np.ndarray:
+    """Rows flipped into one hemisphere, frame to frame (the first with w >= 0)."""
+    q = np.array(q, dtype=np.float64)
+    flips = np.concatenate([[q[0, 0] < 0], np.einsum("ij,ij->i", q[1:], q[:-1]) < 0])
+    return q * np.where(np.logical_xor.accumulate(flips), -1.0, 1.0)[:, None]
+
+
+def extract_track(hips_rotations, hips_heads, hips_match_rotation, hips_match_head, root_match_rotation,
+                  root_match_head, sigma_frames: float) -> tuple[np.ndarray, np.ndarray]:
+    """The floor root's armature-space rotations (n, 4) and heads (n, 3) for root motion:
+    its match pose moved along the hips' ground track and turned with the hips' heading, both smoothed."""
+    turn = multiply(hips_rotations, conjugate(hips_match_rotation))
+    yaw = smooth(heading(turn), sigma_frames)
+    moved = smooth(hips_heads - hips_match_head, sigma_frames)
+    moved[:, 2] = 0.0  # on the floor: the hips keep their height and sway
+    return continuous(multiply(about_z(yaw), root_match_rotation)), root_match_head + moved
+
+
+def copy_track(source_rotations, source_heads, source_match_rotation, source_match_head, space,
+               root_match_rotation, root_match_head, scale: float, horizontal: bool, vertical: bool):
+    """The floor root moved as the source's floor root moved from its match pose, carried into target
+    space by `space` (4,) and scaled; horizontal/vertical False keep that part of the match pose."""
+    turn = multiply(multiply(space, multiply(source_rotations, conjugate(source_match_rotation))), conjugate(space))
+    moved = scale * rotate(space, source_heads - source_match_head)
+    if not horizontal:
+        moved[:, :2] = 0.0
+    if not vertical:
+        moved[:, 2] = 0.0
+    return continuous(multiply(turn, root_match_rotation)), root_match_head + moved
+
+
+def carry(rest: FloorRootRest, root_rotations, root_heads, root_parent_pose, hips_parent_pose, hips_rotations,
+          hips_heads):
+    """The floor root's channels that put it at root_rotations/root_heads, and the hips' channels that keep
+    the hips where they were (hips_rotations/hips_heads, armature space).
+
+    root_parent_pose: (rotations, heads) of the floor root's parent (None for a top bone).
+    hips_parent_pose: a callable (root basis, root location) -> (rotations, heads) of the hips' parent with
+    the floor root so posed (the parent is the floor root itself, or a bone between them).
+    Returns (root basis, root location, hips basis, hips location), each (n, 4) or (n, 3).
+    """
+    parent_rotations, parent_heads = root_parent_pose if root_parent_pose is not None else (None, None)
+    root_basis, root_location = _local(rest, rest.root, rest.root_parent, parent_rotations, parent_heads,
+                                       root_rotations, root_heads)
+    root_basis = continuous(root_basis)
+    parent_rotations, parent_heads = hips_parent_pose(root_basis, root_location)
+    hips_basis, hips_location = _local(rest, rest.hips, rest.hips_parent, parent_rotations, parent_heads,
+                                       hips_rotations, hips_heads)
+    return root_basis, root_location, continuous(hips_basis), hips_location
