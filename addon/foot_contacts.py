@@ -241,13 +241,27 @@ def plant_targets(points, contacts, blend_frames: int, rigid_pairs=()) -> tuple[
 
 def foot_targets(points, targets, weights, feet=((0, 1), (2, 3))) -> np.ndarray:
     """IK targets (frames, P, 3) that blend each point to its plant by its weight and carry a point that
-    is not (fully) planted along with its foot's other point, so that a rigid foot can meet both:
+    is not (fully) planted along with its foot's other point:
     target_p = point_p + w_p (plant_p - point_p) + (1 - w_p) w_q (plant_q - point_q).
-    With every weight 0 the targets are the points themselves."""
+    Then each foot's two targets are put the distance apart that its two points keep on that frame, the
+    correction shared in proportion to 1 - w (a planted point does not move), so that a rigid foot can
+    meet both: otherwise, while one point ramps out and the other holds, the targets would ask the foot
+    to stretch and the solver would miss both. With every weight 0 the targets are the points themselves."""
     points = np.asarray(points, dtype=np.float64)
+    weights = np.asarray(weights, dtype=np.float64)
     offsets = weights[..., None] * (np.asarray(targets) - points)
     out = points + offsets
     for a, b in feet:
         out[:, a] += (1.0 - weights[:, a, None]) * offsets[:, b]
         out[:, b] += (1.0 - weights[:, b, None]) * offsets[:, a]
+        distance = np.linalg.norm(points[:, b] - points[:, a], axis=1)
+        span = out[:, b] - out[:, a]
+        length = np.linalg.norm(span, axis=1)
+        unit = np.divide(span, length[:, None], out=np.zeros_like(span), where=length[:, None] > 0)
+        free_a, free_b = 1.0 - weights[:, a], 1.0 - weights[:, b]
+        total = free_a + free_b
+        share_a = np.divide(free_a, total, out=np.full_like(total, 0.5), where=total > 0)
+        excess = (length - distance)[:, None] * unit  # b is this much too far from a
+        out[:, a] += share_a[:, None] * excess
+        out[:, b] -= (1.0 - share_a)[:, None] * excess
     return out

@@ -1,0 +1,519 @@
+"""Planted feet in Blender: foot contacts stored on the action, and footskate cleanup with full-body IK.
+
+Foot points, always in this order: POINTS = [L ankle, L ball, R ankle, R ball].
+The ankle is the shin's tail, the ball the foot bone's tail (Blender's IK tip,
+where ik_solve's effectors sit).
+
+The cleanup (Kovar, Schreiner, Gleicher 2002): per contact one plant position
+(foot_contacts.plant_positions), IK targets blended from the plain pose's
+points to the plants (foot_contacts.foot_targets), and the whole clip solved in
+one native call (native/include/motionkit/ik.hpp) on a small rig made of the
+hips and the two legs: the hips' translation, thighs, shins and feet are the
+only unknowns, so every other bone keeps its rotation exactly. Knees are hinges
+limited to the plain clip's own range of twist and side swing and to
+flexion no less than the plain clip's least, so that they never bend
+backwards or hyper-extend further than the input did; where a plant cannot
+be reached the solver gives the closest pose within those limits.
+
+Contacts live where an animator sees and edits them: one F-curve per foot
+point on the armature's action, a custom property of the foot's pose bone
+(pose.bones["foot.L"]["motionkit_contact_heel"], ["motionkit_contact_ball"]),
+0/1 with constant interpolation. Everything goes through motionkit.animdata.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import bpy
+import numpy as np
+
+from . import animdata, native_state, pose_channels, rotation_channels
+from .foot_contacts import ContactSettings, all_intervals, detect as detect_contacts, foot_targets, plant_targets
+
+SIDES = ("L", "R")
+POINTS = ("L ankle", "L ball", "R ankle", "R ball")
+PROPERTIES = ("motionkit_contact_heel", "motionkit_contact_ball")  # per foot: ankle, ball
+_RIGID = ((0, 1), (2, 3))  # each foot's two points, a bone's length apart
+_SOLVE_OPTIONS = {}  # overrides of the solver's options (experiments)
+_KNEE_SLACK = 0.0  # radians of twist and side swing beyond the clip's own range
+
+
+@dataclass
+class Foot:
+    """One leg's bones, by name. toe may be None (the ball is the foot bone's tail either way)."""
+    side: str
+    thigh: str
+    shin: str
+    foot: str
+    toe: str | None = None
+
+
+@dataclass
+class Report:
+    frames: np.ndarray                      # Blender frames
+    contacts: np.ndarray                    # (frames, 4) bool, POINTS order
+    intervals: list = field(default_factory=list)  # per point, [(first frame, last frame)] in Blender frames
+    source: str = "detected"                # "detected", "given" or "curves"
+    errors: np.ndarray | None = None        # (frames, 4) distance of each point from its IK target, armature units
+    max_error: np.ndarray | None = None     # (4,) the worst of errors per point
+    iterations: int = 0                     # total IK iterations over the clip
+    seconds: float = 0.0                    # the cleanup (targets, solve, conversion), not the file I/O
+    solve_seconds: float = 0.0              # the native call alone
+    knee_axes: dict = field(default_factory=dict)  # side -> "flexion" (from the clip) or "foot" (fallback)
+    bones: list = field(default_factory=list)      # bones whose channels the cleanup changed
+
+
+# ---------------------------------------------------------------------------
+# Quaternion helpers (w x y z, batched)
+
+def _mul(a, b):
+    return rotation_channels.multiply(a, b)
+
+
+def _conj(q):
+    return rotation_channels.conjugate(q)
+
+
+def _rotate(q, v):
+    """Vectors v (..., 3) turned by unit quaternions q (..., 4)."""
+    w, u = q[..., :1], q[..., 1:]
+    t = 2.0 * np.cross(u, v)
+    return v + w * t + np.cross(u, t)
+
+
+def _about_y(angle):
+    angle = np.asarray(angle, dtype=np.float64)
+    return np.stack([np.cos(angle / 2), np.zeros_like(angle), np.sin(angle / 2), np.zeros_like(angle)], axis=-1)
+
+
+def _swing_twist(q):
+    """(swing x, twist, swing z) of basis rotations q (n, 4), as the IK's limits read them."""
+    q = q * np.where(q[:, :1] < 0, -1.0, 1.0)
+    twist = np.stack([q[:, 0], np.zeros(len(q)), q[:, 2], np.zeros(len(q))], axis=1)
+    norm = np.linalg.norm(twist, axis=1, keepdims=True)
+    twist = np.where(norm > 1e-12, twist / np.maximum(norm, 1e-300), [1.0, 0, 0, 0])
+    swing = _mul(q, _conj(twist))
+    swing *= np.where(swing[:, :1] < 0, -1.0, 1.0)
+    half = np.arctan2(np.linalg.norm(swing[:, 1:], axis=1), swing[:, 0])
+    scale = np.where(half > 1e-12, 2 * half / np.maximum(np.sin(half), 1e-300), 2.0)
+    angle = 2 * np.arctan2(twist[:, 2], twist[:, 0])
+    angle = (angle + np.pi) % (2 * np.pi) - np.pi
+    return np.stack([swing[:, 1] * scale, angle, swing[:, 3] * scale], axis=1)
+
+
+# ---------------------------------------------------------------------------
+# Legs
+
+def find_feet(obj) -> list[Foot]:
+    """The two legs of an armature from MotionKit's bone map (labels thigh.L, shin.L, foot.L, toe.L, ...)."""
+    from . import bone_mapping, retargeting  # retargeting may import this module
+    body = bone_mapping.classify(retargeting.mapping_rig(obj))
+    feet = []
+    for side in SIDES:
+        names = {part: body.limbs.get(f"{part}.{side}") for part in ("thigh", "shin", "foot", "toe")}
+        missing = [part for part in ("thigh", "shin", "foot") if not names[part]]
+        if missing:
+            raise ValueError(f"foot {side}: '{obj.name}' has no {', '.join(missing)} bone that MotionKit "
+                             f"recognises (found {', '.join(f'{k}={v}' for k, v in names.items() if v) or 'none'})")
+        feet.append(Foot(side, names["thigh"], names["shin"], names["foot"], names["toe"]))
+    return feet
+
+
+def _as_feet(feet) -> list[Foot]:
+    out = []
+    for side, foot in zip(SIDES, feet):
+        if isinstance(foot, Foot):
+            out.append(foot)
+        else:
+            thigh, shin, foot_bone, *toe = foot
+            out.append(Foot(side, thigh, shin, foot_bone, toe[0] if toe else None))
+    if len(out) != 2:
+        raise ValueError(f"feet: expected two legs (L, R), got {len(out)}")
+    return out
+
+
+def _leg_indices(bones, feet: list[Foot]) -> list[tuple[int, int, int]]:
+    index = {b.name: i for i, b in enumerate(bones)}
+    out = []
+    for foot in feet:
+        chain = []
+        for part in ("thigh", "shin", "foot"):
+            name = getattr(foot, part)
+            if name not in index:
+                raise ValueError(f"foot {foot.side}: {part} bone '{name}' is not in the armature")
+            chain.append(index[name])
+        for child, parent in ((foot.shin, foot.thigh), (foot.foot, foot.shin)):
+            bone = bones[index[child]]
+            if bone.parent is None or bone.parent.name != parent:
+                raise ValueError(f"foot {foot.side}: bone '{child}' is not a child of '{parent}'")
+        out.append(tuple(chain))
+    return out
+
+
+def _hips(bones, legs) -> int:
+    """The thighs' nearest common ancestor: the bone whose translation carries the body."""
+    index = {b.name: i for i, b in enumerate(bones)}
+    parent = {i: (index[b.parent.name] if b.parent else -1) for i, b in enumerate(bones)}
+    paths = []
+    for thigh, _, _ in legs:
+        path, i = [], parent[thigh]
+        while i >= 0:
+            path.append(i)
+            i = parent[i]
+        paths.append(path)
+    common = [i for i in paths[0] if i in paths[1]]
+    if not common:
+        raise ValueError(f"the thighs '{bones[legs[0][0]].name}' and '{bones[legs[1][0]].name}' share no "
+                         "parent: no hips to move")
+    return common[0]
+
+
+# ---------------------------------------------------------------------------
+# Contacts on the action
+
+def contact_channels(feet) -> list[tuple[str, int, str]]:
+    """The contact F-curves' channels, in POINTS order."""
+    out = []
+    for foot in _as_feet(feet):
+        path = f'pose.bones["{bpy.utils.escape_identifier(foot.foot)}"]'
+        out += [(f'{path}["{prop}"]', 0, foot.foot) for prop in PROPERTIES]
+    return out
+
+
+def read_contacts(obj, action, feet, frames) -> np.ndarray | None:
+    """The stored contacts (frames, 4) bool on the given Blender frames, or None when the action has no
+    contact curve. A missing curve (of four) reads as no contact."""
+    if action is None:
+        return None
+    frames = np.asarray(frames, dtype=np.float64)
+    out = np.zeros((frames.size, len(POINTS)), dtype=bool)
+    found = False
+    for p, (path, index, _) in enumerate(contact_channels(feet)):
+        fcurve = animdata.find_fcurve(action, obj, path, index)
+        if fcurve is None or not len(fcurve.keyframe_points):
+            continue
+        found = True
+        times, values = animdata.read_keys(fcurve)
+        order = np.argsort(times, kind="stable")
+        times, values = times[order].astype(np.float64), values[order]
+        # Constant interpolation: each frame takes the last key at or before it (the first key before).
+        at = np.clip(np.searchsorted(times, frames + 1e-4, side="right") - 1, 0, None)
+        out[:, p] = values[at] > 0.5
+    return out if found else None
+
+
+def _contact_keys(frames, contacts):
+    """Keys only where a contact curve changes (and on the first frame): (frames, values (4, n))."""
+    change = np.ones(frames.size, dtype=bool)
+    change[1:] = np.any(contacts[1:] != contacts[:-1], axis=1)
+    return frames[change], contacts[change].T.astype(np.float64)
+
+
+def write_contacts(obj, action, feet, frames, contacts) -> list:
+    """Store contacts (frames, 4) as 0/1 constant F-curves on the foot bones' custom properties."""
+    frames = np.asarray(frames, dtype=np.float64)
+    contacts = np.asarray(contacts, dtype=bool)
+    if contacts.shape != (frames.size, len(POINTS)):
+        raise ValueError(f"contacts must have shape ({frames.size}, {len(POINTS)}), not {contacts.shape}")
+    feet = _as_feet(feet)
+    for foot in feet:
+        if foot.foot not in obj.pose.bones:
+            raise ValueError(f"foot {foot.side}: bone '{foot.foot}' is not in '{obj.name}'")
+    key_frames, values = _contact_keys(frames, contacts)
+    created = []
+    try:
+        for foot in feet:
+            pose_bone = obj.pose.bones[foot.foot]
+            for prop in PROPERTIES:
+                # The property must exist for the Graph Editor to show (and Blender to evaluate) the curve.
+                if prop not in pose_bone.keys():
+                    pose_bone[prop] = 0.0
+                    created.append((pose_bone, prop))
+        return animdata.write_keys(obj, action, contact_channels(feet), key_frames, values,
+                                   interpolation='CONSTANT')
+    except BaseException:
+        for pose_bone, prop in created:
+            del pose_bone[prop]
+        raise
+
+
+# ---------------------------------------------------------------------------
+# The cleanup
+
+def _knee_roll(shin_basis, shin_world, foot_dir_world) -> tuple[float, str]:
+    """The roll r about the shin's Y axis that turns its flexion axis onto +X (so that flexion is +x
+    in the IK's limits), from the plain clip's knee swings; from the foot's direction when the clip
+    hardly bends the knee."""
+    angles = _swing_twist(shin_basis)
+    swing = angles[:, [0, 2]]
+    if np.max(np.linalg.norm(swing, axis=1)) > 0.3:
+        _, vectors = np.linalg.eigh(swing.T @ swing)
+        axis = vectors[:, -1]
+        if np.mean(swing @ axis) < 0:
+            axis = -axis
+        how = "flexion"
+    else:
+        # Flexion swings the shin's tail backwards, away from where the foot points: about forward x Y.
+        forward = _rotate(_conj(shin_world), foot_dir_world)  # in the shin's own frame
+        axis3 = np.cross(forward, [0.0, 1.0, 0.0]).mean(axis=0)
+        axis = axis3[[0, 2]]
+        how = "foot"
+    if np.linalg.norm(axis) < 1e-9:
+        return 0.0, "none"
+    return float(np.arctan2(-axis[1], axis[0])), how
+
+
+def _blender_frame(frames, f) -> str:
+    return f"{frames[f]:g}"
+
+
+def cleanup(obj, bones, rig, frames, rotations, locations, feet, contacts=None,
+            settings: ContactSettings | None = None, *, hips: str | None = None, fps: float | None = None):
+    """Footskate cleanup of a pose sequence; returns (rotations, locations, Report). Changes nothing in
+    the file.
+
+    obj: the armature object (its matrix_world places the floor; Z up).
+    bones, rig: the depth-first bone list and native rig (pose_channels.native_rig(obj.data)).
+    frames: (F,) Blender frames. rotations (F, 4B) pose-basis quaternions w x y z, locations (F, 3B)
+    pose location channels, both in the order of bones.
+    feet: per side L, R a Foot or (thigh, shin, foot, toe or None) bone names.
+    contacts: (F, 4) bool in POINTS order, or None to detect them on this pose sequence.
+    hips: the bone whose location channel carries the body (default: the thighs' common parent).
+    fps: for detection and blend lengths (default the scene's).
+    Only the thighs', shins' and feet's rotations and the hips' location change.
+    Raises ValueError naming the foot, bone and Blender frame.
+    """
+    started = time.perf_counter()
+    native = native_state.native()
+    settings = settings or ContactSettings()
+    settings.validate()
+    feet = _as_feet(feet)
+    frames = np.asarray(frames, dtype=np.float64)
+    count, nb = frames.size, len(bones)
+    rotations = np.ascontiguousarray(rotations, dtype=np.float64)
+    locations = np.ascontiguousarray(locations, dtype=np.float64)
+    if rotations.shape != (count, 4 * nb) or locations.shape != (count, 3 * nb):
+        raise ValueError(f"rotations and locations must be ({count}, {4 * nb}) and ({count}, {3 * nb}), "
+                         f"not {rotations.shape} and {locations.shape}")
+    if fps is None:
+        fps = bpy.context.scene.render.fps / bpy.context.scene.render.fps_base
+    legs = _leg_indices(bones, feet)
+    hip = _hips(bones, legs) if hips is None else next(
+        (i for i, b in enumerate(bones) if b.name == hips), None)
+    if hip is None:
+        raise ValueError(f"hips bone '{hips}' is not in the armature")
+    for foot, chain in zip(feet, legs):
+        for b in chain + (hip,):
+            bad = ~np.isfinite(rotations[:, 4 * b:4 * b + 4]).all(axis=1) | \
+                ~np.isfinite(locations[:, 3 * b:3 * b + 3]).all(axis=1)
+            if bad.any():
+                raise ValueError(f"foot {foot.side}: bone '{bones[b].name}' has a non-finite pose at frame "
+                                 f"{_blender_frame(frames, np.flatnonzero(bad)[0])}")
+    if bones[hip].use_connect:
+        raise ValueError(f"hips bone '{bones[hip].name}' is connected to its parent: its location cannot move")
+
+    # The plain pose in armature space, and the foot points.
+    orient, heads = native.armature_pose(rig, rotations, locations)
+    orient = orient.reshape(count, nb, 4)
+    heads = heads.reshape(count, nb, 3)
+    lengths = np.array([b.length for b in bones])
+    point_bones = [b for _, shin, foot in legs for b in (shin, foot)]
+    points = heads[:, point_bones] + _rotate(orient[:, point_bones],
+                                             np.stack([np.zeros(4), lengths[point_bones], np.zeros(4)], 1))
+    world = np.array(obj.matrix_world)
+    world_points = points @ world[:3, :3].T + world[:3, 3]
+    scale = float(np.cbrt(abs(np.linalg.det(world[:3, :3]))))
+    leg_length = scale * float(np.mean([lengths[t] + lengths[s] for t, s, _ in legs]))
+
+    if contacts is None:
+        contacts = detect_contacts(world_points, fps, leg_length, 0.0, settings)
+        source = "detected"
+    else:
+        contacts = np.asarray(contacts, dtype=bool)
+        if contacts.shape != (count, len(POINTS)):
+            raise ValueError(f"contacts must have shape ({count}, {len(POINTS)}), not {contacts.shape}")
+        source = "given"
+    planted, weights = plant_targets(world_points, contacts, settings.blend_frames(fps), _RIGID)
+    targets_world = foot_targets(world_points, planted, weights, _RIGID)
+    inverse = np.linalg.inv(world)
+    targets = targets_world @ inverse[:3, :3].T + inverse[:3, 3]
+
+    # The solve's rig: the hips (parentless: its armature pose becomes its basis and location), the
+    # bones from the hips to each thigh (held), and the legs, each shin rolled so its knee bends about X.
+    index = {b.name: i for i, b in enumerate(bones)}
+    between = set()
+    for thigh, _, _ in legs:
+        b = bones[thigh].parent
+        while b is not None and b.name != bones[hip].name:
+            between.add(index[b.name])
+            b = b.parent
+    part = [hip] + sorted(between) + [b for chain in legs for b in chain]
+    part.sort(key=lambda i: (i != hip, i))  # bones is depth-first: parents stay before children
+    local = {b: k for k, b in enumerate(part)}
+    rest = pose_channels.rest_quaternions(obj.data)
+    rest_q = np.array([rest[bones[b].name] for b in part])
+    rest_q /= np.linalg.norm(rest_q, axis=1, keepdims=True)
+    rest_heads = np.array([bones[b].head_local for b in part], dtype=np.float64)
+    basis = rotations.reshape(count, nb, 4)[:, part].copy()
+    # Hips: basis = rest^-1 * posed orientation, location so that rest head + rest * location = head.
+    hip_orient = orient[:, hip] / np.linalg.norm(orient[:, hip], axis=1, keepdims=True)
+    basis[:, 0] = _mul(_conj(rest_q[0]), hip_orient)
+    hip_loc = _rotate(_conj(np.broadcast_to(rest_q[0], (count, 4))), heads[:, hip] - rest_heads[0])
+    rolls = {}
+    report = Report(frames, contacts, source=source)
+    for foot, (thigh, shin, foot_bone) in zip(feet, legs):
+        foot_dir = points[:, 2 * SIDES.index(foot.side) + 1] - points[:, 2 * SIDES.index(foot.side)]
+        roll, how = _knee_roll(basis[:, local[shin]], orient[:, shin], foot_dir)
+        report.knee_axes[foot.side] = how
+        rolls[shin] = roll
+        k = local[shin]
+        rest_q[k] = _mul(rest_q[k], _about_y(roll))
+        basis[:, k] = _mul(_mul(_about_y(-roll), basis[:, k]), _about_y(roll))
+    names = [bones[b].name for b in part]
+    solve_rig = native.Rig(names, [local[index[bones[b].parent.name]] if b != hip else -1 for b in part],
+                           rest_q, rest_heads, lengths[part])
+
+    nb_part = len(part)
+    limit_min = np.full((nb_part, 3), -np.inf)
+    limit_max = np.full((nb_part, 3), np.inf)
+    excluded = np.zeros(nb_part, dtype=bool)
+    excluded[[local[b] for b in between]] = True
+    margin = 1e-6
+    for shin in rolls:
+        k = local[shin]
+        angles = _swing_twist(basis[:, k])
+        low, high = angles.min(axis=0) - margin, angles.max(axis=0) + margin
+        # Flexion (x) never below the plain clip's least (nor 0 if it never straightens): no backward
+        # bend, no more hyper-extension than the input has; up to a deep bend. Twist and side swing
+        # stay within what the clip does.
+        slack = _KNEE_SLACK
+        limit_min[k] = [min(low[0], 0.0), low[1] - slack, low[2] - slack]
+        limit_max[k] = [max(high[0], 2.6), high[1] + slack, high[2] + slack]
+    effectors = [{"name": f"foot {foot.side} {what} ('{bones[b].name}' tail)", "bone": local[b], "weight": 1.0}
+                 for foot, (_, shin, foot_bone) in zip(feet, legs)
+                 for what, b in (("ankle", shin), ("ball", foot_bone))]
+    rest_points = np.array([(b.head_local, b.tail_local) for b in bones], dtype=np.float64).reshape(-1, 3)
+    size = float(np.linalg.norm(np.ptp(rest_points, axis=0)))
+    solve_started = time.perf_counter()
+    try:
+        solved = native.ik_solve(
+            solve_rig, np.ascontiguousarray(basis.reshape(count, -1)), np.ascontiguousarray(hip_loc),
+            np.ascontiguousarray(targets.reshape(count, -1)), np.zeros((count, 0)), effectors,
+            limit_min=limit_min, limit_max=limit_max, excluded=excluded,
+            **{"method": "dls", "max_iterations": 64, "tolerance": 1e-6 * size, "reference": "input",
+               **_SOLVE_OPTIONS},
+            root_translation=True, root_rotation=False, warm_start=False, size=size, threads=1)
+    except ValueError as error:
+        # The native message names the effector (foot, bone) and the frame index: give the Blender frame.
+        raise ValueError(f"foot cleanup on '{obj.name}' (frames {frames[0]:g}..{frames[-1]:g}, frame index "
+                         f"i is Blender frame {frames[0]:g} + i): {error}") from None
+    report.solve_seconds = time.perf_counter() - solve_started
+
+    out_rot = rotations.copy()
+    out_loc = locations.copy()
+    solved_basis = solved["rotations"].reshape(count, nb_part, 4)
+    for shin, roll in rolls.items():
+        k = local[shin]
+        solved_basis[:, k] = _mul(_mul(_about_y(roll), solved_basis[:, k]), _about_y(-roll))
+    changed = [b for chain in legs for b in chain]
+    for b in changed:
+        q = solved_basis[:, local[b]]
+        q = q / np.linalg.norm(q, axis=1, keepdims=True)
+        # Keep each bone's hemisphere as the input had it, so that quaternion curves do not flip.
+        q *= np.where(np.einsum("fk,fk->f", q, rotations[:, 4 * b:4 * b + 4]) < 0, -1.0, 1.0)[:, None]
+        out_rot[:, 4 * b:4 * b + 4] = q
+    # The hips' move, from the solve's location (in its rest frame) to its own location channel: the
+    # channel is applied in the bone's posed frame less its own basis rotation.
+    moved = _rotate(np.broadcast_to(rest_q[0], (count, 4)), solved["root_locations"] - hip_loc)
+    hip_basis = rotations[:, 4 * hip:4 * hip + 4]
+    frame = _mul(hip_orient, _conj(hip_basis / np.linalg.norm(hip_basis, axis=1, keepdims=True)))
+    out_loc[:, 3 * hip:3 * hip + 3] += _rotate(_conj(frame), moved)
+    if not (np.isfinite(out_rot).all() and np.isfinite(out_loc).all()):
+        bad = np.flatnonzero(~(np.isfinite(out_rot).all(axis=1) & np.isfinite(out_loc).all(axis=1)))[0]
+        raise ValueError(f"foot cleanup on '{obj.name}': the IK solution is not finite at frame "
+                         f"{_blender_frame(frames, bad)}")
+    report.errors = solved["errors"]
+    report.max_error = solved["errors"].max(axis=0) if count else np.zeros(len(POINTS))
+    report.iterations = int(solved["iterations"].sum())
+    report.intervals = [[(frames[s], frames[e - 1]) for s, e in runs] for runs in all_intervals(contacts)]
+    report.bones = [bones[hip].name] + [bones[b].name for b in changed]
+    report.seconds = time.perf_counter() - started
+    return out_rot, out_loc, report
+
+
+# ---------------------------------------------------------------------------
+# Fix foot sliding on any armature's action
+
+def _frames(action, frame_range) -> np.ndarray:
+    if frame_range is None:
+        start, end = action.frame_range
+    else:
+        start, end = frame_range
+    start, end = int(np.floor(start + 1e-6)), int(np.ceil(end - 1e-6))
+    if end < start:
+        raise ValueError(f"frame range {start}..{end} is empty")
+    return np.arange(start, end + 1, dtype=np.float64)
+
+
+def _channels(obj, bones, names, rotations, locations, hip):
+    """Channels and values (c, frames) for the changed bones' rotations (each in its rotation mode) and
+    the hips' location."""
+    native = native_state.native()
+    index = {b.name: i for i, b in enumerate(bones)}
+    channels, rows = [], []
+    path = f'pose.bones["{bpy.utils.escape_identifier(hip)}"]'
+    channels += [(f"{path}.location", k, hip) for k in range(3)]
+    rows.append(locations[:, 3 * index[hip]:3 * index[hip] + 3].T)
+    for name in names:
+        pose_bone = obj.pose.bones[name]
+        path = f'pose.bones["{bpy.utils.escape_identifier(name)}"]'
+        mode = pose_bone.rotation_mode
+        prop, size = rotation_channels.channel_property(mode)
+        previous = np.array(tuple(getattr(pose_bone, prop)), dtype=np.float64)
+        q = np.ascontiguousarray(rotations[:, 4 * index[name]:4 * index[name] + 4])
+        values = rotation_channels.from_quaternions(native, mode, q, previous=previous)
+        channels += [(f"{path}.{prop}", k, name) for k in range(size)]
+        rows.append(values.reshape(-1, size).T)
+    return channels, np.vstack(rows)
+
+
+def plant(armature, frame_range=None, settings: ContactSettings | None = None, detect: bool = True, *,
+          redetect: bool = False, feet=None, fps: float | None = None) -> Report:
+    """Fix foot sliding on an armature's action: contacts (the action's contact curves when it has them,
+    else detected on the armature itself and stored as curves), cleanup, keys written back into the
+    action. Returns a Report.
+
+    frame_range: (start, end) Blender frames, default the action's. detect=False refuses to detect (the
+    stored curves must exist); redetect=True detects even when curves exist (and replaces them).
+    feet: [Foot L, Foot R] or bone-name tuples, default found by MotionKit's bone map.
+    fps: the clip's frame rate, default the scene's (import captures with update_scene_fps=True, or the
+    speeds are those of the clip as the scene plays it).
+    Everything is computed before anything changes; a ValueError changes nothing.
+    """
+    obj = armature
+    if obj is None or not isinstance(obj, bpy.types.Object) or obj.type != 'ARMATURE':
+        raise ValueError(f"'{getattr(obj, 'name', obj)}' is not an armature object")
+    action = animdata.assigned_action(obj)
+    if action is None:
+        raise ValueError(f"'{obj.name}' has no action to clean up")
+    feet = _as_feet(feet) if feet is not None else find_feet(obj)
+    frames = _frames(action, frame_range)
+    rig, bones = pose_channels.native_rig(obj.data)
+    rotations = pose_channels.rotations(obj, action, bones, frames)
+    locations, _ = pose_channels.locations(obj, action, bones, frames)
+    stored = None if redetect else read_contacts(obj, action, feet, frames)
+    if stored is None and not detect:
+        raise ValueError(f"'{obj.name}': action '{action.name}' has no contact curves and detect=False")
+    out_rot, out_loc, report = cleanup(obj, bones, rig, frames, rotations, locations, feet, stored, settings,
+                                       fps=fps)
+    if stored is not None:
+        report.source = "curves"
+    hip = report.bones[0]
+    channels, values = _channels(obj, bones, report.bones[1:], out_rot, out_loc, hip)
+    if not np.isfinite(values).all():
+        raise ValueError(f"foot cleanup on '{obj.name}': the keys are not finite")
+    if stored is None:
+        write_contacts(obj, action, feet, frames, report.contacts)
+    animdata.write_keys(obj, action, channels, frames, values)
+    return report

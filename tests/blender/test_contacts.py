@@ -1,0 +1,240 @@
+"""motionkit.contacts: foot contacts on the action and footskate cleanup, checked with Blender's own
+evaluation (scene.frame_set and the pose bones' heads and tails) on every real capture."""
+import glob
+import importlib
+import os
+import time
+
+import bpy
+import numpy as np
+import pytest
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+BVH = os.path.join(os.path.dirname(ROOT), "shared", "data", "bvh")
+CLIPS = sorted(os.path.relpath(p, BVH) for p in glob.glob(os.path.join(BVH, "*.bvh"))
+               + glob.glob(os.path.join(BVH, "more", "*.bvh")))
+MM = {"more/bandai_dash_normal_001.bvh": 0.1}  # armature units per millimetre (that file is in cm)
+
+
+@pytest.fixture(scope="module")
+def contacts(mk):
+    return importlib.import_module(mk.__name__ + ".contacts")
+
+
+@pytest.fixture(scope="module")
+def pose_channels(mk):
+    return importlib.import_module(mk.__name__ + ".pose_channels")
+
+
+def load(mk, path, name=None):
+    obj, action = mk.bvh.load(path, name=name, update_scene_fps=True)
+    return obj, action
+
+
+def frames_of(action):
+    start, end = action.frame_range
+    return np.arange(int(start), int(end) + 1)
+
+
+def evaluated(obj, frames):
+    """World heads and tails of every pose bone (frames, bones, 2, 3), by Blender's depsgraph."""
+    scene = bpy.context.scene
+    world = np.array(obj.matrix_world)
+    names = [b.name for b in obj.pose.bones]
+    out = np.empty((len(frames), len(names), 2, 3))
+    for i, f in enumerate(frames):
+        scene.frame_set(int(f))
+        for j, pose_bone in enumerate(obj.pose.bones):
+            out[i, j, 0] = pose_bone.head
+            out[i, j, 1] = pose_bone.tail
+    return out @ world[:3, :3].T + world[:3, 3], names
+
+
+def channels(obj, pose_channels, frames):
+    action = obj.animation_data.action
+    bones = pose_channels.depth_first(obj.data)
+    rotations = pose_channels.rotations(obj, action, bones, frames.astype(np.float64))
+    locations, _ = pose_channels.locations(obj, action, bones, frames.astype(np.float64))
+    return [b.name for b in bones], rotations, locations
+
+
+def knee_flexion(points, names, feet):
+    """Per foot the knee's signed flexion (frames,): the angle from the thigh to the shin about the plain
+    clip's knee axis, taken in the thigh's frame of reference (the mean of cross(thigh, shin))."""
+    out = []
+    for foot in feet:
+        t = points[:, names.index(foot.thigh)]
+        s = points[:, names.index(foot.shin)]
+        thigh = t[:, 1] - t[:, 0]
+        shin = s[:, 1] - s[:, 0]
+        out.append((thigh, shin))
+    return out
+
+
+def signed_angles(thigh, shin, axis):
+    cross = np.cross(thigh, shin)
+    return np.arctan2(np.einsum("fk,fk->f", cross, axis), np.einsum("fk,fk->f", thigh, shin))
+
+
+@pytest.mark.parametrize("clip", CLIPS)
+def test_plant_holds_every_contact_on_real_capture(mk, contacts, pose_channels, clip, shared_dir):
+    obj, action = load(mk, os.path.join(BVH, clip))
+    frames = frames_of(action)
+    mm = MM.get(clip, 0.001)
+    plain, names = evaluated(obj, frames)
+    names_before, rot_before, loc_before = channels(obj, pose_channels, frames)
+    started = time.perf_counter()
+    report = contacts.plant(obj)
+    elapsed = time.perf_counter() - started
+    after, _ = evaluated(obj, frames)
+    names_after, rot_after, loc_after = channels(obj, pose_channels, frames)
+    feet = contacts.find_feet(obj)
+
+    # Each detected contact: the point moves at most 1 mm.
+    worst = 0.0
+    point_bones = [b for foot in feet for b in (foot.shin, foot.foot)]
+    for p, runs in enumerate(report.intervals):
+        j = names.index(point_bones[p])
+        for first, last in runs:
+            track = after[int(first - frames[0]):int(last - frames[0]) + 1, j, 1]
+            worst = max(worst, float(np.max(np.linalg.norm(track - track[0], axis=1))))
+    assert sum(len(r) for r in report.intervals) >= 2, report.intervals
+    assert worst <= 1.0 * mm, f"{clip}: a contact slides {worst / mm:.3f} mm"
+
+    # Only the legs' rotations and the hips' location changed; everything else equals the input.
+    assert names_before == names_after
+    changed = set(report.bones[1:])
+    for j, name in enumerate(names_before):
+        if name not in changed:
+            assert np.max(np.abs(rot_after[:, 4 * j:4 * j + 4] - rot_before[:, 4 * j:4 * j + 4])) <= 1e-9, name
+        if name != report.bones[0]:
+            assert np.max(np.abs(loc_after[:, 3 * j:3 * j + 3] - loc_before[:, 3 * j:3 * j + 3])) <= 1e-9, name
+
+    # No popping: the largest frame-to-frame joint move at most 1.5 times the input's.
+    plain_move = np.max(np.linalg.norm(np.diff(plain, axis=0), axis=-1))
+    after_move = np.max(np.linalg.norm(np.diff(after, axis=0), axis=-1))
+    ratio = after_move / plain_move
+    assert ratio <= 1.5, f"{clip}: largest joint move {ratio:.3f} x the input's"
+
+    # No knee bends backwards: its signed flexion about the plain clip's knee axis never goes below the
+    # plain clip's least (nor below 0 where the plain never straightens).
+    for foot, (thigh, shin), (thigh2, shin2) in zip(feet, knee_flexion(plain, names, feet),
+                                                   knee_flexion(after, names, feet)):
+        axis = np.cross(thigh, shin)
+        bent = np.linalg.norm(axis, axis=1) > 0.05 * np.linalg.norm(thigh, axis=1) * np.linalg.norm(shin, axis=1)
+        mean_axis = axis[bent].mean(axis=0) if bent.any() else axis.mean(axis=0)
+        # Per frame, the knee axis as the thigh carries it (turn the mean axis with the thigh).
+        mean_axis /= np.linalg.norm(mean_axis)
+        axes = np.cross(np.cross(thigh, mean_axis), thigh)
+        axes = -axes / np.linalg.norm(axes, axis=1, keepdims=True)
+        axes = np.where(np.einsum("fk,k->f", axes, mean_axis)[:, None] < 0, -axes, axes)
+        before_angle = signed_angles(thigh, shin, axes)
+        after_angle = signed_angles(thigh2, shin2, axes)
+        least = min(float(before_angle.min()), 0.0)
+        assert after_angle.min() >= least - np.radians(1.0), \
+            f"{clip}: knee {foot.side} bends {np.degrees(least - after_angle.min()):.2f} deg backwards"
+
+    # The contacts are on the action as 0/1 constant curves, and read back the same.
+    for path, index, _ in contacts.contact_channels(feet):
+        fcurve = mk.animdata.find_fcurve(obj.animation_data.action, obj, path, index)
+        assert fcurve is not None, path
+        assert all(k.interpolation == 'CONSTANT' for k in fcurve.keyframe_points)
+    stored = contacts.read_contacts(obj, obj.animation_data.action, feet, frames)
+    assert np.array_equal(stored, report.contacts)
+    print(f"\n{clip}: {len(frames)} frames, contacts {[len(r) for r in report.intervals]}, worst slide "
+          f"{worst / mm:.4f} mm, max joint move ratio {ratio:.3f}, cleanup {report.seconds * 1000:.1f} ms "
+          f"(solve {report.solve_seconds * 1000:.1f} ms, {report.iterations} iterations), plant() "
+          f"{elapsed * 1000:.1f} ms, knees {report.knee_axes}, max IK error {report.max_error.max() / mm:.4f} mm")
+
+
+def test_rerun_reads_the_curves_and_honours_an_edit(mk, contacts, walk60):
+    obj, action = load(mk, walk60, "edited")
+    first = contacts.plant(obj)
+    assert first.source == "detected"
+    again = contacts.plant(obj)
+    assert again.source == "curves"
+    assert np.array_equal(again.contacts, first.contacts)
+
+    # A fresh copy of the clip whose left foot's second contact the animator removed.
+    fresh, fresh_action = load(mk, walk60, "fresh")
+    frames = frames_of(fresh_action)
+    feet = contacts.find_feet(fresh)
+    edited = first.contacts.copy()
+    first_frame, last_frame = first.intervals[0][-1]
+    span = slice(int(first_frame - frames[0]), int(last_frame - frames[0]) + 1)
+    edited[span, 0:2] = False
+    edited[(span.start - 12):(span.stop + 12), 0:2] = False
+    contacts.write_contacts(fresh, fresh_action, feet, frames, edited)
+    plain, names = evaluated(fresh, frames)
+    report = contacts.plant(fresh)
+    assert report.source == "curves"
+    assert np.array_equal(report.contacts, edited)
+    after, _ = evaluated(fresh, frames)
+    # The freed ankle follows the plain clip there (it slides as captured), to the IK's tolerance.
+    j = names.index(feet[0].shin)
+    middle = slice(span.start + 3, span.stop - 3)
+    assert np.max(np.linalg.norm(after[middle, j, 1] - plain[middle, j, 1], axis=1)) < 1e-4
+    assert np.ptp(plain[middle, j, 1], axis=0).max() > 0.005  # and the capture's own ankle does move
+
+
+def _all_keys(obj):
+    action = obj.animation_data.action
+    out = {}
+    for fcurve in mk_fcurves(action, obj):
+        co = np.empty(2 * len(fcurve.keyframe_points), dtype=np.float32)
+        fcurve.keyframe_points.foreach_get("co", co)
+        out[(fcurve.data_path, fcurve.array_index)] = co
+    return out
+
+
+def mk_fcurves(action, obj):
+    import sys
+    animdata = sys.modules[os.environ["MOTIONKIT_MODULE"] + ".animdata"]
+    return list(animdata.fcurves(action, obj))
+
+
+def test_errors_name_foot_bone_and_frame_and_change_nothing(mk, contacts, walk60):
+    obj, action = load(mk, walk60, "broken")
+    before = _all_keys(obj)
+    with pytest.raises(ValueError, match=r"foot L: shin bone 'nope'"):
+        contacts.plant(obj, feet=[("lHip", "nope", "lAnkle", None), ("rHip", "rKnee", "rAnkle", None)])
+    with pytest.raises(ValueError, match=r"foot R: bone 'rHip' is not a child of 'rHip'"):
+        contacts.plant(obj, feet=[("lHip", "lKnee", "lAnkle", None), ("rHip", "rHip", "rAnkle", None)])
+    with pytest.raises(ValueError, match="detect=False"):
+        contacts.plant(obj, detect=False)
+    # A broken key on the left shin at Blender frame 11.
+    path = 'pose.bones["lKnee"].rotation_euler'
+    fcurve = next(f for f in mk_fcurves(action, obj) if f.data_path.startswith('pose.bones["lKnee"].rotation'))
+    saved = fcurve.keyframe_points[10].co[1]
+    fcurve.keyframe_points[10].co[1] = float("nan")
+    before = _all_keys(obj)
+    with pytest.raises(ValueError, match=r"bone 'lKnee'.*frame 11"):
+        contacts.plant(obj)
+    after = _all_keys(obj)
+    assert after.keys() == before.keys()
+    for key in before:
+        assert np.array_equal(before[key], after[key], equal_nan=True), key
+    assert "motionkit_contact_heel" not in obj.pose.bones["lAnkle"].keys()
+    fcurve.keyframe_points[10].co[1] = saved
+    del path
+
+
+def test_plain_contacts_given_and_cleanup_signature(mk, contacts, pose_channels, walk60):
+    """The call retargeting makes: contacts given, arrays in, arrays out, the file untouched."""
+    obj, action = load(mk, walk60, "given")
+    frames = frames_of(action).astype(np.float64)
+    rig, bones = pose_channels.native_rig(obj.data)
+    rotations = pose_channels.rotations(obj, action, bones, frames)
+    locations, _ = pose_channels.locations(obj, action, bones, frames)
+    feet = contacts.find_feet(obj)
+    none = np.zeros((frames.size, 4), dtype=bool)
+    before = _all_keys(obj)
+    rot, loc, report = contacts.cleanup(obj, bones, rig, frames, rotations, locations, feet, none, None)
+    # Nothing to hold: the legs keep their pose (to the solver's round trip) and the hips stay.
+    assert np.max(np.abs(np.abs(np.einsum("fbk,fbk->fb", rot.reshape(len(frames), -1, 4),
+                                          rotations.reshape(len(frames), -1, 4))) - 1)) < 1e-9
+    assert np.max(np.abs(loc - locations)) < 1e-9
+    assert report.source == "given"
+    assert _all_keys(obj).keys() == before.keys()
+    with pytest.raises(ValueError, match="contacts must have shape"):
+        contacts.cleanup(obj, bones, rig, frames, rotations, locations, feet, none[:, :2], None)
