@@ -500,8 +500,16 @@ def plant(armature, frame_range=None, settings: ContactSettings | None = None, d
     feet = _as_feet(feet) if feet is not None else find_feet(obj)
     frames = _frames(action, frame_range)
     rig, bones = pose_channels.native_rig(obj.data)
-    rotations = pose_channels.rotations(obj, action, bones, frames)
-    locations, _ = pose_channels.locations(obj, action, bones, frames)
+    try:
+        rotations = pose_channels.rotations(obj, action, bones, frames)
+        locations, _ = pose_channels.locations(obj, action, bones, frames)
+    except ValueError as error:
+        # The message names the bone and frame; say which foot when it is a leg's.
+        side = next((f.side for f in feet for b in (f.thigh, f.shin, f.foot, f.toe)
+                     if b and f"'{b}'" in str(error)), None)
+        if side is None:
+            raise
+        raise ValueError(f"foot {side}: {error}") from None
     stored = None if redetect else read_contacts(obj, action, feet, frames)
     if stored is None and not detect:
         raise ValueError(f"'{obj.name}': action '{action.name}' has no contact curves and detect=False")

@@ -9,6 +9,9 @@ import bpy
 import numpy as np
 import pytest
 
+import characters
+import generate
+
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 BVH = os.path.join(os.path.dirname(ROOT), "shared", "data", "bvh")
 CLIPS = sorted(os.path.relpath(p, BVH) for p in glob.glob(os.path.join(BVH, "*.bvh"))
@@ -59,8 +62,7 @@ def channels(obj, pose_channels, frames):
 
 
 def knee_flexion(points, names, feet):
-    """Per foot the knee's signed flexion (frames,): the angle from the thigh to the shin about the plain
-    clip's knee axis, taken in the thigh's frame of reference (the mean of cross(thigh, shin))."""
+    """Per foot the thigh's and the shin's world vectors (frames, 3) each."""
     out = []
     for foot in feet:
         t = points[:, names.index(foot.thigh)]
@@ -79,8 +81,22 @@ def signed_angles(thigh, shin, axis):
 @pytest.mark.parametrize("clip", CLIPS)
 def test_plant_holds_every_contact_on_real_capture(mk, contacts, pose_channels, clip, shared_dir):
     obj, action = load(mk, os.path.join(BVH, clip))
+    check_plant(mk, contacts, pose_channels, obj, clip, MM.get(clip, 0.001))
+
+
+@pytest.mark.parametrize("spec", characters.CHARACTERS, ids=lambda s: s.name)
+def test_plant_on_walk60_retargeted_onto_each_sample_character(mk, contacts, pose_channels, walk60, spec):
+    """Other proportions and bone rolls (the knees' hinge axis differs from rig to rig)."""
+    source, _ = load(mk, walk60, "walk60")
+    target = generate.build_armature(spec)
+    mk.retarget(source, target)
+    check_plant(mk, contacts, pose_channels, target, f"walk60 onto {spec.name}", 0.001)
+
+
+def check_plant(mk, contacts, pose_channels, obj, clip, mm):
+    """plant() on obj's action, then every check of the brief, measured by Blender's own evaluation."""
+    action = obj.animation_data.action
     frames = frames_of(action)
-    mm = MM.get(clip, 0.001)
     plain, names = evaluated(obj, frames)
     names_before, rot_before, loc_before = channels(obj, pose_channels, frames)
     started = time.perf_counter()
@@ -203,12 +219,11 @@ def test_errors_name_foot_bone_and_frame_and_change_nothing(mk, contacts, walk60
     with pytest.raises(ValueError, match="detect=False"):
         contacts.plant(obj, detect=False)
     # A broken key on the left shin at Blender frame 11.
-    path = 'pose.bones["lKnee"].rotation_euler'
     fcurve = next(f for f in mk_fcurves(action, obj) if f.data_path.startswith('pose.bones["lKnee"].rotation'))
     saved = fcurve.keyframe_points[10].co[1]
     fcurve.keyframe_points[10].co[1] = float("nan")
     before = _all_keys(obj)
-    with pytest.raises(ValueError, match=r"bone 'lKnee'.*frame 11"):
+    with pytest.raises(ValueError, match=r"foot L: bone 'lKnee'.*frame 11"):
         contacts.plant(obj)
     after = _all_keys(obj)
     assert after.keys() == before.keys()
@@ -216,7 +231,6 @@ def test_errors_name_foot_bone_and_frame_and_change_nothing(mk, contacts, walk60
         assert np.array_equal(before[key], after[key], equal_nan=True), key
     assert "motionkit_contact_heel" not in obj.pose.bones["lAnkle"].keys()
     fcurve.keyframe_points[10].co[1] = saved
-    del path
 
 
 def test_plain_contacts_given_and_cleanup_signature(mk, contacts, pose_channels, walk60):
