@@ -93,12 +93,12 @@ class Rig:
 class Body:
     """A humanoid's labelled bones (names), each with how it was found."""
     hips: str | None = None
-    root: str | None = None  # a bone above the hips (a game rig's floor root: Unreal's root, a dataset's Root)
     spine: list[str] = field(default_factory=list)  # above the hips up to the chest (inclusive)
     neck: list[str] = field(default_factory=list)   # above the chest, below the head
     head: str | None = None
     limbs: dict[str, str] = field(default_factory=dict)  # "thigh.L" -> bone name; missing ones absent
     how: dict[str, str] = field(default_factory=dict)    # key -> "preset:<scheme>", "name" or "structure"
+    root: str | None = None  # a bone above the hips (a game rig's floor root: Unreal's root, a dataset's Root)
 
 
 # ---------------------------------------------------------------------------

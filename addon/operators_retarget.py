@@ -68,7 +68,7 @@ class MOTIONKIT_OT_retarget(bpy.types.Operator):
                 source, settings.target, settings.bone_map() or None, frame_range, settings.root_motion,
                 source_match=settings.source_match, match_frame=settings.match_frame,
                 target_match=settings.target_match, ground=settings.ground, align_facing=settings.align_facing,
-                overwrite=settings.overwrite)
+                floor_root=settings.floor_root, root_smoothing=settings.root_smoothing, overwrite=settings.overwrite)
 
         return operator_runs.run(self, context, work,
                                  lambda action: f"Retargeted onto '{settings.target.name}' as action '{action.name}'")

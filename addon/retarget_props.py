@@ -1,7 +1,7 @@
 """The Retarget panel's settings, kept on the scene (scene.motionkit_retarget)."""
 import bpy
-from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, IntProperty, PointerProperty,
-                       StringProperty)
+from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProperty, IntProperty,
+                       PointerProperty, StringProperty)
 
 from . import retargeting
 
@@ -28,6 +28,10 @@ class MOTIONKIT_PG_retarget(bpy.types.PropertyGroup):
     match_frame: IntProperty(name="Match Frame", description="Frame of the source's match pose", default=0)
     target_match: EnumProperty(name="Target Match Pose", items=retargeting.TARGET_MATCHES, default='REST')
     root_motion: EnumProperty(name="Root Motion", items=retargeting.ROOT_MOTIONS, default="scaled")
+    floor_root: EnumProperty(name="Floor Root", items=retargeting.FLOOR_ROOTS, default="auto",
+                             description="What a target bone on the floor above the hips (a game rig's root) does")
+    root_smoothing: FloatProperty(name="Smoothing", default=0.25, min=0.0, soft_max=2.0, unit='TIME_ABSOLUTE',
+                                  description="Seconds of smoothing of the extracted root motion")
     ground: BoolProperty(name="Feet on the Floor",
                          description="Move the root so that the target's lowest point touches the floor "
                                      "on the first frame")

@@ -84,6 +84,9 @@ class MOTIONKIT_PT_retarget(bpy.types.Panel):
             layout.prop(settings, "match_frame")
         layout.prop(settings, "target_match")
         layout.prop(settings, "root_motion")
+        layout.prop(settings, "floor_root")
+        if settings.floor_root == "extract":
+            layout.prop(settings, "root_smoothing")
         layout.prop(settings, "ground")
         layout.prop(settings, "align_facing")
         layout.prop(settings, "use_frame_range")

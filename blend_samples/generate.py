@@ -85,7 +85,8 @@ def _bone_tube(head, tail, x_axis, z_axis, radii):
 def build_body(spec: characters.CharacterSpec, arm_obj: bpy.types.Object) -> bpy.types.Object:
     """A skinned body for a sample character, radii by canonical bone."""
     scale = spec.proportions.height / 1.8
-    radii = {b.name: tuple(scale * r for r in RADII[_kind(b.canonical)]) for b in spec.bones}
+    radii = {b.name: tuple(scale * r for r in RADII[_kind(b.canonical)]) for b in spec.bones
+             if _kind(b.canonical) in RADII}  # a floor root has no flesh
     return skin_bones(arm_obj, radii, spec.color, spec.name)
 
 

@@ -1,12 +1,12 @@
 """BVH import and export in Blender, against native FK, Blender's own evaluation
 and (on 5.2) Blender's own BVH importer."""
-import glob
 import os
 
 import bpy
 import bvh_cases
 import numpy as np
 import pytest
+import shared_data
 from bpy_extras.io_utils import axis_conversion
 
 import conftest
@@ -24,7 +24,7 @@ def write_case(tmp_path, name, text):
 
 
 def shared_files(shared_dir):
-    return sorted(glob.glob(os.path.join(shared_dir, "data", "bvh", "*.bvh")))
+    return shared_data.bvh_files(os.path.join(shared_dir, "data", "bvh"))
 
 
 def native_world(native, path, axis_forward='-Z', axis_up='Y', scale=1.0):

@@ -16,6 +16,7 @@ from mathutils import Vector
 
 import characters
 import generate
+import shared_data
 
 FEET = {  # per rig kind: (ankle bone, toe bone) for each side
     "walk60": (("lAnkle", "lToeJoint"), ("rAnkle", "rToeJoint")),
@@ -319,8 +320,7 @@ def test_operator_retargets_a_bvh_file_and_errors_cancel(mk, walk60, tmp_path):
 
 def test_batch_retargets_a_folder_of_files(mk, walk60, shared_dir):
     target = generate.build_armature(characters.RIGIFY_A)
-    files = sorted(os.path.join(shared_dir, "data", "bvh", f) for f in os.listdir(os.path.join(shared_dir, "data", "bvh"))
-                   if f.endswith(".bvh"))
+    files = shared_data.bvh_files(os.path.join(shared_dir, "data", "bvh"))
     objects = set(bpy.data.objects)
     actions = mk.retarget_files(files, target)
     assert [a.name for a in actions] == [os.path.splitext(os.path.basename(f))[0] for f in files]

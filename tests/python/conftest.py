@@ -10,6 +10,8 @@ sys.path[:0] = [os.path.join(ROOT, "addon"), os.path.join(ROOT, "blend_samples")
                 os.path.join(ROOT, "tests", "common")]
 SHARED_BVH = os.path.join(os.path.dirname(ROOT), "shared", "data", "bvh")
 
+import shared_data  # noqa: E402  (tests/common, on the path above)
+
 
 @pytest.fixture(scope="session")
 def native():
@@ -27,7 +29,7 @@ def shared_bvh_files():
     """The real motion capture files beside the repository."""
     if not os.path.isdir(SHARED_BVH):
         return []
-    return sorted(glob.glob(os.path.join(SHARED_BVH, "*.bvh")))
+    return shared_data.bvh_files(SHARED_BVH)
 
 
 @pytest.fixture(scope="session")
