@@ -264,6 +264,44 @@ def _knee_roll(shin_basis, shin_world, foot_dir_world) -> tuple[float, str]:
     return float(np.arctan2(-axis[1], axis[0])), how
 
 
+def _pose_points(obj, bones, rig, rotations, locations, legs):
+    """The pose in armature space (orientations (F, B, 4), heads (F, B, 3)), the foot points in armature
+    and world space (F, 4, 3) and the leg length (thigh + shin, world units)."""
+    native = native_state.native()
+    count, nb = rotations.shape[0], len(bones)
+    orient, heads = native.armature_pose(rig, np.ascontiguousarray(rotations), np.ascontiguousarray(locations))
+    orient = orient.reshape(count, nb, 4)
+    heads = heads.reshape(count, nb, 3)
+    lengths = np.array([b.length for b in bones])
+    point_bones = [b for _, shin, foot in legs for b in (shin, foot)]
+    points = heads[:, point_bones] + _rotate(orient[:, point_bones],
+                                             np.stack([np.zeros(4), lengths[point_bones], np.zeros(4)], 1))
+    world = np.array(obj.matrix_world)
+    world_points = points @ world[:3, :3].T + world[:3, 3]
+    scale = float(np.cbrt(abs(np.linalg.det(world[:3, :3]))))
+    leg_length = scale * float(np.mean([lengths[t] + lengths[s] for t, s, _ in legs]))
+    return orient, heads, points, world_points, leg_length
+
+
+def foot_points(obj, bones, rig, rotations, locations, feet) -> tuple[np.ndarray, float]:
+    """World positions (F, 4, 3) of the foot points (POINTS order) of a pose sequence, and the leg length
+    (thigh + shin, world units): what detection sees."""
+    feet = _as_feet(feet)
+    legs = _leg_indices(bones, feet)
+    _, _, _, world_points, leg_length = _pose_points(obj, bones, rig, rotations, locations, legs)
+    return world_points, leg_length
+
+
+def find_contacts(obj, bones, rig, rotations, locations, feet, settings: ContactSettings | None = None,
+                  fps: float | None = None) -> np.ndarray:
+    """Contacts (F, 4) bool (POINTS order) of a pose sequence (for example the retarget's source, whose
+    contacts the target then keeps); fps default the scene's."""
+    if fps is None:
+        fps = bpy.context.scene.render.fps / bpy.context.scene.render.fps_base
+    points, leg_length = foot_points(obj, bones, rig, rotations, locations, feet)
+    return detect_contacts(points, fps, leg_length, 0.0, settings)
+
+
 def _blender_frame(frames, f) -> str:
     return f"{frames[f]:g}"
 
@@ -313,18 +351,9 @@ def cleanup(obj, bones, rig, frames, rotations, locations, feet, contacts=None,
     if bones[hip].use_connect:
         raise ValueError(f"hips bone '{bones[hip].name}' is connected to its parent: its location cannot move")
 
-    # The plain pose in armature space, and the foot points.
-    orient, heads = native.armature_pose(rig, rotations, locations)
-    orient = orient.reshape(count, nb, 4)
-    heads = heads.reshape(count, nb, 3)
-    lengths = np.array([b.length for b in bones])
-    point_bones = [b for _, shin, foot in legs for b in (shin, foot)]
-    points = heads[:, point_bones] + _rotate(orient[:, point_bones],
-                                             np.stack([np.zeros(4), lengths[point_bones], np.zeros(4)], 1))
+    orient, heads, points, world_points, leg_length = _pose_points(obj, bones, rig, rotations, locations, legs)
     world = np.array(obj.matrix_world)
-    world_points = points @ world[:3, :3].T + world[:3, 3]
-    scale = float(np.cbrt(abs(np.linalg.det(world[:3, :3]))))
-    leg_length = scale * float(np.mean([lengths[t] + lengths[s] for t, s, _ in legs]))
+    lengths = np.array([b.length for b in bones])
 
     if contacts is None:
         contacts = detect_contacts(world_points, fps, leg_length, 0.0, settings)
@@ -484,7 +513,8 @@ def plant(armature, frame_range=None, settings: ContactSettings | None = None, d
     else detected on the armature itself and stored as curves), cleanup, keys written back into the
     action. Returns a Report.
 
-    frame_range: (start, end) Blender frames, default the action's. detect=False refuses to detect (the
+    frame_range: (start, end) Blender frames: only contacts there are held (the whole action is read and
+    its legs keyed on every frame, unchanged outside the range and its blends). detect=False refuses to detect (the
     stored curves must exist); redetect=True detects even when curves exist (and replaces them).
     feet: [Foot L, Foot R] or bone-name tuples, default found by MotionKit's bone map.
     fps: the clip's frame rate, default the scene's (import captures with update_scene_fps=True, or the
@@ -498,7 +528,16 @@ def plant(armature, frame_range=None, settings: ContactSettings | None = None, d
     if action is None:
         raise ValueError(f"'{obj.name}' has no action to clean up")
     feet = _as_feet(feet) if feet is not None else find_feet(obj)
-    frames = _frames(action, frame_range)
+    # The whole action is read and keyed (write_keys replaces a curve's keys: keying only the range
+    # would drop the keys outside it); a frame range limits the contacts instead.
+    frames = _frames(action, None)
+    inside = np.ones(frames.size, dtype=bool)
+    if frame_range is not None:
+        wanted = _frames(action, frame_range)
+        inside = (frames >= wanted[0]) & (frames <= wanted[-1])
+        if not inside.any():
+            raise ValueError(f"frame range {wanted[0]:g}..{wanted[-1]:g} is outside action '{action.name}' "
+                             f"({frames[0]:g}..{frames[-1]:g})")
     rig, bones = pose_channels.native_rig(obj.data)
     try:
         rotations = pose_channels.rotations(obj, action, bones, frames)
@@ -513,15 +552,18 @@ def plant(armature, frame_range=None, settings: ContactSettings | None = None, d
     stored = None if redetect else read_contacts(obj, action, feet, frames)
     if stored is None and not detect:
         raise ValueError(f"'{obj.name}': action '{action.name}' has no contact curves and detect=False")
-    out_rot, out_loc, report = cleanup(obj, bones, rig, frames, rotations, locations, feet, stored, settings,
+    found = stored if stored is not None else find_contacts(obj, bones, rig, rotations, locations, feet, settings,
+                                                            fps)
+    used = found & inside[:, None]
+    out_rot, out_loc, report = cleanup(obj, bones, rig, frames, rotations, locations, feet, used, settings,
                                        fps=fps)
-    if stored is not None:
-        report.source = "curves"
+    report.source = "detected" if stored is None else "curves"
     hip = report.bones[0]
     channels, values = _channels(obj, bones, report.bones[1:], out_rot, out_loc, hip)
     if not np.isfinite(values).all():
         raise ValueError(f"foot cleanup on '{obj.name}': the keys are not finite")
-    if stored is None:
-        write_contacts(obj, action, feet, frames, report.contacts)
     animdata.write_keys(obj, action, channels, frames, values)
+    if stored is None:
+        # All the contacts found (outside the range too), so that the animator sees them.
+        write_contacts(obj, action, feet, frames, found)
     return report

@@ -252,3 +252,52 @@ def test_plain_contacts_given_and_cleanup_signature(mk, contacts, pose_channels,
     assert _all_keys(obj).keys() == before.keys()
     with pytest.raises(ValueError, match="contacts must have shape"):
         contacts.cleanup(obj, bones, rig, frames, rotations, locations, feet, none[:, :2], None)
+
+
+def test_frame_range_holds_contacts_there_only_and_keeps_the_rest(mk, contacts, walk60):
+    obj, action = load(mk, walk60, "ranged")
+    frames = frames_of(action)
+    plain, names = evaluated(obj, frames)
+    report = contacts.plant(obj, frame_range=(60, 120))
+    after, _ = evaluated(obj, frames)
+    for runs in report.intervals:
+        for first, last in runs:
+            assert 60 <= first and last <= 120
+    # Every key is still there; away from the range (and its blends) the pose is the input's.
+    for fcurve in mk_fcurves(obj.animation_data.action, obj):
+        if not fcurve.data_path.endswith('"]'):
+            assert len(fcurve.keyframe_points) == len(frames), fcurve.data_path
+    blend = 8
+    outside = (frames < 60 - blend) | (frames > 120 + blend)
+    assert np.max(np.abs(after[outside] - plain[outside])) < 1e-5
+    assert np.max(np.abs(after[~outside] - plain[~outside])) > 1e-3  # and inside it did something
+    # The curves show every contact found, outside the range too.
+    stored = contacts.read_contacts(obj, obj.animation_data.action, contacts.find_feet(obj), frames)
+    assert stored[frames < 50].any()
+
+
+def test_source_contacts_kept_on_a_retarget(mk, contacts, pose_channels, walk60):
+    """The retarget's call: contacts found on the source, the target cleaned with them."""
+    source, source_action = load(mk, walk60, "source")
+    target = generate.build_armature(characters.RIGIFY_A)
+    mk.retarget(source, target)
+    frames = frames_of(source_action).astype(np.float64)
+    rig_s, bones_s = pose_channels.native_rig(source.data)
+    found = contacts.find_contacts(source, bones_s, rig_s,
+                                   pose_channels.rotations(source, source_action, bones_s, frames),
+                                   pose_channels.locations(source, source_action, bones_s, frames)[0],
+                                   contacts.find_feet(source), fps=60)
+    assert found.sum() > 100
+    action = target.animation_data.action
+    rig, bones = pose_channels.native_rig(target.data)
+    rotations = pose_channels.rotations(target, action, bones, frames)
+    locations, _ = pose_channels.locations(target, action, bones, frames)
+    feet = contacts.find_feet(target)
+    rot, loc, report = contacts.cleanup(target, bones, rig, frames, rotations, locations, feet, found, None,
+                                        fps=60)
+    assert report.source == "given" and np.array_equal(report.contacts, found)
+    points, _ = contacts.foot_points(target, bones, rig, rot, loc, feet)
+    for p, runs in enumerate(report.intervals):
+        for first, last in runs:
+            track = points[int(first - frames[0]):int(last - frames[0]) + 1, p]
+            assert np.max(np.linalg.norm(track - track[0], axis=1)) < 1e-3
