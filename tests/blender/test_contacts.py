@@ -301,3 +301,19 @@ def test_source_contacts_kept_on_a_retarget(mk, contacts, pose_channels, walk60)
         for first, last in runs:
             track = points[int(first - frames[0]):int(last - frames[0]) + 1, p]
             assert np.max(np.linalg.norm(track - track[0], axis=1)) < 1e-3
+
+
+def test_operator_fixes_sliding_and_reports_errors(mk, walk60):
+    """The operator as a user runs it (registered here: the add-on's class list is the lead's to extend)."""
+    ops = importlib.import_module(mk.__name__ + ".operators_contacts")
+    if not hasattr(bpy.types, "MOTIONKIT_OT_fix_foot_sliding"):
+        bpy.utils.register_class(ops.MOTIONKIT_OT_fix_foot_sliding)
+    obj, action = load(mk, walk60, "operated")
+    bpy.context.view_layer.objects.active = obj
+    assert bpy.ops.motionkit.fix_foot_sliding() == {'FINISHED'}
+    contacts = importlib.import_module(mk.__name__ + ".contacts")
+    stored = contacts.read_contacts(obj, obj.animation_data.action, contacts.find_feet(obj), frames_of(action))
+    assert stored is not None and stored.any()
+    # Nothing selected that it can work on: the poll says why.
+    obj.animation_data.action = None
+    assert not bpy.ops.motionkit.fix_foot_sliding.poll()
