@@ -22,6 +22,16 @@ from mathutils import Quaternion
 from . import animdata, bone_mapping, native_state, pose_channels, rotation_channels
 
 ROTATION_MODES = ('QUATERNION', 'NATIVE', 'XYZ', 'XZY', 'YXZ', 'YZX', 'ZXY', 'ZYX')
+FRAME_RATE = "motionkit_frame_rate"  # an action's custom property: its keys' frames per second
+
+
+def frame_rate(action) -> float:
+    """Frames per second of an action's keys: as captured (a BVH import records it), else the scene's."""
+    rate = action.get(FRAME_RATE) if action is not None else None
+    if rate is not None and float(rate) > 0:
+        return float(rate)
+    render = bpy.context.scene.render
+    return render.fps / render.fps_base
 
 
 @dataclass
@@ -207,6 +217,11 @@ def load(filepath: str, options: ImportOptions | None = None, *, context=None, n
         created.append(action)
         if channels and motion.frames:
             animdata.write_keys(obj, action, channels, _key_frames(motion, options, scene), matrix)
+        if motion.frame_time > 0:
+            # The rate the keys were captured at, per Blender frame: speeds (foot contacts) need it when
+            # the scene plays the clip at another rate.
+            action[FRAME_RATE] = (scene.render.fps / scene.render.fps_base if options.use_fps_scale
+                                  else 1.0 / motion.frame_time)
         animdata.assign(obj, action)
     except BaseException:
         for item in reversed(created):

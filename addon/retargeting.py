@@ -14,7 +14,8 @@ from dataclasses import dataclass
 import bpy
 import numpy as np
 
-from . import animdata, bone_mapping, bvh, native_state, pose_channels, root_motion, rotation_channels
+from . import animdata, bone_mapping, bvh, contacts, native_state, pose_channels, root_motion, rotation_channels
+from .foot_contacts import ContactSettings
 from .root_motion import FLOOR_ROOTS
 
 ROOT_MOTIONS = (
@@ -238,11 +239,16 @@ class Plan:
     hips: tuple = (None, None)  # (source, target) bones that carry the body's translation
     floor_roots: tuple = (None, None)  # (source, target) floor roots above the hips, or None
     floor_root: str = "still"  # what the target's floor root did (FLOOR_ROOTS, "auto" resolved)
+    feet: list | None = None  # the target's contacts.Foot per side, when its feet were planted
+    contacts: np.ndarray | None = None  # (frames, 4) bool in contacts.POINTS order, detected on the source
+    contact_report: object = None  # contacts.Report of the cleanup
+    frame_rate: float = 0.0  # the source keys' frames per second (bvh.frame_rate), kept on the new action
 
 
 def plan(source, target, bone_map=None, frame_range=None, root: str = "scaled", *, source_match: str = 'REST',
          match_frame: float | None = None, target_match: str = 'REST', ground: bool = False,
-         align_facing: bool = True, floor_root: str = "auto", root_smoothing: float = 0.25) -> Plan:
+         align_facing: bool = True, floor_root: str = "auto", root_smoothing: float = 0.25,
+         plant_feet: bool = True, contact_settings: ContactSettings | None = None) -> Plan:
     """Compute the retargeted keys without touching the file (see retarget)."""
     native = native_state.native()
     src, tgt = _side(source, "source"), _side(target, "target")
@@ -262,7 +268,10 @@ def plan(source, target, bone_map=None, frame_range=None, root: str = "scaled", 
     pairs = _pairs(bone_map, src, tgt)
     frames = _frames(action, frame_range)
 
-    source_rotations, source_heads = pose_channels.armature_motion(src.obj, action, frames, src.rig, src.bones)
+    # The source's channels are read once: posed here, and kept for its foot contacts.
+    source_basis = pose_channels.rotations(src.obj, action, src.bones, frames)
+    source_locations = np.ascontiguousarray(pose_channels.locations(src.obj, action, src.bones, frames)[0])
+    source_rotations, source_heads = native.armature_pose(src.rig, source_basis, source_locations)
     if source_match == 'FRAME':
         if match_frame is None:
             raise ValueError("a source match pose on a frame needs match_frame")
@@ -340,14 +349,48 @@ def plan(source, target, bone_map=None, frame_range=None, root: str = "scaled", 
                              source_motion, space, scale, root, root_smoothing * _fps())
             located.append(target_floor)
 
+    planted = None
+    if plant_feet:
+        planted = _plant_feet(src, tgt, src_body, tgt_body, frames, source_basis, source_locations, rotations,
+                              locations, target_root, contact_settings, bvh.frame_rate(action))
+        if planted is not None:
+            rotations, locations = planted[0], planted[1]
     moving, still = _target_channels(native, tgt, rotations, target_basis, bone_map_idx, located, locations)
     plan_ = Plan(tgt.obj, frames, *moving, src.obj.name, pairs, *still, leg_ratio=scale,
                  hips=(src.names[source_root], tgt.names[target_root]),
                  floor_roots=(src.names[source_floor] if source_floor is not None else None,
-                              tgt.names[target_floor] if target_floor is not None else None), floor_root=mode)
+                              tgt.names[target_floor] if target_floor is not None else None), floor_root=mode,
+                 feet=planted[2] if planted else None, contacts=planted[3] if planted else None,
+                 contact_report=planted[4] if planted else None, frame_rate=bvh.frame_rate(action))
     if not (np.all(np.isfinite(plan_.values)) and np.all(np.isfinite(plan_.still_values))):
         raise ValueError("the retargeted motion is not finite; check the rigs' rest poses")
     return plan_
+
+
+def _feet(side: _Side, body) -> list | None:
+    """Both legs' contacts.Foot from the labels, or None when a leg is not labelled (no feet to plant)."""
+    feet = []
+    for s in bone_mapping.SIDES:
+        bones = [body.limbs.get(f"{k}.{s}") for k in ("thigh", "shin", "foot", "toe")]
+        if not all(b in side.names for b in bones[:3]):
+            return None
+        feet.append(contacts.Foot(s, *bones[:3], bones[3] if bones[3] in side.names else None))
+    return feet
+
+
+def _plant_feet(src: _Side, tgt: _Side, src_body, tgt_body, frames, source_basis, source_locations, rotations,
+                locations, target_root, settings, fps):
+    """Contacts detected on the source's feet, held by the target's (contacts.cleanup): (rotations,
+    locations, target feet, contacts, report), or None when either rig has no two labelled legs."""
+    src_feet, tgt_feet = _feet(src, src_body), _feet(tgt, tgt_body)
+    if src_feet is None or tgt_feet is None:
+        return None
+    found = contacts.find_contacts(src.obj, src.bones, src.rig, source_basis, source_locations, src_feet,
+                                   settings, fps=fps)
+    rotations, locations, report = contacts.cleanup(tgt.obj, tgt.bones, tgt.rig, frames, rotations, locations,
+                                                    tgt_feet, found, settings, hips=tgt.names[target_root],
+                                                    fps=fps)
+    return rotations, locations, tgt_feet, found, report
 
 
 def _depths(side: _Side) -> list[int]:
@@ -458,12 +501,17 @@ def _write(target, action, plan_: Plan) -> None:
         animdata.write_keys(target, action, plan_.channels, plan_.frames, plan_.values)
     if plan_.still_channels:
         animdata.write_keys(target, action, plan_.still_channels, plan_.frames[:1], plan_.still_values)
+    if plan_.contacts is not None:  # where the animator sees and edits them; "Fix foot sliding" reads them
+        contacts.write_contacts(target, action, plan_.feet, plan_.frames, plan_.contacts)
+    if plan_.frame_rate > 0:
+        action[bvh.FRAME_RATE] = plan_.frame_rate
 
 
 def retarget(source, target, bone_map=None, frame_range=None, root: str = "scaled", *,
              source_match: str = 'REST', match_frame: float | None = None, target_match: str = 'REST',
              ground: bool = False, align_facing: bool = True, floor_root: str = "auto",
-             root_smoothing: float = 0.25, action_name: str | None = None, overwrite: bool = False):
+             root_smoothing: float = 0.25, plant_feet: bool = True, contact_settings: ContactSettings | None = None,
+             action_name: str | None = None, overwrite: bool = False):
     """Retarget the source's action onto the target; returns the target's new action.
 
     source: an armature object with an action, or a BVH file path (imported
@@ -479,7 +527,10 @@ def retarget(source, target, bone_map=None, frame_range=None, root: str = "scale
     way it faces. floor_root: what a target's bone on the floor above the
     hips (Unreal's root) does, "auto", "still", "copy" or "extract"
     (FLOOR_ROOTS); root_smoothing: seconds of Gaussian smoothing for
-    "extract". The hips are the body's root on both sides and the translation
+    "extract". plant_feet: feet that stand still in the source stay planted on
+    the target (contacts detected on the source, stored on the new action as
+    0/1 curves, held by full-body IK; contact_settings tunes the detection,
+    foot_contacts.ContactSettings); skipped for rigs without two labelled legs. The hips are the body's root on both sides and the translation
     is scaled by the ratio of leg lengths measured along the legs. The new action is assigned to the target (its previous
     action keeps a fake user rather than being lost); with overwrite the keys
     replace the target's own action's curves instead. A ValueError leaves the
@@ -492,7 +543,8 @@ def retarget(source, target, bone_map=None, frame_range=None, root: str = "scale
     try:
         result = plan(source, target, bone_map, frame_range, root, source_match=source_match,
                       match_frame=match_frame, target_match=target_match, ground=ground,
-                      align_facing=align_facing, floor_root=floor_root, root_smoothing=root_smoothing)
+                      align_facing=align_facing, floor_root=floor_root, root_smoothing=root_smoothing,
+                      plant_feet=plant_feet, contact_settings=contact_settings)
         return apply(result, action_name=action_name, overwrite=overwrite)
     except BaseException:
         if imported is not None:

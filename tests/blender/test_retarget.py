@@ -111,13 +111,14 @@ def test_t_pose_to_a_pose_and_back_keeps_every_world_joint(mk, native, walk60, t
     frames = np.arange(1, 183)
     tolerance = 1e-6 * height(source)
 
-    mk.retarget(source, a_rig, bone_map=same_names(a_rig))
+    # The plain retarget (feet not planted: the cleanup would also hold walk60's own slight foot slides).
+    mk.retarget(source, a_rig, bone_map=same_names(a_rig), plant_feet=False)
     expected = joints(source, frames)
     there = joints(a_rig, frames)
     assert np.abs(there - expected).max() < tolerance
 
     back, _ = load(mk, walk60, "walkT2")
-    mk.retarget(a_rig, back, bone_map=same_names(back))
+    mk.retarget(a_rig, back, bone_map=same_names(back), plant_feet=False)
     again = joints(back, frames)
     assert np.abs(again - expected).max() < tolerance
 
@@ -131,7 +132,7 @@ def test_a_pose_with_spread_legs_keeps_every_world_joint_both_ways(mk, retargeti
     frames = np.arange(1, 183)
     tolerance = 1e-6 * height(source)
 
-    plan = retargeting.plan(source, a_rig, same_names(a_rig))
+    plan = retargeting.plan(source, a_rig, same_names(a_rig), plant_feet=False)
     # The same legs, measured along them: 1 to Blender's float32 bone storage (the hip height gave 0.724).
     assert plan.leg_ratio == pytest.approx(1.0, abs=1e-6)
     retargeting.apply(plan)
@@ -139,7 +140,7 @@ def test_a_pose_with_spread_legs_keeps_every_world_joint_both_ways(mk, retargeti
     assert np.abs(joints(a_rig, frames) - expected).max() < tolerance
 
     back, _ = load(mk, walk60, "walkT2")
-    plan = retargeting.plan(a_rig, back, same_names(back))
+    plan = retargeting.plan(a_rig, back, same_names(back), plant_feet=False)
     assert plan.leg_ratio == pytest.approx(1.0, abs=1e-6)
     retargeting.apply(plan)
     assert np.abs(joints(back, frames) - expected).max() < tolerance
@@ -160,7 +161,7 @@ def test_random_rolls_and_euler_modes_still_point_every_bone_where_the_source_do
     modes = ('QUATERNION', 'XYZ', 'ZXY', 'YZX', 'AXIS_ANGLE')
     for i, pose_bone in enumerate(target.pose.bones):
         pose_bone.rotation_mode = modes[i % len(modes)]
-    action = mk.retarget(source, target, bone_map=same_names(target))
+    action = mk.retarget(source, target, bone_map=same_names(target), plant_feet=False)
     names = [b.name for b in target.data.bones]
     frames = np.arange(1, 183)
     worst = angles_deg(directions(source, names, frames), directions(target, names, frames)).max()
@@ -182,7 +183,7 @@ def test_walk60_onto_each_sample_character(mk, retargeting, walk60, spec):
     mapped_limbs = {canonical[t] for _, t in pairs}
     for limb in ("upper_arm", "forearm", "hand", "thigh", "shin", "foot"):
         assert {f"{limb}.L", f"{limb}.R"} <= mapped_limbs, (limb, pairs)
-    plan = retargeting.plan(source, target, pairs)
+    plan = retargeting.plan(source, target, pairs, plant_feet=False)  # planting moves the legs on purpose
     retargeting.apply(plan)
     frames = np.arange(1, 183)
     src_dirs = directions(source, [s for s, _ in pairs], frames)
@@ -251,7 +252,7 @@ def test_root_motion_modes_and_feet_on_the_floor(mk, retargeting, walk60):
     hips = characters.UNREAL_A.canonical["hips"]
 
     def hips_path(root, ground=False):
-        retargeting.apply(retargeting.plan(source, target, pairs, root=root, ground=ground))
+        retargeting.apply(retargeting.plan(source, target, pairs, root=root, ground=ground, plant_feet=False))
         out = []
         for frame in (1, 60, 120, 182):
             bpy.context.scene.frame_set(frame)
@@ -265,7 +266,7 @@ def test_root_motion_modes_and_feet_on_the_floor(mk, retargeting, walk60):
     np.testing.assert_allclose(in_place[:, 2], scaled[:, 2], atol=1e-6)
     np.testing.assert_allclose(offset[:, :2], scaled[:, :2], atol=1e-6)
     np.testing.assert_allclose(none, np.tile(rest, (4, 1)), atol=1e-6)
-    retargeting.apply(retargeting.plan(source, target, pairs, ground=True))
+    retargeting.apply(retargeting.plan(source, target, pairs, ground=True, plant_feet=False))
     bpy.context.scene.frame_set(1)
     lowest = min(min(target.matrix_world @ pb.head, target.matrix_world @ pb.tail, key=lambda v: v.z).z
                  for pb in target.pose.bones)
@@ -393,7 +394,7 @@ def world_tracks(obj, names, frames):
 def test_bandai_dash_onto_each_sample_character_points_every_mapped_bone_alike(mk, retargeting, bandai, spec):
     source, action = load(mk, bandai, "dash")
     target = generate.build_armature(spec)
-    plan = retargeting.plan(source, target)
+    plan = retargeting.plan(source, target, plant_feet=False)  # planting moves the legs on purpose
     assert plan.hips == ("Hips", spec.canonical["hips"])
     retargeting.apply(plan)
     pairs = [(s, t) for s, t in plan.pairs if s != "joint_Root"]
@@ -453,7 +454,7 @@ def test_walk60_onto_the_bandai_skeleton_and_back(mk, retargeting, walk60, banda
     """Onto a zero pose (every joint along one axis at rest): directions still follow the source."""
     source, action = load(mk, walk60, "walk60")
     target, _ = load(mk, bandai, "dash")
-    plan = retargeting.plan(source, target, floor_root="extract")
+    plan = retargeting.plan(source, target, floor_root="extract", plant_feet=False)
     retargeting.apply(plan)
     pairs = [(s, t) for s, t in plan.pairs if t != "joint_Root"]
     frames = np.arange(1, 183, 5)
