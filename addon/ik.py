@@ -196,7 +196,13 @@ def plan(obj, effectors, frame_range=None, method: str = "dls", *, root_translat
     # it reads), sized as the whole rig so that it is solved as the whole would
     # be; the other bones are neither read, solved nor keyed.
     part = sorted(_ancestors(all_bones, all_names, [e.bone for e in effectors]) | {0})
-    rig, bones = pose_channels.native_rig(obj.data, [all_bones[i] for i in part])
+    body = _body_root(obj, all_bones, all_names, part)
+    above = [all_bones[i] for i in part if i < body and all_bones[i] in _chain_above(all_bones[body])]
+    if above:  # a floor root over the hips: solve the hips' subtree in its parent's posed frame
+        part = [i for i in part if i >= body and _is_below(all_bones[i], all_bones[body])]
+        rig, bones = _rig_below(obj, [all_bones[i] for i in part])
+    else:
+        rig, bones = pose_channels.native_rig(obj.data, [all_bones[i] for i in part])
     names = [b.name for b in bones]
     rest = np.empty(6 * len(all_bones), dtype=np.float32)  # every head, then every tail
     obj.data.bones.foreach_get("head_local", rest[:3 * len(all_bones)])
@@ -216,6 +222,9 @@ def plan(obj, effectors, frame_range=None, method: str = "dls", *, root_translat
         locations, _ = pose_channels.locations(obj, action, bones[:1], frames)
         input_locations = np.ascontiguousarray(locations)
     positions, orientations = _targets(obj, effectors, frames)
+    if above:
+        positions, orientations = _into_parent_frame(obj, above, frames, action if frame_range is not None else None,
+                                                     positions, orientations)
     options = joint_limits(obj, bones) if use_limits else {}
     if any(e.chain_count > 0 for e in effectors):
         options["excluded"] = _outside_chains(bones, names, effectors)
@@ -270,13 +279,81 @@ def _ancestors(bones, names, starts) -> set:
     return out
 
 
+def _chain_above(bone) -> list:
+    out = []
+    while bone.parent is not None:
+        bone = bone.parent
+        out.append(bone)
+    return out
+
+
+def _is_below(bone, top) -> bool:
+    return bone == top or top in _chain_above(bone)
+
+
+def _body_root(obj, all_bones, all_names, part) -> int:
+    """The bone whose location carries the body: the hips under a game rig's floor root (Unreal's root
+    above pelvis, found by MotionKit's bone map) when every solved bone but the floor root hangs below
+    them, else the top bone."""
+    from . import bone_mapping, retargeting
+    labels = bone_mapping.classify(retargeting.mapping_rig(obj))
+    if labels.root is None or labels.hips not in all_names or labels.root != all_names[0]:
+        return 0
+    hips = all_names.index(labels.hips)
+    above = set(_chain_above(all_bones[hips]))
+    if all(all_bones[i] in above or _is_below(all_bones[i], all_bones[hips]) for i in part):
+        return hips
+    return 0
+
+
+def _rig_below(obj, bones):
+    """A native Rig of bones (the hips first, then bones below them) at rest in the hips' parent's rest
+    frame: posed with the hips' own channels it gives their pose in that parent's posed frame."""
+    native = native_state.native()
+    parent = bones[0].parent
+    rest = pose_channels.rest_quaternions(obj.data)
+    frame = rotation_channels.conjugate(rest[parent.name] / np.linalg.norm(rest[parent.name]))
+    origin = np.array(parent.head_local, dtype=np.float64)
+    index = {b.name: i for i, b in enumerate(bones)}
+    quats = np.array([rotation_channels.multiply(frame, rest[b.name] / np.linalg.norm(rest[b.name]))
+                      for b in bones])
+    heads = rotation_channels.rotate(frame, np.array([b.head_local for b in bones], dtype=np.float64) - origin)
+    rig = native.Rig([b.name for b in bones], [index[b.parent.name] if i else -1 for i, b in enumerate(bones)],
+                     quats.reshape(-1, 4), heads.reshape(-1, 3), np.array([b.length for b in bones], dtype=np.float64))
+    return rig, bones
+
+
+def _into_parent_frame(obj, above, frames, action, positions, orientations):
+    """Armature-space targets (frames, 3E) and (frames, 4E) carried into the posed frame of the hips'
+    parent (the last of `above`, the bones from the top down to it) on each frame."""
+    native = native_state.native()
+    rig, bones = pose_channels.native_rig(obj.data, above)
+    if action is None:
+        rotations, locations = pose_channels.current_pose(obj, bones)
+        rotations, locations = rotations.reshape(1, -1), locations.reshape(1, -1)
+    else:
+        rotations = pose_channels.rotations(obj, action, bones, frames)
+        locations, _ = pose_channels.locations(obj, action, bones, frames)
+    posed, heads = native.armature_pose(rig, np.ascontiguousarray(rotations), np.ascontiguousarray(locations))
+    q = np.broadcast_to(posed[:, -4:], (frames.size, 4))
+    h = np.broadcast_to(heads[:, -3:], (frames.size, 3))
+    inverse = rotation_channels.conjugate(q)
+    count = positions.shape[1] // 3
+    positions = positions.reshape(frames.size, count, 3) - h[:, None, :]
+    w, v = inverse[:, None, :1], inverse[:, None, 1:]
+    t = 2.0 * np.cross(v, positions)
+    positions = positions + w * t + np.cross(v, t)
+    orientations = rotation_channels.multiply(inverse[:, None, :], orientations.reshape(frames.size, count, 4))
+    return positions.reshape(frames.size, -1), orientations.reshape(frames.size, -1)
+
+
 def _outside_chains(bones, names, effectors) -> np.ndarray:
     """Bones that no effector's chain reaches (True = not solved)."""
     index = {name: i for i, name in enumerate(names)}
     reached = np.zeros(len(bones), dtype=bool)
     for effector in effectors:
         bone, count = bones[index[effector.bone]], 0
-        while bone is not None and (effector.chain_count <= 0 or count < effector.chain_count):
+        while bone is not None and bone.name in index and (effector.chain_count <= 0 or count < effector.chain_count):
             reached[index[bone.name]] = True
             bone, count = bone.parent, count + 1
     return ~reached

@@ -27,6 +27,7 @@ import generate  # noqa: E402
 import install_addon  # noqa: E402
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import contacts_plot  # noqa: E402
 import interpolant_plot  # noqa: E402
 
 SHOW_FRAME = 22  # mid-stride: left leg forward, right arm forward
@@ -172,6 +173,28 @@ def retarget_row(motionkit, source, y: float, placements, labels: dict, source_l
     return targets
 
 
+def contacts_figure(motionkit, source, target, path: str) -> None:
+    """out/contacts.png: the target's left ankle with and without planted feet (the target keeps the planted
+    retarget it already has)."""
+    retargeting, pose_channels, animdata = motionkit.retargeting, motionkit.pose_channels, motionkit.animdata
+    planted_action = animdata.assigned_action(target)
+    plan = retargeting.plan(source, target)  # the same as the row's, for its contacts and feet
+    names = [b.name for b in pose_channels.depth_first(target.data)]
+    ankle = names.index(plan.feet[0].foot)
+
+    def track(action):
+        _, heads = pose_channels.armature_motion(target, action, plan.frames)
+        return heads[:, 3 * ankle:3 * ankle + 3]
+
+    plain_action = retargeting.apply(retargeting.plan(source, target, plant_feet=False))
+    plain = track(plain_action)
+    animdata.assign(target, planted_action)
+    bpy.data.actions.remove(plain_action)
+    contacts_plot.plot(path, plan.frames, plan.frame_rate, plan.contacts[:, 0], plain, track(planted_action),
+                       f"walk60.bvh onto {target.name}: left ankle")
+    print(f"demo: wrote {path}")
+
+
 def raise_hand(motionkit, obj, labels: dict):
     """Full-body IK over the retargeted walk: both feet pinned where the walk puts them, the left
     hand up to a ball above the head; the hips are free to move."""
@@ -275,9 +298,10 @@ def main() -> None:
         generate.skin_bones(walker, {b.name: (0.045, 0.035) for b in walker.data.bones},
                             (0.85, 0.75, 0.25, 1.0), "walk60")
         labels[walker] = "walk60.bvh\nsource: motion capture"
-        animated += [walker] + retarget_row(motionkit, walker, BACK,
-                                            tuple(zip(characters.CHARACTERS, (-1.1, 1.1, 3.3))),
-                                            labels, "walk60.bvh")
+        row = retarget_row(motionkit, walker, BACK, tuple(zip(characters.CHARACTERS, (-1.1, 1.1, 3.3))),
+                           labels, "walk60.bvh")
+        animated += [walker] + row
+        contacts_figure(motionkit, walker, row[-1], os.path.join(out, "contacts.png"))
         before = resample_inputs(motionkit, walker, action)
     else:
         print(f"demo: {mocap} is absent, so the motion-capture row is left out")

@@ -229,3 +229,38 @@ def test_bad_input_names_the_effector_and_changes_nothing(mk, ik, walk60):
     with pytest.raises(ValueError, match="unknown IK method"):
         mk.ik.solve(obj, [ik.Effector("lWrist", pin=True)], method="magic")
     assert [tuple(pb.rotation_quaternion) for pb in obj.pose.bones] == before
+
+
+@pytest.mark.parametrize("root_moves", [False, True], ids=["root still", "root animated"])
+def test_a_game_rig_with_a_floor_root_solves_below_it(mk, ik, root_moves):
+    """UnrealA: root on the floor above pelvis, the walk's translation on pelvis. Feet pinned, a hand up to
+    targets; the solve works in the floor root's posed frame (animated or not) and never moves it."""
+    import characters
+    import generate
+    spec = characters.UNREAL_A
+    obj = generate.build_armature(spec)
+    action = generate.add_walk(obj, spec, mk.animdata)
+    frames = np.arange(1, 31)
+    if root_moves:  # the root carried forward and turning, as extracted root motion would be
+        turn = np.radians(np.linspace(0, 30, frames.size))
+        values = np.vstack([np.cos(turn / 2), 0 * turn, 0 * turn, np.sin(turn / 2),
+                            np.zeros_like(turn), -0.02 * frames, np.zeros_like(turn)])
+        mk.animdata.write_keys(obj, action, [('pose.bones["root"].rotation_quaternion', k) for k in range(4)]
+                               + [('pose.bones["root"].location', k) for k in range(3)], frames.astype(float),
+                               values)
+    scene = bpy.context.scene
+    root_before, hips = [], []
+    for f in frames:
+        scene.frame_set(int(f))
+        root_before.append(tuple(obj.pose.bones["root"].matrix.col[3])[:3])
+        hips.append(tuple(obj.matrix_world @ obj.pose.bones[spec.canonical["hips"]].head))
+    targets = np.array(hips) + (0.3, -0.15, 0.55)
+    result = mk.ik.solve(obj, [ik.Effector(spec.canonical["foot.L"], pin=True),
+                               ik.Effector(spec.canonical["foot.R"], pin=True),
+                               ik.Effector(spec.canonical["hand.L"], target=targets)], frame_range=(1, 30))
+    assert result.errors.max() < 1e-4
+    assert "root" not in result.bones
+    for i, f in enumerate(frames):
+        scene.frame_set(int(f))
+        assert (tail(obj, spec.canonical["hand.L"]) - Vector(targets[i])).length < 1e-3
+        assert np.abs(np.array(obj.pose.bones["root"].matrix.col[3])[:3] - root_before[i]).max() < 1e-6
