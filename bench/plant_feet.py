@@ -5,9 +5,11 @@ Run inside Blender (`make bench` runs it on both Blenders):
     tools/with_blender.sh 5.2 -b --factory-startup --python bench/plant_feet.py -- \\
         --zip dist/motionkit-0.1.0-linux-x64-py314.zip
 
-The sample walk (blend_samples/walk.py: feet that really stand, one key per
-frame on every bone) on MixamoT at 60 fps, --frames frames, retargeted onto
-UnrealA (other proportions and rolls, a floor root) by motionkit.retarget:
+Real capture made long: GAMES-105's walk_and_turn_left.bvh (420 frames at
+60 fps, ../shared/data/bvh/more/) played forwards then backwards, again and
+again (so the clip stays continuous), to --frames frames, imported by
+motionkit.bvh.load and retargeted onto UnrealA (other proportions and rolls,
+a floor root) by motionkit.retarget:
 - plain: plant_feet=False;
 - planted: plant_feet=True (contacts detected on the source, one native IK
   solve over the clip, the contact curves written too);
@@ -27,6 +29,7 @@ import importlib
 import os
 import statistics
 import sys
+import tempfile
 import time
 
 import bpy
@@ -38,9 +41,9 @@ sys.path[:0] = [os.path.join(ROOT, "tools"), os.path.join(ROOT, "blend_samples")
 import characters  # noqa: E402
 import generate  # noqa: E402
 import install_addon  # noqa: E402
-import walk  # noqa: E402
 
 FPS = 60
+CAPTURE = os.path.join(os.path.dirname(ROOT), "shared", "data", "bvh", "more", "walk_and_turn_left.bvh")
 
 
 def timed(function, repeat, cleanup):
@@ -70,10 +73,16 @@ def main() -> None:
 
     scene = bpy.context.scene
     scene.render.fps, scene.render.fps_base = FPS, 1.0
-    source = generate.build_armature(characters.MIXAMO_T)
+    native = mk.native()
+    skeleton, motion = native.read_bvh(CAPTURE)
+    values = np.asarray(motion.values)
+    there_and_back = np.vstack([values, values[-2:0:-1]])
+    repeats = int(np.ceil(args.frames / len(there_and_back)))
+    long_clip = os.path.join(tempfile.mkdtemp(), "walk_and_turn_long.bvh")
+    native.write_bvh(long_clip, skeleton, native.Motion(np.ascontiguousarray(np.tile(there_and_back, (repeats, 1))[
+        :args.frames]), motion.frame_time))
+    source, _ = mk.bvh.load(long_clip)
     target = generate.build_armature(characters.UNREAL_A, x=1.5)
-    cycles = (args.frames - 1) / (walk.CYCLE_SECONDS * FPS)
-    generate.add_walk(source, characters.MIXAMO_T, animdata, fps=FPS, cycles=cycles)
     frames_count = int(animdata.assigned_action(source).frame_range[1])
 
     def remove(action):
@@ -122,8 +131,8 @@ def main() -> None:
         remove(fresh)
     floor_s = statistics.median(floor_times)
 
-    print(f"\nBlender {bpy.app.version_string}: the sample walk, {frames_count:,} frames at {FPS} fps, MixamoT onto "
-          f"UnrealA ({len(curves)} F-curves, {keys:,} keys); {int(plan.contacts.any(axis=1).sum()):,} frames with "
+    print(f"\nBlender {bpy.app.version_string}: walk_and_turn_left.bvh there and back, {frames_count:,} frames at "
+          f"{FPS} fps, onto UnrealA ({len(curves)} F-curves, {keys:,} keys); {int(plan.contacts.any(axis=1).sum()):,} frames with "
           f"a contact; worst contact slide {1000 * worst:.3f} mm")
     print("| run | seconds (median, min-max) | against plain |")
     print("|---|---:|---:|")
