@@ -36,6 +36,7 @@ classes = (
     *operators_retarget.classes,
     ui_panels.MOTIONKIT_UL_bone_map,
     ui_panels.MOTIONKIT_PT_retarget,
+    ui_panels.MOTIONKIT_PT_retarget_feet,
     *ik_props.classes,
     *operators_ik.classes,
     ui_panels.MOTIONKIT_UL_ik_effectors,

@@ -5,7 +5,7 @@ import bpy
 from bpy.props import EnumProperty, StringProperty
 from bpy_extras.io_utils import ExportHelper, ImportHelper
 
-from . import bone_mapping, bvh, native_state, operator_runs, retargeting
+from . import bone_mapping, bvh, contact_props, native_state, operator_runs, retargeting
 
 
 def _settings(context):
@@ -68,7 +68,9 @@ class MOTIONKIT_OT_retarget(bpy.types.Operator):
                 source, settings.target, settings.bone_map() or None, frame_range, settings.root_motion,
                 source_match=settings.source_match, match_frame=settings.match_frame,
                 target_match=settings.target_match, ground=settings.ground, align_facing=settings.align_facing,
-                floor_root=settings.floor_root, root_smoothing=settings.root_smoothing, overwrite=settings.overwrite)
+                floor_root=settings.floor_root, root_smoothing=settings.root_smoothing,
+                plant_feet=settings.plant_feet, contact_settings=contact_props.settings(settings.contacts),
+                overwrite=settings.overwrite)
 
         return operator_runs.run(self, context, work,
                                  lambda action: f"Retargeted onto '{settings.target.name}' as action '{action.name}'")

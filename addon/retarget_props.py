@@ -3,7 +3,7 @@ import bpy
 from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProperty, IntProperty,
                        PointerProperty, StringProperty)
 
-from . import retargeting
+from . import contact_props, retargeting
 
 
 def _is_armature(self, obj):
@@ -32,6 +32,10 @@ class MOTIONKIT_PG_retarget(bpy.types.PropertyGroup):
                              description="What a target bone on the floor above the hips (a game rig's root) does")
     root_smoothing: FloatProperty(name="Smoothing", default=0.25, min=0.0, soft_max=2.0, unit='TIME_ABSOLUTE',
                                   description="Seconds of smoothing of the extracted root motion")
+    plant_feet: BoolProperty(name="Plant Feet", default=True,
+                             description="Feet that stand still in the source stay planted on the target "
+                                         "(contacts detected on the source, held with full-body IK)")
+    contacts: PointerProperty(type=contact_props.MOTIONKIT_PG_contacts)
     ground: BoolProperty(name="Feet on the Floor",
                          description="Move the root so that the target's lowest point touches the floor "
                                      "on the first frame")
@@ -55,7 +59,7 @@ class MOTIONKIT_PG_retarget(bpy.types.PropertyGroup):
         self.active_pair = 0
 
 
-classes = (MOTIONKIT_PG_bone_pair, MOTIONKIT_PG_retarget)
+classes = contact_props.classes + (MOTIONKIT_PG_bone_pair, MOTIONKIT_PG_retarget)
 
 
 def register_properties():

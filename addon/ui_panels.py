@@ -1,7 +1,7 @@
 """The MotionKit tab in the 3D view's sidebar (N panel)."""
 import bpy
 
-from . import native_state
+from . import contact_props, native_state
 
 
 class MOTIONKIT_PT_main(bpy.types.Panel):
@@ -96,6 +96,29 @@ class MOTIONKIT_PT_retarget(bpy.types.Panel):
             col.prop(settings, "frame_end")
         layout.prop(settings, "overwrite")
         layout.operator("motionkit.retarget", icon='ARMATURE_DATA')
+
+
+class MOTIONKIT_PT_retarget_feet(bpy.types.Panel):
+    """Planted feet: contacts detected on the source and held on the target; their thresholds."""
+    bl_label = "Plant Feet"
+    bl_idname = "MOTIONKIT_PT_retarget_feet"
+    bl_parent_id = "MOTIONKIT_PT_retarget"
+    bl_space_type = 'VIEW_3D'
+    bl_region_type = 'UI'
+    bl_category = "MotionKit"
+    bl_options = {'DEFAULT_CLOSED'}
+
+    def draw_header(self, context):
+        self.layout.prop(context.scene.motionkit_retarget, "plant_feet", text="")
+
+    def draw(self, context):
+        settings = context.scene.motionkit_retarget
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        layout.active = settings.plant_feet
+        contact_props.draw(layout, settings.contacts)
+        layout.label(text="Contacts are keyed on the new action (Graph Editor)", icon='INFO')
 
 
 class MOTIONKIT_UL_ik_effectors(bpy.types.UIList):

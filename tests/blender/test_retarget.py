@@ -314,9 +314,15 @@ def test_operator_retargets_a_bvh_file_and_errors_cancel(mk, walk60, tmp_path):
     settings.bvh_path = walk60
     assert bpy.ops.motionkit.bone_map_auto() == {'FINISHED'}
     assert len(settings.pairs) >= 16
+    assert settings.plant_feet and settings.floor_root == "auto"  # the defaults: feet planted
+    settings.contacts.blend = 0.2
     assert bpy.ops.motionkit.retarget() == {'FINISHED'}
     assert target.animation_data.action is not None
-    assert len(mk.animdata.fcurves(target.animation_data.action, target)) > 40
+    curves = mk.animdata.fcurves(target.animation_data.action, target)
+    assert len(curves) > 40
+    contact_curves = [fc for fc in curves if "motionkit_contact" in fc.data_path]
+    assert len(contact_curves) == 4  # heel and ball of each foot, where the animator sees them
+    assert set(np.unique(mk.animdata.read_keys(contact_curves[0])[1])) <= {0.0, 1.0}
 
 
 def test_batch_retargets_a_folder_of_files(mk, walk60, shared_dir):
