@@ -109,6 +109,19 @@ def _keys(obj, action, group: ChannelGroup) -> tuple[list, np.ndarray, np.ndarra
     return channels, times, values
 
 
+def _stepped(group: ChannelGroup) -> bool:
+    """A scalar curve whose keys all hold (CONSTANT), such as a 0/1 foot contact: it stays stepped, never
+    a spline that overshoots between its values."""
+    if group.kind != 'scalar':
+        return False
+    points = next(iter(group.curves.values())).keyframe_points
+    if not len(points) or points[0].interpolation != 'CONSTANT':
+        return False
+    codes = np.empty(len(points), dtype=np.int32)
+    points.foreach_get("interpolation", codes)  # the enum's storage: equal codes, equal interpolation
+    return bool(np.all(codes == codes[0]))
+
+
 def _key_range(fcurve) -> tuple[float, float]:
     points = fcurve.keyframe_points
     return points[0].co[0], points[-1].co[0]
@@ -307,8 +320,9 @@ def resample(targets, step: float | None = None, fps: float | None = None, *, ro
             futures = []
             for group in groups:
                 channels, times, values = _keys(obj, action, group)
+                kind = "stepped" if _stepped(group) else scalar
                 futures.append(pool.submit(_resample_group, native, channels, group, timing.map(times),
-                                           values, grid, scalar, rotation, output, tcb))
+                                           values, grid, kind, rotation, output, tcb))
             writes = []
             for future in futures:
                 if progress is not None:

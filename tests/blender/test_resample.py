@@ -323,3 +323,30 @@ def test_reduce_keys_on_walk60_stays_within_tolerance_everywhere(mk, animdata, s
     with capsys.disabled():
         print(f"\nwalk60 key reduction: {before} keys -> {after} ({100 * after / before:.1f} %), "
               f"worst rotation error {math.degrees(worst):.4f} deg")
+
+
+def test_a_stepped_curve_stays_stepped(mk, animdata):
+    """0/1 curves held with CONSTANT keys (MotionKit's foot contacts) resample as steps, whatever the
+    interpolant chosen for the other curves: no spline overshooting below 0 or above 1."""
+    obj = bpy.data.objects.new("holder", None)
+    bpy.context.scene.collection.objects.link(obj)
+    obj["contact"] = 0.0
+    action = animdata.new_action("steps")
+    frames = np.arange(1, 61, dtype=np.float64)
+    steps = (np.sin(frames / 4) > 0).astype(np.float64)
+    animdata.write_keys(obj, action, [('["contact"]', 0), ("location", 0)], frames,
+                        np.vstack([steps, np.sin(frames / 7)]), interpolation='CONSTANT')
+    animdata.assign(obj, action)
+    fc = animdata.find_fcurve(action, obj, "location", 0)
+    fc.keyframe_points[3].interpolation = 'BEZIER'  # one key that does not hold: resampled as a spline
+    scene = bpy.context.scene
+    scene.render.fps, scene.render.fps_base = 60, 1.0  # keys at 60 fps onto 24: new keys between the old
+    try:
+        mk.resample([obj], fps=24.0, scalar="catmull-rom")
+    finally:
+        scene.render.fps, scene.render.fps_base = 24, 1.0
+    contact = animdata.find_fcurve(action, obj, '["contact"]', 0)
+    values = animdata.read_keys(contact)[1]
+    assert set(np.unique(values)) <= {0.0, 1.0}
+    assert {k.interpolation for k in contact.keyframe_points} == {'CONSTANT'}
+    assert animdata.find_fcurve(action, obj, "location", 0).keyframe_points[0].interpolation != 'CONSTANT'
