@@ -6,7 +6,7 @@ Run inside Blender (`make bench` runs it on both Blenders):
         --zip dist/motionkit-0.1.0-linux-x64-py314.zip
 
 Real capture made long: GAMES-105's walk_and_turn_left.bvh (420 frames at
-60 fps, ../shared/data/bvh/more/) played forwards then backwards, again and
+100 fps, ../shared/data/bvh/more/) played forwards then backwards, again and
 again (so the clip stays continuous), to --frames frames, imported by
 motionkit.bvh.load and retargeted onto UnrealA (other proportions and rolls,
 a floor root) by motionkit.retarget:
@@ -42,7 +42,6 @@ import characters  # noqa: E402
 import generate  # noqa: E402
 import install_addon  # noqa: E402
 
-FPS = 60
 CAPTURE = os.path.join(os.path.dirname(ROOT), "shared", "data", "bvh", "more", "walk_and_turn_left.bvh")
 
 
@@ -71,8 +70,6 @@ def main() -> None:
     pose_channels = importlib.import_module(mk.__name__ + ".pose_channels")
     animdata = mk.animdata
 
-    scene = bpy.context.scene
-    scene.render.fps, scene.render.fps_base = FPS, 1.0
     native = mk.native()
     skeleton, motion = native.read_bvh(CAPTURE)
     values = np.asarray(motion.values)
@@ -132,7 +129,7 @@ def main() -> None:
     floor_s = statistics.median(floor_times)
 
     print(f"\nBlender {bpy.app.version_string}: walk_and_turn_left.bvh there and back, {frames_count:,} frames at "
-          f"{FPS} fps, onto UnrealA ({len(curves)} F-curves, {keys:,} keys); {int(plan.contacts.any(axis=1).sum()):,} frames with "
+          f"{plan.frame_rate:g} fps, onto UnrealA ({len(curves)} F-curves, {keys:,} keys); {int(plan.contacts.any(axis=1).sum()):,} frames with "
           f"a contact; worst contact slide {1000 * worst:.3f} mm")
     print("| run | seconds (median, min-max) | against plain |")
     print("|---|---:|---:|")

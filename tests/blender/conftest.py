@@ -45,9 +45,15 @@ def clear_scene():
 
 @pytest.fixture(autouse=True)
 def empty_scene():
+    """An empty scene, and the scene's frame rate and range as they were afterwards (a BVH import with
+    update_scene_fps changes them; later tests must not inherit that)."""
+    scene = bpy.context.scene
+    kept = (scene.render.fps, scene.render.fps_base, scene.frame_start, scene.frame_end, scene.frame_current)
     clear_scene()
-    yield bpy.context.scene
+    yield scene
     clear_scene()
+    scene.render.fps, scene.render.fps_base, scene.frame_start, scene.frame_end = kept[:4]
+    scene.frame_set(kept[4])
 
 
 @pytest.fixture(scope="session")
