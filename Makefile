@@ -64,6 +64,8 @@ bench: build-3.4 build-5.2
 	tools/with_blender.sh 5.2 $(BLENDER_ARGS) --python bench/resample.py -- --zip $(ZIP_5.2)
 	tools/with_blender.sh 3.4 $(BLENDER_ARGS) --python bench/retarget.py -- --zip $(ZIP_3.4)
 	tools/with_blender.sh 5.2 $(BLENDER_ARGS) --python bench/retarget.py -- --zip $(ZIP_5.2)
+	tools/with_blender.sh 3.4 $(BLENDER_ARGS) --python bench/plant_feet.py -- --zip $(ZIP_3.4)
+	tools/with_blender.sh 5.2 $(BLENDER_ARGS) --python bench/plant_feet.py -- --zip $(ZIP_5.2)
 	tools/with_blender.sh 3.4 $(BLENDER_ARGS) --python bench/ik.py -- --zip $(ZIP_3.4)
 	tools/with_blender.sh 5.2 $(BLENDER_ARGS) --python bench/ik.py -- --zip $(ZIP_5.2)
 	tools/with_blender.sh 3.4 $(BLENDER_ARGS) --python bench/ik_live.py -- --zip $(ZIP_3.4)
