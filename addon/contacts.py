@@ -230,6 +230,10 @@ def write_contacts(obj, action, feet, frames, contacts) -> list:
                 if prop not in pose_bone.keys():
                     pose_bone[prop] = 0.0
                     created.append((pose_bone, prop))
+                    what = "heel (ankle)" if prop == PROPERTIES[0] else "ball"
+                    pose_bone.id_properties_ui(prop).update(
+                        min=0.0, max=1.0, soft_min=0.0, soft_max=1.0,
+                        description=f"MotionKit: 1 where the {what} of foot {foot.side} is planted")
         return animdata.write_keys(obj, action, contact_channels(feet), key_frames, values,
                                    interpolation='CONSTANT')
     except BaseException:
@@ -432,7 +436,7 @@ def cleanup(obj, bones, rig, frames, rotations, locations, feet, contacts=None,
             limit_min=limit_min, limit_max=limit_max, excluded=excluded,
             **{"method": "dls", "max_iterations": 64, "tolerance": 1e-6 * size, "reference": "input",
                **_SOLVE_OPTIONS},
-            root_translation=True, root_rotation=False, warm_start=False, size=size, threads=1)
+            root_translation=True, root_rotation=False, warm_start=False, size=size, threads=0)
     except ValueError as error:
         # The native message names the effector (foot, bone) and the frame index: give the Blender frame.
         raise ValueError(f"foot cleanup on '{obj.name}' (frames {frames[0]:g}..{frames[-1]:g}, frame index "

@@ -249,7 +249,11 @@ void BlockDots(const double* x, const double* z, std::size_t c, std::array<std::
 class Solver {
  public:
   Solver(IkClipJob& job, std::vector<int> ids, int* iterations);
-  void Run();
+  // Frames [first, last), in order. Quaternion signs run on from the output of frame first - 1 only
+  // when first is 0 (else from the input: the frame before may be another thread's).
+  void Run(Eigen::Index first, Eigen::Index last);
+  // The bones it solves.
+  std::vector<int> Bones() const;
   RowMatrixXd Jacobian(Eigen::Index f);
 
  private:
@@ -383,6 +387,7 @@ class Solver {
   std::vector<Quat> target_orientation_;
   Pose input_, current_, trial_, reference_, solution_, earlier_, backup_, best_;
   Fk fk_, trial_fk_;
+  Eigen::Index first_ = 0;  // the first frame of the run being solved
   bool have_solution_ = false;
   bool have_earlier_ = false;  // earlier_: the solution of the frame before solution_'s
 
@@ -1649,8 +1654,8 @@ void Solver::FinishFrame(Eigen::Index f, int iterations) {
     double* out = out_row + 4 * b;
     const double* in = in_row + 4 * b;
     Quat q = At(current_.basis, b);
-    // Continuous with the previous frame's output (the input's on the first).
-    const double* near = f > 0 ? out - job_.rotations.outerStride() : in;
+    // Continuous with the previous frame's output (the input's on the first of the run).
+    const double* near = f > first_ ? out - job_.rotations.outerStride() : in;
     if (q.w() * near[0] + q.x() * near[1] + q.y() * near[2] + q.z() * near[3] < 0.0) q.coeffs() = -q.coeffs();
     out[0] = q.w();
     out[1] = q.x();
@@ -1675,8 +1680,16 @@ void Solver::FinishFrame(Eigen::Index f, int iterations) {
   have_solution_ = true;
 }
 
-void Solver::Run() {
-  for (Eigen::Index f = 0; f < job_.target_positions.rows(); ++f) {
+std::vector<int> Solver::Bones() const {
+  std::vector<int> bones;
+  bones.reserve(joints_.size());
+  for (const Joint& j : joints_) bones.push_back(j.bone);
+  return bones;
+}
+
+void Solver::Run(Eigen::Index first, Eigen::Index last) {
+  first_ = first;
+  for (Eigen::Index f = first; f < last; ++f) {
     StartFrame(f);
     const int iterations = options_.method == IkMethod::kCcd ? SolveCcd() : SolveJacobian();
     FinishFrame(f, iterations);
@@ -1881,20 +1894,42 @@ void IkClipJob::Run() {
   std::stable_sort(groups.begin(), groups.end(),
                    [](const std::vector<int>& a, const std::vector<int>& b) { return a.size() > b.size(); });
   std::vector<std::vector<int>> counts(groups.size(), std::vector<int>(static_cast<std::size_t>(frames), 0));
-  std::vector<std::exception_ptr> failures(groups.size());
   int threads = options.threads;
   if (threads == 0) threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-  internal::ParallelFor(static_cast<int>(groups.size()), threads, [&](int g) {
-    const auto i = static_cast<std::size_t>(g);
+  // Without a warm start and with the input as the reference, no frame depends on another: the threads
+  // a group leaves idle take runs of its frames (each run with its own solver), same numbers.
+  const bool frames_apart = !options.warm_start && options.reference == IkReference::kInput;
+  const int group_count = static_cast<int>(groups.size());
+  const Eigen::Index runs = frames_apart && group_count > 0 && threads > group_count
+                                ? std::max<Eigen::Index>(1, std::min<Eigen::Index>(threads / group_count, frames))
+                                : 1;
+  const int tasks = group_count * static_cast<int>(runs);
+  std::vector<std::exception_ptr> failures(static_cast<std::size_t>(tasks));
+  std::vector<std::vector<int>> solved(static_cast<std::size_t>(tasks));
+  const auto run_start = [&](Eigen::Index run) { return frames * run / runs; };
+  internal::ParallelFor(tasks, threads, [&](int t) {
+    const auto i = static_cast<std::size_t>(t / runs);
+    const Eigen::Index run = t % runs;
     try {
       Solver solver(*this, groups[i], counts[i].data());
-      solver.Run();
+      solver.Run(run_start(run), run_start(run + 1));
+      solved[static_cast<std::size_t>(t)] = solver.Bones();
     } catch (...) {
-      failures[i] = std::current_exception();
+      failures[static_cast<std::size_t>(t)] = std::current_exception();
     }
   });
   for (const std::exception_ptr& failure : failures) {
     if (failure) std::rethrow_exception(failure);
+  }
+  // Each later run began its signs from the input: carry on from the run before, as one thread would.
+  for (int t = 0; t < tasks; ++t) {
+    const Eigen::Index run = t % runs, first = run_start(run), last = run_start(run + 1);
+    if (run == 0 || first == last) continue;
+    for (int b : solved[static_cast<std::size_t>(t)]) {
+      if (rotations.row(first).segment<4>(4 * b).dot(rotations.row(first - 1).segment<4>(4 * b)) < 0.0) {
+        rotations.block(first, 4 * b, last - first, 4) *= -1.0;
+      }
+    }
   }
   for (Eigen::Index f = 0; f < frames; ++f) {
     int most = 0;

@@ -717,6 +717,36 @@ TEST(IkGroups, IndependentChainsSolveAsIfAlone) {
   EXPECT_NE(all.root_locations, all.input_locations);
 }
 
+// Without a warm start and with the input as reference every frame is its own problem: one group (the
+// root's translation joins every chain) is split into runs of frames over the threads, bit for bit the
+// numbers one thread gives, for every method, with as many threads as frames or more.
+TEST(IkGroups, FramesApartSolveOnThreadsAsOnOne) {
+  std::mt19937 rng(59);
+  const FullBody body(&rng);
+  const int frames = 7;
+  Problem p(body.rig, frames, body.Effectors());
+  p.input_rotations = Identity(body.rig.size(), frames);
+  for (int f = 0; f < frames; ++f) body.Reachable(p, f, rng, 0.4);
+  p.options.root_translation = true;
+  p.options.warm_start = false;
+  p.options.reference = IkReference::kInput;
+  for (IkMethod method : kMethods) {
+    p.options.method = method;
+    p.options.threads = 1;
+    p.Run();
+    const RowMatrixXd rotations = p.rotations, locations = p.root_locations, errors = p.errors;
+    const Eigen::VectorXi iterations = p.iterations;
+    for (int threads : {2, 3, 16}) {
+      p.options.threads = threads;
+      p.Run();
+      EXPECT_EQ(p.rotations, rotations) << MethodName(method) << " on " << threads;
+      EXPECT_EQ(p.root_locations, locations) << MethodName(method) << " on " << threads;
+      EXPECT_EQ(p.errors, errors) << MethodName(method) << " on " << threads;
+      EXPECT_EQ(p.iterations, iterations) << MethodName(method) << " on " << threads;
+    }
+  }
+}
+
 TEST(IkStretch, ReachesBeyondTheChainWithinItsScaleRange) {
   const RigModel rig = MakeRig(Chain({0.6, 0.4}, Vec3(0.3, 1, 0.2), 0.5));
   for (IkMethod method : {IkMethod::kCcd, IkMethod::kDls}) {

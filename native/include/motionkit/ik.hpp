@@ -186,8 +186,10 @@ struct IkOptions {
   // starts nearer the targets (smooth targets then take one step a frame).
   bool warm_start = true;
   // Independent groups of effectors (see Run) may be solved on up to this
-  // many threads; 0 means std::thread::hardware_concurrency(). The results
-  // are the same whatever the count.
+  // many threads, and without warm_start and with the input as reference
+  // (every frame its own problem) runs of frames too; 0 means
+  // std::thread::hardware_concurrency(). The results are the same whatever
+  // the count.
   int threads = 1;
 };
 
