@@ -268,18 +268,37 @@ def _knee_roll(shin_basis, shin_world, foot_dir_world) -> tuple[float, str]:
     return float(np.arctan2(-axis[1], axis[0])), how
 
 
-def _pose_points(obj, bones, rig, rotations, locations, legs):
+def _above(bones, b) -> list[int]:
+    """Indices of bone b's ancestors in bones (depth-first)."""
+    index = {bone.name: i for i, bone in enumerate(bones)}
+    out, bone = [], bones[b].parent
+    while bone is not None:
+        out.append(index[bone.name])
+        bone = bone.parent
+    return out
+
+
+def _pose_points(obj, bones, rig, rotations, locations, legs, posed=None):
     """The pose in armature space (orientations (F, B, 4), heads (F, B, 3)), the foot points in armature
-    and world space (F, 4, 3) and the leg length (thigh + shin, world units)."""
-    native = native_state.native()
+    and world space (F, 4, 3) and the leg length (thigh + shin, world units). posed: the armature pose
+    (orientations (F, 4B), heads (F, 3B)) when the caller has it already."""
     count, nb = rotations.shape[0], len(bones)
-    orient, heads = native.armature_pose(rig, np.ascontiguousarray(rotations), np.ascontiguousarray(locations))
-    orient = orient.reshape(count, nb, 4)
-    heads = heads.reshape(count, nb, 3)
+    if posed is None:
+        # Only the legs and the bones above them place the feet: posed alone (the rest is never read).
+        sub = sorted(set(b for chain in legs for b in chain).union(*(_above(bones, chain[0]) for chain in legs)))
+        sub_rig, _ = pose_channels.native_rig(obj.data, [bones[b] for b in sub])
+        sub_orient, sub_heads = native_state.native().armature_pose(
+            sub_rig, np.ascontiguousarray(rotations.reshape(count, nb, 4)[:, sub].reshape(count, -1)),
+            np.ascontiguousarray(locations.reshape(count, nb, 3)[:, sub].reshape(count, -1)))
+        orient, heads = np.empty((count, nb, 4)), np.empty((count, nb, 3))
+        orient[:, sub] = sub_orient.reshape(count, len(sub), 4)
+        heads[:, sub] = sub_heads.reshape(count, len(sub), 3)
+    else:
+        orient = posed[0].reshape(count, nb, 4)
+        heads = posed[1].reshape(count, nb, 3)
     lengths = np.array([b.length for b in bones])
     point_bones = [b for _, shin, foot in legs for b in (shin, foot)]
-    points = heads[:, point_bones] + _rotate(orient[:, point_bones],
-                                             np.stack([np.zeros(4), lengths[point_bones], np.zeros(4)], 1))
+    points = heads[:, point_bones] + lengths[point_bones, None] * rotation_channels.y_axes(orient[:, point_bones])
     world = np.array(obj.matrix_world)
     world_points = points @ world[:3, :3].T + world[:3, 3]
     scale = float(np.cbrt(abs(np.linalg.det(world[:3, :3]))))
@@ -287,22 +306,22 @@ def _pose_points(obj, bones, rig, rotations, locations, legs):
     return orient, heads, points, world_points, leg_length
 
 
-def foot_points(obj, bones, rig, rotations, locations, feet) -> tuple[np.ndarray, float]:
+def foot_points(obj, bones, rig, rotations, locations, feet, posed=None) -> tuple[np.ndarray, float]:
     """World positions (F, 4, 3) of the foot points (POINTS order) of a pose sequence, and the leg length
-    (thigh + shin, world units): what detection sees."""
+    (thigh + shin, world units): what detection sees. posed: its armature pose, if already at hand."""
     feet = _as_feet(feet)
     legs = _leg_indices(bones, feet)
-    _, _, _, world_points, leg_length = _pose_points(obj, bones, rig, rotations, locations, legs)
+    _, _, _, world_points, leg_length = _pose_points(obj, bones, rig, rotations, locations, legs, posed)
     return world_points, leg_length
 
 
 def find_contacts(obj, bones, rig, rotations, locations, feet, settings: ContactSettings | None = None,
-                  fps: float | None = None) -> np.ndarray:
+                  fps: float | None = None, posed=None) -> np.ndarray:
     """Contacts (F, 4) bool (POINTS order) of a pose sequence (for example the retarget's source, whose
-    contacts the target then keeps); fps default the scene's."""
+    contacts the target then keeps); fps default the scene's; posed: its armature pose, if at hand."""
     if fps is None:
         fps = bpy.context.scene.render.fps / bpy.context.scene.render.fps_base
-    points, leg_length = foot_points(obj, bones, rig, rotations, locations, feet)
+    points, leg_length = foot_points(obj, bones, rig, rotations, locations, feet, posed)
     return detect_contacts(points, fps, leg_length, 0.0, settings)
 
 
@@ -311,9 +330,41 @@ def _blender_frame(frames, f) -> str:
 
 
 def cleanup(obj, bones, rig, frames, rotations, locations, feet, contacts=None,
-            settings: ContactSettings | None = None, *, hips: str | None = None, fps: float | None = None):
+            settings: ContactSettings | None = None, *, hips: str | None = None, fps: float | None = None,
+            in_place: bool = False):
     """Footskate cleanup of a pose sequence; returns (rotations, locations, Report). Changes nothing in
-    the file.
+    the file. The arguments are staged_cleanup's."""
+    solve, finish = staged_cleanup(obj, bones, rig, frames, rotations, locations, feet, contacts, settings,
+                                   hips=hips, fps=fps, in_place=in_place)
+    return finish(solve())
+
+
+def staged_cleanup(obj, bones, rig, frames, rotations, locations, feet, contacts=None,
+                   settings: ContactSettings | None = None, *, hips: str | None = None, fps: float | None = None,
+                   in_place: bool = False):
+    """cleanup in two halves, so that its native solve can run beside other work: everything that reads
+    Blender data happens here, and the result is (solve, finish). solve() calls native code only (the GIL
+    released: it may run on a worker thread while this one writes keys); finish(solve()) gives cleanup's
+    (rotations, locations, Report). A ValueError from either half names the foot, bone and frame.
+    """
+    steps = _cleanup_steps(obj, bones, rig, frames, rotations, locations, feet, contacts, settings, hips=hips,
+                           fps=fps, in_place=in_place)
+    solve = next(steps)
+
+    def finish(solved):
+        try:
+            steps.send(solved)
+        except StopIteration as done:
+            return done.value
+        raise RuntimeError("foot cleanup: one solve was expected")
+
+    return solve, finish
+
+
+def _cleanup_steps(obj, bones, rig, frames, rotations, locations, feet, contacts=None,
+                   settings: ContactSettings | None = None, *, hips: str | None = None, fps: float | None = None,
+                   in_place: bool = False):
+    """The cleanup as a generator: yields its solve, is sent the solve's result, returns cleanup's result.
 
     obj: the armature object (its matrix_world places the floor; Z up).
     bones, rig: the depth-first bone list and native rig (pose_channels.native_rig(obj.data)).
@@ -323,7 +374,8 @@ def cleanup(obj, bones, rig, frames, rotations, locations, feet, contacts=None,
     contacts: (F, 4) bool in POINTS order, or None to detect them on this pose sequence.
     hips: the bone whose location channel carries the body (default: the thighs' common parent).
     fps: for detection and blend lengths (default the scene's).
-    Only the thighs', shins' and feet's rotations and the hips' location change.
+    Only the thighs', shins' and feet's rotations and the hips' location change. in_place: write them into
+    rotations and locations themselves (float64, C-contiguous) and return those, rather than copies.
     Raises ValueError naming the foot, bone and Blender frame.
     """
     started = time.perf_counter()
@@ -345,6 +397,10 @@ def cleanup(obj, bones, rig, frames, rotations, locations, feet, contacts=None,
         (i for i, b in enumerate(bones) if b.name == hips), None)
     if hip is None:
         raise ValueError(f"hips bone '{hips}' is not in the armature")
+    for foot, chain in zip(feet, legs):
+        if hip not in _above(bones, chain[0]):
+            raise ValueError(f"foot {foot.side}: hips bone '{bones[hip].name}' is not above the thigh "
+                             f"'{bones[chain[0]].name}'")
     for foot, chain in zip(feet, legs):
         for b in chain + (hip,):
             bad = ~np.isfinite(rotations[:, 4 * b:4 * b + 4]).all(axis=1) | \
@@ -426,25 +482,35 @@ def cleanup(obj, bones, rig, frames, rotations, locations, feet, contacts=None,
     effectors = [{"name": f"foot {foot.side} {what} ('{bones[b].name}' tail)", "bone": local[b], "weight": 1.0}
                  for foot, (_, shin, foot_bone) in zip(feet, legs)
                  for what, b in (("ankle", shin), ("ball", foot_bone))]
-    rest_points = np.array([(b.head_local, b.tail_local) for b in bones], dtype=np.float64).reshape(-1, 3)
-    size = float(np.linalg.norm(np.ptp(rest_points, axis=0)))
-    solve_started = time.perf_counter()
-    try:
-        solved = native.ik_solve(
-            solve_rig, np.ascontiguousarray(basis.reshape(count, -1)), np.ascontiguousarray(hip_loc),
-            np.ascontiguousarray(targets.reshape(count, -1)), np.zeros((count, 0)), effectors,
-            limit_min=limit_min, limit_max=limit_max, excluded=excluded,
-            **{"method": "dls", "max_iterations": 64, "tolerance": 1e-6 * size, "reference": "input",
-               **_SOLVE_OPTIONS},
-            root_translation=True, root_rotation=False, warm_start=False, size=size, threads=0)
-    except ValueError as error:
-        # The native message names the effector (foot, bone) and the frame index: give the Blender frame.
-        raise ValueError(f"foot cleanup on '{obj.name}' (frames {frames[0]:g}..{frames[-1]:g}, frame index "
-                         f"i is Blender frame {frames[0]:g} + i): {error}") from None
-    report.solve_seconds = time.perf_counter() - solve_started
+    rest_points = np.empty((2, 3 * len(obj.data.bones)), dtype=np.float32)  # the whole rig's extent
+    obj.data.bones.foreach_get("head_local", rest_points[0])
+    obj.data.bones.foreach_get("tail_local", rest_points[1])
+    size = float(np.linalg.norm(np.ptp(rest_points.reshape(-1, 3).astype(np.float64), axis=0)))
+    arguments = (solve_rig, np.ascontiguousarray(basis.reshape(count, -1)), np.ascontiguousarray(hip_loc),
+                 np.ascontiguousarray(targets.reshape(count, -1)), np.zeros((count, 0)), effectors)
+    options = dict(limit_min=limit_min, limit_max=limit_max, excluded=excluded,
+                   **{"method": "dls", "max_iterations": 64, "tolerance": 1e-5 * size, "reference": "input",
+                      **_SOLVE_OPTIONS},
+                   root_translation=True, root_rotation=False, warm_start=False, size=size, threads=0)
+    name = obj.name  # the solve touches no Blender data: it may run on another thread
 
-    out_rot = rotations.copy()
-    out_loc = locations.copy()
+    def solve():
+        solve_started = time.perf_counter()
+        try:
+            result = native.ik_solve(*arguments, **options)
+        except ValueError as error:
+            # The native message names the effector (foot, bone) and the frame index: give the Blender frame.
+            raise ValueError(f"foot cleanup on '{name}' (frames {frames[0]:g}..{frames[-1]:g}, frame index "
+                             f"i is Blender frame {frames[0]:g} + i): {error}") from None
+        report.solve_seconds = time.perf_counter() - solve_started
+        return result
+
+    solve_ended = time.perf_counter()
+    solved = yield solve
+    started += time.perf_counter() - solve_ended - report.solve_seconds  # report.seconds: the cleanup's own
+
+    out_rot = rotations if in_place else rotations.copy()
+    out_loc = locations if in_place else locations.copy()
     solved_basis = solved["rotations"].reshape(count, nb_part, 4)
     for shin, roll in rolls.items():
         k = local[shin]

@@ -9,6 +9,8 @@ checked before anything in the file changes, so an error leaves it as it was.
 from __future__ import annotations
 
 import os
+import threading
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import bpy
@@ -225,8 +227,26 @@ def _body_roots(side: _Side, body, mapped, depth) -> tuple[int | None, int | Non
 
 
 @dataclass
+class _PlantedFeet:
+    """The feet's IK solve (contacts.staged_cleanup) not yet run: apply() runs it on a worker thread while
+    it writes the keys of the other bones, then keys the changed bones."""
+    solve: object     # () -> the native result (no Blender data touched)
+    finish: object    # (result) -> (rotations, locations, report), the solved legs written into the plan's pose
+    bones: set        # names of the bones whose channels the solve changes
+    channels: object  # () -> (channels, values) of those bones, from the plan's pose
+
+    def complete(self, plan_: "Plan", solved) -> None:
+        _, _, plan_.contact_report = self.finish(solved)
+        channels, values = self.channels()
+        rows = {(path, index): row for row, (path, index, _) in enumerate(plan_.channels)}
+        plan_.values[[rows[(path, index)] for path, index, _ in channels]] = values
+        plan_.pending = None
+
+
+@dataclass
 class Plan:
-    """Everything the retarget computes, before anything is written."""
+    """Everything the retarget computes, before anything is written (the feet's IK solve aside, while
+    pending: see resolve)."""
     target: bpy.types.Object
     frames: np.ndarray
     channels: list
@@ -243,13 +263,22 @@ class Plan:
     contacts: np.ndarray | None = None  # (frames, 4) bool in contacts.POINTS order, detected on the source
     contact_report: object = None  # contacts.Report of the cleanup
     frame_rate: float = 0.0  # the source keys' frames per second (bvh.frame_rate), kept on the new action
+    pending: _PlantedFeet | None = None  # the feet's IK solve, when plan(defer_solve=True) left it to apply()
+
+    def resolve(self) -> None:
+        """Runs a pending feet's IK solve here and now: values, contact_report and all are then final."""
+        if self.pending is not None:
+            self.pending.complete(self, self.pending.solve())
 
 
 def plan(source, target, bone_map=None, frame_range=None, root: str = "scaled", *, source_match: str = 'REST',
          match_frame: float | None = None, target_match: str = 'REST', ground: bool = False,
          align_facing: bool = True, floor_root: str = "auto", root_smoothing: float = 0.25,
-         plant_feet: bool = True, contact_settings: ContactSettings | None = None) -> Plan:
-    """Compute the retargeted keys without touching the file (see retarget)."""
+         plant_feet: bool = True, contact_settings: ContactSettings | None = None,
+         defer_solve: bool = False) -> Plan:
+    """Compute the retargeted keys without touching the file (see retarget). defer_solve: leave the feet's
+    IK solve pending for apply(), which runs it beside writing the other bones' keys (Plan.resolve runs it
+    at once); the contacts, feet and every other bone's values are final either way."""
     native = native_state.native()
     src, tgt = _side(source, "source"), _side(target, "target")
     if src.obj == tgt.obj:
@@ -351,17 +380,25 @@ def plan(source, target, bone_map=None, frame_range=None, root: str = "scaled", 
 
     planted = None
     if plant_feet:
-        planted = _plant_feet(src, tgt, src_body, tgt_body, frames, source_basis, source_locations, rotations,
-                              locations, target_root, contact_settings, bvh.frame_rate(action))
-        if planted is not None:
-            rotations, locations = planted[0], planted[1]
-    moving, still = _target_channels(native, tgt, rotations, target_basis, bone_map_idx, located, locations)
+        planted = _plant_feet(src, tgt, src_body, tgt_body, frames, source_basis, source_locations,
+                              (source_rotations, source_heads), rotations, locations, target_root,
+                              contact_settings, bvh.frame_rate(action))
+    # Bones the feet's solve may change get a key per frame even where the plain retarget keeps them still.
+    keyed = ({tgt.index(b) for f in planted[2] for b in (f.thigh, f.shin, f.foot)} | {target_root}
+             if planted is not None else set())
+    moving, still = _target_channels(native, tgt, rotations, target_basis, bone_map_idx, located, locations,
+                                     keyed=keyed)
     plan_ = Plan(tgt.obj, frames, *moving, src.obj.name, pairs, *still, leg_ratio=scale,
                  hips=(src.names[source_root], tgt.names[target_root]),
                  floor_roots=(src.names[source_floor] if source_floor is not None else None,
                               tgt.names[target_floor] if target_floor is not None else None), floor_root=mode,
                  feet=planted[2] if planted else None, contacts=planted[3] if planted else None,
-                 contact_report=planted[4] if planted else None, frame_rate=bvh.frame_rate(action))
+                 frame_rate=bvh.frame_rate(action))
+    if planted is not None:
+        plan_.pending = _PlantedFeet(planted[0], planted[1], {tgt.names[b] for b in keyed}, lambda: _target_channels(
+            native, tgt, rotations, target_basis, bone_map_idx, located, locations, keyed, keyed)[0])
+        if not defer_solve:
+            plan_.resolve()
     if not (np.all(np.isfinite(plan_.values)) and np.all(np.isfinite(plan_.still_values))):
         raise ValueError("the retargeted motion is not finite; check the rigs' rest poses")
     return plan_
@@ -378,19 +415,20 @@ def _feet(side: _Side, body) -> list | None:
     return feet
 
 
-def _plant_feet(src: _Side, tgt: _Side, src_body, tgt_body, frames, source_basis, source_locations, rotations,
-                locations, target_root, settings, fps):
-    """Contacts detected on the source's feet, held by the target's (contacts.cleanup): (rotations,
-    locations, target feet, contacts, report), or None when either rig has no two labelled legs."""
+def _plant_feet(src: _Side, tgt: _Side, src_body, tgt_body, frames, source_basis, source_locations, source_posed,
+                rotations, locations, target_root, settings, fps):
+    """Contacts detected on the source's feet, to be held by the target's (contacts.staged_cleanup, which
+    writes the solved legs into rotations and locations): (solve, finish, target feet, contacts), or None
+    when either rig has no two labelled legs."""
     src_feet, tgt_feet = _feet(src, src_body), _feet(tgt, tgt_body)
     if src_feet is None or tgt_feet is None:
         return None
     found = contacts.find_contacts(src.obj, src.bones, src.rig, source_basis, source_locations, src_feet,
-                                   settings, fps=fps)
-    rotations, locations, report = contacts.cleanup(tgt.obj, tgt.bones, tgt.rig, frames, rotations, locations,
-                                                    tgt_feet, found, settings, hips=tgt.names[target_root],
-                                                    fps=fps)
-    return rotations, locations, tgt_feet, found, report
+                                   settings, fps=fps, posed=source_posed)
+    solve, finish = contacts.staged_cleanup(tgt.obj, tgt.bones, tgt.rig, frames, rotations, locations, tgt_feet,
+                                            found, settings, hips=tgt.names[target_root], fps=fps,
+                                            in_place=True)  # the plan's own arrays
+    return solve, finish, tgt_feet, found
 
 
 def _depths(side: _Side) -> list[int]:
@@ -451,15 +489,19 @@ def _move_floor_root(native, tgt: _Side, target_pose: _Pose, rotations, location
     locations[:, 3 * hips:3 * hips + 3] = hips_location
 
 
-def _target_channels(native, tgt: _Side, rotations, target_basis, bone_map_idx, located, locations):
+def _target_channels(native, tgt: _Side, rotations, target_basis, bone_map_idx, located, locations, only=None,
+                     keyed=frozenset()):
     """The F-curves to key, in each bone's own rotation mode: (channels, values) for the bones the retarget
-    moves and the root's location, one key per frame; (channels, values) for the bones that keep the match
-    pose, one key."""
+    moves (and those in keyed) and the root's location, one key per frame; (channels, values) for the bones
+    that keep the match pose, one key. only: the bone indices to give (default all)."""
     moving, still = ([], []), ([], [])
     frames = rotations.shape[0]
     for b, bone in enumerate(tgt.bones):
+        if only is not None and b not in only:
+            continue
         q = rotations[:, 4 * b:4 * b + 4]
-        moved = bone_map_idx[b] >= 0 or b in located or bool(np.any(np.abs(q @ target_basis[b]) < 1.0 - 1e-12))
+        moved = (bone_map_idx[b] >= 0 or b in located or b in keyed
+                 or bool(np.any(np.abs(q @ target_basis[b]) < 1.0 - 1e-12)))
         path = f'pose.bones["{bpy.utils.escape_identifier(bone.name)}"]'
         if b in located:
             moving[0].extend((f"{path}.location", k, bone.name) for k in range(3))
@@ -482,6 +524,7 @@ def apply(plan_: Plan, *, action_name: str | None = None, overwrite: bool = Fals
     target = plan_.target
     previous = animdata.assigned_action(target)
     if overwrite and previous is not None:
+        plan_.resolve()  # everything computed before the user's own action changes
         _write(target, previous, plan_)
         return previous
     action = animdata.new_action(action_name or f"{plan_.source_name} -> {target.name}")
@@ -497,7 +540,29 @@ def apply(plan_: Plan, *, action_name: str | None = None, overwrite: bool = Fals
 
 
 def _write(target, action, plan_: Plan) -> None:
-    if plan_.channels:
+    pending = plan_.pending
+    if pending is not None and plan_.channels:
+        # The solve releases the GIL: the other bones' keys are written meanwhile (a failure of either
+        # leaves the new action to apply(), which removes it).
+        changed = [bone in pending.bones for _, _, bone in plan_.channels]
+        later = [row for row, change in enumerate(changed) if change]
+        now = [row for row, change in enumerate(changed) if not change]
+        with ThreadPoolExecutor(max_workers=1) as pool:
+            started = threading.Event()
+
+            def run():
+                started.set()
+                return pending.solve()
+
+            solving = pool.submit(run)
+            started.wait()
+            animdata.write_keys(target, action, [plan_.channels[r] for r in now], plan_.frames, plan_.values[now])
+            solved = solving.result()
+        pending.complete(plan_, solved)
+        animdata.write_keys(target, action, [plan_.channels[r] for r in later], plan_.frames,
+                            plan_.values[later])
+    elif plan_.channels:
+        plan_.resolve()
         animdata.write_keys(target, action, plan_.channels, plan_.frames, plan_.values)
     if plan_.still_channels:
         animdata.write_keys(target, action, plan_.still_channels, plan_.frames[:1], plan_.still_values)
@@ -544,7 +609,7 @@ def retarget(source, target, bone_map=None, frame_range=None, root: str = "scale
         result = plan(source, target, bone_map, frame_range, root, source_match=source_match,
                       match_frame=match_frame, target_match=target_match, ground=ground,
                       align_facing=align_facing, floor_root=floor_root, root_smoothing=root_smoothing,
-                      plant_feet=plant_feet, contact_settings=contact_settings)
+                      plant_feet=plant_feet, contact_settings=contact_settings, defer_solve=True)
         return apply(result, action_name=action_name, overwrite=overwrite)
     except BaseException:
         if imported is not None:
@@ -575,7 +640,7 @@ def retarget_files(paths, target, *, keep_sources: bool = False, **options) -> l
         name = os.path.splitext(os.path.basename(path))[0]
         source, _ = bvh.load(os.fspath(path))
         try:
-            action = apply(plan(source, target, **options), action_name=name)
+            action = apply(plan(source, target, defer_solve=True, **options), action_name=name)
             action.use_fake_user = True
             actions.append(action)
         except ValueError as ex:

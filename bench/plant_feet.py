@@ -13,8 +13,8 @@ a floor root) by motionkit.retarget:
 - plain: plant_feet=False;
 - planted: plant_feet=True (contacts detected on the source, one native IK
   solve over the clip, the contact curves written too);
-each the median of --repeat runs from the same state (the previous run's
-action removed first). The issue's budget: planting adds at most 50 %.
+alternating, --repeat runs of each from the same state (the previous run's
+action removed first), medians and the median ratio of the pairs. The issue's budget: planting adds at most 50 %.
 - Blender's floor: animdata.write_keys of the planted retarget's own keys
   (same curves, same frames) into a new action: what any tool that writes
   these keys pays, however it computes them.
@@ -43,18 +43,6 @@ import generate  # noqa: E402
 import install_addon  # noqa: E402
 
 CAPTURE = os.path.join(os.path.dirname(ROOT), "shared", "data", "bvh", "more", "walk_and_turn_left.bvh")
-
-
-def timed(function, repeat, cleanup):
-    """Median seconds of repeat calls, cleanup(result) after each but the last; the last result."""
-    times, result = [], None
-    for i in range(repeat):
-        if result is not None:
-            cleanup(result)
-        start = time.perf_counter()
-        result = function()
-        times.append(time.perf_counter() - start)
-    return statistics.median(times), min(times), max(times), result
 
 
 def main() -> None:
@@ -88,9 +76,19 @@ def main() -> None:
     def run(plant):
         return lambda: mk.retarget(source, target, plant_feet=plant)
 
-    plain_s, plain_lo, plain_hi, action = timed(run(False), args.repeat, remove)
-    remove(action)
-    planted_s, planted_lo, planted_hi, action = timed(run(True), args.repeat, remove)
+    # Alternating, so that a change in the machine's load falls on both alike.
+    times = {False: [], True: []}
+    action = None
+    for _ in range(args.repeat):
+        for plant in (False, True):
+            if action is not None:
+                remove(action)
+            start = time.perf_counter()
+            action = run(plant)()
+            times[plant].append(time.perf_counter() - start)
+    (plain_s, plain_lo, plain_hi), (planted_s, planted_lo, planted_hi) = (
+        (statistics.median(times[p]), min(times[p]), max(times[p])) for p in (False, True))
+    ratios = sorted(b / a for a, b in zip(times[False], times[True]))
 
     # Where the planted run's time goes, and a check that it holds its contacts.
     plan_start = time.perf_counter()
@@ -138,6 +136,8 @@ def main() -> None:
           f"{planted_s / plain_s:.2f} (budget <= 1.50) |")
     print(f"| Blender's floor: write_keys of the {len(long)} per-frame curves | {floor_s:.3f} | "
           f"{floor_s / plain_s:.2f} |")
+    print(f"per pair of runs, planted / plain: median {statistics.median(ratios):.2f}, "
+          f"{ratios[0]:.2f}-{ratios[-1]:.2f}")
     print(f"planting alone: {planted_s - plain_s:.3f} s (+{100 * (planted_s / plain_s - 1):.0f} %); in one plan() "
           f"({plan_s:.3f} s) the cleanup took {report.seconds:.3f} s, its native solve {report.solve_seconds:.3f} s "
           f"({report.iterations:,} iterations)")

@@ -575,3 +575,26 @@ def test_planted_feet_do_not_slide_on_any_clip(mk, retargeting, shared_dir, spec
             assert np.abs(after[key] - values).max() <= 1e-9, (clip, key)
         for obj in (source, target):
             retargeting.remove_armature(obj)
+
+
+def test_the_feet_solve_beside_the_key_writing_gives_the_same_keys_and_fails_cleanly(mk, retargeting, walk60):
+    """retarget() leaves the feet's IK solve to apply(), which runs it while it writes the other bones' keys:
+    the same keys as a plan solved first; a failing solve leaves no new action and the target as it was."""
+    source, _ = load(mk, walk60, "walk60")
+    target = generate.build_armature(characters.RIGIFY_A)
+    first = retargeting.apply(retargeting.plan(source, target))
+    second = mk.retarget(source, target)
+    a, b = channel_values(mk, target, first), channel_values(mk, target, second)
+    assert a.keys() == b.keys() and all(np.array_equal(a[k], b[k]) for k in a)
+
+    plan = retargeting.plan(source, target, defer_solve=True)
+    assert plan.pending is not None and plan.contacts is not None
+
+    def failing():
+        raise ValueError("foot cleanup: a failing solve")
+
+    plan.pending.solve = failing
+    actions = set(bpy.data.actions)
+    with pytest.raises(ValueError, match="failing solve"):
+        retargeting.apply(plan)
+    assert set(bpy.data.actions) == actions and target.animation_data.action == second
