@@ -401,13 +401,15 @@ def _cleanup_steps(obj, bones, rig, frames, rotations, locations, feet, contacts
         if hip not in _above(bones, chain[0]):
             raise ValueError(f"foot {foot.side}: hips bone '{bones[hip].name}' is not above the thigh "
                              f"'{bones[chain[0]].name}'")
-    for foot, chain in zip(feet, legs):
-        for b in chain + (hip,):
-            bad = ~np.isfinite(rotations[:, 4 * b:4 * b + 4]).all(axis=1) | \
-                ~np.isfinite(locations[:, 3 * b:3 * b + 3]).all(axis=1)
-            if bad.any():
-                raise ValueError(f"foot {foot.side}: bone '{bones[b].name}' has a non-finite pose at frame "
-                                 f"{_blender_frame(frames, np.flatnonzero(bad)[0])}")
+    # One check over every bone that places the feet; the culprit is looked for only when it fails.
+    if not (np.isfinite(rotations).all() and np.isfinite(locations).all()):
+        for foot, chain in zip(feet, legs):
+            for b in chain + (hip,):
+                bad = ~np.isfinite(rotations[:, 4 * b:4 * b + 4]).all(axis=1) | \
+                    ~np.isfinite(locations[:, 3 * b:3 * b + 3]).all(axis=1)
+                if bad.any():
+                    raise ValueError(f"foot {foot.side}: bone '{bones[b].name}' has a non-finite pose at frame "
+                                     f"{_blender_frame(frames, np.flatnonzero(bad)[0])}")
     if bones[hip].use_connect:
         raise ValueError(f"hips bone '{bones[hip].name}' is connected to its parent: its location cannot move")
 
