@@ -173,16 +173,21 @@ def plant_positions(points, contacts, rigid_pairs=()) -> list[list[np.ndarray]]:
     contacts = np.asarray(contacts, dtype=bool)
     if contacts.shape != points.shape[:2]:
         raise ValueError(f"contacts must have shape {points.shape[:2]}, not {contacts.shape}")
-    runs = all_intervals(contacts)
-    plants = [[points[s:e, p].mean(axis=0) for s, e in runs[p]] for p in range(points.shape[1])]
+    runs = [np.array(r, dtype=np.int64).reshape(-1, 2) for r in all_intervals(contacts)]
+    # Means over [start, end) from running sums: one pass per point, however many contacts.
+    sums = np.concatenate([np.zeros((1,) + points.shape[1:]), np.cumsum(points, axis=0)])
+    plants = [list((sums[r[:, 1], p] - sums[r[:, 0], p]) / (r[:, 1] - r[:, 0])[:, None])
+              for p, r in enumerate(runs)]
     for a, b in rigid_pairs:
+        if not (len(runs[a]) and len(runs[b])):
+            continue
         distance = float(np.median(np.linalg.norm(points[:, b] - points[:, a], axis=1)))
-        for j, (s, e) in enumerate(runs[b]):
-            overlaps = [i for i, (sa, ea) in enumerate(runs[a]) if sa < e and s < ea]
-            if not overlaps:
+        # Frames each b contact shares with each a contact; the a contact sharing the most (the first of equals).
+        shared = (np.minimum(runs[b][:, None, 1], runs[a][None, :, 1])
+                  - np.maximum(runs[b][:, None, 0], runs[a][None, :, 0]))
+        for j, i in enumerate(np.argmax(shared, axis=1)):
+            if shared[j, i] <= 0:
                 continue
-            # The a contact sharing the most frames with this one.
-            i = max(overlaps, key=lambda i: min(e, runs[a][i][1]) - max(s, runs[a][i][0]))
             offset = plants[b][j] - plants[a][i]
             norm = np.linalg.norm(offset)
             if norm > 0:
@@ -214,10 +219,13 @@ def _distance_to_contact(contacts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def blend_weights(contacts, blend_frames: int) -> np.ndarray:
     """(frames, P) weights: 1 in contacts, a smoothstep ramp over blend_frames frames on either side, 0
     elsewhere; between two close contacts, the nearer one's ramp."""
-    contacts = np.asarray(contacts, dtype=bool)
+    distance, _ = _distance_to_contact(np.asarray(contacts, dtype=bool))
+    return _ramp(distance, blend_frames)
+
+
+def _ramp(distance, blend_frames: int) -> np.ndarray:
     if blend_frames < 0:
         raise ValueError("blend_frames must not be negative")
-    distance, _ = _distance_to_contact(contacts)
     return smoothstep(1.0 - distance / (blend_frames + 1))
 
 
@@ -227,7 +235,7 @@ def plant_targets(points, contacts, blend_frames: int, rigid_pairs=()) -> tuple[
     points = _check_points(points)
     contacts = np.asarray(contacts, dtype=bool)
     plants = plant_positions(points, contacts, rigid_pairs)
-    _, nearest = _distance_to_contact(contacts)
+    distance, nearest = _distance_to_contact(contacts)
     targets = points.copy()
     for p, runs in enumerate(all_intervals(contacts)):
         if not runs:
@@ -236,7 +244,7 @@ def plant_targets(points, contacts, blend_frames: int, rigid_pairs=()) -> tuple[
         starts = np.array([s for s, _ in runs])
         which = np.searchsorted(starts, nearest[:, p], side="right") - 1
         targets[:, p] = np.asarray(plants[p])[which]
-    return targets, blend_weights(contacts, blend_frames)
+    return targets, _ramp(distance, blend_frames)
 
 
 def foot_targets(points, targets, weights, feet=((0, 1), (2, 3))) -> np.ndarray:
