@@ -18,9 +18,10 @@ import sys
 
 import bpy
 
-from . import (animdata, bone_mapping, bvh, ik, ik_live, ik_props, native_state, operators_bvh, operators_ik,
-               operators_keys, operators_retarget, pose_channels, preferences, resample_plan, resampling,
-               retarget_props, retargeting, rotation_channels, ui_panels)
+from . import (animdata, bone_mapping, bvh, contact_props, contacts, foot_contacts, ik, ik_live, ik_props,
+               native_state, operators_bvh, operators_contacts, operators_ik, operators_keys, operators_retarget,
+               pose_channels, preferences, resample_plan, resampling, retarget_props, retargeting, root_motion,
+               rotation_channels, ui_panels)
 from .native_state import native
 from .resampling import reduce_keys, resample
 from .retargeting import retarget, retarget_files
@@ -32,6 +33,7 @@ classes = (
     operators_bvh.MOTIONKIT_OT_export_bvh,
     operators_keys.MOTIONKIT_OT_resample_keys,
     operators_keys.MOTIONKIT_OT_reduce_keys,
+    operators_contacts.MOTIONKIT_OT_fix_foot_sliding,
     *retarget_props.classes,
     *operators_retarget.classes,
     ui_panels.MOTIONKIT_UL_bone_map,
@@ -53,6 +55,7 @@ def register():
     bpy.types.TOPBAR_MT_file_export.append(operators_bvh.menu_export)
     for menu in operators_keys.MENUS:
         getattr(bpy.types, menu).append(operators_keys.menu_keys)
+    bpy.types.VIEW3D_MT_pose.append(operators_contacts.menu_pose)
     # Installed as an extension the package is bl_ext.<repo>.motionkit; the
     # aliases keep `import motionkit` and `from motionkit import animdata`
     # working for headless scripts either way, without loading anything twice.
@@ -76,6 +79,7 @@ def unregister():
             alias = "motionkit" + name[len(__package__):]
             if sys.modules.get(alias) is sys.modules[name]:
                 del sys.modules[alias]
+    bpy.types.VIEW3D_MT_pose.remove(operators_contacts.menu_pose)
     for menu in reversed(operators_keys.MENUS):
         getattr(bpy.types, menu).remove(operators_keys.menu_keys)
     bpy.types.TOPBAR_MT_file_export.remove(operators_bvh.menu_export)

@@ -28,7 +28,7 @@ from dataclasses import dataclass, field
 import bpy
 import numpy as np
 
-from . import animdata, native_state, pose_channels, rotation_channels
+from . import animdata, bvh, native_state, pose_channels, rotation_channels
 from .foot_contacts import ContactSettings, all_intervals, detect as detect_contacts, foot_targets, plant_targets
 
 SIDES = ("L", "R")
@@ -589,8 +589,8 @@ def plant(armature, frame_range=None, settings: ContactSettings | None = None, d
     its legs keyed on every frame, unchanged outside the range and its blends). detect=False refuses to detect (the
     stored curves must exist); redetect=True detects even when curves exist (and replaces them).
     feet: [Foot L, Foot R] or bone-name tuples, default found by MotionKit's bone map.
-    fps: the clip's frame rate, default the scene's (import captures with update_scene_fps=True, or the
-    speeds are those of the clip as the scene plays it).
+    fps: the clip's frame rate, default the action's own (motionkit.bvh.load records the file's), else the
+    scene's.
     Everything is computed before anything changes; a ValueError changes nothing.
     """
     obj = armature
@@ -600,6 +600,8 @@ def plant(armature, frame_range=None, settings: ContactSettings | None = None, d
     if action is None:
         raise ValueError(f"'{obj.name}' has no action to clean up")
     feet = _as_feet(feet) if feet is not None else find_feet(obj)
+    if fps is None:
+        fps = bvh.frame_rate(action)
     # The whole action is read and keyed (write_keys replaces a curve's keys: keying only the range
     # would drop the keys outside it); a frame range limits the contacts instead.
     frames = _frames(action, None)

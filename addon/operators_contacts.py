@@ -1,13 +1,10 @@
 """Fix foot sliding: the operator behind motionkit.contacts.plant (any armature's action).
 
-Registered by the add-on's class list; its thresholds show in the redo panel (F9).
+Its thresholds (contact_props, shared with the Retarget panel) show in the redo panel (F9).
 """
 import bpy
 
-from . import contacts, native_state, operator_runs
-from .foot_contacts import ContactSettings
-
-_DEFAULTS = ContactSettings()
+from . import contact_props, contacts, native_state, operator_runs
 
 
 class MOTIONKIT_OT_fix_foot_sliding(bpy.types.Operator):
@@ -17,31 +14,16 @@ class MOTIONKIT_OT_fix_foot_sliding(bpy.types.Operator):
     bl_label = "Fix Foot Sliding"
     bl_options = {'REGISTER', 'UNDO'}
 
-    use_scene_range: bpy.props.BoolProperty(
-        name="Scene Range", default=False,
-        description="Hold contacts in the scene's frame range only (else the whole action)")
-    redetect: bpy.props.BoolProperty(
-        name="Detect Again", default=False,
-        description="Detect contacts anew and replace the contact curves (else the curves are read when "
-                    "the action has them)")
-    height_enter: bpy.props.FloatProperty(
-        name="Height", default=_DEFAULTS.height_enter, min=0.001, max=1.0, precision=3,
-        description="A point enters a contact this close to its standing height (leg lengths)")
-    height_leave: bpy.props.FloatProperty(
-        name="Height to Leave", default=_DEFAULTS.height_leave, min=0.001, max=1.0, precision=3,
-        description="...and leaves it higher than this (leg lengths)")
-    speed_enter: bpy.props.FloatProperty(
-        name="Speed", default=_DEFAULTS.speed_enter, min=0.001, max=10.0, precision=3,
-        description="A point enters a contact slower than this (leg lengths per second)")
-    speed_leave: bpy.props.FloatProperty(
-        name="Speed to Leave", default=_DEFAULTS.speed_leave, min=0.001, max=10.0, precision=3,
-        description="...and leaves it faster than this (leg lengths per second)")
-    min_length: bpy.props.FloatProperty(
-        name="Shortest Contact", default=_DEFAULTS.min_length, min=0.0, max=2.0, precision=3, unit='TIME_ABSOLUTE',
-        description="Contacts shorter than this (seconds) are ignored")
-    blend: bpy.props.FloatProperty(
-        name="Blend", default=_DEFAULTS.blend, min=0.001, max=2.0, precision=3, unit='TIME_ABSOLUTE',
-        description="How long (seconds) the feet take to ease into and out of a plant")
+    __annotations__ = {
+        "use_scene_range": bpy.props.BoolProperty(
+            name="Scene Range", default=False,
+            description="Hold contacts in the scene's frame range only (else the whole action)"),
+        "redetect": bpy.props.BoolProperty(
+            name="Detect Again", default=False,
+            description="Detect contacts anew and replace the contact curves (else the curves are read when "
+                        "the action has them)"),
+        **contact_props.properties(),
+    }
 
     @classmethod
     def poll(cls, context):
@@ -53,12 +35,6 @@ class MOTIONKIT_OT_fix_foot_sliding(bpy.types.Operator):
             cls.poll_message_set("Select an armature with an action")
             return False
         return True
-
-    def settings(self) -> ContactSettings:
-        return ContactSettings(height_enter=self.height_enter,
-                               height_leave=max(self.height_leave, self.height_enter),
-                               speed_enter=self.speed_enter, speed_leave=max(self.speed_leave, self.speed_enter),
-                               min_length=self.min_length, blend=self.blend)
 
     def execute(self, context):
         obj = context.object
@@ -72,7 +48,7 @@ class MOTIONKIT_OT_fix_foot_sliding(bpy.types.Operator):
 
         return operator_runs.run(
             self, context,
-            lambda progress: contacts.plant(obj, frame_range, self.settings(), redetect=self.redetect),
+            lambda progress: contacts.plant(obj, frame_range, contact_props.settings(self), redetect=self.redetect),
             message)
 
 

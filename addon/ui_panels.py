@@ -26,6 +26,7 @@ class MOTIONKIT_PT_main(bpy.types.Panel):
         row = self.layout.row(align=True)
         row.operator("motionkit.resample_keys", text="Resample", icon='IPO_BEZIER')
         row.operator("motionkit.reduce_keys", text="Reduce", icon='IPO_LINEAR')
+        self.layout.operator("motionkit.fix_foot_sliding", icon='SNAP_FACE')
 
 
 class MOTIONKIT_UL_bone_map(bpy.types.UIList):

@@ -304,10 +304,9 @@ def test_source_contacts_kept_on_a_retarget(mk, contacts, pose_channels, walk60)
 
 
 def test_operator_fixes_sliding_and_reports_errors(mk, walk60):
-    """The operator as a user runs it (registered here: the add-on's class list is the lead's to extend)."""
-    ops = importlib.import_module(mk.__name__ + ".operators_contacts")
-    if not hasattr(bpy.types, "MOTIONKIT_OT_fix_foot_sliding"):
-        bpy.utils.register_class(ops.MOTIONKIT_OT_fix_foot_sliding)
+    """The operator as a user runs it: registered by the add-on, in the Pose menu, one undo step."""
+    assert hasattr(bpy.types, "MOTIONKIT_OT_fix_foot_sliding")
+    assert "menu_pose" in [getattr(f, "__name__", "") for f in bpy.types.VIEW3D_MT_pose._dyn_ui_initialize()]
     obj, action = load(mk, walk60, "operated")
     bpy.context.view_layer.objects.active = obj
     assert bpy.ops.motionkit.fix_foot_sliding() == {'FINISHED'}
