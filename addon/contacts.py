@@ -278,32 +278,46 @@ def _above(bones, b) -> list[int]:
     return out
 
 
+class _Posed:
+    """Armature-space orientations and heads of some bones over a clip, by bone index: views into the
+    (F, 4n) and (F, 3n) arrays of a native pose, no copies."""
+
+    def __init__(self, orientations, heads, columns):
+        self._orientations, self._heads, self._columns = orientations, heads, columns
+
+    def orient(self, b):
+        c = self._columns[b]
+        return self._orientations[:, 4 * c:4 * c + 4]
+
+    def head(self, b):
+        c = self._columns[b]
+        return self._heads[:, 3 * c:3 * c + 3]
+
+
 def _pose_points(obj, bones, rig, rotations, locations, legs, posed=None):
-    """The pose in armature space (orientations (F, B, 4), heads (F, B, 3)), the foot points in armature
-    and world space (F, 4, 3) and the leg length (thigh + shin, world units). posed: the armature pose
-    (orientations (F, 4B), heads (F, 3B)) when the caller has it already."""
+    """The pose in armature space (a _Posed of the hips and legs at least), the foot points in armature
+    and world space (F, 4, 3) and the leg length (thigh + shin, world units). posed: the whole armature's
+    pose (orientations (F, 4B), heads (F, 3B)) when the caller has it already."""
     count, nb = rotations.shape[0], len(bones)
     if posed is None:
         # Only the legs and the bones above them place the feet: posed alone (the rest is never read).
         sub = sorted(set(b for chain in legs for b in chain).union(*(_above(bones, chain[0]) for chain in legs)))
         sub_rig, _ = pose_channels.native_rig(obj.data, [bones[b] for b in sub])
-        sub_orient, sub_heads = native_state.native().armature_pose(
-            sub_rig, np.ascontiguousarray(rotations.reshape(count, nb, 4)[:, sub].reshape(count, -1)),
-            np.ascontiguousarray(locations.reshape(count, nb, 3)[:, sub].reshape(count, -1)))
-        orient, heads = np.empty((count, nb, 4)), np.empty((count, nb, 3))
-        orient[:, sub] = sub_orient.reshape(count, len(sub), 4)
-        heads[:, sub] = sub_heads.reshape(count, len(sub), 3)
+        rot_columns = (4 * np.array(sub)[:, None] + np.arange(4)).ravel()
+        loc_columns = (3 * np.array(sub)[:, None] + np.arange(3)).ravel()
+        pose = _Posed(*native_state.native().armature_pose(
+            sub_rig, np.ascontiguousarray(rotations[:, rot_columns]), np.ascontiguousarray(locations[:, loc_columns])),
+            {b: i for i, b in enumerate(sub)})
     else:
-        orient = posed[0].reshape(count, nb, 4)
-        heads = posed[1].reshape(count, nb, 3)
+        pose = _Posed(posed[0], posed[1], range(nb))
     lengths = np.array([b.length for b in bones])
-    point_bones = [b for _, shin, foot in legs for b in (shin, foot)]
-    points = heads[:, point_bones] + lengths[point_bones, None] * rotation_channels.y_axes(orient[:, point_bones])
+    points = np.stack([pose.head(b) + lengths[b] * rotation_channels.y_axes(pose.orient(b))
+                       for _, shin, foot in legs for b in (shin, foot)], axis=1)
     world = np.array(obj.matrix_world)
     world_points = points @ world[:3, :3].T + world[:3, 3]
     scale = float(np.cbrt(abs(np.linalg.det(world[:3, :3]))))
     leg_length = scale * float(np.mean([lengths[t] + lengths[s] for t, s, _ in legs]))
-    return orient, heads, points, world_points, leg_length
+    return pose, points, world_points, leg_length
 
 
 def foot_points(obj, bones, rig, rotations, locations, feet, posed=None) -> tuple[np.ndarray, float]:
@@ -311,7 +325,7 @@ def foot_points(obj, bones, rig, rotations, locations, feet, posed=None) -> tupl
     (thigh + shin, world units): what detection sees. posed: its armature pose, if already at hand."""
     feet = _as_feet(feet)
     legs = _leg_indices(bones, feet)
-    _, _, _, world_points, leg_length = _pose_points(obj, bones, rig, rotations, locations, legs, posed)
+    _, _, world_points, leg_length = _pose_points(obj, bones, rig, rotations, locations, legs, posed)
     return world_points, leg_length
 
 
@@ -331,24 +345,25 @@ def _blender_frame(frames, f) -> str:
 
 def cleanup(obj, bones, rig, frames, rotations, locations, feet, contacts=None,
             settings: ContactSettings | None = None, *, hips: str | None = None, fps: float | None = None,
-            in_place: bool = False):
+            in_place: bool = False, threads: int = 0):
     """Footskate cleanup of a pose sequence; returns (rotations, locations, Report). Changes nothing in
     the file. The arguments are staged_cleanup's."""
     solve, finish = staged_cleanup(obj, bones, rig, frames, rotations, locations, feet, contacts, settings,
-                                   hips=hips, fps=fps, in_place=in_place)
+                                   hips=hips, fps=fps, in_place=in_place, threads=threads)
     return finish(solve())
 
 
 def staged_cleanup(obj, bones, rig, frames, rotations, locations, feet, contacts=None,
                    settings: ContactSettings | None = None, *, hips: str | None = None, fps: float | None = None,
-                   in_place: bool = False):
+                   in_place: bool = False, threads: int = 0):
     """cleanup in two halves, so that its native solve can run beside other work: everything that reads
     Blender data happens here, and the result is (solve, finish). solve() calls native code only (the GIL
     released: it may run on a worker thread while this one writes keys); finish(solve()) gives cleanup's
     (rotations, locations, Report). A ValueError from either half names the foot, bone and frame.
+    threads: the solve's (0: every core; the same numbers whatever the count).
     """
     steps = _cleanup_steps(obj, bones, rig, frames, rotations, locations, feet, contacts, settings, hips=hips,
-                           fps=fps, in_place=in_place)
+                           fps=fps, in_place=in_place, threads=threads)
     solve = next(steps)
 
     def finish(solved):
@@ -363,7 +378,7 @@ def staged_cleanup(obj, bones, rig, frames, rotations, locations, feet, contacts
 
 def _cleanup_steps(obj, bones, rig, frames, rotations, locations, feet, contacts=None,
                    settings: ContactSettings | None = None, *, hips: str | None = None, fps: float | None = None,
-                   in_place: bool = False):
+                   in_place: bool = False, threads: int = 0):
     """The cleanup as a generator: yields its solve, is sent the solve's result, returns cleanup's result.
 
     obj: the armature object (its matrix_world places the floor; Z up).
@@ -413,7 +428,7 @@ def _cleanup_steps(obj, bones, rig, frames, rotations, locations, feet, contacts
     if bones[hip].use_connect:
         raise ValueError(f"hips bone '{bones[hip].name}' is connected to its parent: its location cannot move")
 
-    orient, heads, points, world_points, leg_length = _pose_points(obj, bones, rig, rotations, locations, legs)
+    pose, points, world_points, leg_length = _pose_points(obj, bones, rig, rotations, locations, legs)
     world = np.array(obj.matrix_world)
     lengths = np.array([b.length for b in bones])
 
@@ -448,14 +463,14 @@ def _cleanup_steps(obj, bones, rig, frames, rotations, locations, feet, contacts
     rest_heads = np.array([bones[b].head_local for b in part], dtype=np.float64)
     basis = rotations.reshape(count, nb, 4)[:, part].copy()
     # Hips: basis = rest^-1 * posed orientation, location so that rest head + rest * location = head.
-    hip_orient = orient[:, hip] / np.linalg.norm(orient[:, hip], axis=1, keepdims=True)
+    hip_orient = pose.orient(hip) / np.linalg.norm(pose.orient(hip), axis=1, keepdims=True)
     basis[:, 0] = _mul(_conj(rest_q[0]), hip_orient)
-    hip_loc = _rotate(_conj(np.broadcast_to(rest_q[0], (count, 4))), heads[:, hip] - rest_heads[0])
+    hip_loc = _rotate(_conj(np.broadcast_to(rest_q[0], (count, 4))), pose.head(hip) - rest_heads[0])
     rolls = {}
     report = Report(frames, contacts, source=source)
     for foot, (thigh, shin, foot_bone) in zip(feet, legs):
         foot_dir = points[:, 2 * SIDES.index(foot.side) + 1] - points[:, 2 * SIDES.index(foot.side)]
-        roll, how = _knee_roll(basis[:, local[shin]], orient[:, shin], foot_dir)
+        roll, how = _knee_roll(basis[:, local[shin]], pose.orient(shin), foot_dir)
         report.knee_axes[foot.side] = how
         rolls[shin] = roll
         k = local[shin]
@@ -493,7 +508,7 @@ def _cleanup_steps(obj, bones, rig, frames, rotations, locations, feet, contacts
     options = dict(limit_min=limit_min, limit_max=limit_max, excluded=excluded,
                    **{"method": "dls", "max_iterations": 64, "tolerance": 1e-5 * size, "reference": "input",
                       **_SOLVE_OPTIONS},
-                   root_translation=True, root_rotation=False, warm_start=False, size=size, threads=0)
+                   root_translation=True, root_rotation=False, warm_start=False, size=size, threads=threads)
     name = obj.name  # the solve touches no Blender data: it may run on another thread
 
     def solve():

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import os
 import threading
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import bpy
@@ -228,15 +227,37 @@ def _body_roots(side: _Side, body, mapped, depth) -> tuple[int | None, int | Non
 
 @dataclass
 class _PlantedFeet:
-    """The feet's IK solve (contacts.staged_cleanup) not yet run: apply() runs it on a worker thread while
-    it writes the keys of the other bones, then keys the changed bones."""
+    """The feet's IK solve (contacts.staged_cleanup) started on a worker thread by plan(defer_solve=True):
+    it runs while the plan's other bones are converted and apply() writes their keys; complete() then
+    takes its result and gives the changed bones their values."""
     solve: object     # () -> the native result (no Blender data touched)
     finish: object    # (result) -> (rotations, locations, report), the solved legs written into the plan's pose
     bones: set        # names of the bones whose channels the solve changes
     channels: object  # () -> (channels, values) of those bones, from the plan's pose
+    _thread: threading.Thread | None = None
+    _outcome: tuple = ()
 
-    def complete(self, plan_: "Plan", solved) -> None:
-        _, _, plan_.contact_report = self.finish(solved)
+    def start(self) -> None:
+        def run():
+            try:
+                self._outcome = (True, self.solve())
+            except BaseException as error:  # handed to the thread that completes the plan
+                self._outcome = (False, error)
+
+        self._thread = threading.Thread(target=run, name="motionkit-feet", daemon=True)
+        self._thread.start()
+
+    def result(self):
+        if self._thread is None:
+            return self.solve()
+        self._thread.join()
+        ok, value = self._outcome
+        if not ok:
+            raise value
+        return value
+
+    def complete(self, plan_: "Plan") -> None:
+        _, _, plan_.contact_report = self.finish(self.result())
         channels, values = self.channels()
         rows = {(path, index): row for row, (path, index, _) in enumerate(plan_.channels)}
         plan_.values[[rows[(path, index)] for path, index, _ in channels]] = values
@@ -268,7 +289,7 @@ class Plan:
     def resolve(self) -> None:
         """Runs a pending feet's IK solve here and now: values, contact_report and all are then final."""
         if self.pending is not None:
-            self.pending.complete(self, self.pending.solve())
+            self.pending.complete(self)
 
 
 def plan(source, target, bone_map=None, frame_range=None, root: str = "scaled", *, source_match: str = 'REST',
@@ -378,14 +399,20 @@ def plan(source, target, bone_map=None, frame_range=None, root: str = "scaled", 
                              source_motion, space, scale, root, root_smoothing * _fps())
             located.append(target_floor)
 
-    planted = None
+    planted = pending = None
     if plant_feet:
         planted = _plant_feet(src, tgt, src_body, tgt_body, frames, source_basis, source_locations,
                               (source_rotations, source_heads), rotations, locations, target_root,
                               contact_settings, bvh.frame_rate(action))
+    if planted is not None:
+        keyed = {tgt.index(b) for f in planted[2] for b in (f.thigh, f.shin, f.foot)} | {target_root}
+        pending = _PlantedFeet(planted[0], planted[1], {tgt.names[b] for b in keyed}, lambda: _target_channels(
+            native, tgt, rotations, target_basis, bone_map_idx, located, locations, keyed, keyed)[0])
+        if defer_solve:
+            pending.start()  # beside the rest of the plan and apply()'s writing
+    else:
+        keyed = set()
     # Bones the feet's solve may change get a key per frame even where the plain retarget keeps them still.
-    keyed = ({tgt.index(b) for f in planted[2] for b in (f.thigh, f.shin, f.foot)} | {target_root}
-             if planted is not None else set())
     moving, still = _target_channels(native, tgt, rotations, target_basis, bone_map_idx, located, locations,
                                      keyed=keyed)
     plan_ = Plan(tgt.obj, frames, *moving, src.obj.name, pairs, *still, leg_ratio=scale,
@@ -394,11 +421,9 @@ def plan(source, target, bone_map=None, frame_range=None, root: str = "scaled", 
                               tgt.names[target_floor] if target_floor is not None else None), floor_root=mode,
                  feet=planted[2] if planted else None, contacts=planted[3] if planted else None,
                  frame_rate=bvh.frame_rate(action))
-    if planted is not None:
-        plan_.pending = _PlantedFeet(planted[0], planted[1], {tgt.names[b] for b in keyed}, lambda: _target_channels(
-            native, tgt, rotations, target_basis, bone_map_idx, located, locations, keyed, keyed)[0])
-        if not defer_solve:
-            plan_.resolve()
+    plan_.pending = pending
+    if not defer_solve:
+        plan_.resolve()
     if not (np.all(np.isfinite(plan_.values)) and np.all(np.isfinite(plan_.still_values))):
         raise ValueError("the retargeted motion is not finite; check the rigs' rest poses")
     return plan_
@@ -425,9 +450,10 @@ def _plant_feet(src: _Side, tgt: _Side, src_body, tgt_body, frames, source_basis
         return None
     found = contacts.find_contacts(src.obj, src.bones, src.rig, source_basis, source_locations, src_feet,
                                    settings, fps=fps, posed=source_posed)
+    # The solve runs beside apply()'s key writing, which keeps one core: it takes the others.
     solve, finish = contacts.staged_cleanup(tgt.obj, tgt.bones, tgt.rig, frames, rotations, locations, tgt_feet,
                                             found, settings, hips=tgt.names[target_root], fps=fps,
-                                            in_place=True)  # the plan's own arrays
+                                            in_place=True, threads=max(1, (os.cpu_count() or 1) - 1))
     return solve, finish, tgt_feet, found
 
 
@@ -547,18 +573,8 @@ def _write(target, action, plan_: Plan) -> None:
         changed = [bone in pending.bones for _, _, bone in plan_.channels]
         later = [row for row, change in enumerate(changed) if change]
         now = [row for row, change in enumerate(changed) if not change]
-        with ThreadPoolExecutor(max_workers=1) as pool:
-            started = threading.Event()
-
-            def run():
-                started.set()
-                return pending.solve()
-
-            solving = pool.submit(run)
-            started.wait()
-            animdata.write_keys(target, action, [plan_.channels[r] for r in now], plan_.frames, plan_.values[now])
-            solved = solving.result()
-        pending.complete(plan_, solved)
+        animdata.write_keys(target, action, [plan_.channels[r] for r in now], plan_.frames, plan_.values[now])
+        pending.complete(plan_)  # waits for the solve, if it still runs
         animdata.write_keys(target, action, [plan_.channels[r] for r in later], plan_.frames,
                             plan_.values[later])
     elif plan_.channels:

@@ -578,8 +578,9 @@ def test_planted_feet_do_not_slide_on_any_clip(mk, retargeting, shared_dir, spec
 
 
 def test_the_feet_solve_beside_the_key_writing_gives_the_same_keys_and_fails_cleanly(mk, retargeting, walk60):
-    """retarget() leaves the feet's IK solve to apply(), which runs it while it writes the other bones' keys:
-    the same keys as a plan solved first; a failing solve leaves no new action and the target as it was."""
+    """retarget() starts the feet's IK solve on a worker thread while the plan's other bones are converted
+    and their keys written: the same keys as a plan solved first; a failing solve leaves no new action and
+    the target as it was."""
     source, _ = load(mk, walk60, "walk60")
     target = generate.build_armature(characters.RIGIFY_A)
     first = retargeting.apply(retargeting.plan(source, target))
@@ -589,11 +590,13 @@ def test_the_feet_solve_beside_the_key_writing_gives_the_same_keys_and_fails_cle
 
     plan = retargeting.plan(source, target, defer_solve=True)
     assert plan.pending is not None and plan.contacts is not None
+    plan.pending.result()  # the solve started with the plan ends here
 
     def failing():
         raise ValueError("foot cleanup: a failing solve")
 
     plan.pending.solve = failing
+    plan.pending.start()  # run again, failing this time, on the worker thread
     actions = set(bpy.data.actions)
     with pytest.raises(ValueError, match="failing solve"):
         retargeting.apply(plan)
