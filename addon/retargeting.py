@@ -414,7 +414,7 @@ def plan(source, target, bone_map=None, frame_range=None, root: str = "scaled", 
         keyed = set()
     # Bones the feet's solve may change get a key per frame even where the plain retarget keeps them still.
     moving, still = _target_channels(native, tgt, rotations, target_basis, bone_map_idx, located, locations,
-                                     keyed=keyed)
+                                     keyed=keyed, placeholders=True)
     plan_ = Plan(tgt.obj, frames, *moving, src.obj.name, pairs, *still, leg_ratio=scale,
                  hips=(src.names[source_root], tgt.names[target_root]),
                  floor_roots=(src.names[source_floor] if source_floor is not None else None,
@@ -426,7 +426,7 @@ def plan(source, target, bone_map=None, frame_range=None, root: str = "scaled", 
         plan_.resolve()
     if not (np.all(np.isfinite(plan_.values)) and np.all(np.isfinite(plan_.still_values))):
         raise ValueError("the retargeted motion is not finite; check the rigs' rest poses")
-    return plan_
+    return plan_  # a pending feet's solve is checked when it completes (contacts.cleanup and write_keys)
 
 
 def _feet(side: _Side, body) -> list | None:
@@ -516,10 +516,11 @@ def _move_floor_root(native, tgt: _Side, target_pose: _Pose, rotations, location
 
 
 def _target_channels(native, tgt: _Side, rotations, target_basis, bone_map_idx, located, locations, only=None,
-                     keyed=frozenset()):
+                     keyed=frozenset(), placeholders=False):
     """The F-curves to key, in each bone's own rotation mode: (channels, values) for the bones the retarget
     moves (and those in keyed) and the root's location, one key per frame; (channels, values) for the bones
-    that keep the match pose, one key. only: the bone indices to give (default all)."""
+    that keep the match pose, one key. only: the bone indices to give (default all). placeholders: the
+    keyed bones' values left at zero (the feet's solve fills them in)."""
     moving, still = ([], []), ([], [])
     frames = rotations.shape[0]
     for b, bone in enumerate(tgt.bones):
@@ -537,7 +538,10 @@ def _target_channels(native, tgt: _Side, rotations, target_basis, bone_map_idx, 
         prop, size = rotation_channels.channel_property(mode)
         previous = np.array(tuple(getattr(pose_bone, prop)), dtype=np.float64)
         q = q if moved else q[:1]
-        values = rotation_channels.from_quaternions(native, mode, np.ascontiguousarray(q), previous=previous)
+        if placeholders and b in keyed:
+            values = np.zeros((q.shape[0], size))
+        else:
+            values = rotation_channels.from_quaternions(native, mode, np.ascontiguousarray(q), previous=previous)
         out = moving if moved else still
         out[0].extend((f"{path}.{prop}", k, bone.name) for k in range(size))
         out[1].append(values.T)
