@@ -76,10 +76,7 @@ def _conj(q):
 
 
 def _rotate(q, v):
-    """Vectors v (..., 3) turned by unit quaternions q (..., 4)."""
-    w, u = q[..., :1], q[..., 1:]
-    t = 2.0 * np.cross(u, v)
-    return v + w * t + np.cross(u, t)
+    return rotation_channels.rotate_each(q, v)
 
 
 def _about_y(angle):

@@ -339,10 +339,8 @@ def _into_parent_frame(obj, above, frames, action, positions, orientations):
     h = np.broadcast_to(heads[:, -3:], (frames.size, 3))
     inverse = rotation_channels.conjugate(q)
     count = positions.shape[1] // 3
-    positions = positions.reshape(frames.size, count, 3) - h[:, None, :]
-    w, v = inverse[:, None, :1], inverse[:, None, 1:]
-    t = 2.0 * np.cross(v, positions)
-    positions = positions + w * t + np.cross(v, t)
+    positions = rotation_channels.rotate_each(inverse[:, None, :], positions.reshape(frames.size, count, 3)
+                                              - h[:, None, :])
     orientations = rotation_channels.multiply(inverse[:, None, :], orientations.reshape(frames.size, count, 4))
     return positions.reshape(frames.size, -1), orientations.reshape(frames.size, -1)
 

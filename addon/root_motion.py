@@ -20,9 +20,9 @@ from dataclasses import dataclass
 import numpy as np
 
 try:
-    from .rotation_channels import conjugate, multiply
+    from .rotation_channels import conjugate, multiply, rotate_each as rotate
 except ImportError:  # plain Python tests import the helpers as top-level modules
-    from rotation_channels import conjugate, multiply
+    from rotation_channels import conjugate, multiply, rotate_each as rotate
 
 FLOOR_ROOTS = (
     ("auto", "Auto", "Copy the source's floor root if it has one, else keep the target's still"),
@@ -34,14 +34,6 @@ FLOOR_ROOTS = (
 )
 # A foot whose bones run on within this angle of the shin's line is a zero pose's, not a standing foot.
 _DEGENERATE_FOOT_DEG = 30.0
-
-
-def rotate(q, v) -> np.ndarray:
-    """Vectors v (..., 3) turned by unit quaternions q (..., 4), broadcasting."""
-    q, v = np.asarray(q, dtype=np.float64), np.asarray(v, dtype=np.float64)
-    w, u = q[..., :1], q[..., 1:]
-    t = 2.0 * np.cross(u, v)
-    return v + w * t + np.cross(u, t)
 
 
 def about_z(angles) -> np.ndarray:

@@ -135,6 +135,14 @@ def rotate(q, points) -> np.ndarray:
     return points + w * t + np.cross(v, t)
 
 
+def rotate_each(q, v) -> np.ndarray:
+    """Vectors v (..., 3) turned by unit quaternions q (..., 4), one by one, broadcasting."""
+    q, v = np.asarray(q, dtype=np.float64), np.asarray(v, dtype=np.float64)
+    w, u = q[..., :1], q[..., 1:]
+    t = 2.0 * np.cross(u, v)
+    return v + w * t + np.cross(u, t)
+
+
 def y_axes(q) -> np.ndarray:
     """The Y axes (..., 3) of unit quaternions (..., 4): where Blender bones point."""
     w, x, y, z = np.moveaxis(np.asarray(q, dtype=np.float64), -1, 0)
