@@ -542,8 +542,10 @@ def _cleanup_steps(obj, bones, rig, frames, rotations, locations, feet, contacts
     hip_basis = rotations[:, 4 * hip:4 * hip + 4]
     frame = _mul(hip_orient, _conj(hip_basis / np.linalg.norm(hip_basis, axis=1, keepdims=True)))
     out_loc[:, 3 * hip:3 * hip + 3] += _rotate(_conj(frame), moved)
-    if not (np.isfinite(out_rot).all() and np.isfinite(out_loc).all()):
-        bad = np.flatnonzero(~(np.isfinite(out_rot).all(axis=1) & np.isfinite(out_loc).all(axis=1)))[0]
+    solved_columns = np.concatenate([out_rot[:, 4 * b:4 * b + 4] for b in changed] + [out_loc[:, 3 * hip:3 * hip + 3]],
+                                    axis=1)  # the only values this changed
+    if not np.isfinite(solved_columns).all():
+        bad = np.flatnonzero(~np.isfinite(solved_columns).all(axis=1))[0]
         raise ValueError(f"foot cleanup on '{obj.name}': the IK solution is not finite at frame "
                          f"{_blender_frame(frames, bad)}")
     report.errors = solved["errors"]
