@@ -403,7 +403,7 @@ def plan(source, target, bone_map=None, frame_range=None, root: str = "scaled", 
     if plant_feet:
         planted = _plant_feet(src, tgt, src_body, tgt_body, frames, source_basis, source_locations,
                               (source_rotations, source_heads), rotations, locations, target_root,
-                              contact_settings, bvh.frame_rate(action))
+                              contact_settings, bvh.frame_rate(action), beside=defer_solve)
     if planted is not None:
         keyed = {tgt.index(b) for f in planted[2] for b in (f.thigh, f.shin, f.foot)} | {target_root}
         pending = _PlantedFeet(planted[0], planted[1], {tgt.names[b] for b in keyed}, lambda: _target_channels(
@@ -441,7 +441,7 @@ def _feet(side: _Side, body) -> list | None:
 
 
 def _plant_feet(src: _Side, tgt: _Side, src_body, tgt_body, frames, source_basis, source_locations, source_posed,
-                rotations, locations, target_root, settings, fps):
+                rotations, locations, target_root, settings, fps, beside: bool = False):
     """Contacts detected on the source's feet, to be held by the target's (contacts.staged_cleanup, which
     writes the solved legs into rotations and locations): (solve, finish, target feet, contacts), or None
     when either rig has no two labelled legs."""
@@ -450,10 +450,10 @@ def _plant_feet(src: _Side, tgt: _Side, src_body, tgt_body, frames, source_basis
         return None
     found = contacts.find_contacts(src.obj, src.bones, src.rig, source_basis, source_locations, src_feet,
                                    settings, fps=fps, posed=source_posed)
-    # The solve runs beside apply()'s key writing, which keeps one core: it takes the others.
+    # Beside the rest of the retarget (beside=True), which keeps one core busy, the solve takes the others.
     solve, finish = contacts.staged_cleanup(tgt.obj, tgt.bones, tgt.rig, frames, rotations, locations, tgt_feet,
-                                            found, settings, hips=tgt.names[target_root], fps=fps,
-                                            in_place=True, threads=max(1, (os.cpu_count() or 1) - 1))
+                                            found, settings, hips=tgt.names[target_root], fps=fps, in_place=True,
+                                            threads=max(1, (os.cpu_count() or 1) - 1) if beside else 0)
     return solve, finish, tgt_feet, found
 
 
