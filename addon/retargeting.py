@@ -370,7 +370,9 @@ def plan(source, target, bone_map=None, frame_range=None, root: str = "scaled", 
     up = np.array([0.0, 0.0, 1.0])
     source_up = rotation_channels.rotate(rotation_channels.conjugate(space), up[None, :])[0]
     source_height, _ = _leg_length(src, src_body, source_pose, source_up, source_root, source_heads)
-    target_height, _ = _leg_length(tgt, tgt_body, target_pose, up, target_root, _own_heads(tgt))
+    # The target's own action (whatever is assigned now) never sets its proportions: a zero pose's feet
+    # take a tenth of thigh + shin there (root_motion.leg_length).
+    target_height, _ = _leg_length(tgt, tgt_body, target_pose, up, target_root)
     if not (source_height > 1e-9 and target_height > 1e-9):
         raise ValueError("the root stands at the lowest point of a rig: no leg length to scale the motion by")
     scale = target_height / source_height
@@ -467,15 +469,6 @@ def _depths(side: _Side) -> list[int]:
 def _fps() -> float:
     render = bpy.context.scene.render
     return render.fps / render.fps_base
-
-
-def _own_heads(side: _Side):
-    """The rig's heads over its own action's frames (for a zero pose's feet), or None without one."""
-    action = animdata.assigned_action(side.obj)
-    if action is None:
-        return None
-    _, heads = pose_channels.armature_motion(side.obj, action, _frames(action, None), side.rig, side.bones)
-    return heads
 
 
 def _move_floor_root(native, tgt: _Side, target_pose: _Pose, rotations, locations, floor, hips, mode,

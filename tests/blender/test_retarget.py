@@ -456,18 +456,30 @@ def test_floor_root_modes_keep_the_world_pose(mk, retargeting, walk60, bandai, s
         assert travel > 0.5 and gap.max() < 0.15, (travel, gap.max())
 
 
-def test_walk60_onto_the_bandai_skeleton_and_back(mk, retargeting, walk60, bandai):
-    """Onto a zero pose (every joint along one axis at rest): directions still follow the source."""
+@pytest.mark.parametrize("mode", ["still", "copy", "extract"])
+def test_walk60_onto_the_bandai_skeleton(mk, retargeting, walk60, bandai, mode):
+    """Onto a zero pose (every joint along one axis at rest) with a floor root: directions still follow the
+    source, in every floor-root mode ("copy" from a source without one keeps it still), the body where
+    "still" puts it."""
     source, action = load(mk, walk60, "walk60")
     target, _ = load(mk, bandai, "dash")
-    plan = retargeting.plan(source, target, floor_root="extract", plant_feet=False)
+    frames = np.arange(1, 183, 5)
+    body = [b.name for b in target.data.bones if b.name != "joint_Root"]
+    retargeting.apply(retargeting.plan(source, target, floor_root="still", plant_feet=False))
+    still_heads, _ = world_tracks(target, body, frames)
+    plan = retargeting.plan(source, target, floor_root=mode, plant_feet=False)
+    assert plan.floor_roots == (None, "joint_Root") and plan.hips == ("RootJoint", "Hips")
     retargeting.apply(plan)
     pairs = [(s, t) for s, t in plan.pairs if t != "joint_Root"]
-    frames = np.arange(1, 183, 5)
     _, src_dirs = world_tracks(source, [s for s, _ in pairs], frames)
     _, tgt_dirs = world_tracks(target, [t for _, t in pairs], frames)
     assert angles_deg(src_dirs, tgt_dirs).max() < 0.1
     assert 50 < plan.leg_ratio < 150  # metres onto centimetres
+    heads, _ = world_tracks(target, body, frames)
+    assert np.abs(heads - still_heads).max() < 1e-3  # centimetres: float32 pose matrices 100 units from 0
+    if mode == "extract":
+        root, _ = world_tracks(target, ["joint_Root"], frames)
+        assert np.ptp(root[:, 0, :2], axis=0).max() > 50  # it walks along, in centimetres
 
 
 # ---------------------------------------------------------------------------
