@@ -295,7 +295,7 @@ def _pose_points(obj, bones, rig, rotations, locations, legs, posed=None):
     """The pose in armature space (a _Posed of the hips and legs at least), the foot points in armature
     and world space (F, 4, 3) and the leg length (thigh + shin, world units). posed: the whole armature's
     pose (orientations (F, 4B), heads (F, 3B)) when the caller has it already."""
-    count, nb = rotations.shape[0], len(bones)
+    nb = len(bones)
     if posed is None:
         # Only the legs and the bones above them place the feet: posed alone (the rest is never read).
         sub = sorted(set(b for chain in legs for b in chain).union(*(_above(bones, chain[0]) for chain in legs)))
