@@ -344,7 +344,7 @@ def plan(source, target, bone_map=None, frame_range=None, root: str = "scaled", 
     pairs_idx = [(src.index(a), tgt.index(b)) for a, b in pairs]
     for a, b in pairs_idx:
         bone_map_idx[b] = a
-    src_depth, tgt_depth = _depths(src), _depths(tgt)
+    tgt_depth = _depths(tgt)
     src_body = bone_mapping.classify(mapping_rig(src.obj))
     tgt_body = bone_mapping.classify(mapping_rig(tgt.obj))
     # The hips are the body's root for proportions and height; a game rig's floor root above them is
