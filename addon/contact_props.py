@@ -8,14 +8,14 @@ from .foot_contacts import ContactSettings
 _DEFAULTS = ContactSettings()
 # name -> (label, minimum, maximum, unit, description); leg lengths and seconds, as ContactSettings.
 _FIELDS = {
-    "height_enter": ("Height", 0.001, 1.0, 'NONE',
+    "height_enter": ("Height In", 0.001, 1.0, 'NONE',
                      "A foot point enters a contact this close to its standing height (leg lengths)"),
-    "height_leave": ("Height to Leave", 0.001, 1.0, 'NONE', "...and leaves it higher than this (leg lengths)"),
-    "speed_enter": ("Speed", 0.001, 10.0, 'NONE',
+    "height_leave": ("Height Out", 0.001, 1.0, 'NONE', "...and leaves it higher than this (leg lengths)"),
+    "speed_enter": ("Speed In", 0.001, 10.0, 'NONE',
                     "A foot point enters a contact slower than this (leg lengths per second)"),
-    "speed_leave": ("Speed to Leave", 0.001, 10.0, 'NONE',
+    "speed_leave": ("Speed Out", 0.001, 10.0, 'NONE',
                     "...and leaves it faster than this (leg lengths per second)"),
-    "min_length": ("Shortest Contact", 0.0, 2.0, 'TIME_ABSOLUTE', "Contacts shorter than this are ignored"),
+    "min_length": ("Shortest", 0.0, 2.0, 'TIME_ABSOLUTE', "Contacts shorter than this are ignored"),
     "blend": ("Blend", 0.001, 2.0, 'TIME_ABSOLUTE', "How long the feet take to ease into and out of a plant"),
 }
 

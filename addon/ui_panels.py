@@ -26,7 +26,7 @@ class MOTIONKIT_PT_main(bpy.types.Panel):
         row = self.layout.row(align=True)
         row.operator("motionkit.resample_keys", text="Resample", icon='IPO_BEZIER')
         row.operator("motionkit.reduce_keys", text="Reduce", icon='IPO_LINEAR')
-        self.layout.operator("motionkit.fix_foot_sliding", icon='SNAP_FACE')
+        self.layout.operator("motionkit.fix_foot_sliding", icon='CON_FLOOR')
 
 
 class MOTIONKIT_UL_bone_map(bpy.types.UIList):
@@ -119,7 +119,7 @@ class MOTIONKIT_PT_retarget_feet(bpy.types.Panel):
         layout.use_property_decorate = False
         layout.active = settings.plant_feet
         contact_props.draw(layout, settings.contacts)
-        layout.label(text="Contacts are keyed on the new action (Graph Editor)", icon='INFO')
+        layout.label(text="Keyed as 0/1 curves on the feet", icon='INFO')
 
 
 class MOTIONKIT_UL_ik_effectors(bpy.types.UIList):
