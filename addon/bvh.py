@@ -181,7 +181,7 @@ def load(filepath: str, options: ImportOptions | None = None, *, context=None, n
         channels, fills = [], []
         for i, bone in bone_names.items():
             joint_channels = skeleton.channels[i]
-            path = f'pose.bones["{bpy.utils.escape_identifier(bone)}"]'
+            path = pose_channels.bone_path(bone)
             if any(c.endswith("position") for c in joint_channels):
                 fills.append((len(channels), 'LOCATION', i))
                 channels += [(f"{path}.location", k, bone) for k in range(3)]

@@ -29,6 +29,7 @@ import bpy
 import numpy as np
 
 from . import animdata, bvh, native_state, pose_channels, rotation_channels
+from .rotation_channels import conjugate as _conj, multiply as _mul, rotate_each as _rotate
 from .foot_contacts import ContactSettings, all_intervals, detect as detect_contacts, foot_targets, plant_targets
 
 SIDES = ("L", "R")
@@ -67,21 +68,8 @@ class Report:
 # ---------------------------------------------------------------------------
 # Quaternion helpers (w x y z, batched)
 
-def _mul(a, b):
-    return rotation_channels.multiply(a, b)
-
-
-def _conj(q):
-    return rotation_channels.conjugate(q)
-
-
-def _rotate(q, v):
-    return rotation_channels.rotate_each(q, v)
-
-
 def _about_y(angle):
-    angle = np.asarray(angle, dtype=np.float64)
-    return np.stack([np.cos(angle / 2), np.zeros_like(angle), np.sin(angle / 2), np.zeros_like(angle)], axis=-1)
+    return rotation_channels.about(1, angle)
 
 
 def _swing_twist(q):
@@ -104,14 +92,18 @@ def _swing_twist(q):
 
 def find_feet(obj) -> list[Foot]:
     """The two legs of an armature from MotionKit's bone map (labels thigh.L, shin.L, foot.L, toe.L, ...)."""
-    from . import bone_mapping, retargeting  # retargeting may import this module
-    body = bone_mapping.classify(retargeting.mapping_rig(obj))
+    from . import bone_mapping, retargeting  # retargeting imports this module
+    return feet_of(bone_mapping.classify(retargeting.mapping_rig(obj)), obj.name)
+
+
+def feet_of(body, name: str) -> list[Foot]:
+    """The two legs of a bone_mapping.Body; a ValueError names the foot and what is missing."""
     feet = []
     for side in SIDES:
         names = {part: body.limbs.get(f"{part}.{side}") for part in ("thigh", "shin", "foot", "toe")}
         missing = [part for part in ("thigh", "shin", "foot") if not names[part]]
         if missing:
-            raise ValueError(f"foot {side}: '{obj.name}' has no {', '.join(missing)} bone that MotionKit "
+            raise ValueError(f"foot {side}: '{name}' has no {', '.join(missing)} bone that MotionKit "
                              f"recognises (found {', '.join(f'{k}={v}' for k, v in names.items() if v) or 'none'})")
         feet.append(Foot(side, names["thigh"], names["shin"], names["foot"], names["toe"]))
     return feet
@@ -173,7 +165,7 @@ def contact_channels(feet) -> list[tuple[str, int, str]]:
     """The contact F-curves' channels, in POINTS order."""
     out = []
     for foot in _as_feet(feet):
-        path = f'pose.bones["{bpy.utils.escape_identifier(foot.foot)}"]'
+        path = pose_channels.bone_path(foot.foot)
         out += [(f'{path}["{prop}"]', 0, foot.foot) for prop in PROPERTIES]
     return out
 
@@ -268,11 +260,7 @@ def _knee_roll(shin_basis, shin_world, foot_dir_world) -> tuple[float, str]:
 def _above(bones, b) -> list[int]:
     """Indices of bone b's ancestors in bones (depth-first)."""
     index = {bone.name: i for i, bone in enumerate(bones)}
-    out, bone = [], bones[b].parent
-    while bone is not None:
-        out.append(index[bone.name])
-        bone = bone.parent
-    return out
+    return [index[bone.name] for bone in pose_channels.ancestors(bones[b])]
 
 
 class _Posed:
@@ -331,7 +319,7 @@ def find_contacts(obj, bones, rig, rotations, locations, feet, settings: Contact
     """Contacts (F, 4) bool (POINTS order) of a pose sequence (for example the retarget's source, whose
     contacts the target then keeps); fps default the scene's; posed: its armature pose, if at hand."""
     if fps is None:
-        fps = bpy.context.scene.render.fps / bpy.context.scene.render.fps_base
+        fps = bvh.frame_rate(None)  # the scene's
     points, leg_length = foot_points(obj, bones, rig, rotations, locations, feet, posed)
     return detect_contacts(points, fps, leg_length, 0.0, settings)
 
@@ -403,7 +391,7 @@ def _cleanup_steps(obj, bones, rig, frames, rotations, locations, feet, contacts
         raise ValueError(f"rotations and locations must be ({count}, {4 * nb}) and ({count}, {3 * nb}), "
                          f"not {rotations.shape} and {locations.shape}")
     if fps is None:
-        fps = bpy.context.scene.render.fps / bpy.context.scene.render.fps_base
+        fps = bvh.frame_rate(None)  # the scene's
     legs = _leg_indices(bones, feet)
     hip = _hips(bones, legs) if hips is None else next(
         (i for i, b in enumerate(bones) if b.name == hips), None)
@@ -560,36 +548,16 @@ def _cleanup_steps(obj, bones, rig, frames, rotations, locations, feet, contacts
 # ---------------------------------------------------------------------------
 # Fix foot sliding on any armature's action
 
-def _frames(action, frame_range) -> np.ndarray:
-    if frame_range is None:
-        start, end = action.frame_range
-    else:
-        start, end = frame_range
-    start, end = int(np.floor(start + 1e-6)), int(np.ceil(end - 1e-6))
-    if end < start:
-        raise ValueError(f"frame range {start}..{end} is empty")
-    return np.arange(start, end + 1, dtype=np.float64)
-
-
 def _channels(obj, bones, names, rotations, locations, hip):
     """Channels and values (c, frames) for the changed bones' rotations (each in its rotation mode) and
     the hips' location."""
-    native = native_state.native()
     index = {b.name: i for i, b in enumerate(bones)}
-    channels, rows = [], []
-    path = f'pose.bones["{bpy.utils.escape_identifier(hip)}"]'
-    channels += [(f"{path}.location", k, hip) for k in range(3)]
-    rows.append(locations[:, 3 * index[hip]:3 * index[hip] + 3].T)
+    channels = [(f"{pose_channels.bone_path(hip)}.location", k, hip) for k in range(3)]
+    rows = [locations[:, 3 * index[hip]:3 * index[hip] + 3].T]
     for name in names:
-        pose_bone = obj.pose.bones[name]
-        path = f'pose.bones["{bpy.utils.escape_identifier(name)}"]'
-        mode = pose_bone.rotation_mode
-        prop, size = rotation_channels.channel_property(mode)
-        previous = np.array(tuple(getattr(pose_bone, prop)), dtype=np.float64)
-        q = np.ascontiguousarray(rotations[:, 4 * index[name]:4 * index[name] + 4])
-        values = rotation_channels.from_quaternions(native, mode, q, previous=previous)
-        channels += [(f"{path}.{prop}", k, name) for k in range(size)]
-        rows.append(values.reshape(-1, size).T)
+        bone_channels, values = pose_channels.rotation_keys(obj, name, rotations[:, 4 * index[name]:4 * index[name] + 4])
+        channels += bone_channels
+        rows.append(values)
     return channels, np.vstack(rows)
 
 
@@ -618,10 +586,10 @@ def plant(armature, frame_range=None, settings: ContactSettings | None = None, d
         fps = bvh.frame_rate(action)
     # The whole action is read and keyed (write_keys replaces a curve's keys: keying only the range
     # would drop the keys outside it); a frame range limits the contacts instead.
-    frames = _frames(action, None)
+    frames = pose_channels.action_frames(action)
     inside = np.ones(frames.size, dtype=bool)
     if frame_range is not None:
-        wanted = _frames(action, frame_range)
+        wanted = pose_channels.action_frames(action, frame_range)
         inside = (frames >= wanted[0]) & (frames <= wanted[-1])
         if not inside.any():
             raise ValueError(f"frame range {wanted[0]:g}..{wanted[-1]:g} is outside action '{action.name}' "

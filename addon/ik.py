@@ -196,17 +196,17 @@ def plan(obj, effectors, frame_range=None, method: str = "dls", *, root_translat
     # it reads), sized as the whole rig so that it is solved as the whole would
     # be; the other bones are neither read, solved nor keyed.
     part = sorted(_ancestors(all_bones, all_names, [e.bone for e in effectors]) | {0})
-    body = _body_root(obj, all_bones, all_names, part)
-    above = [all_bones[i] for i in part if i < body and all_bones[i] in _chain_above(all_bones[body])]
+    rest = np.empty(6 * len(all_bones), dtype=np.float32)  # every head, then every tail
+    obj.data.bones.foreach_get("head_local", rest[:3 * len(all_bones)])
+    obj.data.bones.foreach_get("tail_local", rest[3 * len(all_bones):])
+    body = _body_root(obj, all_bones, all_names, part, rest)
+    above = [all_bones[i] for i in part if i < body and all_bones[i] in pose_channels.ancestors(all_bones[body])]
     if above:  # a floor root over the hips: solve the hips' subtree in its parent's posed frame
         part = [i for i in part if i >= body and _is_below(all_bones[i], all_bones[body])]
         rig, bones = _rig_below(obj, [all_bones[i] for i in part])
     else:
         rig, bones = pose_channels.native_rig(obj.data, [all_bones[i] for i in part])
     names = [b.name for b in bones]
-    rest = np.empty(6 * len(all_bones), dtype=np.float32)  # every head, then every tail
-    obj.data.bones.foreach_get("head_local", rest[:3 * len(all_bones)])
-    obj.data.bones.foreach_get("tail_local", rest[3 * len(all_bones):])
     rest = rest.reshape(-1, 3).astype(np.float64)
     size = float(np.linalg.norm(np.ptp(rest, axis=0)))
     height = float(np.max(np.ptp(rest, axis=0)))
@@ -279,28 +279,36 @@ def _ancestors(bones, names, starts) -> set:
     return out
 
 
-def _chain_above(bone) -> list:
-    out = []
-    while bone.parent is not None:
-        bone = bone.parent
-        out.append(bone)
-    return out
-
-
 def _is_below(bone, top) -> bool:
-    return bone == top or top in _chain_above(bone)
+    return bone == top or top in pose_channels.ancestors(bone)
 
 
-def _body_root(obj, all_bones, all_names, part) -> int:
+_FLOOR_ROOTED: dict = {}  # rest signature -> the hips' name under a floor root, or None
+
+
+def _floor_rooted_hips(obj, all_names, rest) -> str | None:
+    """The hips' name when the top bone is a game rig's floor root (MotionKit's bone map), else None.
+    Classifying takes milliseconds on a large rig: the answer is kept per rest pose, so that the live
+    re-solve does not pay it on every update."""
+    key = (tuple(all_names), rest.tobytes())
+    if key not in _FLOOR_ROOTED:
+        from . import bone_mapping, retargeting
+        labels = bone_mapping.classify(retargeting.mapping_rig(obj))
+        found = labels.root is not None and labels.root == all_names[0] and labels.hips in all_names
+        if len(_FLOOR_ROOTED) > 64:
+            _FLOOR_ROOTED.clear()
+        _FLOOR_ROOTED[key] = labels.hips if found else None
+    return _FLOOR_ROOTED[key]
+
+
+def _body_root(obj, all_bones, all_names, part, rest) -> int:
     """The bone whose location carries the body: the hips under a game rig's floor root (Unreal's root
-    above pelvis, found by MotionKit's bone map) when every solved bone but the floor root hangs below
-    them, else the top bone."""
-    from . import bone_mapping, retargeting
-    labels = bone_mapping.classify(retargeting.mapping_rig(obj))
-    if labels.root is None or labels.hips not in all_names or labels.root != all_names[0]:
+    above pelvis) when every solved bone but the floor root hangs below them, else the top bone."""
+    hips_name = _floor_rooted_hips(obj, all_names, rest)
+    if hips_name is None:
         return 0
-    hips = all_names.index(labels.hips)
-    above = set(_chain_above(all_bones[hips]))
+    hips = all_names.index(hips_name)
+    above = set(pose_channels.ancestors(all_bones[hips]))
     if all(all_bones[i] in above or _is_below(all_bones[i], all_bones[hips]) for i in part):
         return hips
     return 0
@@ -358,23 +366,16 @@ def _outside_chains(bones, names, effectors) -> np.ndarray:
 
 
 def _channels(plan_: Plan) -> tuple[list, np.ndarray]:
-    native = native_state.native()
     channels, rows = [], []
     frames = plan_.frames.size
     for b in np.flatnonzero(plan_.moved):
         bone = plan_.bones[b]
-        pose_bone = plan_.obj.pose.bones[bone.name]
-        path = f'pose.bones["{bpy.utils.escape_identifier(bone.name)}"]'
         if b == 0:
-            channels += [(f"{path}.location", k, bone.name) for k in range(3)]
+            channels += [(f"{pose_channels.bone_path(bone.name)}.location", k, bone.name) for k in range(3)]
             rows.append(plan_.root_locations.T)
-        mode = pose_bone.rotation_mode
-        prop, size = rotation_channels.channel_property(mode)
-        previous = np.array(tuple(getattr(pose_bone, prop)), dtype=np.float64)
-        q = np.ascontiguousarray(plan_.rotations[:, 4 * b:4 * b + 4])
-        values = rotation_channels.from_quaternions(native, mode, q, previous=previous)
-        channels += [(f"{path}.{prop}", k, bone.name) for k in range(size)]
-        rows.append(values.T.reshape(size, frames))
+        bone_channels, values = pose_channels.rotation_keys(plan_.obj, bone.name, plan_.rotations[:, 4 * b:4 * b + 4])
+        channels += bone_channels
+        rows.append(values)
     values = np.vstack(rows) if rows else np.empty((0, frames))
     if not np.all(np.isfinite(values)):
         raise ValueError("the IK solution is not finite")

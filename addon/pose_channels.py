@@ -22,6 +22,47 @@ def depth_first(armature) -> list:
     return order
 
 
+def ancestors(bone) -> list:
+    """The bone's parent, its parent's parent, ... up to the top bone."""
+    out = []
+    while bone.parent is not None:
+        bone = bone.parent
+        out.append(bone)
+    return out
+
+
+def bone_path(name: str) -> str:
+    """The data path of a pose bone, for F-curves."""
+    return f'pose.bones["{bpy.utils.escape_identifier(name)}"]'
+
+
+def action_frames(action, frame_range=None) -> np.ndarray:
+    """Whole frames from frame_range (inclusive), or over the action's keys."""
+    if frame_range is None:
+        start, end = action.frame_range
+        frame_range = (int(np.floor(start + 1e-6)), int(np.ceil(end - 1e-6)))
+    start, end = (int(v) for v in frame_range)
+    if end < start:
+        raise ValueError(f"frame range {start}..{end} is empty")
+    return np.arange(start, end + 1, dtype=np.float64)
+
+
+def rotation_keys(obj, name: str, q, *, placeholder: bool = False) -> tuple[list, np.ndarray]:
+    """A pose bone's rotation channels and their values (size, n) for quaternions q (n, 4), in the bone's
+    own rotation mode, continuous from the pose's value; placeholder: zeros, the channels alone counting."""
+    pose_bone = obj.pose.bones[name]
+    mode = pose_bone.rotation_mode
+    prop, size = rotation_channels.channel_property(mode)
+    if placeholder:
+        values = np.zeros((len(q), size))
+    else:
+        previous = np.array(tuple(getattr(pose_bone, prop)), dtype=np.float64)
+        values = rotation_channels.from_quaternions(native_state.native(), mode, np.ascontiguousarray(q),
+                                                    previous=previous)
+    path = bone_path(name)
+    return [(f"{path}.{prop}", k, name) for k in range(size)], values.reshape(-1, size).T
+
+
 def rest_quaternions(armature) -> dict[str, np.ndarray]:
     """Each bone's rest orientation in armature space, as w x y z."""
     return {bone.name: np.array(bone.matrix_local.to_quaternion(), dtype=np.float64) for bone in armature.bones}
@@ -33,7 +74,7 @@ def rotations(obj, action, bones, frames) -> np.ndarray:
     channels, kinds = [], []
     for bone in bones:
         pose_bone = obj.pose.bones[bone.name]
-        path = f'pose.bones["{bpy.utils.escape_identifier(bone.name)}"]'
+        path = bone_path(bone.name)
         mode = pose_bone.rotation_mode
         prop, size = rotation_channels.channel_property(mode)
         static = tuple(getattr(pose_bone, prop))
@@ -55,7 +96,7 @@ def rotations(obj, action, bones, frames) -> np.ndarray:
 def locations(obj, action, bones, frames) -> tuple[np.ndarray, list[bool]]:
     channels = []
     for bone in bones:
-        path = f'pose.bones["{bpy.utils.escape_identifier(bone.name)}"]'
+        path = bone_path(bone.name)
         channels += [(f"{path}.location", k) for k in range(3)]
     values, found = animdata.sample(action, obj, channels, frames)
     static = np.array([obj.pose.bones[bone.name].location for bone in bones], dtype=np.float64).reshape(-1)

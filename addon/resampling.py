@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import bpy
 import numpy as np
 
-from . import animdata, native_state, resample_plan, rotation_channels
+from . import animdata, native_state, pose_channels, resample_plan, rotation_channels
 from .resample_plan import ChannelGroup
 
 POLYNOMIAL_MAX_KEYS = 64
@@ -53,12 +53,8 @@ def _target(target):
     return target, action
 
 
-def _bone_owner(name: str) -> str:
-    return f'pose.bones["{bpy.utils.escape_identifier(name)}"]'
-
-
 def _groups(obj, action, bones) -> list[ChannelGroup]:
-    owners = None if bones is None else {_bone_owner(b) for b in bones}
+    owners = None if bones is None else {pose_channels.bone_path(b) for b in bones}
 
     def euler_mode_of(owner):
         holder = obj.path_resolve(owner) if owner else obj

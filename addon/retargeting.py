@@ -44,12 +44,15 @@ class _Side:
     bones: list
     rig: object
 
-    @property
-    def names(self) -> list[str]:
-        return [b.name for b in self.bones]
+    def __post_init__(self):
+        self.names = [b.name for b in self.bones]
+        self._index = {name: i for i, name in enumerate(self.names)}
 
     def index(self, name: str) -> int:
-        return self.names.index(name)
+        return self._index[name]
+
+    def __contains__(self, name) -> bool:
+        return name in self._index
 
 
 def _side(obj, role: str) -> _Side:
@@ -104,16 +107,6 @@ def _pairs(bone_map, source: _Side, target: _Side) -> list[tuple[str, str]]:
     return pairs
 
 
-def _frames(action, frame_range) -> np.ndarray:
-    if frame_range is None:
-        start, end = action.frame_range
-        frame_range = (int(np.floor(start + 1e-6)), int(np.ceil(end - 1e-6)))
-    start, end = (int(v) for v in frame_range)
-    if end < start:
-        raise ValueError(f"frame range {start}..{end} is empty")
-    return np.arange(start, end + 1, dtype=np.float64)
-
-
 @dataclass
 class _Pose:
     """A rig standing in its match pose, in its own armature space."""
@@ -164,25 +157,19 @@ def _hip_height(pose: _Pose, root: int, up: np.ndarray) -> float:
 
 def _legs(side: _Side, body: bone_mapping.Body) -> list:
     """The labelled legs (thigh and shin at least) as root_motion.Leg, by bone index."""
-    names = side.names
-    below = [[] for _ in names]  # each bone's subtree
-    for i in reversed(range(len(names))):
-        below[i].insert(0, i)
-        parent = side.bones[i].parent
-        if parent is not None:
-            below[names.index(parent.name)].extend(below[i])
     legs = []
     for s in bone_mapping.SIDES:
         thigh, shin, foot = (body.limbs.get(f"{k}.{s}") for k in ("thigh", "shin", "foot"))
-        if thigh in names and shin in names:
-            f = names.index(foot) if foot in names else -1
-            legs.append(root_motion.Leg(names.index(thigh), names.index(shin), f,
-                                        tuple(below[f]) if f >= 0 else ()))
+        if thigh in side and shin in side:
+            f = side.index(foot) if foot in side else -1
+            below = () if f < 0 else tuple(i for i, b in enumerate(side.bones)
+                                           if i == f or side.bones[f] in pose_channels.ancestors(b))
+            legs.append(root_motion.Leg(side.index(thigh), side.index(shin), f, below))
     return legs
 
 
-def _leg_length(side: _Side, body, pose: _Pose, up, hips: int, heads_over_clip=None) -> tuple[float, str]:
-    """The rig's leg length in its own armature units, and how it was measured.
+def _leg_length(side: _Side, body, pose: _Pose, up, hips: int, heads_over_clip=None) -> float:
+    """The rig's leg length in its own armature units.
 
     The hips' height above the soles measured along the legs: the hips' head
     above the hip joints, then thigh + shin + the ankle's height above the
@@ -192,7 +179,7 @@ def _leg_length(side: _Side, body, pose: _Pose, up, hips: int, heads_over_clip=N
     """
     legs = _legs(side, body)
     if not legs:
-        return _hip_height(pose, hips, up), "hip height"
+        return _hip_height(pose, hips, up)
     tails = pose.heads + pose.lengths[:, None] * rotation_channels.y_axes(pose.rotations)
     lengths = []
     for leg in legs:
@@ -201,22 +188,20 @@ def _leg_length(side: _Side, body, pose: _Pose, up, hips: int, heads_over_clip=N
             lowest = float(np.min(heads_over_clip[:, 3 * leg.foot:3 * leg.foot + 3] @ up))
             lowest = lowest if lowest > 0 else None
         lengths.append(root_motion.leg_length(leg, pose.heads, tails, lowest))
-    return root_motion.hips_drop(pose.heads[hips], legs, pose.heads, tails) + float(np.mean(lengths)), "legs"
+    return root_motion.hips_drop(pose.heads[hips], legs, pose.heads, tails) + float(np.mean(lengths))
 
 
 def _top(side: _Side, bone: int) -> int:
-    while side.bones[bone].parent is not None:
-        bone = side.index(side.bones[bone].parent.name)
-    return bone
+    above = pose_channels.ancestors(side.bones[bone])
+    return side.index(above[-1].name) if above else bone
 
 
 def _body_roots(side: _Side, body, mapped, depth) -> tuple[int | None, int | None]:
     """(hips, floor root) by index: the hips found by the bone map among the mapped bones (else the highest
     mapped bone other than a floor root), and the top bone above them, if any."""
-    names = side.names
-    hips = names.index(body.hips) if body.hips in names and names.index(body.hips) in mapped else None
+    hips = side.index(body.hips) if body.hips in side and side.index(body.hips) in mapped else None
     if hips is None:
-        floor = names.index(body.root) if body.root in names else None
+        floor = side.index(body.root) if body.root in side else None
         candidates = [b for b in mapped if b != floor]
         if not candidates:
             return None, None
@@ -316,7 +301,7 @@ def plan(source, target, bone_map=None, frame_range=None, root: str = "scaled", 
     if action is None:
         raise ValueError(f"the source '{src.obj.name}' has no action to retarget")
     pairs = _pairs(bone_map, src, tgt)
-    frames = _frames(action, frame_range)
+    frames = pose_channels.action_frames(action, frame_range)
 
     # The source's channels are read once: posed here, and kept for its foot contacts.
     source_basis = pose_channels.rotations(src.obj, action, src.bones, frames)
@@ -369,10 +354,10 @@ def plan(source, target, bone_map=None, frame_range=None, root: str = "scaled", 
         space = rotation_channels.multiply(_facing(space, source_pose, target_pose, pairs_idx, source_root, target_root), space)
     up = np.array([0.0, 0.0, 1.0])
     source_up = rotation_channels.rotate(rotation_channels.conjugate(space), up[None, :])[0]
-    source_height, _ = _leg_length(src, src_body, source_pose, source_up, source_root, source_heads)
+    source_height = _leg_length(src, src_body, source_pose, source_up, source_root, source_heads)
     # The target's own action (whatever is assigned now) never sets its proportions: a zero pose's feet
     # take a tenth of thigh + shin there (root_motion.leg_length).
-    target_height, _ = _leg_length(tgt, tgt_body, target_pose, up, target_root)
+    target_height = _leg_length(tgt, tgt_body, target_pose, up, target_root)
     if not (source_height > 1e-9 and target_height > 1e-9):
         raise ValueError("the root stands at the lowest point of a rig: no leg length to scale the motion by")
     scale = target_height / source_height
@@ -398,7 +383,7 @@ def plan(source, target, bone_map=None, frame_range=None, root: str = "scaled", 
                              source_pose.rotations[source_floor], source_pose.heads[source_floor]) \
                 if source_floor is not None else None
             _move_floor_root(native, tgt, target_pose, rotations, locations, target_floor, target_root, mode,
-                             source_motion, space, scale, root, root_smoothing * _fps())
+                             source_motion, space, scale, root, root_smoothing * bvh.frame_rate(action))
             located.append(target_floor)
 
     planted = pending = None
@@ -409,13 +394,13 @@ def plan(source, target, bone_map=None, frame_range=None, root: str = "scaled", 
     if planted is not None:
         keyed = {tgt.index(b) for f in planted[2] for b in (f.thigh, f.shin, f.foot)} | {target_root}
         pending = _PlantedFeet(planted[0], planted[1], {tgt.names[b] for b in keyed}, lambda: _target_channels(
-            native, tgt, rotations, target_basis, bone_map_idx, located, locations, keyed, keyed)[0])
+            tgt, rotations, target_basis, bone_map_idx, located, locations, keyed, keyed)[0])
         if defer_solve:
             pending.start()  # beside the rest of the plan and apply()'s writing
     else:
         keyed = set()
     # Bones the feet's solve may change get a key per frame even where the plain retarget keeps them still.
-    moving, still = _target_channels(native, tgt, rotations, target_basis, bone_map_idx, located, locations,
+    moving, still = _target_channels(tgt, rotations, target_basis, bone_map_idx, located, locations,
                                      keyed=keyed, placeholders=True)
     plan_ = Plan(tgt.obj, frames, *moving, src.obj.name, pairs, *still, leg_ratio=scale,
                  hips=(src.names[source_root], tgt.names[target_root]),
@@ -433,13 +418,10 @@ def plan(source, target, bone_map=None, frame_range=None, root: str = "scaled", 
 
 def _feet(side: _Side, body) -> list | None:
     """Both legs' contacts.Foot from the labels, or None when a leg is not labelled (no feet to plant)."""
-    feet = []
-    for s in bone_mapping.SIDES:
-        bones = [body.limbs.get(f"{k}.{s}") for k in ("thigh", "shin", "foot", "toe")]
-        if not all(b in side.names for b in bones[:3]):
-            return None
-        feet.append(contacts.Foot(s, *bones[:3], bones[3] if bones[3] in side.names else None))
-    return feet
+    try:
+        return contacts.feet_of(body, side.obj.name)
+    except ValueError:
+        return None
 
 
 def _plant_feet(src: _Side, tgt: _Side, src_body, tgt_body, frames, source_basis, source_locations, source_posed,
@@ -466,11 +448,6 @@ def _depths(side: _Side) -> list[int]:
     return depth
 
 
-def _fps() -> float:
-    render = bpy.context.scene.render
-    return render.fps / render.fps_base
-
-
 def _move_floor_root(native, tgt: _Side, target_pose: _Pose, rotations, locations, floor, hips, mode,
                      source_motion, space, scale, root, sigma_frames) -> None:
     """Gives the target's floor root its motion (copy or extract) and re-expresses the hips under it so that
@@ -494,6 +471,8 @@ def _move_floor_root(native, tgt: _Side, target_pose: _Pose, rotations, location
                                                 block(posed_heads, root_parent, 3))
 
     def hips_parent_pose(root_basis, root_location):
+        if rest.hips_parent == floor:  # the usual game rig: the hips hang from the floor root itself
+            return track
         trial_rotations, trial_locations = rotations.copy(), locations.copy()
         trial_rotations[:, 4 * floor:4 * floor + 4] = root_basis
         trial_locations[:, 3 * floor:3 * floor + 3] = root_location
@@ -508,7 +487,7 @@ def _move_floor_root(native, tgt: _Side, target_pose: _Pose, rotations, location
     locations[:, 3 * hips:3 * hips + 3] = hips_location
 
 
-def _target_channels(native, tgt: _Side, rotations, target_basis, bone_map_idx, located, locations, only=None,
+def _target_channels(tgt: _Side, rotations, target_basis, bone_map_idx, located, locations, only=None,
                      keyed=frozenset(), placeholders=False):
     """The F-curves to key, in each bone's own rotation mode: (channels, values) for the bones the retarget
     moves (and those in keyed) and the root's location, one key per frame; (channels, values) for the bones
@@ -522,22 +501,14 @@ def _target_channels(native, tgt: _Side, rotations, target_basis, bone_map_idx, 
         q = rotations[:, 4 * b:4 * b + 4]
         moved = (bone_map_idx[b] >= 0 or b in located or b in keyed
                  or bool(np.any(np.abs(q @ target_basis[b]) < 1.0 - 1e-12)))
-        path = f'pose.bones["{bpy.utils.escape_identifier(bone.name)}"]'
         if b in located:
-            moving[0].extend((f"{path}.location", k, bone.name) for k in range(3))
+            moving[0].extend((f"{pose_channels.bone_path(bone.name)}.location", k, bone.name) for k in range(3))
             moving[1].append(locations[:, 3 * b:3 * b + 3].T)
-        pose_bone = tgt.obj.pose.bones[bone.name]
-        mode = pose_bone.rotation_mode
-        prop, size = rotation_channels.channel_property(mode)
-        previous = np.array(tuple(getattr(pose_bone, prop)), dtype=np.float64)
-        q = q if moved else q[:1]
-        if placeholders and b in keyed:
-            values = np.zeros((q.shape[0], size))
-        else:
-            values = rotation_channels.from_quaternions(native, mode, np.ascontiguousarray(q), previous=previous)
+        channels, values = pose_channels.rotation_keys(tgt.obj, bone.name, q if moved else q[:1],
+                                                       placeholder=placeholders and b in keyed)
         out = moving if moved else still
-        out[0].extend((f"{path}.{prop}", k, bone.name) for k in range(size))
-        out[1].append(values.T)
+        out[0].extend(channels)
+        out[1].append(values)
     stack = lambda rows, n: np.vstack(rows) if rows else np.empty((0, n))  # noqa: E731
     return (moving[0], stack(moving[1], frames)), (still[0], stack(still[1], 1))
 

@@ -20,9 +20,9 @@ from dataclasses import dataclass
 import numpy as np
 
 try:
-    from .rotation_channels import conjugate, multiply, rotate_each as rotate
+    from .rotation_channels import about, conjugate, multiply, rotate_each as rotate, sign_continuous
 except ImportError:  # plain Python tests import the helpers as top-level modules
-    from rotation_channels import conjugate, multiply, rotate_each as rotate
+    from rotation_channels import about, conjugate, multiply, rotate_each as rotate, sign_continuous
 
 FLOOR_ROOTS = (
     ("auto", "Auto", "Copy the source's floor root if it has one, else keep the target's still"),
@@ -32,14 +32,13 @@ FLOOR_ROOTS = (
      "The floor root follows the hips' ground projection and facing, smoothed, for game engines; "
      "the hips keep the rest, so the world pose is the same"),
 )
+_IDENTITY = np.array([1.0, 0.0, 0.0, 0.0])
 # A foot whose bones run on within this angle of the shin's line is a zero pose's, not a standing foot.
 _DEGENERATE_FOOT_DEG = 30.0
 
 
 def about_z(angles) -> np.ndarray:
-    half = 0.5 * np.asarray(angles, dtype=np.float64)
-    zero = np.zeros_like(half)
-    return np.stack([np.cos(half), zero, zero, np.sin(half)], axis=-1)
+    return about(2, angles)
 
 
 def heading(q) -> np.ndarray:
@@ -148,13 +147,6 @@ def _local(rest: FloorRootRest, bone: int, parent: int, parent_rotations, parent
     return multiply(inverse, rotations), rotate(inverse, heads - anchor)
 
 
-def continuous(q) -> np.ndarray:
-    """Rows flipped into one hemisphere, frame to frame (the first with w >= 0)."""
-    q = np.array(q, dtype=np.float64)
-    flips = np.concatenate([[q[0, 0] < 0], np.einsum("ij,ij->i", q[1:], q[:-1]) < 0])
-    return q * np.where(np.logical_xor.accumulate(flips), -1.0, 1.0)[:, None]
-
-
 def extract_track(hips_rotations, hips_heads, hips_match_rotation, hips_match_head, root_match_rotation,
                   root_match_head, sigma_frames: float) -> tuple[np.ndarray, np.ndarray]:
     """The floor root's armature-space rotations (n, 4) and heads (n, 3) for root motion:
@@ -163,7 +155,7 @@ def extract_track(hips_rotations, hips_heads, hips_match_rotation, hips_match_he
     yaw = smooth(heading(turn), sigma_frames)
     moved = smooth(hips_heads - hips_match_head, sigma_frames)
     moved[:, 2] = 0.0  # on the floor: the hips keep their height and sway
-    return continuous(multiply(about_z(yaw), root_match_rotation)), root_match_head + moved
+    return sign_continuous(multiply(about_z(yaw), root_match_rotation), _IDENTITY), root_match_head + moved
 
 
 def copy_track(source_rotations, source_heads, source_match_rotation, source_match_head, space,
@@ -176,7 +168,7 @@ def copy_track(source_rotations, source_heads, source_match_rotation, source_mat
         moved[:, :2] = 0.0
     if not vertical:
         moved[:, 2] = 0.0
-    return continuous(multiply(turn, root_match_rotation)), root_match_head + moved
+    return sign_continuous(multiply(turn, root_match_rotation), _IDENTITY), root_match_head + moved
 
 
 def carry(rest: FloorRootRest, root_rotations, root_heads, root_parent_pose, hips_parent_pose, hips_rotations,
@@ -192,8 +184,8 @@ def carry(rest: FloorRootRest, root_rotations, root_heads, root_parent_pose, hip
     parent_rotations, parent_heads = root_parent_pose if root_parent_pose is not None else (None, None)
     root_basis, root_location = _local(rest, rest.root, rest.root_parent, parent_rotations, parent_heads,
                                        root_rotations, root_heads)
-    root_basis = continuous(root_basis)
+    root_basis = sign_continuous(root_basis, _IDENTITY)
     parent_rotations, parent_heads = hips_parent_pose(root_basis, root_location)
     hips_basis, hips_location = _local(rest, rest.hips, rest.hips_parent, parent_rotations, parent_heads,
                                        hips_rotations, hips_heads)
-    return root_basis, root_location, continuous(hips_basis), hips_location
+    return root_basis, root_location, sign_continuous(hips_basis, _IDENTITY), hips_location

@@ -135,6 +135,14 @@ def rotate(q, points) -> np.ndarray:
     return points + w * t + np.cross(v, t)
 
 
+def about(axis: int, angles) -> np.ndarray:
+    """Quaternions (..., 4) turning by angles (...) about the X, Y or Z axis (axis 0, 1 or 2)."""
+    half = 0.5 * np.asarray(angles, dtype=np.float64)
+    out = np.zeros(half.shape + (4,))
+    out[..., 0], out[..., 1 + axis] = np.cos(half), np.sin(half)
+    return out
+
+
 def rotate_each(q, v) -> np.ndarray:
     """Vectors v (..., 3) turned by unit quaternions q (..., 4), one by one, broadcasting."""
     q, v = np.asarray(q, dtype=np.float64), np.asarray(v, dtype=np.float64)
