@@ -112,13 +112,12 @@ def main() -> None:
     plan_s = time.perf_counter() - plan_start
     report = plan.contact_report
     names = [b.name for b in pose_channels.depth_first(target.data)]
-    _, heads = pose_channels.armature_motion(target, action, plan.frames)
+    rotations, heads = pose_channels.armature_motion(target, action, plan.frames)
     worst = 0.0
     for p, foot in enumerate(f for f in plan.feet for _ in range(2)):
         b = names.index(foot.foot)
         track = heads[:, 3 * b:3 * b + 3]
         if p % 2:  # the ball: the foot bone's tail
-            rotations, _ = pose_channels.armature_motion(target, action, plan.frames)
             y = mk.rotation_channels.y_axes(rotations[:, 4 * b:4 * b + 4])
             track = track + target.data.bones[foot.foot].length * y
         on = np.flatnonzero(plan.contacts[:, p])
