@@ -203,3 +203,11 @@ def ik_solve(
     size: float = 0.0,
 ) -> IkResult:
     """Whole-clip full-body IK; see native/include/motionkit/ik.hpp. Bones the solver does not move keep their input."""
+
+# Foot contacts (native/python/bind_contacts.cpp).
+def foot_targets(
+    points: npt.NDArray[np.float64],
+    contacts: npt.NDArray[np.bool_],
+    blend_frames: int,
+    rigid_pairs: list[tuple[int, int]] = [],
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...

@@ -13,5 +13,6 @@ void BindKeyReduction(pybind11::module_& m);
 void BindInterpolation(pybind11::module_& m);
 void BindRetarget(pybind11::module_& m);
 void BindIk(pybind11::module_& m);
+void BindContacts(pybind11::module_& m);
 
 }  // namespace motionkit::python

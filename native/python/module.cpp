@@ -90,4 +90,5 @@ PYBIND11_MODULE(_native, m) {
   motionkit::python::BindInterpolation(m);
   motionkit::python::BindRetarget(m);
   motionkit::python::BindIk(m);
+  motionkit::python::BindContacts(m);
 }

@@ -3,6 +3,7 @@ import numpy as np
 import pytest
 
 import foot_contacts as fc
+import foot_targets_reference as ref
 
 LEG = 0.9
 
@@ -97,33 +98,37 @@ def test_hysteresis_vectorised_matches_state_machine():
 def test_blend_weights_ramp():
     c = np.zeros((30, 1), dtype=bool)
     c[10:15] = True
-    w = fc.blend_weights(c, 4)[:, 0]
+    w = ref.blend_weights(c, 4)[:, 0]
     assert np.all(w[10:15] == 1)
     assert np.all(w[:5] == 0) and np.all(w[20:] == 0)
     assert np.all(np.diff(w[5:11]) > 0) and np.all(np.diff(w[14:20]) < 0)
     assert np.all((w >= 0) & (w <= 1))
     assert np.allclose(w[5:10], w[19:14:-1])  # symmetric ramps
-    assert not fc.blend_weights(np.zeros((5, 2), bool), 3).any()
+    assert not ref.blend_weights(np.zeros((5, 2), bool), 3).any()
 
 
-def test_plants_and_targets():
+def test_plants_and_targets(native):
     points, _, _ = step_pattern(60)
     contacts = fc.detect(points, 60, LEG)
-    plants = fc.plant_positions(points, contacts)[0]
+    plants = ref.plant_positions(points, contacts)[0]
     runs = fc.intervals(contacts[:, 0])
     for (s, e), plant in zip(runs, plants):
         assert np.allclose(plant, points[s:e, 0].mean(axis=0))
-    targets, weights = fc.plant_targets(points, contacts, 6)
+    targets, weights = ref.plant_targets(points, contacts, 6)
     for (s, e), plant in zip(runs, plants):
         assert np.allclose(targets[s:e, 0], plant)
-    ik = fc.foot_targets(np.repeat(points, 2, axis=1), np.repeat(targets, 2, axis=1),
-                         np.concatenate([weights, np.zeros_like(weights)], axis=1), feet=((0, 1),))
+    # The native job the add-on uses: the same weights, and the points blended to the plants by them.
+    native_targets, native_weights = fc.plant_targets(native, points, contacts, 6)
+    assert np.allclose(native_weights, weights, rtol=0, atol=1e-15)
+    assert np.allclose(native_targets, ref.foot_targets(points, targets, weights, feet=()), rtol=0, atol=1e-12)
+    ik = ref.foot_targets(np.repeat(points, 2, axis=1), np.repeat(targets, 2, axis=1),
+                          np.concatenate([weights, np.zeros_like(weights)], axis=1), feet=((0, 1),))
     # The unplanted point rides along with the planted one.
     assert np.allclose(ik[:, 1] - points[:, 0], ik[:, 0] - points[:, 0])
-    assert np.allclose(fc.foot_targets(points, targets, np.zeros_like(weights), feet=()), points)
+    assert np.allclose(ref.foot_targets(points, targets, np.zeros_like(weights), feet=()), points)
 
 
-def test_rigid_pairs_keep_the_distance():
+def test_rigid_pairs_keep_the_distance(native):
     frames = 50
     ankle = np.zeros((frames, 3)) + [0, 0, 0.08]
     ankle[:, 0] += np.linspace(0, 0.02, frames)  # a slide: the two means differ by other spans
@@ -132,8 +137,31 @@ def test_rigid_pairs_keep_the_distance():
     contacts = np.zeros((frames, 2), dtype=bool)
     contacts[0:30, 0] = True
     contacts[20:50, 1] = True
-    a, b = fc.plant_positions(points, contacts, rigid_pairs=[(0, 1)])
+    a, b = ref.plant_positions(points, contacts, rigid_pairs=[(0, 1)])
     assert np.isclose(np.linalg.norm(b[0] - a[0]), np.linalg.norm([0.15, 0, -0.06]))
+    targets, _ = fc.plant_targets(native, points, contacts, 3, rigid_pairs=[(0, 1)])
+    assert np.allclose(np.linalg.norm(targets[:, 1] - targets[:, 0], axis=1), np.linalg.norm([0.15, 0, -0.06]))
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_native_targets_equal_the_numpy_reference(native, seed):
+    """Random feet with random contacts (some overlapping, some none): the native job gives the reference's
+    targets and weights, step for step."""
+    rng = np.random.default_rng(seed)
+    frames = int(rng.integers(1, 400))
+    points = np.cumsum(rng.normal(scale=0.01, size=(frames, 4, 3)), axis=0) + rng.normal(size=(1, 4, 3))
+    contacts = rng.random((frames, 4)) < rng.uniform(0.0, 0.2)
+    contacts = np.logical_or.accumulate(contacts, axis=0) & ~np.logical_or.accumulate(
+        rng.random((frames, 4)) < 0.02, axis=0) if seed % 2 else np.repeat(contacts[::7], 7, axis=0)[:frames]
+    if seed == 0:
+        contacts[:, 2:] = False  # a foot with no contact at all
+    blend = int(rng.integers(0, 12))
+    pairs = ((0, 1), (2, 3))
+    expected_planted, expected_weights = ref.plant_targets(points, contacts, blend, pairs)
+    expected = ref.foot_targets(points, expected_planted, expected_weights, pairs)
+    targets, weights = fc.plant_targets(native, points, contacts, blend, pairs)
+    assert np.allclose(weights, expected_weights, rtol=0, atol=1e-15)
+    assert np.allclose(targets, expected, rtol=0, atol=1e-12)
 
 
 def test_errors():
