@@ -4,9 +4,9 @@ Foot points, always in this order: POINTS = [L ankle, L ball, R ankle, R ball].
 The ankle is the shin's tail, the ball the foot bone's tail (Blender's IK tip,
 where ik_solve's effectors sit).
 
-The cleanup (Kovar, Schreiner, Gleicher 2002): per contact one plant position
-(foot_contacts.plant_positions), IK targets blended from the plain pose's
-points to the plants (foot_contacts.foot_targets), and the whole clip solved in
+The cleanup (Kovar, Schreiner, Gleicher 2002): per contact one plant position,
+IK targets blended from the plain pose's points to the plants
+(foot_contacts.plant_targets, a native job), and the whole clip solved in
 one native call (native/include/motionkit/ik.hpp) on a small rig made of the
 hips and the two legs: the hips' translation, thighs, shins and feet are the
 only unknowns, so every other bone keeps its rotation exactly. Knees are hinges
@@ -30,7 +30,7 @@ import numpy as np
 
 from . import animdata, bvh, native_state, pose_channels, rotation_channels
 from .rotation_channels import conjugate as _conj, multiply as _mul, rotate_each as _rotate
-from .foot_contacts import ContactSettings, all_intervals, detect as detect_contacts, foot_targets, plant_targets
+from .foot_contacts import ContactSettings, all_intervals, detect as detect_contacts, plant_targets
 
 SIDES = ("L", "R")
 POINTS = ("L ankle", "L ball", "R ankle", "R ball")
@@ -234,11 +234,10 @@ def write_contacts(obj, action, feet, frames, contacts) -> list:
 # ---------------------------------------------------------------------------
 # The cleanup
 
-def _knee_roll(shin_basis, shin_world, foot_dir_world) -> tuple[float, str]:
+def _knee_roll(angles, shin_world, foot_dir_world) -> tuple[float, str]:
     """The roll r about the shin's Y axis that turns its flexion axis onto +X (so that flexion is +x
-    in the IK's limits), from the plain clip's knee swings; from the foot's direction when the clip
-    hardly bends the knee."""
-    angles = _swing_twist(shin_basis)
+    in the IK's limits), from the plain clip's knee swings (angles: _swing_twist of the shin's basis);
+    from the foot's direction when the clip hardly bends the knee."""
     swing = angles[:, [0, 2]]
     if np.max(np.linalg.norm(swing, axis=1)) > 0.3:
         _, vectors = np.linalg.eigh(swing.T @ swing)
@@ -257,6 +256,14 @@ def _knee_roll(shin_basis, shin_world, foot_dir_world) -> tuple[float, str]:
     return float(np.arctan2(-axis[1], axis[0])), how
 
 
+def _rolled(angles, roll):
+    """_swing_twist of about_y(-roll) q about_y(roll) from that of q: the twist about Y is unchanged and
+    the swing vector (x, 0, z) turns by -roll about Y."""
+    c, s = np.cos(roll), np.sin(roll)
+    x, z = angles[:, 0], angles[:, 2]
+    return np.stack([c * x - s * z, angles[:, 1], s * x + c * z], axis=1)
+
+
 def _above(bones, b) -> list[int]:
     """Indices of bone b's ancestors in bones (depth-first)."""
     index = {bone.name: i for i, bone in enumerate(bones)}
@@ -265,40 +272,58 @@ def _above(bones, b) -> list[int]:
 
 class _Posed:
     """Armature-space orientations and heads of some bones over a clip, by bone index: views into the
-    (F, 4n) and (F, 3n) arrays of a native pose, no copies."""
+    (F, 4n) and (F, 3n) arrays of a native pose, no copies; basis: those bones' pose-basis rotations
+    (F, 4n) in the same columns."""
 
-    def __init__(self, orientations, heads, columns):
-        self._orientations, self._heads, self._columns = orientations, heads, columns
+    def __init__(self, orientations, heads, columns, basis):
+        self._orientations, self._heads, self.columns, self.basis = orientations, heads, columns, basis
 
     def orient(self, b):
-        c = self._columns[b]
+        c = self.columns[b]
         return self._orientations[:, 4 * c:4 * c + 4]
 
     def head(self, b):
-        c = self._columns[b]
+        c = self.columns[b]
         return self._heads[:, 3 * c:3 * c + 3]
 
 
-def _pose_points(obj, bones, rig, rotations, locations, legs, posed=None):
-    """The pose in armature space (a _Posed of the hips and legs at least), the foot points in armature
-    and world space (F, 4, 3) and the leg length (thigh + shin, world units). posed: the whole armature's
-    pose (orientations (F, 4B), heads (F, 3B)) when the caller has it already."""
-    nb = len(bones)
-    if posed is None:
+@dataclass
+class _LegRig:
+    """What posing the legs takes from Blender, read once (numpy and native objects only, so that the
+    posing itself may run on a worker thread): the legs (thigh, shin, foot indices), the bones that place
+    them (the legs and every bone above them) with their native rig, every bone's length and the object's
+    matrix_world. rig None: the caller poses the whole armature itself."""
+    legs: list
+    sub: list
+    rig: object
+    lengths: np.ndarray
+    world: np.ndarray
+
+    @classmethod
+    def read(cls, obj, bones, legs, whole: bool = False) -> "_LegRig":
         # Only the legs and the bones above them place the feet: posed alone (the rest is never read).
         sub = sorted(set(b for chain in legs for b in chain).union(*(_above(bones, chain[0]) for chain in legs)))
-        sub_rig, _ = pose_channels.native_rig(obj.data, [bones[b] for b in sub])
+        rig = None if whole else pose_channels.native_rig(obj.data, [bones[b] for b in sub])[0]
+        return cls(legs, sub, rig, np.array([b.length for b in bones]), np.array(obj.matrix_world))
+
+
+def _pose_points(leg_rig: _LegRig, rotations, locations, posed=None):
+    """The pose in armature space (a _Posed of the hips and legs at least), the foot points in armature
+    and world space (F, 4, 3) and the leg length (thigh + shin, world units). posed: the whole armature's
+    pose (orientations (F, 4B), heads (F, 3B)) when the caller has it already. Reads no Blender data."""
+    if posed is None:
+        sub = leg_rig.sub
         rot_columns = (4 * np.array(sub)[:, None] + np.arange(4)).ravel()
         loc_columns = (3 * np.array(sub)[:, None] + np.arange(3)).ravel()
+        sub_basis = np.ascontiguousarray(rotations[:, rot_columns])
         pose = _Posed(*native_state.native().armature_pose(
-            sub_rig, np.ascontiguousarray(rotations[:, rot_columns]), np.ascontiguousarray(locations[:, loc_columns])),
-            {b: i for i, b in enumerate(sub)})
+            leg_rig.rig, sub_basis, np.ascontiguousarray(locations[:, loc_columns])),
+            {b: i for i, b in enumerate(sub)}, sub_basis)
     else:
-        pose = _Posed(posed[0], posed[1], range(nb))
-    lengths = np.array([b.length for b in bones])
+        pose = _Posed(posed[0], posed[1], range(len(leg_rig.lengths)), rotations)
+    lengths, world, legs = leg_rig.lengths, leg_rig.world, leg_rig.legs
     points = np.stack([pose.head(b) + lengths[b] * rotation_channels.y_axes(pose.orient(b))
                        for _, shin, foot in legs for b in (shin, foot)], axis=1)
-    world = np.array(obj.matrix_world)
     world_points = points @ world[:3, :3].T + world[:3, 3]
     scale = float(np.cbrt(abs(np.linalg.det(world[:3, :3]))))
     leg_length = scale * float(np.mean([lengths[t] + lengths[s] for t, s, _ in legs]))
@@ -310,7 +335,8 @@ def foot_points(obj, bones, rig, rotations, locations, feet, posed=None) -> tupl
     (thigh + shin, world units): what detection sees. posed: its armature pose, if already at hand."""
     feet = _as_feet(feet)
     legs = _leg_indices(bones, feet)
-    _, _, world_points, leg_length = _pose_points(obj, bones, rig, rotations, locations, legs, posed)
+    leg_rig = _LegRig.read(obj, bones, legs, whole=posed is not None)
+    _, _, world_points, leg_length = _pose_points(leg_rig, rotations, locations, posed)
     return world_points, leg_length
 
 
@@ -333,23 +359,28 @@ def cleanup(obj, bones, rig, frames, rotations, locations, feet, contacts=None,
             in_place: bool = False, threads: int = 0):
     """Footskate cleanup of a pose sequence; returns (rotations, locations, Report). Changes nothing in
     the file. The arguments are staged_cleanup's."""
-    solve, finish = staged_cleanup(obj, bones, rig, frames, rotations, locations, feet, contacts, settings,
-                                   hips=hips, fps=fps, in_place=in_place, threads=threads)
-    return finish(solve())
+    prepare, finish = staged_cleanup(obj, bones, rig, frames, rotations, locations, feet, contacts, settings,
+                                     hips=hips, fps=fps, in_place=in_place, threads=threads)
+    return finish(prepare()())
 
 
 def staged_cleanup(obj, bones, rig, frames, rotations, locations, feet, contacts=None,
                    settings: ContactSettings | None = None, *, hips: str | None = None, fps: float | None = None,
                    in_place: bool = False, threads: int = 0):
-    """cleanup in two halves, so that its native solve can run beside other work: everything that reads
-    Blender data happens here, and the result is (solve, finish). solve() calls native code only (the GIL
-    released: it may run on a worker thread while this one writes keys); finish(solve()) gives cleanup's
-    (rotations, locations, Report). A ValueError from either half names the foot, bone and frame.
-    threads: the solve's (0: every core; the same numbers whatever the count).
+    """cleanup in stages, so that its native solve and what follows can run beside other work: everything
+    that reads Blender data (and the checks of the arguments) happens here, and the result is
+    (prepare, finish). prepare() computes the targets and limits (numpy) and returns solve; solve() calls
+    native code only (the GIL released); finish(solve()) gives cleanup's (rotations, locations, Report).
+    None of them touches Blender data: solve and finish may run on a worker thread while this one writes
+    keys (prepare too, but it holds the GIL most of its time). A ValueError from any stage names the foot,
+    bone and frame. threads: the solve's (0: every core; the same numbers whatever the count).
     """
     steps = _cleanup_steps(obj, bones, rig, frames, rotations, locations, feet, contacts, settings, hips=hips,
                            fps=fps, in_place=in_place, threads=threads)
-    solve = next(steps)
+    next(steps)  # Blender's data read, the arguments checked
+
+    def prepare():
+        return next(steps)
 
     def finish(solved):
         try:
@@ -358,7 +389,7 @@ def staged_cleanup(obj, bones, rig, frames, rotations, locations, feet, contacts
             return done.value
         raise RuntimeError("foot cleanup: one solve was expected")
 
-    return solve, finish
+    return prepare, finish
 
 
 def _cleanup_steps(obj, bones, rig, frames, rotations, locations, feet, contacts=None,
@@ -401,37 +432,17 @@ def _cleanup_steps(obj, bones, rig, frames, rotations, locations, feet, contacts
         if hip not in _above(bones, chain[0]):
             raise ValueError(f"foot {foot.side}: hips bone '{bones[hip].name}' is not above the thigh "
                              f"'{bones[chain[0]].name}'")
-    # One check over every bone that places the feet; the culprit is looked for only when it fails.
-    if not (np.isfinite(rotations).all() and np.isfinite(locations).all()):
-        for foot, chain in zip(feet, legs):
-            for b in chain + (hip,):
-                bad = ~np.isfinite(rotations[:, 4 * b:4 * b + 4]).all(axis=1) | \
-                    ~np.isfinite(locations[:, 3 * b:3 * b + 3]).all(axis=1)
-                if bad.any():
-                    raise ValueError(f"foot {foot.side}: bone '{bones[b].name}' has a non-finite pose at frame "
-                                     f"{_blender_frame(frames, np.flatnonzero(bad)[0])}")
     if bones[hip].use_connect:
         raise ValueError(f"hips bone '{bones[hip].name}' is connected to its parent: its location cannot move")
-
-    pose, points, world_points, leg_length = _pose_points(obj, bones, rig, rotations, locations, legs)
-    world = np.array(obj.matrix_world)
-    lengths = np.array([b.length for b in bones])
-
-    if contacts is None:
-        contacts = detect_contacts(world_points, fps, leg_length, 0.0, settings)
-        source = "detected"
-    else:
+    if contacts is not None:
         contacts = np.asarray(contacts, dtype=bool)
         if contacts.shape != (count, len(POINTS)):
             raise ValueError(f"contacts must have shape ({count}, {len(POINTS)}), not {contacts.shape}")
-        source = "given"
-    planted, weights = plant_targets(world_points, contacts, settings.blend_frames(fps), _RIGID)
-    targets_world = foot_targets(world_points, planted, weights, _RIGID)
-    inverse = np.linalg.inv(world)
-    targets = targets_world @ inverse[:3, :3].T + inverse[:3, 3]
 
+    # Everything the cleanup takes from Blender, read here: after the first stage it reads no Blender data.
     # The solve's rig: the hips (parentless: its armature pose becomes its basis and location), the
     # bones from the hips to each thigh (held), and the legs, each shin rolled so its knee bends about X.
+    leg_rig = _LegRig.read(obj, bones, legs)
     index = {b.name: i for i, b in enumerate(bones)}
     between = set()
     for thigh, _, _ in legs:
@@ -442,28 +453,64 @@ def _cleanup_steps(obj, bones, rig, frames, rotations, locations, feet, contacts
     part = [hip] + sorted(between) + [b for chain in legs for b in chain]
     part.sort(key=lambda i: (i != hip, i))  # bones is depth-first: parents stay before children
     local = {b: k for k, b in enumerate(part)}
+    names = [bones[b].name for b in part]
+    parents = [local[index[bones[b].parent.name]] if b != hip else -1 for b in part]
     rest = pose_channels.rest_quaternions(obj.data)
-    rest_q = np.array([rest[bones[b].name] for b in part])
-    rest_q /= np.linalg.norm(rest_q, axis=1, keepdims=True)
+    rest_q = np.array([rest[name] for name in names])
     rest_heads = np.array([bones[b].head_local for b in part], dtype=np.float64)
-    basis = rotations.reshape(count, nb, 4)[:, part].copy()
+    rest_points = np.empty((2, 3 * len(obj.data.bones)), dtype=np.float32)  # the whole rig's extent
+    obj.data.bones.foreach_get("head_local", rest_points[0])
+    obj.data.bones.foreach_get("tail_local", rest_points[1])
+    size = float(np.linalg.norm(np.ptp(rest_points.reshape(-1, 3).astype(np.float64), axis=0)))
+    name = obj.name
+    bone_names = [b.name for b in bones]
+    changed = [b for chain in legs for b in chain]
+    effectors = [{"name": f"foot {foot.side} {what} ('{bone_names[b]}' tail)", "bone": local[b], "weight": 1.0}
+                 for foot, (_, shin, foot_bone) in zip(feet, legs)
+                 for what, b in (("ankle", shin), ("ball", foot_bone))]
+    own = time.perf_counter() - started  # report.seconds: the cleanup's own time, its stages summed
+    yield
+    started = time.perf_counter()
+
+    # One check over every bone that places the feet; the culprit is looked for only when it fails.
+    if not (np.isfinite(rotations).all() and np.isfinite(locations).all()):
+        for foot, chain in zip(feet, legs):
+            for b in chain + (hip,):
+                bad = ~np.isfinite(rotations[:, 4 * b:4 * b + 4]).all(axis=1) | \
+                    ~np.isfinite(locations[:, 3 * b:3 * b + 3]).all(axis=1)
+                if bad.any():
+                    raise ValueError(f"foot {foot.side}: bone '{bone_names[b]}' has a non-finite pose at frame "
+                                     f"{_blender_frame(frames, np.flatnonzero(bad)[0])}")
+    pose, points, world_points, leg_length = _pose_points(leg_rig, rotations, locations)
+    if contacts is None:
+        contacts = detect_contacts(world_points, fps, leg_length, 0.0, settings)
+        source = "detected"
+    else:
+        source = "given"
+    targets_world, _ = plant_targets(native, world_points, contacts, settings.blend_frames(fps), _RIGID)
+    inverse = np.linalg.inv(leg_rig.world)
+    targets = targets_world @ inverse[:3, :3].T + inverse[:3, 3]
+
+    rest_q /= np.linalg.norm(rest_q, axis=1, keepdims=True)
+    basis = pose.basis.reshape(count, -1, 4)[:, [pose.columns[b] for b in part]]  # a copy: fancy indexing
     # Hips: basis = rest^-1 * posed orientation, location so that rest head + rest * location = head.
     hip_orient = pose.orient(hip) / np.linalg.norm(pose.orient(hip), axis=1, keepdims=True)
     basis[:, 0] = _mul(_conj(rest_q[0]), hip_orient)
     hip_loc = _rotate(_conj(np.broadcast_to(rest_q[0], (count, 4))), pose.head(hip) - rest_heads[0])
-    rolls = {}
+    rolls, knee_angles = {}, {}  # knee_angles: the rolled shin's _swing_twist, for its limits
     report = Report(frames, contacts, source=source)
+    report.bones = [bone_names[hip]] + [bone_names[b] for b in changed]
     for foot, (thigh, shin, foot_bone) in zip(feet, legs):
         foot_dir = points[:, 2 * SIDES.index(foot.side) + 1] - points[:, 2 * SIDES.index(foot.side)]
-        roll, how = _knee_roll(basis[:, local[shin]], pose.orient(shin), foot_dir)
+        k = local[shin]
+        angles = _swing_twist(basis[:, k])
+        roll, how = _knee_roll(angles, pose.orient(shin), foot_dir)
         report.knee_axes[foot.side] = how
         rolls[shin] = roll
-        k = local[shin]
+        knee_angles[shin] = _rolled(angles, roll)
         rest_q[k] = _mul(rest_q[k], _about_y(roll))
         basis[:, k] = _mul(_mul(_about_y(-roll), basis[:, k]), _about_y(roll))
-    names = [bones[b].name for b in part]
-    solve_rig = native.Rig(names, [local[index[bones[b].parent.name]] if b != hip else -1 for b in part],
-                           rest_q, rest_heads, lengths[part])
+    solve_rig = native.Rig(names, parents, rest_q, rest_heads, leg_rig.lengths[part])
 
     nb_part = len(part)
     limit_min = np.full((nb_part, 3), -np.inf)
@@ -473,28 +520,19 @@ def _cleanup_steps(obj, bones, rig, frames, rotations, locations, feet, contacts
     margin = 1e-6
     for shin in rolls:
         k = local[shin]
-        angles = _swing_twist(basis[:, k])
-        low, high = angles.min(axis=0) - margin, angles.max(axis=0) + margin
+        low, high = knee_angles[shin].min(axis=0) - margin, knee_angles[shin].max(axis=0) + margin
         # Flexion (x) never below the plain clip's least (nor 0 if it never straightens): no backward
         # bend, no more hyper-extension than the input has; up to a deep bend. Twist and side swing
         # stay within what the clip does.
         slack = _KNEE_SLACK
         limit_min[k] = [min(low[0], 0.0), low[1] - slack, low[2] - slack]
         limit_max[k] = [max(high[0], 2.6), high[1] + slack, high[2] + slack]
-    effectors = [{"name": f"foot {foot.side} {what} ('{bones[b].name}' tail)", "bone": local[b], "weight": 1.0}
-                 for foot, (_, shin, foot_bone) in zip(feet, legs)
-                 for what, b in (("ankle", shin), ("ball", foot_bone))]
-    rest_points = np.empty((2, 3 * len(obj.data.bones)), dtype=np.float32)  # the whole rig's extent
-    obj.data.bones.foreach_get("head_local", rest_points[0])
-    obj.data.bones.foreach_get("tail_local", rest_points[1])
-    size = float(np.linalg.norm(np.ptp(rest_points.reshape(-1, 3).astype(np.float64), axis=0)))
     arguments = (solve_rig, np.ascontiguousarray(basis.reshape(count, -1)), np.ascontiguousarray(hip_loc),
                  np.ascontiguousarray(targets.reshape(count, -1)), np.zeros((count, 0)), effectors)
     options = dict(limit_min=limit_min, limit_max=limit_max, excluded=excluded,
                    **{"method": "dls", "max_iterations": 64, "tolerance": 1e-5 * size, "reference": "input",
                       **_SOLVE_OPTIONS},
                    root_translation=True, root_rotation=False, warm_start=False, size=size, threads=threads)
-    name = obj.name  # the solve touches no Blender data: it may run on another thread
 
     def solve():
         solve_started = time.perf_counter()
@@ -507,41 +545,39 @@ def _cleanup_steps(obj, bones, rig, frames, rotations, locations, feet, contacts
         report.solve_seconds = time.perf_counter() - solve_started
         return result
 
-    solve_ended = time.perf_counter()
+    own += time.perf_counter() - started
     solved = yield solve
-    started += time.perf_counter() - solve_ended - report.solve_seconds  # report.seconds: the cleanup's own
+    started = time.perf_counter()
 
-    out_rot = rotations if in_place else rotations.copy()
-    out_loc = locations if in_place else locations.copy()
     solved_basis = solved["rotations"].reshape(count, nb_part, 4)
     for shin, roll in rolls.items():
         k = local[shin]
         solved_basis[:, k] = _mul(_mul(_about_y(roll), solved_basis[:, k]), _about_y(-roll))
-    changed = [b for chain in legs for b in chain]
-    for b in changed:
-        q = solved_basis[:, local[b]]
-        q = q / np.linalg.norm(q, axis=1, keepdims=True)
-        # Keep each bone's hemisphere as the input had it, so that quaternion curves do not flip.
-        q *= np.where(np.einsum("fk,fk->f", q, rotations[:, 4 * b:4 * b + 4]) < 0, -1.0, 1.0)[:, None]
-        out_rot[:, 4 * b:4 * b + 4] = q
+    q = solved_basis[:, [local[b] for b in changed]]  # (F, legs' bones, 4), a copy
+    q /= np.linalg.norm(q, axis=2, keepdims=True)
+    # Keep each bone's hemisphere as the input had it, so that quaternion curves do not flip.
+    given = pose.basis.reshape(count, -1, 4)[:, [pose.columns[b] for b in changed]]
+    q *= np.where(np.einsum("fbk,fbk->fb", q, given) < 0, -1.0, 1.0)[..., None]
     # The hips' move, from the solve's location (in its rest frame) to its own location channel: the
     # channel is applied in the bone's posed frame less its own basis rotation.
     moved = _rotate(np.broadcast_to(rest_q[0], (count, 4)), solved["root_locations"] - hip_loc)
     hip_basis = rotations[:, 4 * hip:4 * hip + 4]
     frame = _mul(hip_orient, _conj(hip_basis / np.linalg.norm(hip_basis, axis=1, keepdims=True)))
-    out_loc[:, 3 * hip:3 * hip + 3] += _rotate(_conj(frame), moved)
-    solved_columns = np.concatenate([out_rot[:, 4 * b:4 * b + 4] for b in changed] + [out_loc[:, 3 * hip:3 * hip + 3]],
-                                    axis=1)  # the only values this changed
-    if not np.isfinite(solved_columns).all():
-        bad = np.flatnonzero(~np.isfinite(solved_columns).all(axis=1))[0]
-        raise ValueError(f"foot cleanup on '{obj.name}': the IK solution is not finite at frame "
-                         f"{_blender_frame(frames, bad)}")
+    hip_location = locations[:, 3 * hip:3 * hip + 3] + _rotate(_conj(frame), moved)
+    finite = np.isfinite(q).all(axis=(1, 2)) & np.isfinite(hip_location).all(axis=1)  # the only values this changes
+    if not finite.all():
+        raise ValueError(f"foot cleanup on '{name}': the IK solution is not finite at frame "
+                         f"{_blender_frame(frames, np.flatnonzero(~finite)[0])}")
+    out_rot = rotations if in_place else rotations.copy()
+    out_loc = locations if in_place else locations.copy()
+    for k, b in enumerate(changed):
+        out_rot[:, 4 * b:4 * b + 4] = q[:, k]
+    out_loc[:, 3 * hip:3 * hip + 3] = hip_location
     report.errors = solved["errors"]
     report.max_error = solved["errors"].max(axis=0) if count else np.zeros(len(POINTS))
     report.iterations = int(solved["iterations"].sum())
     report.intervals = [[(frames[s], frames[e - 1]) for s, e in runs] for runs in all_intervals(contacts)]
-    report.bones = [bones[hip].name] + [bones[b].name for b in changed]
-    report.seconds = time.perf_counter() - started
+    report.seconds = own + time.perf_counter() - started
     return out_rot, out_loc, report
 
 

@@ -50,17 +50,28 @@ def action_frames(action, frame_range=None) -> np.ndarray:
 def rotation_keys(obj, name: str, q, *, placeholder: bool = False) -> tuple[list, np.ndarray]:
     """A pose bone's rotation channels and their values (size, n) for quaternions q (n, 4), in the bone's
     own rotation mode, continuous from the pose's value; placeholder: zeros, the channels alone counting."""
+    return rotation_keyer(obj, name)(q, placeholder=placeholder)
+
+
+def rotation_keyer(obj, name: str):
+    """rotation_keys of one bone as a function of q alone: its rotation mode and current value are read
+    here, so that the function touches no Blender data (it may run on a worker thread)."""
     pose_bone = obj.pose.bones[name]
     mode = pose_bone.rotation_mode
     prop, size = rotation_channels.channel_property(mode)
-    if placeholder:
-        values = np.zeros((len(q), size))
-    else:
-        previous = np.array(tuple(getattr(pose_bone, prop)), dtype=np.float64)
-        values = rotation_channels.from_quaternions(native_state.native(), mode, np.ascontiguousarray(q),
-                                                    previous=previous)
+    previous = np.array(tuple(getattr(pose_bone, prop)), dtype=np.float64)
     path = bone_path(name)
-    return [(f"{path}.{prop}", k, name) for k in range(size)], values.reshape(-1, size).T
+    channels = [(f"{path}.{prop}", k, name) for k in range(size)]
+
+    def keys(q, *, placeholder: bool = False) -> tuple[list, np.ndarray]:
+        if placeholder:
+            values = np.zeros((len(q), size))
+        else:
+            values = rotation_channels.from_quaternions(native_state.native(), mode, np.ascontiguousarray(q),
+                                                        previous=previous)
+        return list(channels), values.reshape(-1, size).T
+
+    return keys
 
 
 def rest_quaternions(armature) -> dict[str, np.ndarray]:

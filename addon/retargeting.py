@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import os
 import threading
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import bpy
@@ -212,38 +213,45 @@ def _body_roots(side: _Side, body, mapped, depth) -> tuple[int | None, int | Non
 
 @dataclass
 class _PlantedFeet:
-    """The feet's IK solve (contacts.staged_cleanup) started on a worker thread by plan(defer_solve=True):
-    it runs while the plan's other bones are converted and apply() writes their keys; complete() then
-    takes its result and gives the changed bones their values."""
-    solve: object     # () -> the native result (no Blender data touched)
+    """The feet's cleanup (contacts.staged_cleanup) started by plan(defer_solve=True): its targets prepared
+    on the calling thread (numpy holds the GIL for most of that), then its native solve (without the GIL),
+    its finish and the legs' channels on a worker thread, while the plan's other bones are converted and
+    apply() writes their keys; complete() then gives the changed bones their values."""
+    prepare: object   # () -> solve, () -> the native result (no Blender data touched)
     finish: object    # (result) -> (rotations, locations, report), the solved legs written into the plan's pose
     bones: set        # names of the bones whose channels the solve changes
-    channels: object  # () -> (channels, values) of those bones, from the plan's pose
+    channels: object  # () -> (channels, values) of those bones, from the plan's pose (no Blender data read)
     _thread: threading.Thread | None = None
     _outcome: tuple = ()
 
     def start(self) -> None:
+        solve = self.prepare()
+
         def run():
             try:
-                self._outcome = (True, self.solve())
+                self._outcome = (True, self._solved(solve))
             except BaseException as error:  # handed to the thread that completes the plan
                 self._outcome = (False, error)
 
         self._thread = threading.Thread(target=run, name="motionkit-feet", daemon=True)
         self._thread.start()
 
+    def _solved(self, solve):
+        report = self.finish(solve())[2]
+        return report, self.channels()
+
     def result(self):
+        """(report, (channels, values)): from the worker thread, once it ends, or computed here if none runs."""
         if self._thread is None:
-            return self.solve()
+            return self._solved(self.prepare())
         self._thread.join()
-        ok, value = self._outcome
+        ok, outcome = self._outcome
         if not ok:
-            raise value
-        return value
+            raise outcome
+        return outcome
 
     def complete(self, plan_: "Plan") -> None:
-        _, _, plan_.contact_report = self.finish(self.result())
-        channels, values = self.channels()
+        plan_.contact_report, (channels, values) = self.result()
         rows = {(path, index): row for row, (path, index, _) in enumerate(plan_.channels)}
         plan_.values[[rows[(path, index)] for path, index, _ in channels]] = values
         plan_.pending = None
@@ -361,15 +369,23 @@ def plan(source, target, bone_map=None, frame_range=None, root: str = "scaled", 
     if not (source_height > 1e-9 and target_height > 1e-9):
         raise ValueError("the root stands at the lowest point of a rig: no leg length to scale the motion by")
     scale = target_height / source_height
-    rotations, root_locations = native.retarget(
-        src.rig, tgt.rig, source_rotations, np.ascontiguousarray(source_heads[:, 3 * source_root:3 * source_root + 3]),
-        [int(v) for v in bone_map_idx],
-        source_match=np.ascontiguousarray(source_pose.rotations), source_match_root=source_pose.heads[source_root],
-        target_match_basis=np.ascontiguousarray(target_basis), target_match_location=target_locations[target_root],
-        source_root=source_root, target_root=target_root, space=space, scale=scale,
-        unit_scale=source_scale / target_scale,
-        vertical_offset=target_height - source_scale / target_scale * source_height, root_motion=root,
-        ground_bones=list(range(len(tgt.bones))) if ground else [])
+    # The source's contacts need only the source's pose: found here while the native retarget runs beside
+    # (it releases the GIL).
+    feet = (_feet(src, src_body), _feet(tgt, tgt_body)) if plant_feet else (None, None)
+    with ThreadPoolExecutor(max_workers=1) as beside:
+        retargeted = beside.submit(
+            native.retarget, src.rig, tgt.rig, source_rotations,
+            np.ascontiguousarray(source_heads[:, 3 * source_root:3 * source_root + 3]), [int(v) for v in bone_map_idx],
+            source_match=np.ascontiguousarray(source_pose.rotations), source_match_root=source_pose.heads[source_root],
+            target_match_basis=np.ascontiguousarray(target_basis), target_match_location=target_locations[target_root],
+            source_root=source_root, target_root=target_root, space=space, scale=scale,
+            unit_scale=source_scale / target_scale,
+            vertical_offset=target_height - source_scale / target_scale * source_height, root_motion=root,
+            ground_bones=list(range(len(tgt.bones))) if ground else [])
+        found = None if None in feet else contacts.find_contacts(
+            src.obj, src.bones, src.rig, source_basis, source_locations, feet[0], contact_settings,
+            fps=bvh.frame_rate(action), posed=(source_rotations, source_heads))
+        rotations, root_locations = retargeted.result()
     locations = np.zeros((rotations.shape[0], 3 * len(tgt.bones)))
     locations[:, 3 * target_root:3 * target_root + 3] = root_locations
     located = [target_root]
@@ -387,14 +403,14 @@ def plan(source, target, bone_map=None, frame_range=None, root: str = "scaled", 
             located.append(target_floor)
 
     planted = pending = None
-    if plant_feet:
-        planted = _plant_feet(src, tgt, src_body, tgt_body, frames, source_basis, source_locations,
-                              (source_rotations, source_heads), rotations, locations, target_root,
-                              contact_settings, bvh.frame_rate(action), beside=defer_solve)
+    if found is not None:
+        planted = _plant_feet(tgt, feet[1], found, frames, rotations, locations, target_root, contact_settings,
+                              bvh.frame_rate(action), beside=defer_solve)
     if planted is not None:
         keyed = {tgt.index(b) for f in planted[2] for b in (f.thigh, f.shin, f.foot)} | {target_root}
+        keyers = {b: pose_channels.rotation_keyer(tgt.obj, tgt.names[b]) for b in keyed}
         pending = _PlantedFeet(planted[0], planted[1], {tgt.names[b] for b in keyed}, lambda: _target_channels(
-            tgt, rotations, target_basis, bone_map_idx, located, locations, keyed, keyed)[0])
+            tgt, rotations, target_basis, bone_map_idx, located, locations, keyed, keyed, keyers=keyers)[0])
         if defer_solve:
             pending.start()  # beside the rest of the plan and apply()'s writing
     else:
@@ -424,21 +440,15 @@ def _feet(side: _Side, body) -> list | None:
         return None
 
 
-def _plant_feet(src: _Side, tgt: _Side, src_body, tgt_body, frames, source_basis, source_locations, source_posed,
-                rotations, locations, target_root, settings, fps, beside: bool = False):
-    """Contacts detected on the source's feet, to be held by the target's (contacts.staged_cleanup, which
-    writes the solved legs into rotations and locations): (solve, finish, target feet, contacts), or None
-    when either rig has no two labelled legs."""
-    src_feet, tgt_feet = _feet(src, src_body), _feet(tgt, tgt_body)
-    if src_feet is None or tgt_feet is None:
-        return None
-    found = contacts.find_contacts(src.obj, src.bones, src.rig, source_basis, source_locations, src_feet,
-                                   settings, fps=fps, posed=source_posed)
+def _plant_feet(tgt: _Side, tgt_feet, found, frames, rotations, locations, target_root, settings, fps,
+                beside: bool = False):
+    """The source's contacts (found) to be held by the target's feet (contacts.staged_cleanup, which writes
+    the solved legs into rotations and locations): (prepare, finish, target feet, contacts)."""
     # Beside the rest of the retarget (beside=True), which keeps one core busy, the solve takes the others.
-    solve, finish = contacts.staged_cleanup(tgt.obj, tgt.bones, tgt.rig, frames, rotations, locations, tgt_feet,
-                                            found, settings, hips=tgt.names[target_root], fps=fps, in_place=True,
-                                            threads=max(1, (os.cpu_count() or 1) - 1) if beside else 0)
-    return solve, finish, tgt_feet, found
+    prepare, finish = contacts.staged_cleanup(tgt.obj, tgt.bones, tgt.rig, frames, rotations, locations, tgt_feet,
+                                              found, settings, hips=tgt.names[target_root], fps=fps, in_place=True,
+                                              threads=max(1, (os.cpu_count() or 1) - 1) if beside else 0)
+    return prepare, finish, tgt_feet, found
 
 
 def _depths(side: _Side) -> list[int]:
@@ -488,24 +498,25 @@ def _move_floor_root(native, tgt: _Side, target_pose: _Pose, rotations, location
 
 
 def _target_channels(tgt: _Side, rotations, target_basis, bone_map_idx, located, locations, only=None,
-                     keyed=frozenset(), placeholders=False):
+                     keyed=frozenset(), placeholders=False, keyers=None):
     """The F-curves to key, in each bone's own rotation mode: (channels, values) for the bones the retarget
     moves (and those in keyed) and the root's location, one key per frame; (channels, values) for the bones
     that keep the match pose, one key. only: the bone indices to give (default all). placeholders: the
-    keyed bones' values left at zero (the feet's solve fills them in)."""
+    keyed bones' values left at zero (the feet's solve fills them in). keyers: pose_channels.rotation_keyer
+    of every bone in only, which then reads no Blender data (for a worker thread)."""
     moving, still = ([], []), ([], [])
     frames = rotations.shape[0]
-    for b, bone in enumerate(tgt.bones):
+    for b, name in enumerate(tgt.names):
         if only is not None and b not in only:
             continue
         q = rotations[:, 4 * b:4 * b + 4]
         moved = (bone_map_idx[b] >= 0 or b in located or b in keyed
                  or bool(np.any(np.abs(q @ target_basis[b]) < 1.0 - 1e-12)))
         if b in located:
-            moving[0].extend((f"{pose_channels.bone_path(bone.name)}.location", k, bone.name) for k in range(3))
+            moving[0].extend((f"{pose_channels.bone_path(name)}.location", k, name) for k in range(3))
             moving[1].append(locations[:, 3 * b:3 * b + 3].T)
-        channels, values = pose_channels.rotation_keys(tgt.obj, bone.name, q if moved else q[:1],
-                                                       placeholder=placeholders and b in keyed)
+        keys = keyers[b] if keyers is not None else pose_channels.rotation_keyer(tgt.obj, name)
+        channels, values = keys(q if moved else q[:1], placeholder=placeholders and b in keyed)
         out = moving if moved else still
         out[0].extend(channels)
         out[1].append(values)
@@ -542,18 +553,25 @@ def _write(target, action, plan_: Plan) -> None:
         later = [row for row, change in enumerate(changed) if change]
         now = [row for row, change in enumerate(changed) if not change]
         animdata.write_keys(target, action, [plan_.channels[r] for r in now], plan_.frames, plan_.values[now])
+        _write_unsolved(target, action, plan_)
         pending.complete(plan_)  # waits for the solve, if it still runs
         animdata.write_keys(target, action, [plan_.channels[r] for r in later], plan_.frames,
                             plan_.values[later])
-    elif plan_.channels:
-        plan_.resolve()
-        animdata.write_keys(target, action, plan_.channels, plan_.frames, plan_.values)
+    else:
+        if plan_.channels:
+            plan_.resolve()
+            animdata.write_keys(target, action, plan_.channels, plan_.frames, plan_.values)
+        _write_unsolved(target, action, plan_)
+    if plan_.frame_rate > 0:
+        action[bvh.FRAME_RATE] = plan_.frame_rate
+
+
+def _write_unsolved(target, action, plan_: Plan) -> None:
+    """The keys that do not wait for the feet's solve: the bones that keep the match pose, and the contacts."""
     if plan_.still_channels:
         animdata.write_keys(target, action, plan_.still_channels, plan_.frames[:1], plan_.still_values)
     if plan_.contacts is not None:  # where the animator sees and edits them; "Fix foot sliding" reads them
         contacts.write_contacts(target, action, plan_.feet, plan_.frames, plan_.contacts)
-    if plan_.frame_rate > 0:
-        action[bvh.FRAME_RATE] = plan_.frame_rate
 
 
 def retarget(source, target, bone_map=None, frame_range=None, root: str = "scaled", *,

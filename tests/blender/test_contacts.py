@@ -316,3 +316,18 @@ def test_operator_fixes_sliding_and_reports_errors(mk, walk60):
     # Nothing selected that it can work on: the poll says why.
     obj.animation_data.action = None
     assert not bpy.ops.motionkit.fix_foot_sliding.poll()
+
+
+def test_the_rolled_knee_angles_are_derived_exactly(contacts):
+    """The knee's limits read the swing-twist angles of the shin rolled about its Y axis; the cleanup derives
+    them from the unrolled ones (a turn of the swing vector) instead of decomposing again: the same angles."""
+    rng = np.random.default_rng(7)
+    q = rng.normal(size=(2000, 4))
+    q /= np.linalg.norm(q, axis=1, keepdims=True)
+    for roll in (0.3, -1.2, 2.9):
+        derived = contacts._rolled(contacts._swing_twist(q), roll)
+        rolled = contacts._mul(contacts._mul(contacts._about_y(-roll), q), contacts._about_y(roll))
+        direct = contacts._swing_twist(rolled)
+        gap = np.abs(derived - direct)
+        gap[:, 1] = np.minimum(gap[:, 1], 2 * np.pi - gap[:, 1])  # the twist wraps at +-pi
+        assert gap.max() < 1e-12

@@ -602,12 +602,12 @@ def test_the_feet_solve_beside_the_key_writing_gives_the_same_keys_and_fails_cle
 
     plan = retargeting.plan(source, target, defer_solve=True)
     assert plan.pending is not None and plan.contacts is not None
-    plan.pending.result()  # the solve started with the plan ends here
+    plan.pending.result()  # the solve (and the rest of the cleanup) started with the plan ends here
 
     def failing():
         raise ValueError("foot cleanup: a failing solve")
 
-    plan.pending.solve = failing
+    plan.pending.prepare = lambda: failing
     plan.pending.start()  # run again, failing this time, on the worker thread
     actions = set(bpy.data.actions)
     with pytest.raises(ValueError, match="failing solve"):
