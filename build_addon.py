@@ -26,7 +26,7 @@ import sys
 import zipfile
 
 ROOT = os.path.dirname(os.path.abspath(__file__))
-sys.path.insert(0, os.path.join(ROOT, "addon"))
+sys.path.insert(0, os.path.join(ROOT, "addon", "core"))
 import native_loader  # noqa: E402  (pure Python: naming rules shared with the add-on)
 
 PROBE = r"""
@@ -130,6 +130,18 @@ def build(info: dict, build_dir: str, targets: list[str], werror: bool, jobs: in
     return module
 
 
+def addon_sources(addon_dir: str) -> list[str]:
+    """The add-on's files, relative to addon/: every module of its tree, the stub of the native module,
+    and bone_mapping's scheme presets (core/presets/*.json); no caches."""
+    sources = []
+    for folder, dirs, names in os.walk(addon_dir):
+        dirs[:] = sorted(d for d in dirs if d != "__pycache__")
+        relative = os.path.relpath(folder, addon_dir)
+        sources += [os.path.normpath(os.path.join(relative, n)) for n in sorted(names)
+                    if n.endswith((".py", ".pyi")) or (n.endswith(".json") and os.path.basename(folder) == "presets")]
+    return sources
+
+
 def package(info: dict, module: str, version: str, platform_tag: str, dist: str) -> str:
     os.makedirs(dist, exist_ok=True)
     path = os.path.join(dist, native_loader.zip_name(version, platform_tag, info["python"]))
@@ -141,9 +153,7 @@ def package(info: dict, module: str, version: str, platform_tag: str, dist: str)
         "blender": info["blender"],
     }
     addon_dir = os.path.join(ROOT, "addon")
-    sources = sorted(n for n in os.listdir(addon_dir) if n.endswith(".py")) + ["_native.pyi"]
-    presets_dir = os.path.join(addon_dir, "presets")  # bone_mapping's scheme presets
-    sources += sorted(f"presets/{n}" for n in os.listdir(presets_dir) if n.endswith(".json"))
+    sources = addon_sources(addon_dir)
     tmp = path + ".tmp"
     with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as z:
         for name in sources:

@@ -34,7 +34,7 @@ def main() -> None:
     parser.add_argument("--moves", type=int, default=50)
     args = parser.parse_args(argv)
     module = install_addon.install(args.zip)
-    live = __import__(module + ".ik_live", fromlist=["solve_live"])
+    live = __import__(module + ".features.ik_live", fromlist=["solve_live"])
     obj = rig_bench.build_rig("Rig", 60, target=False)
     goals = []
     for bone, _ in ik_bench.EFFECTORS:

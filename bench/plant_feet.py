@@ -54,8 +54,8 @@ def main() -> None:
     args = parser.parse_args(argv)
     install_addon.install(args.zip)
     import motionkit as mk
-    retargeting = importlib.import_module(mk.__name__ + ".retargeting")
-    pose_channels = importlib.import_module(mk.__name__ + ".pose_channels")
+    retargeting = importlib.import_module(mk.__name__ + ".features.retargeting")
+    pose_channels = importlib.import_module(mk.__name__ + ".blender.pose_channels")
     animdata = mk.animdata
 
     native = mk.native()

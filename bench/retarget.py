@@ -260,7 +260,7 @@ def main() -> None:
     install_addon.install(args.zip)
     import motionkit as mk
     import importlib
-    retargeting = importlib.import_module(mk.__name__ + ".retargeting")
+    retargeting = importlib.import_module(mk.__name__ + ".features.retargeting")
     animdata = mk.animdata
 
     scene = bpy.context.scene

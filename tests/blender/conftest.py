@@ -27,7 +27,7 @@ def mk():
 
 @pytest.fixture(scope="session")
 def animdata(mk):
-    return importlib.import_module(mk.__name__ + ".animdata")
+    return importlib.import_module(mk.__name__ + ".blender.animdata")
 
 
 @pytest.fixture(scope="session")

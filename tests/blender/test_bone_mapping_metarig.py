@@ -14,7 +14,7 @@ LIMBS = ("shoulder", "upper_arm", "forearm", "hand", "thigh", "shin", "foot", "t
 
 @pytest.fixture(scope="module")
 def bone_mapping(mk):
-    return importlib.import_module(mk.__name__ + ".bone_mapping")
+    return importlib.import_module(mk.__name__ + ".core.bone_mapping")
 
 
 @pytest.fixture

@@ -21,12 +21,12 @@ MM = {"more/bandai_dash_normal_001.bvh": 0.1}  # armature units per millimetre (
 
 @pytest.fixture(scope="module")
 def contacts(mk):
-    return importlib.import_module(mk.__name__ + ".contacts")
+    return importlib.import_module(mk.__name__ + ".features.contacts")
 
 
 @pytest.fixture(scope="module")
 def pose_channels(mk):
-    return importlib.import_module(mk.__name__ + ".pose_channels")
+    return importlib.import_module(mk.__name__ + ".blender.pose_channels")
 
 
 def load(mk, path, name=None):
@@ -205,7 +205,7 @@ def _all_keys(obj):
 
 def mk_fcurves(action, obj):
     import sys
-    animdata = sys.modules[os.environ["MOTIONKIT_MODULE"] + ".animdata"]
+    animdata = sys.modules[os.environ["MOTIONKIT_MODULE"] + ".blender.animdata"]
     return list(animdata.fcurves(action, obj))
 
 
@@ -310,7 +310,7 @@ def test_operator_fixes_sliding_and_reports_errors(mk, walk60):
     obj, action = load(mk, walk60, "operated")
     bpy.context.view_layer.objects.active = obj
     assert bpy.ops.motionkit.fix_foot_sliding() == {'FINISHED'}
-    contacts = importlib.import_module(mk.__name__ + ".contacts")
+    contacts = importlib.import_module(mk.__name__ + ".features.contacts")
     stored = contacts.read_contacts(obj, obj.animation_data.action, contacts.find_feet(obj), frames_of(action))
     assert stored is not None and stored.any()
     # Nothing selected that it can work on: the poll says why.

@@ -199,6 +199,12 @@ def test_operators_solve_bake_and_cancel_on_errors(mk, ik, walk60):
     baked = obj.animation_data.action
     assert baked != action and action.use_fake_user
     assert bpy.ops.motionkit.ik_solve() == {'FINISHED'}
+    # The effector list through the generic list operator: add selects the new row, remove the active one.
+    assert bpy.ops.motionkit.list_edit(list="ik_effectors", action='ADD') == {'FINISHED'}
+    assert len(settings.effectors) == 3 and settings.active_effector == 2
+    settings.active_effector = 0
+    assert bpy.ops.motionkit.list_edit(list="ik_effectors", action='REMOVE') == {'FINISHED'}
+    assert [e.bone for e in settings.effectors] == ["lWrist", ""] and settings.active_effector == 0
 
 
 def test_a_bake_that_fails_leaves_no_copy(mk, ik, walk60, animdata):

@@ -128,7 +128,7 @@ def _rotating_bone_rig(animdata, native, mode, frames, quats):
     bpy.ops.object.mode_set(mode='OBJECT')
     pose_bone = obj.pose.bones["Arm"]
     pose_bone.rotation_mode = mode
-    rc = importlib.import_module(animdata.__name__.rsplit(".", 1)[0] + ".rotation_channels")
+    rc = importlib.import_module(animdata.__name__.rsplit(".", 2)[0] + ".core.rotation_channels")
     prop, size = rc.channel_property(mode)
     values = rc.from_quaternions(native, mode, quats)
     action = animdata.new_action("RigAction")

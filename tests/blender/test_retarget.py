@@ -356,10 +356,14 @@ def test_bone_map_operators_save_load_and_edit_the_list(mk, walk60, tmp_path):
     pairs = settings.bone_map()
     path = str(tmp_path / "map.json")
     assert bpy.ops.motionkit.bone_map_save(filepath=path) == {'FINISHED'}
-    assert bpy.ops.motionkit.bone_map_add() == {'FINISHED'}
-    assert len(settings.pairs) == len(pairs) + 1
+    assert bpy.ops.motionkit.list_edit(list="bone_map", action='ADD') == {'FINISHED'}
+    assert len(settings.pairs) == len(pairs) + 1 and settings.active_pair == len(pairs)
     settings.active_pair = 0
-    assert bpy.ops.motionkit.bone_map_remove() == {'FINISHED'}
+    assert bpy.ops.motionkit.list_edit(list="bone_map", action='REMOVE') == {'FINISHED'}
+    assert settings.bone_map() == pairs[1:]
+    settings.active_pair = -1  # nothing selected: nothing removed, and the user is told why
+    with pytest.raises(RuntimeError, match="Select a pair"):
+        bpy.ops.motionkit.list_edit(list="bone_map", action='REMOVE')
     assert settings.bone_map() == pairs[1:]
     assert bpy.ops.motionkit.bone_map_load(filepath=path) == {'FINISHED'}
     assert settings.bone_map() == pairs

@@ -2,7 +2,7 @@
 uses, native/src/foot_targets.cpp) is compared with, step by step as the add-on once computed them."""
 import numpy as np
 
-from foot_contacts import _check_points, all_intervals
+from core.foot_contacts import _check_points, all_intervals
 
 
 def plant_positions(points, contacts, rigid_pairs=()) -> list[list[np.ndarray]]:

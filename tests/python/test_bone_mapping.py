@@ -12,7 +12,7 @@ import json
 import numpy as np
 import pytest
 
-import bone_mapping as bm
+from core import bone_mapping as bm
 import characters
 
 SPECS = {s.name: s for s in characters.CHARACTERS}

@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-import foot_contacts as fc
+from core import foot_contacts as fc
 import foot_targets_reference as ref
 
 LEG = 0.9

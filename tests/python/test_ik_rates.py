@@ -11,7 +11,7 @@ import os
 
 import numpy as np
 import pytest
-import rotation_channels
+from core import rotation_channels
 
 RATE_CASES = 10_000
 

@@ -2,7 +2,7 @@
 import json
 import sys
 
-import native_loader
+from core import native_loader
 import pytest
 
 

@@ -1,7 +1,7 @@
 """Resampling decisions that need no Blender: timing, grids, channel groups, Bezier handles."""
 import numpy as np
 import pytest
-import resample_plan as rp
+from core import resample_plan as rp
 
 
 def test_paths_split_into_owner_and_property():

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-import root_motion as rm
+from core import root_motion as rm
 
 
 def wxyz(r: Rotation) -> np.ndarray:

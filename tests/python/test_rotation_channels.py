@@ -5,7 +5,7 @@ scipy's extrinsic lower-case "xyz" with the angles in x, y, z order.
 """
 import numpy as np
 import pytest
-import rotation_channels as rc
+from core import rotation_channels as rc
 from scipy.spatial.transform import Rotation
 
 

@@ -16,7 +16,8 @@ from dataclasses import dataclass, field
 import bpy
 import numpy as np
 
-from . import animdata, native_state, pose_channels, rotation_channels
+from ..blender import animdata, pose_channels
+from ..core import native_state, rotation_channels
 
 METHODS = (
     ("dls", "Damped Least Squares", "Robust near singular poses; regularised towards the previous frame"),
@@ -292,7 +293,8 @@ def _floor_rooted_hips(obj, all_names, rest) -> str | None:
     re-solve does not pay it on every update."""
     key = (tuple(all_names), rest.tobytes())
     if key not in _FLOOR_ROOTED:
-        from . import bone_mapping, retargeting
+        from . import retargeting
+        from ..core import bone_mapping
         labels = bone_mapping.classify(retargeting.mapping_rig(obj))
         found = labels.root is not None and labels.root == all_names[0] and labels.hips in all_names
         if len(_FLOOR_ROOTED) > 64:

@@ -18,7 +18,7 @@ from typing import Iterable, NamedTuple, Sequence
 import bpy
 import numpy as np
 
-from . import native_state
+from ..core import native_state
 
 # Feature test rather than a version test: 4.4 has both APIs and the layered one
 # is the one that stays.

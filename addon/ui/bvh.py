@@ -5,7 +5,8 @@ import bpy
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, StringProperty
 from bpy_extras.io_utils import ExportHelper, ImportHelper, orientation_helper
 
-from . import bvh, native_state
+from . import common
+from ..features import bvh
 
 _ROTATION_ITEMS = [
     ('QUATERNION', "Quaternion", "Keys rotation_quaternion: no gimbal lock"),
@@ -40,7 +41,7 @@ class MOTIONKIT_OT_import_bvh(bpy.types.Operator, ImportHelper):
 
     @classmethod
     def poll(cls, context):
-        return native_state.poll_native(cls)
+        return common.poll_native(cls)
 
     def execute(self, context):
         wm = context.window_manager
@@ -88,7 +89,7 @@ class MOTIONKIT_OT_export_bvh(bpy.types.Operator, ExportHelper):
 
     @classmethod
     def poll(cls, context):
-        if not native_state.poll_native(cls):
+        if not common.poll_native(cls):
             return False
         obj = context.active_object
         if obj is None or obj.type != 'ARMATURE':
@@ -121,3 +122,6 @@ def menu_import(self, context):
 
 def menu_export(self, context):
     self.layout.operator(MOTIONKIT_OT_export_bvh.bl_idname, text="Motion capture (.bvh) [MotionKit]")
+
+
+classes = (MOTIONKIT_OT_import_bvh, MOTIONKIT_OT_export_bvh)

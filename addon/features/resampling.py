@@ -16,8 +16,9 @@ from dataclasses import dataclass
 import bpy
 import numpy as np
 
-from . import animdata, native_state, pose_channels, resample_plan, rotation_channels
-from .resample_plan import ChannelGroup
+from ..blender import animdata, pose_channels
+from ..core import native_state, resample_plan, rotation_channels
+from ..core.resample_plan import ChannelGroup
 
 POLYNOMIAL_MAX_KEYS = 64
 # Slopes of sphere curves for exact output come from one-sided second-order

@@ -1,11 +1,11 @@
 """Add-on preferences: where the user sees whether the native core loaded."""
 import bpy
 
-from . import native_state
+from . import common
 
 
 class MOTIONKIT_AddonPreferences(bpy.types.AddonPreferences):
-    bl_idname = __package__
+    bl_idname = __package__.rpartition(".")[0]  # the add-on's own package, not this ui sub-package
 
     def draw(self, context):
-        native_state.draw_status(self.layout)
+        common.draw_status(self.layout)

@@ -28,9 +28,11 @@ from dataclasses import dataclass, field
 import bpy
 import numpy as np
 
-from . import animdata, bvh, native_state, pose_channels, rotation_channels
-from .rotation_channels import conjugate as _conj, multiply as _mul, rotate_each as _rotate
-from .foot_contacts import ContactSettings, all_intervals, detect as detect_contacts, plant_targets
+from . import bvh
+from ..blender import animdata, pose_channels
+from ..core import native_state, rotation_channels
+from ..core.rotation_channels import conjugate as _conj, multiply as _mul, rotate_each as _rotate
+from ..core.foot_contacts import ContactSettings, all_intervals, detect as detect_contacts, plant_targets
 
 SIDES = ("L", "R")
 POINTS = ("L ankle", "L ball", "R ankle", "R ball")
@@ -92,7 +94,8 @@ def _swing_twist(q):
 
 def find_feet(obj) -> list[Foot]:
     """The two legs of an armature from MotionKit's bone map (labels thigh.L, shin.L, foot.L, toe.L, ...)."""
-    from . import bone_mapping, retargeting  # retargeting imports this module
+    from . import retargeting  # retargeting imports this module
+    from ..core import bone_mapping
     return feet_of(bone_mapping.classify(retargeting.mapping_rig(obj)), obj.name)
 
 

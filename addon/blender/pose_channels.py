@@ -10,7 +10,8 @@ from __future__ import annotations
 import bpy
 import numpy as np
 
-from . import animdata, native_state, rotation_channels
+from . import animdata
+from ..core import native_state, rotation_channels
 
 
 def depth_first(armature) -> list:

@@ -4,7 +4,10 @@ import math
 import bpy
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty
 
-from . import animdata, native_state, operator_runs, resample_plan, resampling
+from . import common
+from ..blender import animdata
+from ..core import resample_plan
+from ..features import resampling
 
 
 def _targets(context):
@@ -20,7 +23,7 @@ def _targets(context):
 
 
 def _poll(cls, context) -> bool:
-    if not native_state.poll_native(cls):
+    if not common.poll_native(cls):
         return False
     objects, _ = _targets(context)
     if not objects:
@@ -42,7 +45,7 @@ class _KeysOperator:
     def run(self, context, work, done_message):
         """work(objects, bones, progress) -> result; done_message(result) -> the report."""
         objects, bones = _targets(context)
-        return operator_runs.run(self, context, lambda progress: work(objects, bones, progress), done_message)
+        return common.run(self, context, lambda progress: work(objects, bones, progress), done_message)
 
 
 class MOTIONKIT_OT_resample_keys(_KeysOperator, bpy.types.Operator):
@@ -122,3 +125,6 @@ def menu_keys(self, context):
 
 
 MENUS = ("GRAPH_MT_key", "DOPESHEET_MT_key")
+
+
+classes = (MOTIONKIT_OT_resample_keys, MOTIONKIT_OT_reduce_keys)

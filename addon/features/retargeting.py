@@ -16,9 +16,11 @@ from dataclasses import dataclass
 import bpy
 import numpy as np
 
-from . import animdata, bone_mapping, bvh, contacts, native_state, pose_channels, root_motion, rotation_channels
-from .foot_contacts import ContactSettings
-from .root_motion import FLOOR_ROOTS
+from . import bvh, contacts
+from ..blender import animdata, pose_channels
+from ..core import bone_mapping, native_state, root_motion, rotation_channels
+from ..core.foot_contacts import ContactSettings
+from ..core.root_motion import FLOOR_ROOTS
 
 ROOT_MOTIONS = (
     ("scaled", "Scaled", "Translation scaled by the ratio of leg lengths"),

@@ -19,7 +19,8 @@ import numpy as np
 from bpy_extras.io_utils import axis_conversion
 from mathutils import Quaternion
 
-from . import animdata, bone_mapping, native_state, pose_channels, rotation_channels
+from ..blender import animdata, pose_channels
+from ..core import bone_mapping, native_state, rotation_channels
 
 ROTATION_MODES = ('QUATERNION', 'NATIVE', 'XYZ', 'XZY', 'YXZ', 'YZX', 'ZXY', 'ZYX')
 FRAME_RATE = "motionkit_frame_rate"  # an action's custom property: its keys' frames per second

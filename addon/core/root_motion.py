@@ -19,10 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-try:
-    from .rotation_channels import about, conjugate, multiply, rotate_each as rotate, sign_continuous
-except ImportError:  # plain Python tests import the helpers as top-level modules
-    from rotation_channels import about, conjugate, multiply, rotate_each as rotate, sign_continuous
+from .rotation_channels import about, conjugate, multiply, rotate_each as rotate, sign_continuous
 
 FLOOR_ROOTS = (
     ("auto", "Auto", "Copy the source's floor root if it has one, else keep the target's still"),

@@ -1,0 +1,211 @@
+"""Full-body IK in the UI: its settings (kept on each armature object, object.motionkit_ik), the
+effector list, the Solve and Bake operators, the Live toggle (features.ik_live) and the panel."""
+import bpy
+from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProperty, IntProperty,
+                       PointerProperty, StringProperty)
+
+from . import common
+from ..features import ik, ik_live
+
+
+def _live_changed(self, context):
+    ik_live.sync()
+
+
+class MOTIONKIT_PG_ik_effector(bpy.types.PropertyGroup):
+    bone: StringProperty(name="Bone", description="The bone whose tail reaches the target")
+    target: PointerProperty(name="Target", type=bpy.types.Object,
+                            description="The object (or armature, with a bone) to reach")
+    subtarget: StringProperty(name="Target Bone", description="With an armature target: the bone whose head to reach")
+    pin: BoolProperty(name="Pin", description="Hold the tail where the pose has it, instead of a target")
+    weight: FloatProperty(name="Weight", default=1.0, min=1e-3, max=1e3)
+    use_position: BoolProperty(name="Position", default=True)
+    use_orientation: BoolProperty(name="Orientation", description="Also match the target's rotation")
+    chain_count: IntProperty(name="Chain Length", default=0, min=0, max=255,
+                             description="Bones this effector moves, up from its bone; 0: up to the root")
+
+    def effector(self) -> ik.Effector:
+        target = self.target
+        if target is not None and target.type == 'ARMATURE' and self.subtarget:
+            target = (target, self.subtarget)
+        return ik.Effector(self.bone, None if self.pin else target, self.pin, self.weight, self.use_position,
+                           self.use_orientation, name=f"effector on '{self.bone}'", chain_count=self.chain_count)
+
+
+class MOTIONKIT_PG_ik(bpy.types.PropertyGroup):
+    effectors: CollectionProperty(type=MOTIONKIT_PG_ik_effector)
+    active_effector: IntProperty(name="Active Effector")
+    method: EnumProperty(name="Method", items=ik.METHODS, default="dls")
+    max_iterations: IntProperty(name="Iterations", default=64, min=1, max=10000)
+    damping: FloatProperty(name="Damping", default=0.0, min=0.0, max=1e3, precision=4,
+                           description="Lambda of damped least squares; 0 picks one from the rig's size")
+    regularization: FloatProperty(name="Regularisation", default=1e-4, min=0.0, max=1e3, precision=5,
+                                  description="Pull towards the previous frame's pose")
+    root_translation: BoolProperty(name="Move Root", default=True, description="The root's location is solved")
+    root_rotation: BoolProperty(name="Turn Root", default=True, description="The root's rotation is solved")
+    use_limits: BoolProperty(name="Joint Limits", default=True,
+                             description="Respect the bones' IK limits, locks and stiffness")
+    live: BoolProperty(name="Live", update=_live_changed,
+                       description="Re-solve the current frame whenever a target moves or the frame changes")
+    use_scene_range: BoolProperty(name="Scene Frame Range", default=True)
+    frame_start: IntProperty(name="Start", default=1)
+    frame_end: IntProperty(name="End", default=250)
+    new_action: BoolProperty(name="New Action", default=True,
+                             description="Bake into a copy of the current action; else into the current one")
+
+    def effector_list(self) -> list:
+        return [e.effector() for e in self.effectors if e.bone]
+
+    def options(self) -> dict:
+        return {"root_translation": self.root_translation, "root_rotation": self.root_rotation,
+                "max_iterations": self.max_iterations, "damping": self.damping,
+                "regularization": self.regularization, "use_limits": self.use_limits}
+
+
+def _armature(context):
+    obj = context.object
+    return obj if obj is not None and obj.type == 'ARMATURE' else None
+
+
+def _poll_effectors(cls, context) -> bool:
+    if not common.poll_native(cls):
+        return False
+    obj = _armature(context)
+    if obj is None:
+        cls.poll_message_set("Select an armature")
+        return False
+    if not any(e.bone for e in obj.motionkit_ik.effectors):
+        cls.poll_message_set("Add an effector")
+        return False
+    return True
+
+
+class MOTIONKIT_OT_ik_solve(bpy.types.Operator):
+    """Solve full-body IK on the current frame and pose the armature (MotionKit)"""
+    bl_idname = "motionkit.ik_solve"
+    bl_label = "Solve"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    @classmethod
+    def poll(cls, context):
+        return _poll_effectors(cls, context)
+
+    def execute(self, context):
+        obj = _armature(context)
+        settings = obj.motionkit_ik
+        return common.run(
+            self, context,
+            lambda progress: ik.solve(obj, settings.effector_list(), None, settings.method, **settings.options()),
+            lambda result: f"Solved in {int(result.iterations[0])} iterations, largest error "
+                           f"{result.errors.max():.2e}")
+
+
+class MOTIONKIT_OT_ik_bake(bpy.types.Operator):
+    """Solve full-body IK on every frame of a range and key the solved bones (MotionKit)"""
+    bl_idname = "motionkit.ik_bake"
+    bl_label = "Bake"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    @classmethod
+    def poll(cls, context):
+        return _poll_effectors(cls, context)
+
+    def execute(self, context):
+        obj = _armature(context)
+        settings = obj.motionkit_ik
+        scene = context.scene
+        frame_range = ((scene.frame_start, scene.frame_end) if settings.use_scene_range
+                       else (settings.frame_start, settings.frame_end))
+
+        def bake(progress):
+            progress(0, 1)
+            return ik.bake(obj, settings.effector_list(), frame_range, settings.method,
+                           new_action=settings.new_action, **settings.options())
+
+        return common.run(
+            self, context, bake,
+            lambda done: f"Baked {len(done[0].frames)} frames of {len(done[0].bones)} bones into "
+                         f"'{done[1].name}'; largest error {done[0].errors.max():.2e}")
+
+
+class MOTIONKIT_UL_ik_effectors(bpy.types.UIList):
+    """One row per effector: bone, then its target or the pin."""
+
+    def draw_item(self, context, layout, data, item, icon, active_data, active_propname, index=0):
+        obj = data.id_data
+        row = layout.row(align=True)
+        row.prop_search(item, "bone", obj.data, "bones", text="")
+        row.prop(item, "pin", text="", icon='PINNED' if item.pin else 'UNPINNED')
+        if not item.pin:
+            row.prop(item, "target", text="")
+            if item.target is not None and item.target.type == 'ARMATURE':
+                row.prop_search(item, "subtarget", item.target.data, "bones", text="")
+
+
+class MOTIONKIT_PT_ik(bpy.types.Panel):
+    bl_label = "Full-body IK"
+    bl_idname = "MOTIONKIT_PT_ik"
+    bl_space_type = 'VIEW_3D'
+    bl_region_type = 'UI'
+    bl_category = "MotionKit"
+
+    def draw(self, context):
+        layout = self.layout
+        obj = context.object
+        if obj is None or obj.type != 'ARMATURE':
+            layout.label(text="Select an armature", icon='INFO')
+            return
+        settings = obj.motionkit_ik
+        row = layout.row()
+        row.template_list("MOTIONKIT_UL_ik_effectors", "", settings, "effectors", settings, "active_effector",
+                          rows=4)
+        col = row.column(align=True)
+        common.draw_list_buttons(col, EFFECTORS.name)
+        if 0 <= settings.active_effector < len(settings.effectors):
+            item = settings.effectors[settings.active_effector]
+            row = layout.row(align=True)
+            row.prop(item, "weight")
+            row.prop(item, "use_position", toggle=True)
+            row.prop(item, "use_orientation", toggle=True)
+            layout.prop(item, "chain_count")
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        layout.prop(settings, "method")
+        col = layout.column(align=True)
+        col.prop(settings, "max_iterations")
+        col.prop(settings, "damping")
+        col.prop(settings, "regularization")
+        layout.prop(settings, "root_translation")
+        layout.prop(settings, "root_rotation")
+        layout.prop(settings, "use_limits")
+        row = layout.row(align=True)
+        row.operator("motionkit.ik_solve", icon='CON_KINEMATIC')
+        row.prop(settings, "live", toggle=True, icon='PLAY')
+        layout.prop(settings, "use_scene_range")
+        if not settings.use_scene_range:
+            col = layout.column(align=True)
+            col.prop(settings, "frame_start")
+            col.prop(settings, "frame_end")
+        layout.prop(settings, "new_action")
+        layout.operator("motionkit.ik_bake", icon='REC')
+
+
+def _add_on_active_bone(context, item):
+    if context.active_pose_bone is not None:
+        item.bone = context.active_pose_bone.name
+
+
+EFFECTORS = common.editable_list(common.EditableList(
+    "ik_effectors", "effector", lambda context: obj.motionkit_ik if (obj := _armature(context)) else None,
+    "effectors", "active_effector", "Select an armature", _add_on_active_bone))
+
+classes = (MOTIONKIT_PG_ik_effector, MOTIONKIT_PG_ik, MOTIONKIT_OT_ik_solve, MOTIONKIT_OT_ik_bake,
+           MOTIONKIT_UL_ik_effectors, MOTIONKIT_PT_ik)
+
+
+def register_properties():
+    bpy.types.Object.motionkit_ik = PointerProperty(type=MOTIONKIT_PG_ik)
+
+
+def unregister_properties():
+    del bpy.types.Object.motionkit_ik

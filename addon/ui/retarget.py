@@ -1,0 +1,308 @@
+"""Retargeting in the UI: the Retarget panel's settings (kept on the scene, scene.motionkit_retarget),
+the bone map list and its operators (auto-map, schemes, load and save), the Retarget operator, and the
+panel with its Plant Feet sub-panel."""
+import os
+
+import bpy
+from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProperty, IntProperty,
+                       PointerProperty, StringProperty)
+from bpy_extras.io_utils import ExportHelper, ImportHelper
+
+from . import common, contacts as contact_ui
+from ..core import bone_mapping
+from ..features import bvh, retargeting
+
+def _is_armature(self, obj):
+    return obj.type == 'ARMATURE'
+
+
+class MOTIONKIT_PG_bone_pair(bpy.types.PropertyGroup):
+    source: StringProperty(name="Source", description="Bone of the source armature (or BVH joint)")
+    target: StringProperty(name="Target", description="Bone of the target armature")
+
+
+class MOTIONKIT_PG_retarget(bpy.types.PropertyGroup):
+    source_kind: EnumProperty(name="Source", items=[
+        ('ARMATURE', "Armature", "An animated armature in this file"),
+        ('BVH', "BVH File", "A BVH file, imported as the source armature when retargeting")], default='ARMATURE')
+    source: PointerProperty(name="Source Armature", type=bpy.types.Object, poll=_is_armature)
+    bvh_path: StringProperty(name="BVH File", subtype='FILE_PATH')
+    target: PointerProperty(name="Target Armature", type=bpy.types.Object, poll=_is_armature)
+    pairs: CollectionProperty(type=MOTIONKIT_PG_bone_pair)
+    active_pair: IntProperty(name="Active Pair")
+    source_match: EnumProperty(name="Source Match Pose", items=retargeting.SOURCE_MATCHES, default='REST')
+    match_frame: IntProperty(name="Match Frame", description="Frame of the source's match pose", default=0)
+    target_match: EnumProperty(name="Target Match Pose", items=retargeting.TARGET_MATCHES, default='REST')
+    root_motion: EnumProperty(name="Root Motion", items=retargeting.ROOT_MOTIONS, default="scaled")
+    floor_root: EnumProperty(name="Floor Root", items=retargeting.FLOOR_ROOTS, default="auto",
+                             description="What a target bone on the floor above the hips (a game rig's root) does")
+    root_smoothing: FloatProperty(name="Smoothing", default=0.25, min=0.0, soft_max=2.0, unit='TIME_ABSOLUTE',
+                                  description="Seconds of smoothing of the extracted root motion")
+    plant_feet: BoolProperty(name="Plant Feet", default=True,
+                             description="Feet that stand still in the source stay planted on the target "
+                                         "(contacts detected on the source, held with full-body IK)")
+    contacts: PointerProperty(type=contact_ui.MOTIONKIT_PG_contacts)
+    ground: BoolProperty(name="Feet on the Floor",
+                         description="Move the root so that the target's lowest point touches the floor "
+                                     "on the first frame")
+    align_facing: BoolProperty(name="Align Facing", default=True,
+                               description="Turn the motion by quarter turns so that each rig walks the way "
+                                           "it faces")
+    use_frame_range: BoolProperty(name="Frame Range", description="Retarget these source frames only")
+    frame_start: IntProperty(name="Start", default=1)
+    frame_end: IntProperty(name="End", default=250)
+    overwrite: BoolProperty(name="Overwrite Target Action",
+                            description="Write into the target's own action instead of a new one")
+
+    def bone_map(self) -> list[tuple[str, str]]:
+        return [(p.source, p.target) for p in self.pairs if p.source and p.target]
+
+    def set_bone_map(self, pairs) -> None:
+        self.pairs.clear()
+        for source, target in pairs:
+            item = self.pairs.add()
+            item.source, item.target = source, target
+        self.active_pair = 0
+
+
+def _settings(context):
+    return context.scene.motionkit_retarget
+
+
+def _source_ready(settings) -> str:
+    """Why the source cannot be used yet, or ''."""
+    if settings.source_kind == 'BVH':
+        path = bpy.path.abspath(settings.bvh_path)
+        return "" if path and os.path.isfile(path) else "Pick a BVH file"
+    return "" if settings.source is not None else "Pick a source armature"
+
+
+def _source_rig(settings):
+    if settings.source_kind == 'BVH':
+        return bvh.mapping_rig(bpy.path.abspath(settings.bvh_path))
+    return retargeting.mapping_rig(settings.source)
+
+
+def _poll_rigs(cls, context) -> bool:
+    settings = _settings(context)
+    why = _source_ready(settings) or ("" if settings.target is not None else "Pick a target armature")
+    if why:
+        cls.poll_message_set(why)
+        return False
+    return True
+
+
+def _fill_map(operator, context, pairs_of) -> set:
+    """Put pairs_of(settings) into the bone map, reporting how many."""
+    settings = _settings(context)
+
+    def fill(progress):
+        pairs = pairs_of(settings)
+        settings.set_bone_map(pairs)
+        return pairs
+
+    return common.run(operator, context, fill, lambda pairs: f"Mapped {len(pairs)} bones")
+
+
+class MOTIONKIT_OT_retarget(bpy.types.Operator):
+    """Retarget the source's motion onto the target armature as a new action (MotionKit)"""
+    bl_idname = "motionkit.retarget"
+    bl_label = "Retarget"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    @classmethod
+    def poll(cls, context):
+        return common.poll_native(cls) and _poll_rigs(cls, context)
+
+    def execute(self, context):
+        settings = _settings(context)
+        source = bpy.path.abspath(settings.bvh_path) if settings.source_kind == 'BVH' else settings.source
+        frame_range = (settings.frame_start, settings.frame_end) if settings.use_frame_range else None
+
+        def work(progress):
+            progress(0, 1)
+            return retargeting.retarget(
+                source, settings.target, settings.bone_map() or None, frame_range, settings.root_motion,
+                source_match=settings.source_match, match_frame=settings.match_frame,
+                target_match=settings.target_match, ground=settings.ground, align_facing=settings.align_facing,
+                floor_root=settings.floor_root, root_smoothing=settings.root_smoothing,
+                plant_feet=settings.plant_feet, contact_settings=contact_ui.settings(settings.contacts),
+                overwrite=settings.overwrite)
+
+        return common.run(self, context, work,
+                                 lambda action: f"Retargeted onto '{settings.target.name}' as action '{action.name}'")
+
+
+class MOTIONKIT_OT_bone_map_auto(bpy.types.Operator):
+    """Fill the bone map from the bones' names and, where names say nothing, the skeletons (MotionKit)"""
+    bl_idname = "motionkit.bone_map_auto"
+    bl_label = "Auto-map"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    @classmethod
+    def poll(cls, context):
+        return _poll_rigs(cls, context)
+
+    def execute(self, context):
+        return _fill_map(self, context, lambda settings: bone_mapping.auto_map(
+            _source_rig(settings), retargeting.mapping_rig(settings.target)))
+
+
+def _scheme_items(self, context):
+    return [(key, scheme.get("label", key), "") for key, scheme in sorted(bone_mapping.schemes().items())]
+
+
+class MOTIONKIT_OT_bone_map_scheme(bpy.types.Operator):
+    """Fill the bone map from two naming schemes MotionKit ships (Mixamo, Rigify, CMU, GAMES-105, Unreal)"""
+    bl_idname = "motionkit.bone_map_scheme"
+    bl_label = "Map by Schemes"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    source_scheme: EnumProperty(name="Source Scheme", items=_scheme_items)
+    target_scheme: EnumProperty(name="Target Scheme", items=_scheme_items)
+
+    @classmethod
+    def poll(cls, context):
+        return _poll_rigs(cls, context)
+
+    def invoke(self, context, event):
+        return context.window_manager.invoke_props_dialog(self)
+
+    def execute(self, context):
+        return _fill_map(self, context, lambda settings: bone_mapping.map_from_presets(
+            _source_rig(settings), self.source_scheme, retargeting.mapping_rig(settings.target), self.target_scheme))
+
+
+class MOTIONKIT_OT_bone_map_save(bpy.types.Operator, ExportHelper):
+    """Save the bone map as a JSON preset"""
+    bl_idname = "motionkit.bone_map_save"
+    bl_label = "Save Bone Map"
+
+    filename_ext = ".json"
+    filter_glob: StringProperty(default="*.json", options={'HIDDEN'})
+
+    def execute(self, context):
+        return common.run(self, context,
+                                 lambda progress: bone_mapping.save_map(self.filepath, _settings(context).bone_map()),
+                                 lambda _: "")
+
+
+class MOTIONKIT_OT_bone_map_load(bpy.types.Operator, ImportHelper):
+    """Load a bone map saved as a JSON preset"""
+    bl_idname = "motionkit.bone_map_load"
+    bl_label = "Load Bone Map"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    filename_ext = ".json"
+    filter_glob: StringProperty(default="*.json", options={'HIDDEN'})
+
+    def execute(self, context):
+        return _fill_map(self, context, lambda settings: bone_mapping.load_map(self.filepath))
+
+
+class MOTIONKIT_UL_bone_map(bpy.types.UIList):
+    """One row per source -> target pair; bone names pick from the armatures when they are in the file."""
+
+    def draw_item(self, context, layout, data, item, icon, active_data, active_propname, index=0):
+        settings = context.scene.motionkit_retarget
+        row = layout.row(align=True)
+        if settings.source_kind == 'ARMATURE' and settings.source is not None:
+            row.prop_search(item, "source", settings.source.data, "bones", text="")
+        else:
+            row.prop(item, "source", text="", emboss=True)
+        row.label(text="", icon='FORWARD')
+        if settings.target is not None:
+            row.prop_search(item, "target", settings.target.data, "bones", text="")
+        else:
+            row.prop(item, "target", text="")
+
+
+class MOTIONKIT_PT_retarget(bpy.types.Panel):
+    bl_label = "Retarget"
+    bl_idname = "MOTIONKIT_PT_retarget"
+    bl_space_type = 'VIEW_3D'
+    bl_region_type = 'UI'
+    bl_category = "MotionKit"
+
+    def draw(self, context):
+        settings = context.scene.motionkit_retarget
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        layout.prop(settings, "source_kind", expand=True)
+        if settings.source_kind == 'BVH':
+            layout.prop(settings, "bvh_path")
+        else:
+            layout.prop(settings, "source")
+        layout.prop(settings, "target")
+
+        layout.label(text="Bone Map")
+        row = layout.row()
+        row.template_list("MOTIONKIT_UL_bone_map", "", settings, "pairs", settings, "active_pair", rows=6)
+        col = row.column(align=True)
+        common.draw_list_buttons(col, BONE_MAP.name)
+        col.separator()
+        col.operator("motionkit.bone_map_load", text="", icon='FILEBROWSER')
+        col.operator("motionkit.bone_map_save", text="", icon='FILE_TICK')
+        row = layout.row(align=True)
+        row.operator("motionkit.bone_map_auto", icon='AUTO')
+        row.operator("motionkit.bone_map_scheme", icon='PRESET')
+        if not settings.pairs:
+            layout.label(text="An empty map is filled automatically", icon='INFO')
+
+        layout.prop(settings, "source_match")
+        if settings.source_match == 'FRAME':
+            layout.prop(settings, "match_frame")
+        layout.prop(settings, "target_match")
+        layout.prop(settings, "root_motion")
+        layout.prop(settings, "floor_root")
+        if settings.floor_root == "extract":
+            layout.prop(settings, "root_smoothing")
+        layout.prop(settings, "ground")
+        layout.prop(settings, "align_facing")
+        layout.prop(settings, "use_frame_range")
+        if settings.use_frame_range:
+            col = layout.column(align=True)
+            col.prop(settings, "frame_start")
+            col.prop(settings, "frame_end")
+        layout.prop(settings, "overwrite")
+        layout.operator("motionkit.retarget", icon='ARMATURE_DATA')
+
+
+class MOTIONKIT_PT_retarget_feet(bpy.types.Panel):
+    """Planted feet: contacts detected on the source and held on the target; their thresholds."""
+    bl_label = "Plant Feet"
+    bl_idname = "MOTIONKIT_PT_retarget_feet"
+    bl_parent_id = "MOTIONKIT_PT_retarget"
+    bl_space_type = 'VIEW_3D'
+    bl_region_type = 'UI'
+    bl_category = "MotionKit"
+    bl_options = {'DEFAULT_CLOSED'}
+
+    def draw_header(self, context):
+        self.layout.prop(context.scene.motionkit_retarget, "plant_feet", text="")
+
+    def draw(self, context):
+        settings = context.scene.motionkit_retarget
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        layout.active = settings.plant_feet
+        contact_ui.draw(layout, settings.contacts)
+        layout.label(text="Keyed as 0/1 curves on the feet", icon='INFO')
+
+
+BONE_MAP = common.editable_list(common.EditableList(
+    "bone_map", "pair", lambda context: context.scene.motionkit_retarget, "pairs", "active_pair", "No scene"))
+
+classes = (MOTIONKIT_PG_bone_pair, MOTIONKIT_PG_retarget, MOTIONKIT_OT_retarget, MOTIONKIT_OT_bone_map_auto,
+           MOTIONKIT_OT_bone_map_scheme, MOTIONKIT_OT_bone_map_save, MOTIONKIT_OT_bone_map_load,
+           MOTIONKIT_UL_bone_map, MOTIONKIT_PT_retarget, MOTIONKIT_PT_retarget_feet)
+
+
+def register_properties():
+    bpy.types.Scene.motionkit_retarget = PointerProperty(type=MOTIONKIT_PG_retarget)
+
+
+def unregister_properties():
+    del bpy.types.Scene.motionkit_retarget

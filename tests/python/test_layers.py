@@ -1,0 +1,57 @@
+"""The add-on's layers, as docs/architecture.md draws them: core/ never imports Blender, and each layer
+imports only the layers below it (core <- blender <- features <- ui). Read from the source, no Blender."""
+import ast
+import os
+
+import pytest
+
+ADDON = os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))), "addon")
+LAYERS = ("core", "blender", "features", "ui")
+BLENDER_MODULES = {"bpy", "bpy_extras", "mathutils", "bmesh", "gpu", "blf", "addon_utils"}
+
+
+def _modules(layer):
+    folder = os.path.join(ADDON, layer)
+    return sorted(os.path.join(folder, n) for n in os.listdir(folder) if n.endswith(".py"))
+
+
+def _imports(path):
+    """(absolute module names, sibling layers reached by relative imports) of one file, wherever they are
+    in it (functions included)."""
+    absolute, layers = set(), set()
+    for node in ast.walk(ast.parse(open(path, encoding="utf-8").read(), path)):
+        if isinstance(node, ast.Import):
+            absolute.update(alias.name.split(".")[0] for alias in node.names)
+        elif isinstance(node, ast.ImportFrom):
+            if node.level == 0:
+                absolute.add(node.module.split(".")[0])
+            elif node.level == 2:  # from ..layer import x, or from .. import x
+                layers.add(node.module.split(".")[0] if node.module else "<package>")
+    return absolute, layers
+
+
+@pytest.mark.parametrize("layer", LAYERS)
+def test_each_layer_imports_only_the_layers_below_it(layer):
+    below = set(LAYERS[:LAYERS.index(layer)])
+    for path in _modules(layer):
+        absolute, layers = _imports(path)
+        assert layers <= below, f"{os.path.relpath(path, ADDON)} reaches {sorted(layers - below)}"
+        if layer == "core":
+            assert not absolute & BLENDER_MODULES, f"{os.path.relpath(path, ADDON)} imports Blender"
+
+
+def test_core_imports_in_plain_python():
+    """Not just no `import bpy` in the text: importing every core module pulls in no Blender module."""
+    import importlib
+    import sys
+    for path in _modules("core"):
+        importlib.import_module("core." + os.path.basename(path)[:-3])
+    assert not BLENDER_MODULES & set(sys.modules)
+
+
+def test_the_layers_are_all_there_is():
+    """Every module of the add-on is in a layer, but the package's own __init__.py."""
+    top = sorted(n for n in os.listdir(ADDON) if n.endswith(".py"))
+    assert top == ["__init__.py"]
+    assert {d for d in os.listdir(ADDON) if os.path.isdir(os.path.join(ADDON, d)) and d != "__pycache__"} \
+        == set(LAYERS)
