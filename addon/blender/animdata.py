@@ -86,6 +86,23 @@ def assign(id_data: bpy.types.ID, action: bpy.types.Action) -> None:
         anim.action = action
 
 
+def install_action(id_data: bpy.types.ID, action: bpy.types.Action, write, *, owned: bool = True) -> bpy.types.Action:
+    """Key a new action and make id_data play it: write(action) fills it, then the action id_data played
+    keeps a fake user (it must outlive losing its last user) and the new one is assigned. When anything
+    fails the action is removed again if it was made for this (owned), and id_data plays what it played."""
+    previous = assigned_action(id_data)
+    try:
+        write(action)
+        if previous is not None and previous.users == 1 and not previous.use_fake_user:
+            previous.use_fake_user = True
+        assign(id_data, action)
+    except BaseException:
+        if owned:
+            bpy.data.actions.remove(action)
+        raise
+    return action
+
+
 def assigned_action(id_data: bpy.types.ID) -> bpy.types.Action | None:
     anim = id_data.animation_data
     return anim.action if anim is not None else None

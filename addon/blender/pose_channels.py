@@ -48,29 +48,40 @@ def action_frames(action, frame_range=None) -> np.ndarray:
     return np.arange(start, end + 1, dtype=np.float64)
 
 
-def rotation_keys(obj, name: str, q, *, placeholder: bool = False) -> tuple[list, np.ndarray]:
-    """A pose bone's rotation channels and their values (size, n) for quaternions q (n, 4), in the bone's
-    own rotation mode, continuous from the pose's value; placeholder: zeros, the channels alone counting."""
-    return rotation_keyer(obj, name)(q, placeholder=placeholder)
+def rotation_keys(obj, names, q, *, placeholder: bool = False) -> tuple[list, np.ndarray]:
+    """Pose bones' rotation channels and their values (channels, n) for quaternions q (n, 4k), bone j of
+    names in columns 4j..4j+3: each bone in its own rotation mode, continuous from its pose's value, one
+    native call per rotation mode; placeholder: zeros, the channels alone counting."""
+    return rotation_keyer(obj, names)(q, placeholder=placeholder)
 
 
-def rotation_keyer(obj, name: str):
-    """rotation_keys of one bone as a function of q alone: its rotation mode and current value are read
-    here, so that the function touches no Blender data (it may run on a worker thread)."""
-    pose_bone = obj.pose.bones[name]
-    mode = pose_bone.rotation_mode
-    prop, size = rotation_channels.channel_property(mode)
-    previous = np.array(tuple(getattr(pose_bone, prop)), dtype=np.float64)
-    path = bone_path(name)
-    channels = [(f"{path}.{prop}", k, name) for k in range(size)]
+def rotation_keyer(obj, names):
+    """rotation_keys of some bones as a function of q alone: their rotation modes and current values are
+    read here, so that the function touches no Blender data (it may run on a worker thread)."""
+    names = list(names)
+    bones = [obj.pose.bones[name] for name in names]
+    modes = [bone.rotation_mode for bone in bones]
+    properties = [rotation_channels.channel_property(mode) for mode in modes]
+    previous = [np.array(tuple(getattr(bone, prop)), dtype=np.float64) for bone, (prop, _) in zip(bones, properties)]
+    channels = [(f"{bone_path(name)}.{prop}", k, name) for name, (prop, size) in zip(names, properties)
+                for k in range(size)]
+    rows = np.cumsum([0] + [size for _, size in properties])  # each bone's first row in the values
+    by_mode = {}
+    for j, mode in enumerate(modes):
+        by_mode.setdefault(mode, []).append(j)
 
     def keys(q, *, placeholder: bool = False) -> tuple[list, np.ndarray]:
+        q = np.asarray(q, dtype=np.float64)
+        values = np.zeros((rows[-1], len(q)))
         if placeholder:
-            values = np.zeros((len(q), size))
-        else:
-            values = rotation_channels.from_quaternions(native_state.native(), mode, np.ascontiguousarray(q),
-                                                        previous=previous)
-        return list(channels), values.reshape(-1, size).T
+            return list(channels), values
+        per_bone = q.reshape(len(q), len(names), 4)
+        for mode, group in by_mode.items():
+            converted = rotation_channels.from_quaternions(native_state.native(), mode, per_bone[:, group],
+                                                           previous=np.array([previous[j] for j in group]))
+            for column, j in enumerate(group):
+                values[rows[j]:rows[j + 1]] = converted[:, column].T
+        return list(channels), values
 
     return keys
 

@@ -61,58 +61,76 @@ def to_quaternions(native, mode: str, block, what: str = "rotation", frames=None
 
 
 def from_quaternions(native, mode: str, q, previous=None) -> np.ndarray:
-    """Unit quaternions (n, 4) to channel values in mode, continuous from row to row.
+    """Unit quaternions to channel values in mode, continuous from row to row: q (n, 4) gives (n, size),
+    q (n, k, 4), k bones in one native call, gives (n, k, size).
 
-    previous: the channel values just before the first row (the first row is
+    previous: the channel values just before the first row, (size,) or (k, size) (the first row is
     made closest to them), or None. Euler angles are continuous as Blender's
     to_euler(order, compat) makes them; quaternions keep one hemisphere;
     axis-angle keeps its axis from flipping.
     """
-    q = np.ascontiguousarray(q, dtype=np.float64)
-    n = len(q)
+    q = np.asarray(q, dtype=np.float64)
+    single = q.ndim == 2
+    if single:
+        q = q[:, None]
+    n, k = q.shape[:2]
+    if previous is not None:
+        previous = np.asarray(previous, dtype=np.float64).reshape(k, -1)
     if mode in EULER_MODES:
         order, axes = euler_order(mode)
-        start = np.zeros(3) if previous is None else np.asarray(previous, dtype=np.float64)[axes]
-        angles = np.empty((n, 3))
-        if n:
-            native.quaternion_to_euler(q, order, angles, True, start)
-        out = np.empty((n, 3))
-        out[:, axes] = angles
-        return out
+        start = np.zeros(3 * k) if previous is None else np.ascontiguousarray(previous[:, axes]).ravel()
+        angles = np.empty((n, k, 3))
+        if n and k:
+            native.quaternion_to_euler(np.ascontiguousarray(q.reshape(n, 4 * k)), order, angles.reshape(n, 3 * k),
+                                       True, start)
+        out = np.empty((n, k, 3))
+        out[..., axes] = angles
+        return out[:, 0] if single else out
     reference = None
     if previous is not None:
-        reference = to_quaternions(native, mode, np.asarray(previous, dtype=np.float64)[None, :])[0]
+        reference = to_quaternions(native, mode, previous)
     q = sign_continuous(q, reference)
-    if mode == 'QUATERNION':
-        return q
-    if mode != 'AXIS_ANGLE':
+    if mode == 'AXIS_ANGLE':
+        out = _axis_angles(q, previous)
+    elif mode == 'QUATERNION':
+        out = q
+    else:
         raise ValueError(f"unknown rotation mode {mode!r}")
+    return out[:, 0] if single else out
+
+
+def _axis_angles(q, previous) -> np.ndarray:
+    """Axis-angle channels (n, k, 4) of sign-continuous quaternions (n, k, 4)."""
     # q and -q give angle and 2*pi - angle about opposite axes: the sign
-    # continuity above keeps both the angle and the axis from jumping.
-    vector = q[:, 1:]
-    sin_half = np.linalg.norm(vector, axis=1)
-    angle = 2.0 * np.arctan2(sin_half, q[:, 0])
-    axis = np.divide(vector, sin_half[:, None], out=np.zeros_like(vector), where=sin_half[:, None] > 1e-12)
-    # Where the angle vanishes the axis is free: keep the last defined one.
+    # continuity keeps both the angle and the axis from jumping.
+    n, k = q.shape[:2]
+    vector = q[..., 1:]
+    sin_half = np.linalg.norm(vector, axis=2)
+    angle = 2.0 * np.arctan2(sin_half, q[..., 0])
+    axis = np.divide(vector, sin_half[..., None], out=np.zeros_like(vector), where=sin_half[..., None] > 1e-12)
+    # Where the angle vanishes the axis is free: keep the last defined one (the previous value's before any).
     defined = sin_half > 1e-12
     if not defined.all():
-        first = np.asarray(previous[1:], dtype=np.float64) if previous is not None else np.array([0.0, 1.0, 0.0])
-        axis = np.vstack([first, axis])
-        last = np.maximum.accumulate(np.where(np.concatenate([[True], defined]), np.arange(n + 1), 0))
-        axis = axis[last][1:]
-    return np.hstack([angle[:, None], axis])
+        first = previous[:, 1:] if previous is not None else np.tile([0.0, 1.0, 0.0], (k, 1))
+        axis = np.concatenate([first[None], axis])
+        rows = np.arange(n + 1)[:, None]
+        last = np.maximum.accumulate(np.where(np.concatenate([np.ones((1, k), bool), defined]), rows, 0), axis=0)
+        axis = np.take_along_axis(axis, last[..., None], axis=0)[1:]
+    return np.concatenate([angle[..., None], axis], axis=2)
 
 
 def sign_continuous(q, previous=None) -> np.ndarray:
-    """Flip rows of q so that each has a non-negative dot product with the one before."""
+    """Flip rows of q (n, 4), or of each column of q (n, k, 4), so that each has a non-negative dot product
+    with the one before (the first with previous, (4,) or (k, 4), when given)."""
     q = np.array(q, dtype=np.float64)
     if not len(q):
         return q
-    dots = np.einsum("ij,ij->i", q[1:], q[:-1])
-    flips = np.concatenate([[previous is not None and float(np.dot(q[0], previous)) < 0.0],
-                            dots < 0.0])
-    sign = np.where(np.logical_xor.accumulate(flips), -1.0, 1.0)
-    return q * sign[:, None]
+    dots = np.einsum("i...j,i...j->i...", q[1:], q[:-1])
+    first = np.zeros(q.shape[1:-1], dtype=bool) if previous is None else \
+        np.einsum("...j,...j->...", q[0], np.asarray(previous, dtype=np.float64).reshape(q.shape[1:])) < 0.0
+    flips = np.concatenate([first[None], dots < 0.0])
+    sign = np.where(np.logical_xor.accumulate(flips, axis=0), -1.0, 1.0)
+    return q * sign[..., None]
 
 
 def multiply(a, b) -> np.ndarray:

@@ -11,7 +11,6 @@ through the same forward/up axis options as Blender's own importer.
 from __future__ import annotations
 
 import os
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import bpy
@@ -198,21 +197,21 @@ def load(filepath: str, options: ImportOptions | None = None, *, context=None, n
             channels += [(f"{path}.{prop}", k, bone) for k in range(size)]
         matrix = np.empty((len(channels), motion.frames))
 
-        def fill(row, kind, i):
+        eulers = {}  # Euler mode -> [(row, joint)]: one native call per mode, its joints spread over the cores
+        for row, kind, i in fills:
             if kind == 'LOCATION':
                 matrix[row:row + 3] = locations[:, 3 * i:3 * i + 3].T
             elif kind == 'QUATERNION':
                 matrix[row:row + 4] = rotations[:, 4 * i:4 * i + 4].T
             else:
-                order, axes = rotation_channels.euler_order(kind)
-                angles = np.empty((motion.frames, 3))
-                native.quaternion_to_euler(np.ascontiguousarray(rotations[:, 4 * i:4 * i + 4]), order, angles)
-                matrix[[row + a for a in axes]] = angles.T
-
-        # Each joint's continuous Euler angles are a native call that releases the GIL: joints in parallel.
-        with ThreadPoolExecutor(max_workers=os.cpu_count() or 1) as pool:
-            for done in [pool.submit(fill, *f) for f in fills]:
-                done.result()
+                eulers.setdefault(kind, []).append((row, i))
+        for kind, joints in eulers.items():
+            order, axes = rotation_channels.euler_order(kind)
+            columns = (4 * np.array([i for _, i in joints])[:, None] + np.arange(4)).ravel()
+            angles = np.empty((motion.frames, 3 * len(joints)))
+            native.quaternion_to_euler(np.ascontiguousarray(rotations[:, columns]), order, angles)
+            for k, (row, _) in enumerate(joints):
+                matrix[[row + a for a in axes]] = angles[:, 3 * k:3 * k + 3].T
 
         action = animdata.new_action(name)
         created.append(action)

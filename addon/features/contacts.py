@@ -593,11 +593,9 @@ def _channels(obj, bones, names, rotations, locations, hip):
     index = {b.name: i for i, b in enumerate(bones)}
     channels = [(f"{pose_channels.bone_path(hip)}.location", k, hip) for k in range(3)]
     rows = [locations[:, 3 * index[hip]:3 * index[hip] + 3].T]
-    for name in names:
-        bone_channels, values = pose_channels.rotation_keys(obj, name, rotations[:, 4 * index[name]:4 * index[name] + 4])
-        channels += bone_channels
-        rows.append(values)
-    return channels, np.vstack(rows)
+    columns = (4 * np.array([index[name] for name in names], dtype=np.int64)[:, None] + np.arange(4)).ravel()
+    bone_channels, values = pose_channels.rotation_keys(obj, names, rotations[:, columns])
+    return channels + bone_channels, np.vstack(rows + [values])
 
 
 def plant(armature, frame_range=None, settings: ContactSettings | None = None, detect: bool = True, *,

@@ -370,12 +370,15 @@ def _outside_chains(bones, names, effectors) -> np.ndarray:
 def _channels(plan_: Plan) -> tuple[list, np.ndarray]:
     channels, rows = [], []
     frames = plan_.frames.size
-    for b in np.flatnonzero(plan_.moved):
-        bone = plan_.bones[b]
-        if b == 0:
-            channels += [(f"{pose_channels.bone_path(bone.name)}.location", k, bone.name) for k in range(3)]
-            rows.append(plan_.root_locations.T)
-        bone_channels, values = pose_channels.rotation_keys(plan_.obj, bone.name, plan_.rotations[:, 4 * b:4 * b + 4])
+    moved = np.flatnonzero(plan_.moved)
+    if moved.size and moved[0] == 0:
+        root = plan_.bones[0].name
+        channels += [(f"{pose_channels.bone_path(root)}.location", k, root) for k in range(3)]
+        rows.append(plan_.root_locations.T)
+    if moved.size:
+        columns = (4 * moved[:, None] + np.arange(4)).ravel()
+        bone_channels, values = pose_channels.rotation_keys(plan_.obj, [plan_.bones[b].name for b in moved],
+                                                            plan_.rotations[:, columns])
         channels += bone_channels
         rows.append(values)
     values = np.vstack(rows) if rows else np.empty((0, frames))
@@ -406,16 +409,9 @@ def apply_keys(plan_: Plan, *, new_action: bool = True, action_name: str | None 
         if action is None:
             action = current.copy() if current is not None else animdata.new_action(action_name or f"{obj.name} IK")
         action.name = action_name or f"{current.name if current else obj.name} IK"
-        try:
-            animdata.write_keys(obj, action, channels, plan_.frames, values)
-            if current is not None and current.users == 1 and not current.use_fake_user:
-                current.use_fake_user = True
-            animdata.assign(obj, action)
-        except BaseException:
-            if copy is None:
-                bpy.data.actions.remove(action)
-            raise
-        return action
+        return animdata.install_action(obj, action,
+                                       lambda action: animdata.write_keys(obj, action, channels, plan_.frames, values),
+                                       owned=copy is None)
     animdata.write_keys(obj, current, channels, plan_.frames, values)
     return current
 

@@ -222,7 +222,7 @@ class _PlantedFeet:
     prepare: object   # () -> solve, () -> the native result (no Blender data touched)
     finish: object    # (result) -> (rotations, locations, report), the solved legs written into the plan's pose
     bones: set        # names of the bones whose channels the solve changes
-    channels: object  # () -> (channels, values) of those bones, from the plan's pose (no Blender data read)
+    channels: object  # () -> (channels, values) of those bones from the plan's pose, reading no Blender data
     _thread: threading.Thread | None = None
     _outcome: tuple = ()
 
@@ -410,9 +410,9 @@ def plan(source, target, bone_map=None, frame_range=None, root: str = "scaled", 
                               bvh.frame_rate(action), beside=defer_solve)
     if planted is not None:
         keyed = {tgt.index(b) for f in planted[2] for b in (f.thigh, f.shin, f.foot)} | {target_root}
-        keyers = {b: pose_channels.rotation_keyer(tgt.obj, tgt.names[b]) for b in keyed}
+        keyer = pose_channels.rotation_keyer(tgt.obj, [tgt.names[b] for b in sorted(keyed)])
         pending = _PlantedFeet(planted[0], planted[1], {tgt.names[b] for b in keyed}, lambda: _target_channels(
-            tgt, rotations, target_basis, bone_map_idx, located, locations, keyed, keyed, keyers=keyers)[0])
+            tgt, rotations, target_basis, bone_map_idx, located, locations, keyed, keyed, keyer=keyer)[0])
         if defer_solve:
             pending.start()  # beside the rest of the plan and apply()'s writing
     else:
@@ -500,30 +500,33 @@ def _move_floor_root(native, tgt: _Side, target_pose: _Pose, rotations, location
 
 
 def _target_channels(tgt: _Side, rotations, target_basis, bone_map_idx, located, locations, only=None,
-                     keyed=frozenset(), placeholders=False, keyers=None):
+                     keyed=frozenset(), placeholders=False, keyer=None):
     """The F-curves to key, in each bone's own rotation mode: (channels, values) for the bones the retarget
     moves (and those in keyed) and the root's location, one key per frame; (channels, values) for the bones
     that keep the match pose, one key. only: the bone indices to give (default all). placeholders: the
-    keyed bones' values left at zero (the feet's solve fills them in). keyers: pose_channels.rotation_keyer
-    of every bone in only, which then reads no Blender data (for a worker thread)."""
-    moving, still = ([], []), ([], [])
+    keyed bones' values left at zero (the feet's solve fills them in). keyer: pose_channels.rotation_keyer
+    of the moving bones in only, in bone order, so that this reads no Blender data (for a worker thread)."""
     frames = rotations.shape[0]
-    for b, name in enumerate(tgt.names):
-        if only is not None and b not in only:
-            continue
-        q = rotations[:, 4 * b:4 * b + 4]
-        moved = (bone_map_idx[b] >= 0 or b in located or b in keyed
-                 or bool(np.any(np.abs(q @ target_basis[b]) < 1.0 - 1e-12)))
-        if b in located:
-            moving[0].extend((f"{pose_channels.bone_path(name)}.location", k, name) for k in range(3))
-            moving[1].append(locations[:, 3 * b:3 * b + 3].T)
-        keys = keyers[b] if keyers is not None else pose_channels.rotation_keyer(tgt.obj, name)
-        channels, values = keys(q if moved else q[:1], placeholder=placeholders and b in keyed)
-        out = moving if moved else still
-        out[0].extend(channels)
-        out[1].append(values)
-    stack = lambda rows, n: np.vstack(rows) if rows else np.empty((0, n))  # noqa: E731
-    return (moving[0], stack(moving[1], frames)), (still[0], stack(still[1], 1))
+    scope = [b for b in range(len(tgt.names)) if only is None or b in only]
+    moving = [b for b in scope if bone_map_idx[b] >= 0 or b in located or b in keyed
+              or bool(np.any(np.abs(rotations[:, 4 * b:4 * b + 4] @ target_basis[b]) < 1.0 - 1e-12))]
+    still = sorted(set(scope) - set(moving))
+    later = [b for b in moving if placeholders and b in keyed]  # zeros until the feet's solve
+    now = [b for b in moving if b not in later]
+    columns = lambda bones: (4 * np.array(bones, dtype=np.int64)[:, None] + np.arange(4)).ravel()  # noqa: E731
+    names = lambda bones: [tgt.names[b] for b in bones]  # noqa: E731
+    channels = [(f"{pose_channels.bone_path(tgt.names[b])}.location", k, tgt.names[b]) for b in moving if b in located
+                for k in range(3)]
+    rows = [locations[:, 3 * b:3 * b + 3].T for b in moving if b in located]
+    for bones, placeholder in ((now, False), (later, True)):
+        if bones:
+            keys = keyer if keyer is not None and not placeholder else pose_channels.rotation_keyer(tgt.obj, names(bones))
+            more, values = keys(rotations[:, columns(bones)], placeholder=placeholder)
+            channels += more
+            rows.append(values)
+    still_channels, still_values = pose_channels.rotation_keys(tgt.obj, names(still), rotations[:1, columns(still)]) \
+        if still else ([], np.empty((0, 1)))
+    return (channels, np.vstack(rows) if rows else np.empty((0, frames))), (still_channels, still_values)
 
 
 def apply(plan_: Plan, *, action_name: str | None = None, overwrite: bool = False) -> bpy.types.Action:
@@ -534,16 +537,8 @@ def apply(plan_: Plan, *, action_name: str | None = None, overwrite: bool = Fals
         plan_.resolve()  # everything computed before the user's own action changes
         _write(target, previous, plan_)
         return previous
-    action = animdata.new_action(action_name or f"{plan_.source_name} -> {target.name}")
-    try:
-        _write(target, action, plan_)
-        if previous is not None and previous.users == 1 and not previous.use_fake_user:
-            previous.use_fake_user = True  # the user's action must outlive losing its last user
-        animdata.assign(target, action)
-    except BaseException:
-        bpy.data.actions.remove(action)
-        raise
-    return action
+    return animdata.install_action(target, animdata.new_action(action_name or f"{plan_.source_name} -> {target.name}"),
+                                   lambda action: _write(target, action, plan_))
 
 
 def _write(target, action, plan_: Plan) -> None:

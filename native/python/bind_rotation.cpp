@@ -48,27 +48,18 @@ void BindRotation(py::module_& m) {
   m.def(
       "quaternion_to_euler",
       [](Eigen::Ref<const RowMatrixXd> quaternions, const std::string& order_text, Eigen::Ref<RowMatrixXd> out,
-         bool continuous, const Eigen::Vector3d& previous) {
-        const EulerOrder order = Order(order_text);
-        if (quaternions.cols() != 4 || out.cols() != 3) throw Error("quaternion_to_euler: quaternions (n, 4) and out (n, 3)");
-        CheckRows("quaternion_to_euler", quaternions.rows(), out.rows());
-        Eigen::Vector3d last = previous;
-        for (Eigen::Index i = 0; i < quaternions.rows(); ++i) {
-          const Eigen::Vector4d& q = quaternions.row(i).transpose();
-          if (!q.allFinite() || !(q.norm() > 1e-12)) {
-            throw Error("quaternion_to_euler: quaternion " + std::to_string(i) + " is zero or not finite");
-          }
-          const Eigen::Quaterniond unit = Eigen::Quaterniond(q[0], q[1], q[2], q[3]).normalized();
-          last = continuous ? QuaternionToEulerCompatible(unit, order, last) : QuaternionToEuler(unit, order);
-          out.row(i) = last.transpose();
-        }
+         bool continuous, const Eigen::VectorXd& previous, int threads) {
+        QuaternionsToEulers(quaternions, Order(order_text), out, continuous, previous, threads).ThrowIfFailed();
       },
       "quaternions"_a.noconvert(), "order"_a, "out"_a.noconvert(), "continuous"_a = true,
-      "previous"_a = Eigen::Vector3d::Zero(), py::call_guard<py::gil_scoped_release>(),
+      "previous"_a = Eigen::VectorXd(), "threads"_a = 0, py::call_guard<py::gil_scoped_release>(),
       R"pbdoc(
         w x y z quaternions to intrinsic Euler angles (radians, letter order), in
-        place. continuous=True makes each row the equivalent triple closest to the
-        row before (the first to `previous`), as Blender's to_euler(order, compat).
+        place: quaternions (n, 4k) and out (n, 3k), each of the k column groups
+        one bone's sequence (k bones in one call, spread over `threads` threads,
+        0: every core). continuous=True makes each row the equivalent triple
+        closest to the row before (the first to `previous`, 3k angles, default
+        zeros), as Blender's to_euler(order, compat).
       )pbdoc");
 
   m.def("blender_euler_mode", [](const std::string& order) { return std::string(BlenderEulerMode(Order(order))); },

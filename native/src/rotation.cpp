@@ -1,5 +1,11 @@
 #include "motionkit/rotation.hpp"
 
+#include <algorithm>
+#include <string>
+#include <thread>
+
+#include "parallel.hpp"
+
 #include <cmath>
 
 namespace motionkit {
@@ -199,6 +205,39 @@ Eigen::Vector3d QuaternionToEulerCompatible(const Eigen::Quaterniond& q, EulerOr
   const Eigen::Vector3d first = NearestTurns(principal, previous);
   const Eigen::Vector3d second = NearestTurns(Alternate(principal), previous);
   return Distance(first, previous) > Distance(second, previous) ? second : first;
+}
+
+Status QuaternionsToEulers(ConstMatrixView quaternions, EulerOrder order, Eigen::Ref<RowMatrixXd> out,
+                           bool continuous, const Eigen::VectorXd& previous, int threads) {
+  const Eigen::Index groups = quaternions.cols() / 4, rows = quaternions.rows();
+  if (quaternions.cols() != 4 * groups || out.cols() != 3 * groups || out.rows() != rows) {
+    return Status::Fail("quaternion_to_euler: quaternions (n, 4k) and out (n, 3k), with as many rows");
+  }
+  if (previous.size() != 0 && previous.size() != 3 * groups) {
+    return Status::Fail("quaternion_to_euler: previous must hold 3 angles per quaternion group (" +
+                        std::to_string(3 * groups) + "), not " + std::to_string(previous.size()));
+  }
+  for (Eigen::Index c = 0; c < groups; ++c) {
+    for (Eigen::Index i = 0; i < rows; ++i) {
+      const Eigen::Vector4d q = quaternions.row(i).segment<4>(4 * c).transpose();
+      if (!q.allFinite() || !(q.norm() > 1e-12)) {
+        return Status::Fail("quaternion_to_euler: quaternion " + std::to_string(i) +
+                            (groups > 1 ? " of group " + std::to_string(c) : std::string()) +
+                            " is zero or not finite");
+      }
+    }
+  }
+  if (threads <= 0) threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  internal::ParallelFor(static_cast<int>(groups), threads, [&](int c) {
+    Eigen::Vector3d last = previous.size() ? Eigen::Vector3d(previous.segment<3>(3 * c)) : Eigen::Vector3d::Zero();
+    for (Eigen::Index i = 0; i < rows; ++i) {
+      const Eigen::Vector4d q = quaternions.row(i).segment<4>(4 * c).transpose();
+      const Eigen::Quaterniond unit = Eigen::Quaterniond(q[0], q[1], q[2], q[3]).normalized();
+      last = continuous ? QuaternionToEulerCompatible(unit, order, last) : QuaternionToEuler(unit, order);
+      out.row(i).segment<3>(3 * c) = last.transpose();
+    }
+  });
+  return Status::Ok();
 }
 
 }  // namespace motionkit

@@ -80,3 +80,20 @@ def test_quaternion_helpers_match_scipy():
     points = np.random.default_rng(3).normal(size=(7, 3))
     np.testing.assert_allclose(rc.rotate(wxyz(a[0]), points), a[0].apply(points), atol=1e-12)
     np.testing.assert_allclose(rc.multiply(wxyz(a), rc.conjugate(wxyz(a)))[:, 0], 1.0, atol=1e-12)
+
+
+@pytest.mark.parametrize("mode", rc.EULER_MODES + ('QUATERNION', 'AXIS_ANGLE'))
+def test_many_bones_in_one_call_equal_one_call_per_bone(native, mode):
+    """(n, k, 4) quaternions convert in one call per mode to what k separate calls give, each bone
+    continuous from its own previous value (rest poses and identities that leave axis-angle's axis free
+    included)."""
+    k = 5
+    q = np.stack([_wxyz(_smooth_rotations(120, seed)) for seed in range(k)], axis=1)
+    q[:10, 2] = [1.0, 0.0, 0.0, 0.0]  # a bone at rest for a while
+    q[::3, 1] *= -1.0  # hemisphere flips to undo
+    previous = rc.from_quaternions(native, mode, _wxyz(_smooth_rotations(k, 9)))  # (k, size)
+    together = rc.from_quaternions(native, mode, q, previous=previous)
+    assert together.shape == (120, k, rc.channel_property(mode)[1])
+    for j in range(k):
+        alone = rc.from_quaternions(native, mode, q[:, j], previous=previous[j])
+        assert np.array_equal(together[:, j], alone), j

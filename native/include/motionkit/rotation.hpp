@@ -13,6 +13,9 @@
 
 #include <Eigen/Geometry>
 
+#include "motionkit/error.hpp"
+#include "motionkit/types.hpp"
+
 namespace motionkit {
 
 enum class EulerOrder : std::uint8_t { kXYZ, kXZY, kYXZ, kYZX, kZXY, kZYX };
@@ -40,5 +43,15 @@ Eigen::Vector3d MatrixToEulerCompatible(const Eigen::Matrix3d& rotation, EulerOr
                                         const Eigen::Vector3d& previous);
 Eigen::Vector3d QuaternionToEulerCompatible(const Eigen::Quaterniond& q, EulerOrder order,
                                             const Eigen::Vector3d& previous);
+
+// Many bones' quaternions to Euler angles in one call: quaternions (n, 4k)
+// w x y z, out (n, 3k); column group c is one bone's sequence, each row made
+// the triple closest to the row before (the first to previous's 3 angles of
+// that group; previous may be empty for zeros) when continuous, as
+// QuaternionToEulerCompatible. Groups spread over `threads` threads (0: every
+// core); the same numbers whatever the count. Fails naming the row and group
+// of a zero or non-finite quaternion, before anything is written.
+Status QuaternionsToEulers(ConstMatrixView quaternions, EulerOrder order, Eigen::Ref<RowMatrixXd> out,
+                           bool continuous, const Eigen::VectorXd& previous, int threads = 0);
 
 }  // namespace motionkit
