@@ -114,15 +114,21 @@ files = "Reads and writes motion files (BVH) and presets the user chooses"
 '''
 
 
-def build(info: dict, build_dir: str, targets: list[str], werror: bool, jobs: int) -> str:
-    configure = [
-        "cmake", "-S", ROOT, "-B", build_dir,
-        f"-DPython_EXECUTABLE={info['executable']}",
-        f"-DPython_INCLUDE_DIR={info['include']}",
-        f"-DMOTIONKIT_WERROR={'ON' if werror else 'OFF'}",
-    ]
+def cmake_options(executable: str, include: str, everything: bool, werror: bool) -> list[str]:
+    """CMake's options for a build for the Python at executable; everything: the native tests and
+    benchmarks too (they need GoogleTest and Google Benchmark, which the add-on alone does not)."""
+    extras = "ON" if everything else "OFF"
+    return [f"-DPython_EXECUTABLE={executable}", f"-DPython_INCLUDE_DIR={include}",
+            f"-DMOTIONKIT_WERROR={'ON' if werror else 'OFF'}",
+            f"-DMOTIONKIT_BUILD_TESTS={extras}", f"-DMOTIONKIT_BUILD_BENCHMARKS={extras}"]
+
+
+def build(info: dict, build_dir: str, everything: bool, werror: bool, jobs: int) -> str:
+    configure = ["cmake", "-S", ROOT, "-B", build_dir,
+                 *cmake_options(info["executable"], info["include"], everything, werror)]
     subprocess.run(configure, check=True)
-    subprocess.run(["cmake", "--build", build_dir, "-j", str(jobs), "--target", *targets], check=True)
+    subprocess.run(["cmake", "--build", build_dir, "-j", str(jobs), "--target", "all" if everything else "_native"],
+                   check=True)
     module = os.path.join(build_dir, "_native" + info["ext_suffix"])
     if not os.path.isfile(module):
         fail(f"the build did not produce {module}: its suffix does not match Blender's Python "
@@ -185,8 +191,7 @@ def main() -> None:
     print(f"build_addon.py: Blender {info['blender']} runs Python {info['python_full']} "
           f"({info['executable']}, {info['ext_suffix']})")
     build_dir = args.build_dir or os.path.join(ROOT, "build", "py" + info["python"].replace(".", ""))
-    targets = ["all"] if args.all else ["_native"]
-    module = build(info, build_dir, targets, args.werror, args.jobs)
+    module = build(info, build_dir, args.all, args.werror, args.jobs)
     path = package(info, module, version, native_loader.running_platform(), args.dist)
     print(f"build_addon.py: wrote {os.path.relpath(path, os.getcwd())}")
 
