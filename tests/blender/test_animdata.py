@@ -40,7 +40,12 @@ def test_keys_written_in_bulk_drive_the_pose(animdata):
         np.testing.assert_allclose(pose_bone.rotation_quaternion, quat[:, k], atol=1e-6)
         np.testing.assert_allclose(pose_bone.location, loc[:, k], atol=1e-6)
     assert [c.data_path for c in animdata.fcurves(action, obj)][:1] == [f"{bone}.rotation_quaternion"]
-    assert action.groups["Arm"] is not None if not animdata.LAYERED else True
+    # The bone's curves are grouped under its name, where the Graph Editor shows them: the action's groups
+    # (legacy) or the channel bag's (5.x).
+    curves = animdata.fcurves(action, obj)
+    groups = action.groups if not animdata.LAYERED else \
+        action.layers[0].strips[0].channelbag(obj.animation_data.action_slot).groups
+    assert "Arm" in groups and all(fc.group is not None and fc.group.name == "Arm" for fc in curves)
 
 
 def test_curves_live_where_this_blender_keeps_them(animdata):

@@ -92,9 +92,11 @@ def test_euler_import_is_exact_and_continuous(mk, native, shared_dir, mode):
     obj, action = check_import_against_fk(mk, native, path, rotation_mode=mode)
     curves = [fc for fc in mk.animdata.fcurves(action, obj) if fc.data_path.endswith("rotation_euler")]
     assert curves
-    for fc in curves:
-        _, values = mk.animdata.read_keys(fc)
-        assert np.max(np.abs(np.diff(values))) < np.pi, fc.data_path
+    steps = {fc.data_path + f"[{fc.array_index}]": float(np.max(np.abs(np.diff(mk.animdata.read_keys(fc)[1]))))
+             for fc in curves}
+    print(f"\n{mode}: largest step of an Euler channel between frames {max(steps.values()):.4f} rad")
+    # A branch flip moves a channel by about pi or 2 pi; walk60's joints turn by far less a frame.
+    assert max(steps.values()) < 0.5, max(steps, key=steps.get)
 
 
 def test_options_scale_axes_and_frames(mk, native, tmp_path):

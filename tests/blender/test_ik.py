@@ -192,13 +192,28 @@ def test_operators_solve_bake_and_cancel_on_errors(mk, ik, walk60):
     assert set(bpy.data.actions) == actions and obj.animation_data.action == action
     bad.bone = "lToeJoint"
     hand = settings.effectors.add()
-    hand.bone, hand.target = "lWrist", empty("Goal", (0.3, -0.4, 1.4))
+    goal = empty("Goal", (0.3, -0.4, 1.4))
+    hand.bone, hand.target = "lWrist", goal
     settings.use_scene_range = False
     settings.frame_start, settings.frame_end = 1, 40
+    scene = bpy.context.scene
+    toes = {}
+    for frame in (5, 20, 40):
+        scene.frame_set(frame)
+        toes[frame] = tail(obj, "lToeJoint")
     assert bpy.ops.motionkit.ik_bake() == {'FINISHED'}
     baked = obj.animation_data.action
     assert baked != action and action.use_fake_user
+    # Blender's own evaluation of the baked keys: the hand on the goal, the pinned toe where it was.
+    for frame in (5, 20, 40):
+        scene.frame_set(frame)
+        assert (tail(obj, "lWrist") - goal.location).length < 1e-4, frame
+        assert (tail(obj, "lToeJoint") - toes[frame]).length < 1e-4, frame
+    goal.location = (0.2, -0.3, 1.3)
+    bpy.context.view_layer.update()
     assert bpy.ops.motionkit.ik_solve() == {'FINISHED'}
+    bpy.context.view_layer.update()
+    assert (tail(obj, "lWrist") - goal.location).length < 1e-4
     # The effector list through the generic list operator: add selects the new row, remove the active one.
     assert bpy.ops.motionkit.list_edit(list="ik_effectors", action='ADD') == {'FINISHED'}
     assert len(settings.effectors) == 3 and settings.active_effector == 2

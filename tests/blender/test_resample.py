@@ -261,7 +261,16 @@ def test_operator_reports_errors_and_resamples_selected_objects(mk, animdata):
     assert len(animdata.find_fcurve(action, obj, "location", 0).keyframe_points) == 100
     assert bpy.ops.motionkit.resample_keys('EXEC_DEFAULT', timing='STEP', step=4.0) == {'FINISHED'}
     assert len(animdata.find_fcurve(action, obj, "location", 0).keyframe_points) == 26
+    resampled = [animdata.find_fcurve(action, obj, "location", k) for k in range(3)]
+    dense = np.arange(1.0, 101.0, 0.25)
+    before = np.array([[fc.evaluate(t) for t in dense] for fc in resampled])
     assert bpy.ops.motionkit.reduce_keys('EXEC_DEFAULT', tolerance=1e-3) == {'FINISHED'}
+    reduced = [animdata.find_fcurve(action, obj, "location", k) for k in range(3)]
+    # location is one group keyed together (sin and cos of the frame need every key at step 4): no more
+    # keys than before, and the curves within the tolerance of the ones they replace.
+    assert sum(len(fc.keyframe_points) for fc in reduced) <= 3 * 26
+    after = np.array([[fc.evaluate(t) for t in dense] for fc in reduced])
+    assert np.max(np.abs(after - before)) <= 1e-3 + 1e-6
 
 
 def test_reduce_keys_stays_within_tolerance(mk, animdata, native):

@@ -333,6 +333,13 @@ def test_batch_retargets_a_folder_of_files(mk, walk60, shared_dir):
     assert [a.name for a in actions] == [os.path.splitext(os.path.basename(f))[0] for f in files]
     assert set(bpy.data.objects) == objects  # the imported sources are gone again
     assert all(a.use_fake_user for a in actions)
+    # Each action holds its own file's motion: a key per source frame, planted-feet curves and all.
+    for path, action in zip(files, actions):
+        _, motion = mk.native().read_bvh(path)
+        curves = mk.animdata.fcurves(action, target)
+        hips = next(fc for fc in curves if fc.data_path.endswith(".location") and fc.array_index == 0)
+        assert len(hips.keyframe_points) == motion.frames, path
+        assert any("motionkit_contact" in fc.data_path for fc in curves), path
 
 
 def test_a_bvh_path_as_source_stays_in_the_scene_and_a_failure_removes_it(mk, walk60):

@@ -4,6 +4,7 @@ import math
 import bvh_cases
 import numpy as np
 import pytest
+from rotations import quaternion_angles
 from scipy.spatial.transform import Rotation
 
 ORDERS = bvh_cases.ORDERS
@@ -15,7 +16,8 @@ def wxyz(rotation):
 
 
 def same_rotation(q1, q2, atol=1e-12):
-    return np.all(np.abs(np.abs(np.sum(q1 * q2, axis=-1)) - 1.0) < atol)
+    """Every pair within atol radians of each other (the angle between them, not |q1 . q2| ~ 1)."""
+    return quaternion_angles(q1, q2).max() < atol
 
 
 @pytest.mark.parametrize("order", ORDERS)
