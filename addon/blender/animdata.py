@@ -227,8 +227,9 @@ def write_keys(id_data: bpy.types.ID, action: bpy.types.Action, channels: Iterab
 
 
 # Interpolation and handle types are one byte in each key. Blender 4.x and
-# later copy a uint8 buffer straight into the keys (~5 ns a key, where an int32
-# buffer goes through RNA key by key at ~70 ns); Blender 3.x takes the uint8
+# later copy a uint8 buffer straight into the keys (an int32 buffer goes
+# through RNA key by key, an order of magnitude slower: docs/benchmarks.md,
+# "Writing F-curve keys"); Blender 3.x takes the uint8
 # call and changes nothing, and also ignores int32 for the handle types (fixed
 # by 4.x). So each property keeps the first way that is seen to work, checked
 # on every curve: uint8, int32, then the keys' BezTriple bytes directly
@@ -237,8 +238,8 @@ def write_keys(id_data: bpy.types.ID, action: bpy.types.Action, channels: Iterab
 _BEZTRIPLE_SIZE = 72
 _KEY_BYTE = {"interpolation": 48, "handle_left_type": 49, "handle_right_type": 50}
 # Blender 4.x and later copy uint8 buffers straight in; 3.x goes through RNA
-# key by key for any buffer (54 ns a key), so there the checked byte write,
-# 7 ns a key, comes first.
+# key by key for any buffer, so there the checked byte write, several times
+# faster (docs/benchmarks.md), comes first.
 _WAYS = ("uint8", "int32", "keys") if bpy.app.version >= (4, 0, 0) else ("keys", "uint8", "int32")
 _enum_way: dict[str, str] = {}
 
@@ -272,8 +273,8 @@ def _set_enum(points, prop: str, codes: np.ndarray, values: dict) -> None:
 
 # A key's frame and value are BezTriple.vec[1][0] and vec[1][1], float32 at
 # byte 12, its handles vec[0] and vec[2]. Blender's foreach_get and foreach_set
-# of "co" go through RNA key by key (35-50 ns a key); the keys' own array is a
-# memory copy. It is used only where the layout is seen to hold: consecutive
+# of "co" go through RNA key by key; the keys' own array is a memory copy
+# (docs/benchmarks.md has both per key). It is used only where the layout is seen to hold: consecutive
 # keys 72 bytes apart, and the first and last keys' bytes equal to what RNA
 # reports for their co, interpolation and handle types (their frames differ,
 # so the check cannot pass on zeros).

@@ -149,8 +149,9 @@ def armature_motion(obj, action, frames, rig=None, bones=None) -> tuple[np.ndarr
     if rig is None:
         rig, bones = native_rig(obj.data)
     moved, _ = locations(obj, action, bones, frames)
-    return native_state.native().armature_pose(rig, rotations(obj, action, bones, frames),
-                                               np.ascontiguousarray(moved))
+    with native_state.blender_frames(frames):
+        return native_state.native().armature_pose(rig, rotations(obj, action, bones, frames),
+                                                   np.ascontiguousarray(moved))
 
 
 def current_pose(obj, bones) -> tuple[np.ndarray, np.ndarray]:

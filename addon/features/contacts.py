@@ -490,7 +490,8 @@ def _cleanup_steps(obj, bones, rig, frames, rotations, locations, feet, contacts
         source = "detected"
     else:
         source = "given"
-    targets_world, _ = plant_targets(native, world_points, contacts, settings.blend_frames(fps), _RIGID)
+    with native_state.blender_frames(frames):
+        targets_world, _ = plant_targets(native, world_points, contacts, settings.blend_frames(fps), _RIGID)
     inverse = np.linalg.inv(leg_rig.world)
     targets = targets_world @ inverse[:3, :3].T + inverse[:3, 3]
 
@@ -540,11 +541,11 @@ def _cleanup_steps(obj, bones, rig, frames, rotations, locations, feet, contacts
     def solve():
         solve_started = time.perf_counter()
         try:
-            result = native.ik_solve(*arguments, **options)
+            with native_state.blender_frames(frames):
+                result = native.ik_solve(*arguments, **options)
         except ValueError as error:
-            # The native message names the effector (foot, bone) and the frame index: give the Blender frame.
-            raise ValueError(f"foot cleanup on '{name}' (frames {frames[0]:g}..{frames[-1]:g}, frame index "
-                             f"i is Blender frame {frames[0]:g} + i): {error}") from None
+            # The native message names the effector (foot, bone) and the frame.
+            raise ValueError(f"foot cleanup on '{name}': {error}") from None
         report.solve_seconds = time.perf_counter() - solve_started
         return result
 

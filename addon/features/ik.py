@@ -150,7 +150,8 @@ def _targets(obj, effectors, frames):
             if world.shape != (frames.size, 3):
                 raise ValueError(f"{effector.label()}: target positions must be (3,) or ({frames.size}, 3)")
         if not np.all(np.isfinite(world)):
-            raise ValueError(f"{effector.label()}: the target is not finite")
+            bad = np.flatnonzero(~np.isfinite(np.asarray(world).reshape(frames.size, -1)).all(axis=1))[0]
+            raise ValueError(f"{effector.label()}: the target is not finite at frame {frames[bad]:g}")
         positions[:, 3 * e:3 * e + 3] = world @ to_armature[:3, :3].T + to_armature[:3, 3]
         if effector.orientation:
             if rotation is None:
@@ -231,16 +232,17 @@ def plan(obj, effectors, frame_range=None, method: str = "dls", *, root_translat
         options["excluded"] = _outside_chains(bones, names, effectors)
 
     def run():
-        return native.ik_solve(
-            rig, np.ascontiguousarray(input_rotations), np.ascontiguousarray(input_locations),
-            np.ascontiguousarray(positions), np.ascontiguousarray(orientations),
-            [{"name": e.label(), "bone": names.index(e.bone), "weight": float(e.weight),
-              "position": e.position,
-              "orientation": e.orientation, "pin": e.pin} for e in effectors],
-            method=method, max_iterations=max_iterations,
-            tolerance=float(tolerance if tolerance is not None else 1e-5 * height),
-            damping=damping, regularization=regularization, reference=reference,
-            root_translation=root_translation, root_rotation=root_rotation, size=size, **options)
+        with native_state.blender_frames(frames):
+            return native.ik_solve(
+                rig, np.ascontiguousarray(input_rotations), np.ascontiguousarray(input_locations),
+                np.ascontiguousarray(positions), np.ascontiguousarray(orientations),
+                [{"name": e.label(), "bone": names.index(e.bone), "weight": float(e.weight),
+                  "position": e.position,
+                  "orientation": e.orientation, "pin": e.pin} for e in effectors],
+                method=method, max_iterations=max_iterations,
+                tolerance=float(tolerance if tolerance is not None else 1e-5 * height),
+                damping=damping, regularization=regularization, reference=reference,
+                root_translation=root_translation, root_rotation=root_rotation, size=size, **options)
 
     if alongside is None:
         solved = run()

@@ -316,7 +316,8 @@ def plan(source, target, bone_map=None, frame_range=None, root: str = "scaled", 
     # The source's channels are read once: posed here, and kept for its foot contacts.
     source_basis = pose_channels.rotations(src.obj, action, src.bones, frames)
     source_locations = np.ascontiguousarray(pose_channels.locations(src.obj, action, src.bones, frames)[0])
-    source_rotations, source_heads = native.armature_pose(src.rig, source_basis, source_locations)
+    with native_state.blender_frames(frames):
+        source_rotations, source_heads = native.armature_pose(src.rig, source_basis, source_locations)
     if source_match == 'FRAME':
         if match_frame is None:
             raise ValueError("a source match pose on a frame needs match_frame")
@@ -387,7 +388,8 @@ def plan(source, target, bone_map=None, frame_range=None, root: str = "scaled", 
         found = None if None in feet else contacts.find_contacts(
             src.obj, src.bones, src.rig, source_basis, source_locations, feet[0], contact_settings,
             fps=bvh.frame_rate(action), posed=(source_rotations, source_heads))
-        rotations, root_locations = retargeted.result()
+        with native_state.blender_frames(frames):
+            rotations, root_locations = retargeted.result()
     locations = np.zeros((rotations.shape[0], 3 * len(tgt.bones)))
     locations[:, 3 * target_root:3 * target_root + 3] = root_locations
     located = [target_root]
