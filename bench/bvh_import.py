@@ -8,13 +8,12 @@ rotations in ZXY order), imports it with motionkit.bvh.load and, where it
 works (4.2+: 3.4's importer cannot open files under Python 3.11), with
 bpy.ops.import_anim.bvh, in the same rotation mode (quaternion, then each
 joint's own Euler order), and checks that both armatures pose the same on
-sampled frames before printing the ratio.
+sampled frames before printing the ratio; then Blender's floors for the keys the
+import writes (bench/harness.py).
 """
 from __future__ import annotations
 
-import argparse
 import os
-import statistics
 import sys
 import tempfile
 import time
@@ -22,11 +21,13 @@ import time
 import bpy
 import numpy as np
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-sys.path[:0] = [os.path.join(ROOT, "tools"), os.path.join(ROOT, "tests", "common")]
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))  # Blender's --python adds no folder
+
+import harness  # noqa: E402
+
+sys.path.insert(0, os.path.join(harness.ROOT, "tests", "common"))
 
 import bvh_cases  # noqa: E402
-import install_addon  # noqa: E402
 
 
 def skeleton_31():
@@ -71,14 +72,8 @@ def heads(obj, frame):
 
 
 def main() -> None:
-    argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
-    parser = argparse.ArgumentParser(prog="bvh_import.py")
-    parser.add_argument("--zip", required=True)
-    parser.add_argument("--frames", type=int, default=10_000)
-    parser.add_argument("--repeat", type=int, default=3)
-    args = parser.parse_args(argv)
-    install_addon.install(args.zip)
-    import motionkit
+    args, motionkit = harness.start("bvh_import.py", __doc__, lambda parser: parser.add_argument(
+        "--frames", type=int, default=10_000), repeat=3)
 
     text = bvh_cases.build(skeleton_31(), frames=args.frames, frame_time=1 / 60, seed=3)
     path = os.path.join(tempfile.mkdtemp(), "bench31.bvh")
@@ -91,6 +86,7 @@ def main() -> None:
           f"(median of {args.repeat})")
     print("| rotations | MotionKit s | Blender's importer s | MotionKit faster by |")
     print("|---|---:|---:|---:|")
+    totals = {}
     for mode in ('QUATERNION', 'NATIVE'):
         ours_times, theirs_times = [], []
         for _ in range(args.repeat):
@@ -109,12 +105,18 @@ def main() -> None:
                 b = np.array([np.array(theirs.matrix_world @ theirs.pose.bones[n].head) for n in names])
                 if not np.allclose(a, b, atol=1e-4):
                     raise SystemExit(f"bvh_import: the importers disagree at frame {frame} ({mode})")
-        ours_s = statistics.median(ours_times)
+        ours_s = harness.median(ours_times)
+        channels, frames, values, _ = harness.curve_keys(motionkit.animdata, motionkit.animdata.assigned_action(ours),
+                                                         ours)
+        totals[mode] = (ours_s, values.size, harness.floors(motionkit.animdata, ours, [], channels, frames, values,
+                                                            args.repeat))
         if builtin:
-            theirs_s = statistics.median(theirs_times)
+            theirs_s = harness.median(theirs_times)
             print(f"| {mode} | {ours_s:.3f} | {theirs_s:.3f} | {theirs_s / ours_s:.1f}x |")
         else:
             print(f"| {mode} | {ours_s:.3f} | (3.4's importer is broken) | |")
+    for mode, (ours_s, written, found) in totals.items():
+        harness.print_floors(f"bvh.load, {mode}", ours_s, found, 0, written)
 
 
 if __name__ == "__main__":

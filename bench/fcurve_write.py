@@ -11,23 +11,21 @@ keyframe_points.insert(frame, value) with default options and with
 options={'FAST'}, cost the same for every curve and grow quadratically with
 the keys per curve, so they run on --insert-curves whole curves and are scaled
 linearly to the full count (stated in the output). Every path must produce the
-same keys, checked with fcurve.evaluate, or the run fails.
+same keys, checked with fcurve.evaluate, or the run fails. Then Blender's floors for the same keys
+(bench/harness.py).
 """
 from __future__ import annotations
 
-import argparse
 import os
-import statistics
 import sys
 import time
 
 import bpy
 import numpy as np
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-sys.path.insert(0, os.path.join(ROOT, "tools"))
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))  # Blender's --python adds no folder
 
-import install_addon  # noqa: E402
+import harness  # noqa: E402
 
 
 def fresh_target():
@@ -69,16 +67,12 @@ def insert_loop(animdata, curves, frames, values, options):
 
 
 def main() -> None:
-    argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
-    parser = argparse.ArgumentParser(prog="fcurve_write.py")
-    parser.add_argument("--zip", required=True)
-    parser.add_argument("--curves", type=int, default=100)
-    parser.add_argument("--keys", type=int, default=10_000)
-    parser.add_argument("--insert-curves", type=int, default=5)
-    parser.add_argument("--repeat", type=int, default=3)
-    args = parser.parse_args(argv)
-    install_addon.install(args.zip)
-    import motionkit
+    def arguments(parser):
+        parser.add_argument("--curves", type=int, default=100)
+        parser.add_argument("--keys", type=int, default=10_000)
+        parser.add_argument("--insert-curves", type=int, default=5)
+
+    args, motionkit = harness.start("fcurve_write.py", __doc__, arguments, repeat=3)
     animdata = motionkit.animdata
 
     rng = np.random.default_rng(1)
@@ -90,7 +84,7 @@ def main() -> None:
     for _ in range(args.repeat):
         seconds, bulk_curves = bulk(animdata, args.curves, frames, values)
         bulk_times.append(seconds)
-    bulk_s = statistics.median(bulk_times)
+    bulk_s = harness.median(bulk_times)
     bulk_keys = [tuple(animdata.read_keys(fc)) for fc in bulk_curves[:args.insert_curves]]
 
     rows = [("MotionKit animdata.write_keys (bulk)", total, bulk_s, bulk_s)]
@@ -112,6 +106,10 @@ def main() -> None:
         ratio = full / bulk_s
         scaled = "" if keys == total else " (scaled)"
         print(f"| {label} | {keys:,} | {seconds:.3f} | {full:.2f}{scaled} | {ratio:.0f}x |")
+    target = fresh_target()
+    channels = [(f'["p{c}"]', 0) for c in range(args.curves)]
+    harness.print_floors("animdata.write_keys", bulk_s,
+                         harness.floors(animdata, target, [], channels, frames, values, args.repeat), 0, total)
 
 
 if __name__ == "__main__":

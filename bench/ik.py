@@ -27,19 +27,16 @@ depsgraph's pose matrices), for both; MotionKit's must be no larger.
 """
 from __future__ import annotations
 
-import argparse
 import os
-import statistics
 import sys
 import time
 
 import bpy
 import numpy as np
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path[:0] = [os.path.join(os.path.dirname(HERE), "tools"), HERE]
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))  # Blender's --python adds no folder
 
-import install_addon  # noqa: E402
+import harness  # noqa: E402
 import retarget as rig_bench  # noqa: E402  (the humanoid rig and its clip)
 
 EFFECTORS = (("arm_L_3", 4), ("arm_R_3", 4), ("leg_L_2", 3), ("leg_R_2", 3))  # bone, chain length
@@ -94,20 +91,16 @@ def run_blender_ik(obj, empties, bake_frames: int, into_current: bool):
 
 
 def main() -> None:
-    argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
-    parser = argparse.ArgumentParser(prog="ik.py")
-    parser.add_argument("--zip", required=True)
-    parser.add_argument("--frames", type=int, default=10_000)
-    parser.add_argument("--bones", type=int, default=60)
-    parser.add_argument("--repeat", type=int, default=3)
-    parser.add_argument("--bake-frames", type=int, default=500)
-    parser.add_argument("--keys-into", choices=("new", "current", "both"), default="both",
-                        help="time keying a new action, the current one, or both (the default)")
-    parser.add_argument("--rna-keys", action="store_true",
-                        help="keys through RNA's foreach_get/foreach_set only (motionkit.animdata.KEY_ARRAY = False)")
-    args = parser.parse_args(argv)
-    install_addon.install(args.zip)
-    import motionkit as mk
+    def arguments(parser):
+        parser.add_argument("--frames", type=int, default=10_000)
+        parser.add_argument("--bones", type=int, default=60)
+        parser.add_argument("--bake-frames", type=int, default=500)
+        parser.add_argument("--keys-into", choices=("new", "current", "both"), default="both",
+                            help="time keying a new action, the current one, or both (the default)")
+        parser.add_argument("--rna-keys", action="store_true", help="keys through RNA's foreach_get/foreach_set "
+                                                                     "only (motionkit.animdata.KEY_ARRAY = False)")
+
+    args, mk = harness.start("ik.py", __doc__, arguments, repeat=3)
     mk.animdata.KEY_ARRAY = not args.rna_keys
 
     scene = bpy.context.scene
@@ -119,7 +112,7 @@ def main() -> None:
     effectors = [mk.ik.Effector(bone, target=goal, chain_count=chain) for (bone, chain), goal in zip(EFFECTORS, empties)]
 
     check = np.unique(np.linspace(1, args.bake_frames, 12).round())
-    rows = []
+    rows, floor_rows = [], []
     kept = set(bpy.data.actions)  # the clip and the targets' paths
     for into_current in {"new": (False,), "current": (True,), "both": (False, True)}[args.keys_into]:
         # Each run on a fresh copy of the clip; both ways key a new action, or the action the rig plays.
@@ -135,8 +128,18 @@ def main() -> None:
             result = mk.ik.solve(obj, effectors, frame_range=(1, args.frames), root_translation=False,
                                  root_rotation=False, new_action=not into_current)
             times.append(time.perf_counter() - start)
-        ours_s = statistics.median(times)
+        ours_s = harness.median(times)
         ours = residuals(obj, empties, check)
+        baked = mk.animdata.assigned_action(obj)
+        read_curves = list(mk.animdata.fcurves(clip, obj))
+        # The keys the solve writes: the solved bones' curves (a new action also holds copies of the others).
+        channels, key_frames, values, _ = harness.curve_keys(mk.animdata, baked, obj)
+        solved = [i for i, (path, _, _) in enumerate(channels)
+                  if any(path.startswith(f'pose.bones["{bone}"]') for bone in result.bones)]
+        found = harness.floors(mk.animdata, obj, read_curves, [channels[i] for i in solved], key_frames,
+                               values[solved], args.repeat)
+        floor_rows.append((into_current, ours_s, found, sum(len(f.keyframe_points) for f in read_curves),
+                           values[solved].size))
         mk.animdata.assign(obj, clip.copy())
         setup_s, bake_s = run_blender_ik(obj, empties, args.bake_frames, into_current)
         theirs = residuals(obj, empties, check)
@@ -162,6 +165,9 @@ def main() -> None:
     result = rows[-1][-1]
     print(f"MotionKit's own residuals over all {args.frames:,} frames: mean {result.errors.mean():.1e}, "
           f"max {result.errors.max():.1e} m; median iterations {np.median(result.iterations):.0f}")
+    for into_current, ours_s, found, keys_read, keys_written in floor_rows:
+        harness.print_floors(f"ik.solve, keys into {'the current' if into_current else 'a new'} action", ours_s,
+                             found, keys_read, keys_written)
 
 
 if __name__ == "__main__":

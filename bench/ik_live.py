@@ -7,34 +7,28 @@ bench/retarget.py's humanoid at rest, four effectors (hands and feet, each to
 an empty at its tail), root from the pose. An empty is moved 3 mm, the
 depsgraph updated, and motionkit's live re-solve (ik_live.solve_live: read the
 pose, the limits and the targets, solve natively, write the pose) timed; the
-median and worst of --moves moves are printed.
+median and worst of --moves moves are printed. It writes the pose, not keys: no key-writing floor
+applies (bench/harness.py).
 """
 from __future__ import annotations
 
-import argparse
 import os
 import sys
 import time
 
 import bpy
-import numpy as np
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path[:0] = [os.path.join(os.path.dirname(HERE), "tools"), HERE]
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))  # Blender's --python adds no folder
 
-import install_addon  # noqa: E402
+import harness  # noqa: E402
 import ik as ik_bench  # noqa: E402
 import retarget as rig_bench  # noqa: E402
 
 
 def main() -> None:
-    argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
-    parser = argparse.ArgumentParser(prog="ik_live.py")
-    parser.add_argument("--zip", required=True)
-    parser.add_argument("--moves", type=int, default=50)
-    args = parser.parse_args(argv)
-    module = install_addon.install(args.zip)
-    live = __import__(module + ".features.ik_live", fromlist=["solve_live"])
+    args, mk = harness.start("ik_live.py", __doc__,
+                             lambda parser: parser.add_argument("--moves", type=int, default=50))
+    live = __import__(mk.__name__ + ".features.ik_live", fromlist=["solve_live"])
     obj = rig_bench.build_rig("Rig", 60, target=False)
     goals = []
     for bone, _ in ik_bench.EFFECTORS:
@@ -53,7 +47,7 @@ def main() -> None:
         live.solve_live(obj)
         times.append(time.perf_counter() - start)
     print(f"\nBlender {bpy.app.version_string}: live IK re-solve, 60 bones, 4 effectors: median "
-          f"{1000 * float(np.median(times)):.2f} ms, worst {1000 * max(times):.2f} ms over {args.moves} moves")
+          f"{1000 * harness.median(times):.2f} ms, worst {1000 * max(times):.2f} ms over {args.moves} moves")
 
 
 if __name__ == "__main__":

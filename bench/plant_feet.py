@@ -15,16 +15,15 @@ a floor root) by motionkit.retarget:
   solve over the clip, the contact curves written too);
 alternating, --repeat runs of each from the same state (the previous run's
 action removed first), medians and the median ratio of the pairs. The issue's budget: planting adds at most 50 %.
-- Blender's floor: animdata.write_keys of the planted retarget's own keys
-  (same curves, same frames) into a new action: what any tool that writes
-  these keys pays, however it computes them.
+- Blender's floors for the planted retarget's own keys (bench/harness.py):
+  what any tool that reads the source's keys and writes these pays, however
+  it computes them.
 Blender has no foot-sliding fix of its own to compare against (its IK
 constraints would need a target per contact, keyed by hand). Before the
 ratios are printed, every contact must hold to 1 mm (native FK of the keys).
 """
 from __future__ import annotations
 
-import argparse
 import importlib
 import os
 import statistics
@@ -35,25 +34,18 @@ import time
 import bpy
 import numpy as np
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-sys.path[:0] = [os.path.join(ROOT, "tools"), os.path.join(ROOT, "blend_samples")]
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))  # Blender's --python adds no folder
 
-import characters  # noqa: E402
+import harness  # noqa: E402
+import characters  # noqa: E402  (blend_samples, on the path harness sets)
 import generate  # noqa: E402
-import install_addon  # noqa: E402
 
-CAPTURE = os.path.join(os.path.dirname(ROOT), "shared", "data", "bvh", "more", "walk_and_turn_left.bvh")
+CAPTURE = os.path.join(harness.SHARED, "data", "bvh", "more", "walk_and_turn_left.bvh")
 
 
 def main() -> None:
-    argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
-    parser = argparse.ArgumentParser(prog="plant_feet.py")
-    parser.add_argument("--zip", required=True)
-    parser.add_argument("--frames", type=int, default=10_000)
-    parser.add_argument("--repeat", type=int, default=5)
-    args = parser.parse_args(argv)
-    install_addon.install(args.zip)
-    import motionkit as mk
+    args, mk = harness.start("plant_feet.py", __doc__,
+                             lambda parser: parser.add_argument("--frames", type=int, default=10_000))
     retargeting = importlib.import_module(mk.__name__ + ".features.retargeting")
     pose_channels = importlib.import_module(mk.__name__ + ".blender.pose_channels")
     animdata = mk.animdata
@@ -128,18 +120,10 @@ def main() -> None:
     curves = animdata.fcurves(action, target)
     keys = sum(len(fc.keyframe_points) for fc in curves)
 
-    # Blender's floor: the same keys written in bulk into a new action.
-    channels = [(fc.data_path, fc.array_index) for fc in curves]
-    values = [animdata.read_keys(fc) for fc in curves]
-    long = [(c, v) for c, v in zip(channels, values) if v[0].size == plan.frames.size]
-    floor_times = []
-    for _ in range(args.repeat):
-        fresh = animdata.new_action("floor")
-        start = time.perf_counter()
-        animdata.write_keys(target, fresh, [c for c, _ in long], plan.frames, np.array([v[1] for _, v in long]))
-        floor_times.append(time.perf_counter() - start)
-        remove(fresh)
-    floor_s = statistics.median(floor_times)
+    # Blender's floors for the same keys: the source's read, the planted retarget's per-frame curves written.
+    source_curves = list(animdata.fcurves(animdata.assigned_action(source), source))
+    channels, key_frames, values, _ = harness.curve_keys(animdata, action, target)
+    found = harness.floors(animdata, target, source_curves, channels, key_frames, values, args.repeat)
 
     print(f"\nBlender {bpy.app.version_string}: walk_and_turn_left.bvh there and back, {frames_count:,} frames at "
           f"{plan.frame_rate:g} fps, onto UnrealA ({len(curves)} F-curves, {keys:,} keys); {int(plan.contacts.any(axis=1).sum()):,} frames with "
@@ -149,8 +133,6 @@ def main() -> None:
     print(f"| motionkit.retarget, plant_feet=False | {plain_s:.3f} ({plain_lo:.3f}-{plain_hi:.3f}) | 1.00 |")
     print(f"| motionkit.retarget, plant_feet=True | {planted_s:.3f} ({planted_lo:.3f}-{planted_hi:.3f}) | "
           f"{planted_s / plain_s:.2f} (budget <= 1.50) |")
-    print(f"| Blender's floor: write_keys of the {len(long)} per-frame curves | {floor_s:.3f} | "
-          f"{floor_s / plain_s:.2f} |")
     print(f"per pair of runs, planted / plain: median {statistics.median(ratios):.2f}, "
           f"{ratios[0]:.2f}-{ratios[-1]:.2f}")
     print(f"from the BVH file (import included): plain {file_plain:.3f} s, planted {file_planted:.3f} s; per pair "
@@ -158,6 +140,8 @@ def main() -> None:
     print(f"planting alone: {planted_s - plain_s:.3f} s (+{100 * (planted_s / plain_s - 1):.0f} %); in one plan() "
           f"({plan_s:.3f} s) the cleanup took {report.seconds:.3f} s, its native solve {report.solve_seconds:.3f} s "
           f"({report.iterations:,} iterations)")
+    harness.print_floors("retarget, plant_feet=True", planted_s, found,
+                         sum(len(f.keyframe_points) for f in source_curves), values.size)
 
 
 if __name__ == "__main__":

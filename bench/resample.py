@@ -20,19 +20,16 @@ keys (every other one at 60 -> 24), where every interpolant equals the data.
 """
 from __future__ import annotations
 
-import argparse
 import os
-import statistics
 import sys
 import time
 
 import bpy
 import numpy as np
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-sys.path.insert(0, os.path.join(ROOT, "tools"))
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))  # Blender's --python adds no folder
 
-import install_addon  # noqa: E402
+import harness  # noqa: E402
 
 SOURCE_FPS, TARGET_FPS = 60, 24
 
@@ -113,16 +110,12 @@ def run_python_way(animdata, obj, source, curves: int):
 
 
 def main() -> None:
-    argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
-    parser = argparse.ArgumentParser(prog="resample.py")
-    parser.add_argument("--zip", required=True)
-    parser.add_argument("--frames", type=int, default=10_000)
-    parser.add_argument("--bones", type=int, default=60)
-    parser.add_argument("--python-curves", type=int, default=6)
-    parser.add_argument("--repeat", type=int, default=3)
-    args = parser.parse_args(argv)
-    install_addon.install(args.zip)
-    import motionkit as mk
+    def arguments(parser):
+        parser.add_argument("--frames", type=int, default=10_000)
+        parser.add_argument("--bones", type=int, default=60)
+        parser.add_argument("--python-curves", type=int, default=6)
+
+    args, mk = harness.start("resample.py", __doc__, arguments, repeat=3)
     animdata = mk.animdata
 
     obj = build_rig(args.bones)
@@ -137,7 +130,7 @@ def main() -> None:
                 bpy.data.actions.remove(action)
             seconds, action = run_motionkit(mk, animdata, obj, source, output)
             times.append(seconds)
-        results[output] = (statistics.median(times), action)
+        results[output] = (harness.median(times), action)
     python_s, python_curves = run_python_way(animdata, obj, source, args.python_curves)
     python_full = python_s * total_curves / args.python_curves
 
@@ -162,6 +155,12 @@ def main() -> None:
               f"| {seconds:.3f} | {python_full / seconds:.0f}x |")
     print(f"| fcurve.evaluate + keyframe_points.insert, {args.python_curves} curves timed ({python_s:.2f} s), "
           f"scaled to {total_curves} | {python_full:.1f} | |")
+    source_curves = list(animdata.fcurves(source, obj))
+    keys_in = sum(len(f.keyframe_points) for f in source_curves)
+    channels, frames, values, _ = harness.curve_keys(animdata, keys_out, obj)
+    harness.print_floors("resample, exact output", results['EXACT'][0],
+                         harness.floors(animdata, obj, source_curves, channels, frames, values, args.repeat),
+                         keys_in, values.size)
 
 
 if __name__ == "__main__":

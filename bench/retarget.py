@@ -34,7 +34,6 @@ are not expected to agree on orientations; how far the baked result is off
 """
 from __future__ import annotations
 
-import argparse
 import cProfile
 import io
 import math
@@ -48,10 +47,9 @@ import bpy
 import numpy as np
 from mathutils import Vector
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-sys.path[:0] = [os.path.join(ROOT, "tools"), os.path.dirname(os.path.abspath(__file__))]
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))  # Blender's --python adds no folder
 
-import install_addon  # noqa: E402
+import harness  # noqa: E402
 import resample as resample_bench  # noqa: E402
 
 CORE_BONES = 26  # hips, 6 spine, 2 neck, head, 2 x (clavicle, upper arm, forearm, hand), 2 x 4 leg bones
@@ -242,23 +240,20 @@ def run_constraint_way(source, target, pairs, bake_frames: int, all_channels: bo
 
 
 def main() -> None:
-    argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
-    parser = argparse.ArgumentParser(prog="retarget.py")
-    parser.add_argument("--zip", required=True)
-    parser.add_argument("--frames", type=int, default=10_000)
-    parser.add_argument("--bones", type=int, default=60)
-    parser.add_argument("--repeat", type=int, default=3)
-    parser.add_argument("--bake-frames", type=int, default=500,
-                        help="frames the constraint way is baked on, then scaled to --frames")
-    parser.add_argument("--bake-all-channels", action="store_true",
-                        help="on Blender 4.1 and later, bake Blender's default channel types, not only location "
-                             "and rotation")
-    parser.add_argument("--profile", action="store_true", help="also print a cProfile of one motionkit.retarget")
-    args = parser.parse_args(argv)
+    def arguments(parser):
+        parser.add_argument("--frames", type=int, default=10_000)
+        parser.add_argument("--bones", type=int, default=60)
+        parser.add_argument("--bake-frames", type=int, default=500,
+                            help="frames the constraint way is baked on, then scaled to --frames")
+        parser.add_argument("--bake-all-channels", action="store_true",
+                            help="on Blender 4.1 and later, bake Blender's default channel types, not only "
+                                 "location and rotation")
+        parser.add_argument("--profile", action="store_true",
+                            help="also print a cProfile of one motionkit.retarget")
+
+    args, mk = harness.start("retarget.py", __doc__, arguments, repeat=3)
     if not 2 <= args.bake_frames <= args.frames:
         raise SystemExit("retarget.py: --bake-frames must be between 2 and --frames")
-    install_addon.install(args.zip)
-    import motionkit as mk
     import importlib
     retargeting = importlib.import_module(mk.__name__ + ".features.retargeting")
     animdata = mk.animdata
@@ -277,9 +272,12 @@ def main() -> None:
             bpy.data.actions.remove(action)
         seconds, action = run_motionkit(mk, source, target, pairs)
         times.append(seconds)
-    motionkit_s = statistics.median(times)
+    motionkit_s = harness.median(times)
     keys = sum(len(fc.keyframe_points) for fc in animdata.fcurves(action, target))
     curves = len(animdata.fcurves(action, target))
+    source_curves = list(animdata.fcurves(animdata.assigned_action(source), source))
+    written = harness.curve_keys(animdata, action, target)
+    found = harness.floors(animdata, target, source_curves, *written[:3], args.repeat)
 
     # Where the time goes: plan() and apply() separately, same state each time.
     plan_times, apply_times = [], []
@@ -344,6 +342,8 @@ def main() -> None:
           f"{max(twist_off):.1f} deg (median {statistics.median(twist_off):.1f})")
     met = motionkit_s <= 1.0 and ratio >= 30
     print(f"Targets (<= 1 s, >= 30x): {'met' if met else 'MISSED'}")
+    harness.print_floors("retarget", motionkit_s, found, sum(len(fc.keyframe_points) for fc in source_curves),
+                         written[2].size)
 
 
 if __name__ == "__main__":

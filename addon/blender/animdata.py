@@ -132,6 +132,13 @@ def _curve_collection(action: bpy.types.Action, id_data: bpy.types.ID):
     return _channelbag(action, slot, create=True).fcurves
 
 
+def new_fcurves(action: bpy.types.Action, id_data: bpy.types.ID, channels: Iterable) -> list[bpy.types.FCurve]:
+    """The action's F-curves for channels (Channel or (data_path, index[, group])) animating id_data, made
+    where this Blender keeps them and emptied of keys if they were there."""
+    curves = _curve_collection(action, id_data)
+    return [_new_fcurve(curves, c if isinstance(c, Channel) else Channel(*c)) for c in channels]
+
+
 def _new_fcurve(curves, channel: Channel) -> bpy.types.FCurve:
     existing = curves.find(channel.data_path, index=channel.index)
     if existing is not None:
@@ -203,11 +210,9 @@ def write_keys(id_data: bpy.types.ID, action: bpy.types.Action, channels: Iterab
         # C order: Blender 3.4 crashes on a strided buffer in foreach_set.
         types = np.where(aligned, _HANDLE_TYPE['ALIGNED'], _HANDLE_TYPE['FREE']).astype(np.uint8, order='C')
 
-    curves = _curve_collection(action, id_data)
     interp = np.full(frames.size, _INTERPOLATION[interpolation], dtype=np.uint8)
-    written = []
-    for row, channel in enumerate(channels):
-        fcurve = _new_fcurve(curves, channel)
+    written = new_fcurves(action, id_data, channels)
+    for row, fcurve in enumerate(written):
         points = fcurve.keyframe_points
         points.add(frames.size)
         keys = _write_co(points, co[row])
@@ -222,7 +227,6 @@ def write_keys(id_data: bpy.types.ID, action: bpy.types.Action, channels: Iterab
             _set_enum(points, "handle_left_type", types[row], _HANDLE_TYPE)
             _set_enum(points, "handle_right_type", types[row], _HANDLE_TYPE)
         fcurve.update()
-        written.append(fcurve)
     return written
 
 
