@@ -1,5 +1,5 @@
 # Hand-kept stub of the compiled module native/python/module.cpp.
-from typing import Literal, Required, TypedDict, overload
+from typing import Literal, overload
 
 import numpy as np
 import numpy.typing as npt
@@ -9,7 +9,6 @@ __version__: str
 class MotionKitError(ValueError): ...
 
 def build_info() -> dict[str, str]: ...
-def data_address(array: npt.NDArray[np.float64]) -> int: ...
 def keyframe_co(
     frames: npt.NDArray[np.float64],
     values: npt.NDArray[np.float64],
@@ -43,10 +42,6 @@ def interpolate_rotations(
     euler_order: str = "XYZ",
     angular_velocity: Literal[True],
 ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
-@overload
-def slerp(q0: npt.ArrayLike, q1: npt.ArrayLike, u: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]: ...
-@overload
-def slerp(q0: npt.ArrayLike, q1: npt.ArrayLike, u: float) -> npt.NDArray[np.float64]: ...
 
 # Key reduction (native/python/bind_key_reduction.cpp).
 def reduce_keys(
@@ -86,36 +81,35 @@ def hermite_form(
     continuity: npt.ArrayLike | None = None,
     bias: npt.ArrayLike | None = None,
 ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
-def interpolate_curves(
-    offsets: npt.NDArray[np.integer],
-    times: npt.NDArray[np.float64],
-    values: npt.NDArray[np.float64],
-    eval_times: npt.NDArray[np.float64],
-    kind: str = "natural",
-    *,
-    slopes: npt.ArrayLike | None = None,
-    end_slopes: npt.ArrayLike | None = None,
-    tension: npt.ArrayLike | None = None,
-    continuity: npt.ArrayLike | None = None,
-    bias: npt.ArrayLike | None = None,
-    derivative: bool = False,
-) -> npt.NDArray[np.float64] | tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
-
 class Skeleton:
     """Joints depth-first, end sites included (read_bvh, parse_bvh or Skeleton(...))."""
 
+    def __init__(
+        self,
+        names: list[str],
+        parents: list[int],
+        offsets: npt.NDArray[np.float64],
+        end_sites: list[bool],
+        channels: list[list[str]],
+    ) -> None: ...
     def __len__(self) -> int: ...
+    @property
+    def names(self) -> list[str]: ...
+    @property
+    def parents(self) -> list[int]: ...
+    @property
+    def offsets(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def end_sites(self) -> list[bool]: ...
+    @property
+    def channels(self) -> list[list[str]]: ...
+    @property
+    def channel_count(self) -> int: ...
+    @property
+    def first_channels(self) -> list[int]: ...
+    def find(self, name: str) -> int: ...
 
-def forward_kinematics(
-    skeleton: Skeleton,
-    values: npt.NDArray[np.float64],
-    positions: npt.NDArray[np.float64],
-    orientations: npt.NDArray[np.float64],
-    threads: int = 0,
-) -> None:
-    """Whole-clip FK in place; threads=0 shares the frames among all cores, 1 stays on this thread."""
-
-# Rigs and retargeting (native/python/bind_retarget.cpp).
+# Rigs (native/python/bind_rig.cpp) and retargeting (native/python/bind_retarget.cpp).
 class Rig:
     def __init__(
         self,
@@ -158,20 +152,39 @@ def retarget(
 ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
 
 # Full-body inverse kinematics (native/python/bind_ik.cpp).
-class IkEffector(TypedDict, total=False):
+class IkEffector:
+    """One effector of ik_solve: its bone's tail reaches a target, or with pin holds where the input has it."""
+
+    def __init__(
+        self,
+        bone: int,
+        *,
+        name: str = "",
+        weight: float = 1.0,
+        position: bool = True,
+        orientation: bool = False,
+        pin: bool = False,
+    ) -> None: ...
+    bone: int
     name: str
-    bone: Required[int]
     weight: float
     position: bool
     orientation: bool
     pin: bool
 
-class IkResult(TypedDict):
-    rotations: npt.NDArray[np.float64]
-    root_locations: npt.NDArray[np.float64]
-    scales: npt.NDArray[np.float64]
-    errors: npt.NDArray[np.float64]
-    iterations: npt.NDArray[np.int32]
+class IkResult:
+    """What ik_solve returns (read-only arrays)."""
+
+    @property
+    def rotations(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def root_locations(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def scales(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def errors(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def iterations(self) -> npt.NDArray[np.int32]: ...
 
 def ik_solve(
     rig: Rig,
@@ -211,3 +224,101 @@ def foot_targets(
     blend_frames: int,
     rigid_pairs: list[tuple[int, int]] = [],
 ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
+
+# BVH (native/python/bind_bvh.cpp); Skeleton above.
+class Motion:
+    """The channel values of a BVH clip and its frame time."""
+
+    def __init__(self, values: npt.NDArray[np.float64], frame_time: float) -> None: ...
+    @property
+    def values(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def frames(self) -> int: ...
+    @property
+    def frame_time(self) -> float: ...
+
+def read_bvh(path: str) -> tuple[Skeleton, Motion]: ...
+def write_bvh(path: str, skeleton: Skeleton, motion: Motion) -> None: ...
+def bvh_to_pose(
+    skeleton: Skeleton,
+    values: npt.NDArray[np.float64],
+    bone_rest: npt.NDArray[np.float64],
+    conversion: npt.ArrayLike,
+    scale: float,
+    rotations: npt.NDArray[np.float64],
+    locations: npt.NDArray[np.float64],
+) -> None: ...
+def pose_to_bvh(
+    skeleton: Skeleton,
+    rotations: npt.NDArray[np.float64],
+    locations: npt.NDArray[np.float64],
+    bone_rest: npt.NDArray[np.float64],
+    conversion: npt.ArrayLike,
+    scale: float,
+    values: npt.NDArray[np.float64],
+) -> None: ...
+
+# Euler angles (native/python/bind_rotation.cpp).
+def euler_to_quaternion(angles: npt.NDArray[np.float64], order: str, out: npt.NDArray[np.float64]) -> None: ...
+def quaternion_to_euler(
+    quaternions: npt.NDArray[np.float64],
+    order: str,
+    out: npt.NDArray[np.float64],
+    continuous: bool = True,
+    previous: npt.NDArray[np.float64] = ...,
+    threads: int = 0,
+) -> None: ...
+
+# F-curve evaluation (native/python/bind_fcurve.cpp).
+def evaluate_fcurves(
+    co: npt.NDArray[np.float64],
+    handle_left: npt.NDArray[np.float64],
+    handle_right: npt.NDArray[np.float64],
+    interpolation: npt.NDArray[np.int32],
+    key_offsets: npt.NDArray[np.int32],
+    linear_extrapolation: npt.NDArray[np.int32],
+    times: npt.NDArray[np.float64],
+    values: npt.NDArray[np.float64],
+) -> None: ...
+
+# Functions only the tests use (native/python: the _testing submodule), written as a namespace so that
+# this one stub holds the module.
+class _testing:
+    @staticmethod
+    def data_address(array: npt.NDArray[np.float64]) -> int: ...
+    @staticmethod
+    def parse_bvh(text: str, source: str = "<string>") -> tuple[Skeleton, Motion]: ...
+    @staticmethod
+    def format_bvh(skeleton: Skeleton, motion: Motion) -> str: ...
+    @staticmethod
+    def forward_kinematics(
+        skeleton: Skeleton,
+        values: npt.NDArray[np.float64],
+        positions: npt.NDArray[np.float64],
+        orientations: npt.NDArray[np.float64],
+        threads: int = 0,
+    ) -> None:
+        """Whole-clip FK in place; threads=0 shares the frames among all cores, 1 stays on this thread."""
+    @staticmethod
+    def blender_euler_mode(order: str) -> str: ...
+    @staticmethod
+    def interpolate_curves(
+        offsets: npt.NDArray[np.integer],
+        times: npt.NDArray[np.float64],
+        values: npt.NDArray[np.float64],
+        eval_times: npt.NDArray[np.float64],
+        kind: str = "natural",
+        *,
+        slopes: npt.ArrayLike | None = None,
+        end_slopes: npt.ArrayLike | None = None,
+        tension: npt.ArrayLike | None = None,
+        continuity: npt.ArrayLike | None = None,
+        bias: npt.ArrayLike | None = None,
+        derivative: bool = False,
+    ) -> npt.NDArray[np.float64] | tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
+    @overload
+    @staticmethod
+    def slerp(q0: npt.ArrayLike, q1: npt.ArrayLike, u: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]: ...
+    @overload
+    @staticmethod
+    def slerp(q0: npt.ArrayLike, q1: npt.ArrayLike, u: float) -> npt.NDArray[np.float64]: ...

@@ -468,7 +468,7 @@ def _cleanup_steps(obj, bones, rig, frames, rotations, locations, feet, contacts
     name = obj.name
     bone_names = [b.name for b in bones]
     changed = [b for chain in legs for b in chain]
-    effectors = [{"name": f"foot {foot.side} {what} ('{bone_names[b]}' tail)", "bone": local[b], "weight": 1.0}
+    effectors = [native.IkEffector(local[b], name=f"foot {foot.side} {what} ('{bone_names[b]}' tail)")
                  for foot, (_, shin, foot_bone) in zip(feet, legs)
                  for what, b in (("ankle", shin), ("ball", foot_bone))]
     own = time.perf_counter() - started  # report.seconds: the cleanup's own time, its stages summed
@@ -553,7 +553,7 @@ def _cleanup_steps(obj, bones, rig, frames, rotations, locations, feet, contacts
     solved = yield solve
     started = time.perf_counter()
 
-    solved_basis = solved["rotations"].reshape(count, nb_part, 4)
+    solved_basis = solved.rotations.reshape(count, nb_part, 4)
     for shin, roll in rolls.items():
         k = local[shin]
         solved_basis[:, k] = _mul(_mul(_about_y(roll), solved_basis[:, k]), _about_y(-roll))
@@ -564,7 +564,7 @@ def _cleanup_steps(obj, bones, rig, frames, rotations, locations, feet, contacts
     q *= np.where(np.einsum("fbk,fbk->fb", q, given) < 0, -1.0, 1.0)[..., None]
     # The hips' move, from the solve's location (in its rest frame) to its own location channel: the
     # channel is applied in the bone's posed frame less its own basis rotation.
-    moved = _rotate(np.broadcast_to(rest_q[0], (count, 4)), solved["root_locations"] - hip_loc)
+    moved = _rotate(np.broadcast_to(rest_q[0], (count, 4)), solved.root_locations - hip_loc)
     hip_basis = rotations[:, 4 * hip:4 * hip + 4]
     frame = _mul(hip_orient, _conj(hip_basis / np.linalg.norm(hip_basis, axis=1, keepdims=True)))
     hip_location = locations[:, 3 * hip:3 * hip + 3] + _rotate(_conj(frame), moved)
@@ -577,9 +577,9 @@ def _cleanup_steps(obj, bones, rig, frames, rotations, locations, feet, contacts
     for k, b in enumerate(changed):
         out_rot[:, 4 * b:4 * b + 4] = q[:, k]
     out_loc[:, 3 * hip:3 * hip + 3] = hip_location
-    report.errors = solved["errors"]
-    report.max_error = solved["errors"].max(axis=0) if count else np.zeros(len(POINTS))
-    report.iterations = int(solved["iterations"].sum())
+    report.errors = solved.errors
+    report.max_error = solved.errors.max(axis=0) if count else np.zeros(len(POINTS))
+    report.iterations = int(solved.iterations.sum())
     report.intervals = [[(frames[s], frames[e - 1]) for s, e in runs] for runs in all_intervals(contacts)]
     report.seconds = own + time.perf_counter() - started
     return out_rot, out_loc, report

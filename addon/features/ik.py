@@ -236,9 +236,8 @@ def plan(obj, effectors, frame_range=None, method: str = "dls", *, root_translat
             return native.ik_solve(
                 rig, np.ascontiguousarray(input_rotations), np.ascontiguousarray(input_locations),
                 np.ascontiguousarray(positions), np.ascontiguousarray(orientations),
-                [{"name": e.label(), "bone": names.index(e.bone), "weight": float(e.weight),
-                  "position": e.position,
-                  "orientation": e.orientation, "pin": e.pin} for e in effectors],
+                [native.IkEffector(names.index(e.bone), name=e.label(), weight=float(e.weight), position=e.position,
+                                   orientation=e.orientation, pin=e.pin) for e in effectors],
                 method=method, max_iterations=max_iterations,
                 tolerance=float(tolerance if tolerance is not None else 1e-5 * height),
                 damping=damping, regularization=regularization, reference=reference,
@@ -259,15 +258,15 @@ def plan(obj, effectors, frame_range=None, method: str = "dls", *, root_translat
             started.wait()
             alongside()  # should this raise, the pool still waits for the solve
             solved = solving.result()
-    rotations = solved["rotations"]
+    rotations = solved.rotations
     count = len(bones)
     out = rotations.reshape(frames.size, count, 4)
     base = np.broadcast_to(np.asarray(input_rotations).reshape(-1, count, 4), out.shape)
     moved = np.any(np.abs(np.einsum("fbk,fbk->fb", out, base)) < 1.0 - 1e-12, axis=0)
     if root_translation:
         moved[0] = True
-    result = Result(frames, solved["errors"], solved["iterations"], [names[i] for i in np.flatnonzero(moved)])
-    return Plan(obj, bones, frames, rotations, solved["root_locations"], moved, result)
+    result = Result(frames, solved.errors, solved.iterations, [names[i] for i in np.flatnonzero(moved)])
+    return Plan(obj, bones, frames, rotations, solved.root_locations, moved, result)
 
 
 def _ancestors(bones, names, starts) -> set:

@@ -180,7 +180,8 @@ void BindBvh(py::module_& m) {
         with "path:line:column: what (saw 'token')".
       )pbdoc");
 
-  m.def(
+  py::module_ testing = TestingModule(m);
+  testing.def(
       "parse_bvh",
       [](const std::string& text, const std::string& source) {
         Skeleton skeleton;
@@ -193,7 +194,7 @@ void BindBvh(py::module_& m) {
       },
       "text"_a, "source"_a = "<string>", "Parse BVH text; like read_bvh.");
 
-  m.def("format_bvh", &WriteBvh, "skeleton"_a, "motion"_a,
+  testing.def("format_bvh", &WriteBvh, "skeleton"_a, "motion"_a,
         py::call_guard<py::gil_scoped_release>(),
         "BVH text that read_bvh/parse_bvh gives back exactly.");
 
@@ -209,7 +210,7 @@ void BindBvh(py::module_& m) {
       },
       "path"_a, "skeleton"_a, "motion"_a, "Write a BVH file.");
 
-  m.def(
+  testing.def(
       "forward_kinematics",
       [](const Skeleton& skeleton, Eigen::Ref<const RowMatrixXd> values, Eigen::Ref<RowMatrixXd> positions,
          Eigen::Ref<RowMatrixXd> orientations, int threads) {

@@ -36,45 +36,14 @@ void CheckShape(const Array& a, py::ssize_t bones, py::ssize_t width, const char
   }
 }
 
-std::vector<IkEffector> Effectors(const py::list& list) {
-  std::vector<IkEffector> out;
-  for (const py::handle item : list) {
-    if (!py::isinstance<py::dict>(item)) throw Error("ik_solve: every effector must be a dict");
-    const auto d = py::reinterpret_borrow<py::dict>(item);
-    IkEffector e;
-    bool has_bone = false;
-    for (const auto& [key, value] : d) {
-      const std::string k = py::cast<std::string>(key);
-      if (k == "name") {
-        e.name = py::cast<std::string>(value);
-      } else if (k == "bone") {
-        e.bone = py::cast<int>(value);
-        has_bone = true;
-      } else if (k == "weight") {
-        e.weight = py::cast<double>(value);
-      } else if (k == "position") {
-        e.position = py::cast<bool>(value);
-      } else if (k == "orientation") {
-        e.orientation = py::cast<bool>(value);
-      } else if (k == "pin") {
-        e.pin = py::cast<bool>(value);
-      } else {
-        throw Error("ik_solve: unknown effector key '" + k +
-                    "' (expected name, bone, weight, position, orientation, pin)");
-      }
-    }
-    if (!has_bone) {
-      throw Error("ik_solve: effector " + std::to_string(out.size()) + (e.name.empty() ? "" : " '" + e.name + "'") +
-                  " has no bone");
-    }
-    out.push_back(e);
-  }
-  return out;
-}
+// What ik_solve returns: the solved clip's arrays, as attributes.
+struct IkArrays {
+  py::array rotations, root_locations, scales, errors, iterations;
+};
 
-py::dict IkSolve(const RigModel& rig, const ConstMatrixView& input_rotations, const ConstMatrixView& input_locations,
+IkArrays IkSolve(const RigModel& rig, const ConstMatrixView& input_rotations, const ConstMatrixView& input_locations,
                  const ConstMatrixView& target_positions, const ConstMatrixView& target_orientations,
-                 const py::list& effector_list, const std::optional<DoubleArray>& limit_min,
+                 std::vector<IkEffector> effectors, const std::optional<DoubleArray>& limit_min,
                  const std::optional<DoubleArray>& limit_max, const std::optional<BoolArray>& locked,
                  const std::optional<DoubleArray>& stiffness, const std::optional<BoolArray>& excluded,
                  const std::optional<DoubleArray>& stretch, const std::optional<DoubleArray>& scale_range,
@@ -114,7 +83,12 @@ py::dict IkSolve(const RigModel& rig, const ConstMatrixView& input_rotations, co
       }
     }
   }
-  std::vector<IkEffector> effectors = Effectors(effector_list);
+  for (std::size_t i = 0; i < effectors.size(); ++i) {
+    if (effectors[i].bone < 0) {
+      throw Error("ik_solve: effector " + std::to_string(i) +
+                  (effectors[i].name.empty() ? "" : " '" + effectors[i].name + "'") + " has no bone");
+    }
+  }
   const Eigen::Index frames = target_positions.rows(), n = bones;
   const auto count = static_cast<Eigen::Index>(effectors.size());
   DoubleArray rotations({frames, 4 * n}), root_locations({frames, Eigen::Index{3}}), scales({frames, n}),
@@ -147,18 +121,45 @@ py::dict IkSolve(const RigModel& rig, const ConstMatrixView& input_rotations, co
     py::gil_scoped_release release;
     job.Run();
   }
-  py::dict out;
-  out["rotations"] = rotations;
-  out["root_locations"] = root_locations;
-  out["scales"] = scales;
-  out["errors"] = errors;
-  out["iterations"] = iterations;
-  return out;
+  return IkArrays{rotations, root_locations, scales, errors, iterations};
 }
 
 }  // namespace
 
 void BindIk(py::module_& m) {
+  py::class_<IkEffector>(m, "IkEffector", R"pbdoc(
+        One effector of ik_solve: its bone's tail reaches a target (position,
+        and orientation if asked), or with pin holds where the frame's input
+        pose has it. name is for messages; weight scales its share of the
+        error when effectors cannot all be met.
+      )pbdoc")
+      .def(py::init([](int bone, std::string name, double weight, bool position, bool orientation, bool pin) {
+             return IkEffector{std::move(name), bone, weight, position, orientation, pin};
+           }),
+           "bone"_a, py::kw_only(), "name"_a = "", "weight"_a = 1.0, "position"_a = true, "orientation"_a = false,
+           "pin"_a = false)
+      .def_readwrite("bone", &IkEffector::bone)
+      .def_readwrite("name", &IkEffector::name)
+      .def_readwrite("weight", &IkEffector::weight)
+      .def_readwrite("position", &IkEffector::position)
+      .def_readwrite("orientation", &IkEffector::orientation)
+      .def_readwrite("pin", &IkEffector::pin)
+      .def("__repr__", [](const IkEffector& e) {
+        return "IkEffector(" + std::to_string(e.bone) + (e.name.empty() ? "" : ", name='" + e.name + "'") +
+               (e.pin ? ", pin=True" : "") + ")";
+      });
+
+  py::class_<IkArrays>(m, "IkResult", R"pbdoc(
+        What ik_solve returns: rotations (frames, 4b), root_locations
+        (frames, 3), scales (frames, b), errors (frames, e) and iterations
+        (frames,) int32; see ik_solve.
+      )pbdoc")
+      .def_readonly("rotations", &IkArrays::rotations)
+      .def_readonly("root_locations", &IkArrays::root_locations)
+      .def_readonly("scales", &IkArrays::scales)
+      .def_readonly("errors", &IkArrays::errors)
+      .def_readonly("iterations", &IkArrays::iterations);
+
   m.def("ik_solve", &IkSolve, "rig"_a, "input_rotations"_a.noconvert(), "input_locations"_a.noconvert(),
         "target_positions"_a.noconvert(), "target_orientations"_a.noconvert(), "effectors"_a, py::kw_only(),
         "limit_min"_a.noconvert() = py::none(), "limit_max"_a.noconvert() = py::none(),
@@ -176,11 +177,9 @@ void BindIk(py::module_& m) {
         (frames or 1, 3), the root bone's location channel.
         target_positions: (frames, 3e) armature space; target_orientations:
         (frames, 4e) w x y z, or (frames, 0) when no effector asks for one.
-        effectors: a list of dicts {"name": str, "bone": int, "weight": 1.0,
-        "position": True, "orientation": False, "pin": False} (only "bone"
-        is required); an effector is its bone's tail, a pin holds where the
-        frame's input pose has it (weighted like any effector: pins and
-        targets that cannot all be met share the error).
+        effectors: a list of IkEffector; an effector is its bone's tail, a
+        pin holds where the frame's input pose has it (weighted like any
+        effector: pins and targets that cannot all be met share the error).
 
         Per bone (all optional): limit_min, limit_max float64 (b, 3) radians
         (swing x, twist y, swing z; Blender's ik_min/ik_max), locked bool
@@ -203,11 +202,11 @@ void BindIk(py::module_& m) {
         rest pose's bounding box; give the whole rig's when solving part of
         one).
 
-        Returns a dict: "rotations" (frames, 4b) pose quaternions (bones the
-        solver does not move keep their input), "root_locations" (frames, 3),
-        "scales" (frames, b) length scale per bone, "errors" (frames, e) each
+        Returns an IkResult: rotations (frames, 4b) pose quaternions (bones the
+        solver does not move keep their input), root_locations (frames, 3),
+        scales (frames, b) length scale per bone, errors (frames, e) each
         effector's position error after the solve (an orientation-only
-        effector's angle times orientation_scale), "iterations" (frames,)
+        effector's angle times orientation_scale), iterations (frames,)
         int32, the steps tried (by the slowest group). Errors name the effector or bone and the frame. The GIL is
         released while it runs.
       )pbdoc");

@@ -213,7 +213,7 @@ void BindInterpolation(py::module_& m) {
         polynomial. Arguments as for interpolate().
       )pbdoc");
 
-  m.def("interpolate_curves", &InterpolateCurves, "offsets"_a, "times"_a.noconvert(),
+  TestingModule(m).def("interpolate_curves", &InterpolateCurves, "offsets"_a, "times"_a.noconvert(),
         "values"_a.noconvert(), "eval_times"_a.noconvert(), "kind"_a = "natural", py::kw_only(),
         "slopes"_a = py::none(), "end_slopes"_a = py::none(), "tension"_a = py::none(),
         "continuity"_a = py::none(), "bias"_a = py::none(), "derivative"_a = false,

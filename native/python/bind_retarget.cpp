@@ -1,4 +1,5 @@
-// Rigs, their forward kinematics, and retargeting between them.
+// Retargeting a whole clip between two rigs (native/include/motionkit/retarget.hpp); the rigs are bound in
+// bind_rig.cpp.
 #include <pybind11/eigen.h>
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
@@ -30,21 +31,6 @@ ConstRowMap AsRow(const ConstMatrixView& table, Eigen::Index bones, Eigen::Index
     throw Error(std::string(what) + " must have " + std::to_string(bones) + " rows of " + std::to_string(width));
   }
   return ConstRowMap(table.data(), 1, bones * width);
-}
-
-py::tuple ArmaturePose(const RigModel& rig, const ConstMatrixView& basis_rotations,
-                       const ConstMatrixView& basis_locations) {
-  const Eigen::Index frames = basis_rotations.rows(), bones = rig.size();
-  DoubleArray rotations({frames, 4 * bones}), heads({frames, 3 * bones});
-  RowMap rotations_view(rotations.mutable_data(), frames, 4 * bones);
-  RowMap heads_view(heads.mutable_data(), frames, 3 * bones);
-  ArmaturePoseJob job(rig, basis_rotations, basis_locations, rotations_view, heads_view);
-  job.Validate().ThrowIfFailed();
-  {
-    py::gil_scoped_release release;
-    job.Run();
-  }
-  return py::make_tuple(rotations, heads);
 }
 
 py::tuple Retarget(const RigModel& source, const RigModel& target, const ConstMatrixView& source_rotations,
@@ -84,35 +70,6 @@ py::tuple Retarget(const RigModel& source, const RigModel& target, const ConstMa
 }  // namespace
 
 void BindRetarget(py::module_& m) {
-  py::class_<RigModel, std::shared_ptr<RigModel>>(m, "Rig", R"pbdoc(
-        An armature at rest, bones parents first: names, parent indices (-1 for
-        roots), rest rotations (n, 4) w x y z and rest heads (n, 3) in armature
-        space (Blender's bone.matrix_local), and lengths (n,). Validated when
-        made; immutable.
-      )pbdoc")
-      .def(py::init<std::vector<std::string>, std::vector<int>, const RowMatrixXd&, const RowMatrixXd&,
-                    const Eigen::VectorXd&>(),
-           "names"_a, "parents"_a, "rest_rotations"_a, "rest_heads"_a, "lengths"_a)
-      .def_property_readonly("size", &RigModel::size)
-      .def_property_readonly("names", [](const RigModel& rig) {
-        std::vector<std::string> names;
-        for (int b = 0; b < rig.size(); ++b) names.push_back(rig.name(b));
-        return names;
-      })
-      .def("find", &RigModel::Find, "name"_a, "Index of the bone with that name, or -1.");
-
-  m.def("armature_pose", &ArmaturePose, "rig"_a, "basis_rotations"_a.noconvert(),
-        "basis_locations"_a.noconvert(),
-        R"pbdoc(
-        Pose channels to armature-space orientations and heads, every frame.
-
-        basis_rotations: float64 (frames, 4n) w x y z per bone (Blender's
-        pose rotation as a quaternion); basis_locations: float64 (frames, 3n),
-        or (frames, 0) for none. Returns (rotations (frames, 4n), heads (frames, 3n)): what
-        pose_bone.matrix holds, for bones that inherit rotation and have unit
-        scale. The GIL is released while it runs.
-      )pbdoc");
-
   m.def("retarget", &Retarget, "source"_a, "target"_a, "source_rotations"_a.noconvert(),
         "source_root_heads"_a.noconvert(), "bone_map"_a, py::kw_only(), "source_match"_a.noconvert(),
         "source_match_root"_a, "target_match_basis"_a.noconvert(), "target_match_location"_a,

@@ -62,7 +62,7 @@ void BindRotation(py::module_& m) {
         zeros), as Blender's to_euler(order, compat).
       )pbdoc");
 
-  m.def("blender_euler_mode", [](const std::string& order) { return std::string(BlenderEulerMode(Order(order))); },
+  TestingModule(m).def("blender_euler_mode", [](const std::string& order) { return std::string(BlenderEulerMode(Order(order))); },
         "order"_a, "Blender's rotation_mode for an intrinsic order: the letters reversed.");
 }
 

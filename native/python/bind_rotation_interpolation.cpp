@@ -117,12 +117,13 @@ void BindRotationInterpolation(py::module_& m) {
         The GIL is released while it runs.
       )pbdoc");
 
-  m.def("slerp", &SlerpMany, "q0"_a, "q1"_a, "u"_a.noconvert(),
+  py::module_ testing = TestingModule(m);
+  testing.def("slerp", &SlerpMany, "q0"_a, "q1"_a, "u"_a.noconvert(),
         R"pbdoc(
         Slerp from q0 (u = 0) to q1 (u = 1) along the shorter arc, at every u of a
         float64 (m,) array: float64 (m, 4) unit w x y z. q0, q1: 4 numbers w x y z.
       )pbdoc");
-  m.def(
+  testing.def(
       "slerp",
       [](const Eigen::Vector4d& q0, const Eigen::Vector4d& q1, double u) {
         const Eigen::VectorXd one = Eigen::VectorXd::Constant(1, u);

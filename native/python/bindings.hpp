@@ -5,12 +5,16 @@
 
 namespace motionkit::python {
 
+// The _testing submodule module.cpp made, for the functions only the tests use.
+inline pybind11::module_ TestingModule(pybind11::module_& m) { return m.attr("_testing").cast<pybind11::module_>(); }
+
 void BindBvh(pybind11::module_& m);
 void BindRotation(pybind11::module_& m);
 void BindFCurve(pybind11::module_& m);
 void BindRotationInterpolation(pybind11::module_& m);
 void BindKeyReduction(pybind11::module_& m);
 void BindInterpolation(pybind11::module_& m);
+void BindRig(pybind11::module_& m);
 void BindRetarget(pybind11::module_& m);
 void BindIk(pybind11::module_& m);
 void BindContacts(pybind11::module_& m);

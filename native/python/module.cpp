@@ -62,7 +62,14 @@ PYBIND11_MODULE(_native, m) {
         the C++ compiler and the Python it targets.
       )pbdoc");
 
-  m.def("data_address", &DataAddress, "array"_a.noconvert(),
+  // Functions only the tests use live apart, so that the module's own surface is what the add-on calls.
+  py::module_ testing = m.def_submodule("_testing", R"pbdoc(
+    Functions the test suites use to look inside the core (zero-copy checks, the
+    BVH text round trip, whole-clip BVH forward kinematics, single interpolants);
+    the add-on never calls them.
+  )pbdoc");
+
+  testing.def("data_address", &DataAddress, "array"_a.noconvert(),
         py::call_guard<py::gil_scoped_release>(),
         R"pbdoc(
         Address of the first element of a 2-D float64 C-contiguous array as the
@@ -88,6 +95,7 @@ PYBIND11_MODULE(_native, m) {
   motionkit::python::BindRotationInterpolation(m);
   motionkit::python::BindKeyReduction(m);
   motionkit::python::BindInterpolation(m);
+  motionkit::python::BindRig(m);
   motionkit::python::BindRetarget(m);
   motionkit::python::BindIk(m);
   motionkit::python::BindContacts(m);

@@ -52,16 +52,16 @@ def test_disable_and_enable_again(mk):
 
 def test_numpy_arrays_cross_without_copies(native):
     a = np.arange(12.0).reshape(3, 4)
-    assert native.data_address(a) == a.ctypes.data
+    assert native._testing.data_address(a) == a.ctypes.data
     # A slice that is still C-contiguous is seen in place too.
-    assert native.data_address(a[1:]) == a[1:].ctypes.data
+    assert native._testing.data_address(a[1:]) == a[1:].ctypes.data
     # Anything that would need a copy is refused instead of silently copied.
     with pytest.raises(TypeError):
-        native.data_address(a[:, ::2])
+        native._testing.data_address(a[:, ::2])
     with pytest.raises(TypeError):
-        native.data_address(a.astype(np.float32))
+        native._testing.data_address(a.astype(np.float32))
     with pytest.raises(TypeError):
-        native.data_address(np.asfortranarray(a))
+        native._testing.data_address(np.asfortranarray(a))
 
 
 def test_output_is_written_into_the_callers_buffer(native):

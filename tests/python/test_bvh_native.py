@@ -50,7 +50,7 @@ def test_continuous_euler_has_no_jumps_and_same_rotations(native, order):
 
 
 def test_blender_mode_reverses_letters(native):
-    assert native.blender_euler_mode("ZXY") == "YXZ"
+    assert native._testing.blender_euler_mode("ZXY") == "YXZ"
     with pytest.raises(native.MotionKitError, match="unknown Euler order 'XYX'"):
         native.quaternion_to_euler(np.array([[1.0, 0, 0, 0]]), "XYX", np.empty((1, 3)))
 
@@ -82,13 +82,13 @@ def reference_fk(skeleton, values):
 def run_fk(native, skeleton, motion):
     frames, joints = motion.frames, len(skeleton)
     positions, orientations = np.empty((frames, 3 * joints)), np.empty((frames, 4 * joints))
-    native.forward_kinematics(skeleton, np.ascontiguousarray(motion.values), positions, orientations)
+    native._testing.forward_kinematics(skeleton, np.ascontiguousarray(motion.values), positions, orientations)
     return positions.reshape(frames, joints, 3), orientations.reshape(frames, joints, 4)
 
 
 @pytest.mark.parametrize("name, text", CASES, ids=[c[0] for c in CASES])
 def test_fk_of_every_layout_matches_the_scipy_reference(native, name, text):
-    skeleton, motion = native.parse_bvh(text, name)
+    skeleton, motion = native._testing.parse_bvh(text, name)
     positions, orientations = run_fk(native, skeleton, motion)
     ref_pos, ref_rot = reference_fk(skeleton, np.asarray(motion.values))
     np.testing.assert_allclose(positions, ref_pos, atol=1e-12)
@@ -112,13 +112,13 @@ def test_fk_on_threads_gives_the_same_numbers(native, shared_files):
     results = []
     for threads in (1, 0, 3):
         positions, orientations = np.empty((frames, 3 * joints)), np.empty((frames, 4 * joints))
-        native.forward_kinematics(skeleton, values, positions, orientations, threads=threads)
+        native._testing.forward_kinematics(skeleton, values, positions, orientations, threads=threads)
         results.append((positions, orientations))
     for positions, orientations in results[1:]:
         assert np.array_equal(positions, results[0][0])
         assert np.array_equal(orientations, results[0][1])
     with pytest.raises(native.MotionKitError, match="threads must be 0"):
-        native.forward_kinematics(skeleton, values, positions, orientations, threads=-2)
+        native._testing.forward_kinematics(skeleton, values, positions, orientations, threads=-2)
 
 
 def test_the_real_walk_has_the_briefs_shape(native, shared_files):
@@ -131,8 +131,8 @@ def test_the_real_walk_has_the_briefs_shape(native, shared_files):
 
 @pytest.mark.parametrize("name, text", CASES, ids=[c[0] for c in CASES])
 def test_format_then_parse_gives_back_the_same_numbers(native, name, text):
-    skeleton, motion = native.parse_bvh(text, name)
-    again_skeleton, again = native.parse_bvh(native.format_bvh(skeleton, motion), "again")
+    skeleton, motion = native._testing.parse_bvh(text, name)
+    again_skeleton, again = native._testing.parse_bvh(native._testing.format_bvh(skeleton, motion), "again")
     assert again_skeleton.names == skeleton.names and again_skeleton.channels == skeleton.channels
     np.testing.assert_array_equal(again_skeleton.offsets, skeleton.offsets)
     np.testing.assert_array_equal(np.asarray(again.values), np.asarray(motion.values))
@@ -140,7 +140,7 @@ def test_format_then_parse_gives_back_the_same_numbers(native, name, text):
 
 
 def test_motion_values_are_a_view_not_a_copy(native):
-    skeleton, motion = native.parse_bvh(CASES[0][1], "x")
+    skeleton, motion = native._testing.parse_bvh(CASES[0][1], "x")
     a, b = motion.values, motion.values
     assert a.ctypes.data == b.ctypes.data and a.shape == (motion.frames, skeleton.channel_count)
 
@@ -162,7 +162,7 @@ def random_unit_quaternions(n, seed):
 @pytest.mark.parametrize("name, text", CASES, ids=[c[0] for c in CASES])
 def test_pose_conversion_round_trips(native, name, text):
     """bvh_to_pose then pose_to_bvh gives back the same joint rotations and translations."""
-    skeleton, motion = native.parse_bvh(text, name)
+    skeleton, motion = native._testing.parse_bvh(text, name)
     joints, frames = len(skeleton), motion.frames
     rest = random_unit_quaternions(joints, 5)
     conversion = wxyz(Rotation.from_euler("x", 90, degrees=True))
@@ -183,7 +183,7 @@ def test_pose_conversion_round_trips(native, name, text):
 
 def test_pose_conversion_of_one_hand_derived_bone(native):
     """Root rotated 90 degrees about BVH Z; bone rest rotated 90 degrees about Y."""
-    skeleton, motion = native.parse_bvh(
+    skeleton, motion = native._testing.parse_bvh(
         "HIERARCHY\nROOT r\n{\nOFFSET 0 0 0\nCHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation\n"
         "End Site\n{\nOFFSET 0 1 0\n}\n}\nMOTION\nFrames: 1\nFrame Time: 0.1\n1 2 3 90 0 0\n", "hand")
     rest = np.array([[math.cos(math.pi / 4), 0, math.sin(math.pi / 4), 0], [1, 0, 0, 0]])

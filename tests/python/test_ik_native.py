@@ -28,16 +28,16 @@ def test_two_bone_arm_reaches_and_returns_every_array(native):
     start = identity(1, 2)
     start[0, 4:8] = [np.cos(0.15), 0, 0, np.sin(0.15)]  # elbow bent a little
     out = native.ik_solve(rig, start, np.zeros((1, 3)), target, np.zeros((1, 0)),
-                          [{"name": "hand", "bone": 1}], locked=locked, root_rotation=True, tolerance=1e-10)
-    assert set(out) == {"rotations", "root_locations", "scales", "errors", "iterations"}
-    assert out["rotations"].shape == (1, 8) and out["scales"].shape == (1, 2)
-    assert out["errors"].shape == (1, 1) and out["errors"][0, 0] < 1e-10
-    assert out["iterations"].dtype == np.int32
+                          [native.IkEffector(1, name="hand")], locked=locked, root_rotation=True, tolerance=1e-10)
+    assert isinstance(out, native.IkResult)
+    assert out.rotations.shape == (1, 8) and out.scales.shape == (1, 2)
+    assert out.errors.shape == (1, 1) and out.errors[0, 0] < 1e-10
+    assert out.iterations.dtype == np.int32
     d = np.linalg.norm(target)
     elbow = np.arccos((d * d - 1.0 - 0.49) / (2 * 0.7))
-    angle = 2 * np.arctan2(out["rotations"][0, 7], out["rotations"][0, 4])  # about Z
+    angle = 2 * np.arctan2(out.rotations[0, 7], out.rotations[0, 4])  # about Z
     assert abs(angle - elbow) < 1e-8
-    np.testing.assert_array_equal(out["scales"], 1.0)
+    np.testing.assert_array_equal(out.scales, 1.0)
 
 
 def test_pins_and_excluded_bones(native):
@@ -48,9 +48,9 @@ def test_pins_and_excluded_bones(native):
     targets[:, 0:3] = [2.0, 1.0, 0.0]  # only the last bone need turn: a quarter turn about Z
     excluded = np.array([False, True, False])
     out = native.ik_solve(rig, rot, np.zeros((1, 3)), targets, np.zeros((frames, 0)),
-                          [{"bone": 2}, {"bone": 0, "pin": True}], excluded=excluded, root_rotation=True)
-    np.testing.assert_array_equal(out["rotations"][:, 4:8], rot[:, 4:8])  # excluded: as it came
-    assert np.all(out["errors"] < 1e-5)  # reached, and the pin held
+                          [native.IkEffector(2), native.IkEffector(0, pin=True)], excluded=excluded, root_rotation=True)
+    np.testing.assert_array_equal(out.rotations[:, 4:8], rot[:, 4:8])  # excluded: as it came
+    assert np.all(out.errors < 1e-5)  # reached, and the pin held
 
 
 def test_errors_name_the_effector_and_frame(native):
@@ -59,19 +59,24 @@ def test_errors_name_the_effector_and_frame(native):
     targets[2, 1] = np.nan
     with pytest.raises(native.MotionKitError, match=r"effector 'hand'.*frame index 2"):
         native.ik_solve(rig, identity(1, 2), np.zeros((1, 3)), targets, np.zeros((4, 0)),
-                        [{"name": "hand", "bone": 1}])
-    with pytest.raises(native.MotionKitError, match="unknown effector key 'pinned'"):
+                        [native.IkEffector(1, name="hand")])
+    with pytest.raises(TypeError):  # effectors are IkEffector, with their fields checked by name
+        native.IkEffector(1, pinned=True)
+    with pytest.raises(TypeError):  # a dict is no effector
         native.ik_solve(rig, identity(1, 2), np.zeros((1, 3)), np.zeros((1, 3)), np.zeros((1, 0)),
-                        [{"bone": 1, "pinned": True}])
+                        [{"bone": 1}])
+    with pytest.raises(native.MotionKitError, match="effector 0 'nowhere' has no bone"):
+        native.ik_solve(rig, identity(1, 2), np.zeros((1, 3)), np.zeros((1, 3)), np.zeros((1, 0)),
+                        [native.IkEffector(-1, name="nowhere")])
     with pytest.raises(native.MotionKitError, match="unknown method"):
         native.ik_solve(rig, identity(1, 2), np.zeros((1, 3)), np.zeros((1, 3)), np.zeros((1, 0)),
-                        [{"bone": 1}], method="fabrik")
+                        [native.IkEffector(1)], method="fabrik")
     with pytest.raises(native.MotionKitError, match=r"limit_min must have shape \(2, 3\)"):
         native.ik_solve(rig, identity(1, 2), np.zeros((1, 3)), np.zeros((1, 3)), np.zeros((1, 0)),
-                        [{"bone": 1}], limit_min=np.zeros((3, 3)))
+                        [native.IkEffector(1)], limit_min=np.zeros((3, 3)))
     with pytest.raises(TypeError):  # float32 is not converted silently
         native.ik_solve(rig, identity(1, 2).astype(np.float32), np.zeros((1, 3)), np.zeros((1, 3)),
-                        np.zeros((1, 0)), [{"bone": 1}])
+                        np.zeros((1, 0)), [native.IkEffector(1)])
 
 
 def test_part_of_a_rig_solves_as_the_whole_given_its_size(native):
@@ -99,7 +104,7 @@ def test_part_of_a_rig_solves_as_the_whole_given_its_size(native):
     rotations = identity(frames, n)
     t = np.linspace(0, 1, frames)[:, None]
     targets = np.hstack([[0.5, 0.3, 0.2] + 0.1 * np.sin(3 * t), [-0.5, 0.3, 0.2] + 0.1 * np.cos(2 * t)])
-    effectors = [{"bone": 3}, {"bone": 6}]
+    effectors = [native.IkEffector(3), native.IkEffector(6)]
     out = native.ik_solve(whole, rotations, np.zeros((1, 3)), targets, np.zeros((frames, 0)), effectors,
                           threads=1)
     part = list(range(7))
@@ -109,9 +114,9 @@ def test_part_of_a_rig_solves_as_the_whole_given_its_size(native):
     for threads in (1, 2):
         got = native.ik_solve(piece, identity(frames, 7), np.zeros((1, 3)), targets, np.zeros((frames, 0)),
                               effectors, size=size, threads=threads)
-        np.testing.assert_array_equal(got["rotations"], out["rotations"][:, :28])
-        np.testing.assert_array_equal(got["errors"], out["errors"])
-    assert out["errors"].max() < 1e-4
+        np.testing.assert_array_equal(got.rotations, out.rotations[:, :28])
+        np.testing.assert_array_equal(got.errors, out.errors)
+    assert out.errors.max() < 1e-4
 
 
 def whole_tails(heads, rest, lengths):

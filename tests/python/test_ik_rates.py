@@ -142,8 +142,8 @@ def problems(native, built, count, seed):
 
 def solve(native, built, a, locations, targets, method, **options):
     rig, _, _, _, hands, feet = built
-    effectors = ([{"name": f"hand {i}", "bone": h} for i, h in enumerate(hands)] +
-                 [{"name": f"foot {i}", "bone": f, "pin": True} for i, f in enumerate(feet)])
+    effectors = ([native.IkEffector(h, name=f"hand {i}") for i, h in enumerate(hands)] +
+                 [native.IkEffector(f, name=f"foot {i}", pin=True) for i, f in enumerate(feet)])
     return native.ik_solve(rig, a, locations, targets, np.zeros((len(a), 0)), effectors, method=method,
                            root_translation=True, root_rotation=True, warm_start=False, **options)
 
@@ -159,8 +159,8 @@ def fk_errors(native, built, a, locations, targets, out):
         full[:, :3] = root_locations
         return tails_of(native, rig, lengths, np.ascontiguousarray(rotations), full, chosen).reshape(count, -1, 3)
 
-    solved_hands = tails(out["rotations"], out["root_locations"], hands)
-    solved_feet = tails(out["rotations"], out["root_locations"], feet)
+    solved_hands = tails(out.rotations, out.root_locations, hands)
+    solved_feet = tails(out.rotations, out.root_locations, feet)
     pinned = tails(a, locations, feet)
     goals = targets[:, :3 * len(hands)].reshape(count, -1, 3)
     return np.hstack([np.linalg.norm(solved_hands - goals, axis=2), np.linalg.norm(solved_feet - pinned, axis=2)])
@@ -182,7 +182,7 @@ def test_dls_converges_on_random_reachable_problems(native, rigs, name):
         out = solve(native, built, a, locations, targets, method)
         errors = fk_errors(native, built, a, locations, targets, out)
         # The solver's own error output says the same, but the rate stands on the independent check.
-        np.testing.assert_allclose(out["errors"], errors, rtol=0, atol=1e-9 * size)
+        np.testing.assert_allclose(out.errors, errors, rtol=0, atol=1e-9 * size)
         rates[method] = float(np.mean(np.all(errors < 1e-4 * size, axis=1)))
     print(f"\n{name}: {RATE_CASES:,} problems (2 hands, 2 pinned feet, hips free), converged to 1e-4 of the "
           "size: " + ", ".join(f"{m} {100 * r:.2f} %" for m, r in rates.items()))
@@ -204,5 +204,6 @@ def test_a_million_random_solves_give_no_nan(native, rigs):
         targets[count // 2: 5 * count // 8, 3:6] = targets[count // 2: 5 * count // 8, 0:3]  # coincident
         targets[5 * count // 8: 3 * count // 4] = 0.0  # all at the origin
         out = solve(native, built, a, np.zeros((1, 3)), np.ascontiguousarray(targets), method, max_iterations=8)
-        for key, value in out.items():
+        for key in ("rotations", "root_locations", "scales", "errors"):
+            value = getattr(out, key)
             assert np.all(np.isfinite(value)), (method, key)

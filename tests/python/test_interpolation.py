@@ -186,7 +186,7 @@ def test_curves_batch_equals_single(native, kind):
     values = np.concatenate([c[1] for c in curves])
     x = np.sort(rng.uniform(-5.0, 40.0, 777))
     options = extras(kind, values)
-    samples, derivatives = native.interpolate_curves(offsets, times, values, x, kind, **options)
+    samples, derivatives = native._testing.interpolate_curves(offsets, times, values, x, kind, **options)
     assert samples.shape == (len(lengths), 777)
     for c, (t, v) in enumerate(curves):
         single = {k: (a[offsets[c]:offsets[c + 1]] if isinstance(a, np.ndarray) else a)
@@ -203,7 +203,7 @@ def test_curves_clamped_end_slopes_per_curve(native):
     values = np.concatenate([c[1] for c in curves])
     ends = np.array([[1.0, -2.0], [0.5, 3.0]])  # (start, end) x curve
     x = np.linspace(-3, 8, 100)
-    samples = native.interpolate_curves(offsets, times, values, x, "clamped", end_slopes=ends)
+    samples = native._testing.interpolate_curves(offsets, times, values, x, "clamped", end_slopes=ends)
     for c, (t, v) in enumerate(curves):
         inner = (x >= t[0]) & (x <= t[-1])
         reference = CubicSpline(t, v, bc_type=((1, ends[0, c]), (1, ends[1, c])))
@@ -229,7 +229,7 @@ def test_bad_input_raises_with_the_place(native):
     with pytest.raises(native.MotionKitError, match="periodic.*component 1"):
         native.interpolate(np.arange(3.0), loop, np.zeros(1), "periodic")
     with pytest.raises(native.MotionKitError, match="curve 1 has no keys"):
-        native.interpolate_curves(np.array([0, 2, 2]), np.arange(2.0), np.zeros(2), np.zeros(1))
+        native._testing.interpolate_curves(np.array([0, 2, 2]), np.arange(2.0), np.zeros(2), np.zeros(1))
     with pytest.raises(TypeError):  # float32 would need a copy: refused, not converted
         native.interpolate(np.arange(3.0), np.zeros(3, np.float32), np.zeros(1))
 

@@ -36,5 +36,5 @@ def test_the_real_core_error_reads_in_frames(native):
     with pytest.raises(ValueError, match=r"frame 103\b") as raised:
         with native_state.blender_frames(np.arange(101.0, 101.0 + count)):
             native.ik_solve(rig, np.tile([1.0, 0, 0, 0, 1.0, 0, 0, 0], (count, 1)), np.zeros((count, 3)), targets,
-                            np.zeros((count, 0)), [{"name": "tip", "bone": 1}])
+                            np.zeros((count, 0)), [native.IkEffector(1, name="tip")])
     assert "frame index" not in str(raised.value)
