@@ -30,11 +30,7 @@ py::tuple FootTargets(const ConstMatrixView& points, const BoolArray& contacts, 
   Eigen::Map<RowMatrixXd> targets_view(targets.mutable_data(), frames, points.cols());
   Eigen::Map<RowMatrixXd> weights_view(weights.mutable_data(), frames, count);
   FootTargetsJob job(points, contact_view, blend_frames, std::move(rigid_pairs), targets_view, weights_view);
-  job.Validate().ThrowIfFailed();
-  {
-    py::gil_scoped_release release;
-    job.Run();
-  }
+  ValidateAndRun(job);
   return py::make_tuple(targets, weights);
 }
 

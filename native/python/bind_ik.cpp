@@ -116,11 +116,7 @@ IkArrays IkSolve(const RigModel& rig, const ConstMatrixView& input_rotations, co
   job.options.warm_start = warm_start;
   job.options.threads = threads;
   job.options.size = size;
-  job.Validate().ThrowIfFailed();
-  {
-    py::gil_scoped_release release;
-    job.Run();
-  }
+  ValidateAndRun(job);
   return IkArrays{rotations, root_locations, scales, errors, iterations};
 }
 

@@ -106,11 +106,7 @@ py::object Interpolate(const Exact& times, const Exact& values, const Exact& eva
   Eigen::Map<RowMatrixXd> derivatives_view = Out(derivatives, derivative ? x.size() : 0, y.cols());
   InterpolateJob job(t, y, options, x, samples_view);
   if (derivative) job.derivatives.emplace(derivatives_view);
-  job.Validate().ThrowIfFailed();
-  {
-    py::gil_scoped_release release;
-    job.Run();
-  }
+  ValidateAndRun(job);
   if (derivative) return py::make_tuple(samples, derivatives);
   return py::object(samples);
 }
@@ -128,11 +124,7 @@ py::tuple HermiteForm(const Exact& times, const Exact& values, const std::string
   Eigen::Map<RowMatrixXd> in_view = Out(slopes_in, y.rows(), y.cols());
   Eigen::Map<RowMatrixXd> out_view = Out(slopes_out, y.rows(), y.cols());
   HermiteFormJob job(t, y, options, in_view, out_view);
-  job.Validate().ThrowIfFailed();
-  {
-    py::gil_scoped_release release;
-    job.Run();
-  }
+  ValidateAndRun(job);
   return py::make_tuple(slopes_in, slopes_out);
 }
 
@@ -168,11 +160,7 @@ py::object InterpolateCurves(const py::array& offsets, const Exact& times, const
   Eigen::Map<RowMatrixXd> derivatives_view = Out(derivatives, derivative ? curves : 0, x.size());
   InterpolateCurvesJob job(starts, t, y, options, x, samples_view);
   if (derivative) job.derivatives.emplace(derivatives_view);
-  job.Validate().ThrowIfFailed();
-  {
-    py::gil_scoped_release release;
-    job.Run();
-  }
+  ValidateAndRun(job);
   if (derivative) return py::make_tuple(samples, derivatives);
   return py::object(samples);
 }

@@ -40,11 +40,7 @@ py::tuple ReduceKeys(const ConstVectorView& times, const ConstMatrixView& values
   job.mode = Mode(mode_text);
   job.euler_order = *order;
   job.stride = stride;
-  job.Validate().ThrowIfFailed();
-  {
-    py::gil_scoped_release release;
-    job.Run();
-  }
+  ValidateAndRun(job);
   const py::slice keys(0, static_cast<py::ssize_t>(job.key_count), 1);
   return py::make_tuple(indices[keys].attr("copy")(), slopes_in[keys].attr("copy")(),
                         slopes_out[keys].attr("copy")());

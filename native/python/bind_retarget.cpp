@@ -59,11 +59,7 @@ py::tuple Retarget(const RigModel& source, const RigModel& target, const ConstMa
   job.options.vertical_offset = vertical_offset;
   job.options.space = Eigen::Quaterniond(space[0], space[1], space[2], space[3]);
   job.options.ground_bones = ground_bones;
-  job.Validate().ThrowIfFailed();
-  {
-    py::gil_scoped_release release;
-    job.Run();
-  }
+  ValidateAndRun(job);
   return py::make_tuple(rotations, root_locations);
 }
 

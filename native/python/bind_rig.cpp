@@ -29,11 +29,7 @@ py::tuple ArmaturePose(const RigModel& rig, const ConstMatrixView& basis_rotatio
   RowMap rotations_view(rotations.mutable_data(), frames, 4 * bones);
   RowMap heads_view(heads.mutable_data(), frames, 3 * bones);
   ArmaturePoseJob job(rig, basis_rotations, basis_locations, rotations_view, heads_view);
-  job.Validate().ThrowIfFailed();
-  {
-    py::gil_scoped_release release;
-    job.Run();
-  }
+  ValidateAndRun(job);
   return py::make_tuple(rotations, heads);
 }
 

@@ -63,11 +63,7 @@ py::object InterpolateRotations(const ConstVectorView& times, const ConstMatrixV
                              KeyTcb(View(t), View(c), View(b)));
   job.options.kind = *kind;
   job.options.euler_order = Order(euler_order);
-  job.Validate().ThrowIfFailed();
-  {
-    py::gil_scoped_release release;
-    job.Run();
-  }
+  ValidateAndRun(job);
   if (want_velocity) return py::make_tuple(out, velocity);
   return py::object(std::move(out));
 }

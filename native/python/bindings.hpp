@@ -5,6 +5,15 @@
 
 namespace motionkit::python {
 
+// The bindings' one way of running a job: validated with the GIL held (a failure is a MotionKitError
+// naming the place), then run without it, so that other Python threads go on meanwhile.
+template <class Job>
+void ValidateAndRun(Job& job) {
+  job.Validate().ThrowIfFailed();
+  pybind11::gil_scoped_release release;
+  job.Run();
+}
+
 // The _testing submodule module.cpp made, for the functions only the tests use.
 inline pybind11::module_ TestingModule(pybind11::module_& m) { return m.attr("_testing").cast<pybind11::module_>(); }
 
