@@ -1,0 +1,248 @@
+// The Jacobian methods' iteration (damped least squares, pseudo-inverse, transpose): the step, the
+// kick out of a standstill, and the frame's loop.
+#include "solver.hpp"
+
+namespace motionkit::ik_internal {
+
+// A stationary point that is not a solution (a straight chain asked to fold,
+// a target straight behind): bend the joints that only serve unmet effectors
+// a little about their first free swing axis, one way then the other, and
+// keep the bend if it helps. Deterministic.
+bool Solver::Kick(double mu, Cost& cost) {
+  if (joints_.empty() || rows_ == 0) return false;
+  for (int e = 0; e < effector_count_; ++e) At(met_, e) = EffectorError(e, fk_, false) <= tolerance_;
+  bool any = false;
+  for (int pass = 0; pass < 2 && !any; ++pass) {
+    for (std::size_t j = 0; j < joints_.size(); ++j) {
+      bool unmet = false, met = false;
+      for (int e = 0; e < effector_count_; ++e) {
+        if (!rig_.IsAncestor(joints_[j].bone, At(effectors_, e).bone)) continue;
+        (At(met_, e) ? met : unmet) = true;
+      }
+      kick_[j] = unmet && (pass == 1 || !met) && joints_[j].axis_count > 0;
+      any = any || kick_[j];
+    }
+  }
+  if (!any) return false;
+  // Every kicked joint about its first free swing axis (X, else Z, else Y),
+  // less what moves any effector to first order (the projection onto the
+  // Jacobian's null space): what is left bends the chain without moving the
+  // effectors except through the curvature that the stationary point hides.
+  std::fill(u0_.begin(), u0_.end(), 0.0);
+  for (std::size_t jo = 0; jo < joints_.size(); ++jo) {
+    if (!kick_[jo]) continue;
+    const Joint& j = joints_[jo];
+    const int axis = j.free[0] ? 0 : j.free[2] ? 2 : 1;
+    for (int k = 0; k < j.axis_count; ++k) {
+      if (j.axes[static_cast<std::size_t>(k)] == axis) At(u0_, j.first_column + k) = 1.0;
+    }
+  }
+  BuildJacobian(fk_);
+  Gram(false, 0.0);
+  double trace = 0.0;
+  for (int i = 0; i < rows_; ++i) trace += s_[static_cast<std::size_t>(i * rows_ + i)];
+  Gram(false, 1e-9 * trace / rows_ + 1e-300);
+  if (Cholesky(s_.data(), rows_)) {
+    MultiplyA(u0_.data(), y_.data());
+    CholeskySolve(s_.data(), rows_, y_.data());
+    MultiplyAt(y_.data(), g_.data());
+    double left = 0.0;
+    for (int j = 0; j < cols_; ++j) left = std::max(left, std::abs(At(u0_, j) - At(g_, j)));
+    if (left > 1e-3) {  // else the kick lies in the Jacobian's range: keep it as it is
+      for (int j = 0; j < cols_; ++j) At(u0_, j) -= At(g_, j);
+    }
+  }
+  double largest = 0.0;
+  for (const Joint& j : joints_) {
+    double sum = 0.0;
+    for (int k = 0; k < j.axis_count; ++k) {
+      const double v = j.axis_scale[static_cast<std::size_t>(k)] * At(u0_, j.first_column + k);
+      sum += v * v;
+    }
+    largest = std::max(largest, std::sqrt(sum));
+  }
+  if (!(largest > 0.0) || !std::isfinite(largest)) return false;
+  const double angle = std::min(0.05, options_.max_step);
+  const double merit = cost.task + (mu > 0.0 ? mu * RegulariserCost(current_) : 0.0);
+  for (const double sign : {1.0, -1.0}) {
+    for (int j = 0; j < cols_; ++j) At(u_, j) = sign * angle / largest * At(u0_, j);
+    Apply(current_, u_.data(), trial_);
+    Forward(trial_, trial_fk_);
+    const Cost next = Evaluate(trial_fk_, r_.data());
+    const double next_merit = next.task + (mu > 0.0 ? mu * RegulariserCost(trial_) : 0.0);
+    if (std::isfinite(next_merit) && next_merit < merit) {
+      std::swap(current_, trial_);
+      std::swap(fk_, trial_fk_);
+      std::swap(e_, r_);
+      cost = next;
+      return true;
+    }
+  }
+  return false;
+}
+
+
+int Solver::SolveJacobian() {
+  Forward(current_, fk_);
+  Cost cost = Evaluate(fk_, e_.data());
+  const IkMethod method = options_.method;
+  const bool dls = method == IkMethod::kDls, damped = method != IkMethod::kTranspose;
+  const int limit = options_.max_iterations;
+  int it = 0, kicks = 0;
+  double damp2 = 0.0, nu = 2.0;  // the damping term (lambda^2, or the pseudo-inverse's eps) and its growth
+  bend_weight_ = 0.0;
+  // The regulariser's residual and cost at current_, kept from the accepted
+  // trial that produced it.
+  bool have_rho = false;
+  double regulariser = 0.0, trial_regulariser = 0.0;
+  while (cost.worst > tolerance_ && it < limit) {
+    // The regulariser steers while the targets are far and fades as they are
+    // met, so that a reachable target is reached rather than traded for it.
+    const double fade = std::min(1.0, cost.worst / (1e-2 * size_));
+    const double mu = dls ? mu_ * fade * fade : 0.0;
+    if (mu > 0.0 && !have_rho) {
+      regulariser = Regulariser(current_, rho_.data());
+      have_rho = true;
+    }
+    const double merit = cost.task + (mu > 0.0 ? mu * regulariser : 0.0);
+    BuildJacobian(fk_);
+    double floor2 = lambda_ * lambda_;
+    if (method == IkMethod::kPseudoInverse) {  // eps ~ 1e-12 of the system's scale
+      double trace = 0.0;
+      for (const Effector& e : effectors_) {
+        for (double v : e.block) trace += v * v;
+      }
+      floor2 = 1e-12 * trace / std::max(rows_, 1) + 1e-300;
+    }
+    damp2 = std::max(damp2, floor2);
+    FindBounds();
+    bool have_direction = false, accepted = false, stalled = false, broken = false;
+    double fraction = 1.0, next_merit = 0.0;
+    Cost next;
+    while (it < limit) {
+      ++it;
+      if (!damped) {
+        if (!have_direction) {
+          bool ok = Direction(0.0, 0.0);
+          while (ok && Freeze(u0_.data())) ok = Direction(0.0, 0.0);
+          if (!ok) {
+            stalled = true;
+            break;
+          }
+        }
+        have_direction = true;
+        for (int j = 0; j < cols_; ++j) At(u_, j) = fraction * At(u0_, j);
+      } else {
+        bool ok = Direction(damp2, mu);
+        while (ok && Freeze(u_.data())) ok = Direction(damp2, mu);
+        if (!ok) {
+          damp2 *= nu;
+          nu *= 2.0;
+          if (damp2 > 1e30 * floor2) {
+            stalled = true;
+            break;
+          }
+          continue;
+        }
+      }
+      double largest = 0.0;
+      for (double v : u_) largest = std::max(largest, std::abs(v));
+      if (!(largest > 1e-14)) {
+        stalled = true;
+        break;
+      }
+      ClampStep(u_.data());
+      // What the linear model promises, for the damping's update.
+      double predicted = 0.0;
+      if (damped) {
+        MultiplyA(u_.data(), h_.data());
+        double model = 0.0;
+        for (int i = 0; i < rows_; ++i) model += (At(e_, i) - At(h_, i)) * (At(e_, i) - At(h_, i));
+        if (mu > 0.0) {
+          for (int j = 0; j < cols_; ++j) {
+            const Column& c = columns_[static_cast<std::size_t>(j)];
+            const double v = At(rho_, j) + c.scale * At(u_, j);
+            model += mu * c.metric * v * v;
+          }
+        }
+        if (dls && bend_weight_ > 0.0) {
+          for (std::size_t jo = 0; jo < joints_.size(); ++jo) {
+            const Joint& j = joints_[jo];
+            for (int k = 0; k < j.axis_count; ++k) {
+              for (int l = 0; l < j.axis_count; ++l) {
+                model += bend_weight_ * At(u_, j.first_column + k) * bend_[jo](k, l) * At(u_, j.first_column + l);
+              }
+            }
+          }
+        }
+        predicted = merit - model;
+      }
+      Apply(current_, u_.data(), trial_);
+      Forward(trial_, trial_fk_);
+      next = Evaluate(trial_fk_, r_.data());
+      if (mu > 0.0) trial_regulariser = Regulariser(trial_, trial_rho_.data());
+      next_merit = next.task + (mu > 0.0 ? mu * trial_regulariser : 0.0);
+      if (!std::isfinite(next_merit)) {
+        broken = true;
+        break;
+      }
+      if (next_merit < merit) {
+        accepted = true;
+        if (damped) {  // Nielsen's update
+          const double gain = predicted > 0.0 ? (merit - next_merit) / predicted : 1.0;
+          const double t = 2.0 * gain - 1.0;
+          damp2 = std::max(floor2, damp2 * std::max(1.0 / 3.0, 1.0 - t * t * t));
+          nu = 2.0;
+          if (gain > 0.75) bend_weight_ = bend_weight_ > 0.1 ? 0.5 * bend_weight_ : 0.0;
+        }
+        break;
+      }
+      if (dls && bend_weight_ < 1.0) {
+        bend_weight_ = 1.0;  // first let the curvature the linear model left out hold the step back
+      } else if (damped) {
+        damp2 *= nu;
+        nu *= 2.0;
+        if (damp2 > 1e30 * floor2) {
+          stalled = true;
+          break;
+        }
+      } else {
+        fraction *= 0.5;
+        if (fraction < 1e-8) {
+          stalled = true;
+          break;
+        }
+      }
+    }
+    if (broken) break;  // keep the previous iterate
+    if (accepted) {
+      std::swap(current_, trial_);
+      std::swap(fk_, trial_fk_);
+      std::swap(e_, r_);
+      cost = next;
+      if (mu > 0.0) {
+        std::swap(rho_, trial_rho_);
+        regulariser = trial_regulariser;
+      }
+      have_rho = mu > 0.0;
+      // A minimum that does not meet the targets: the cost no longer falls.
+      if (merit - next_merit <= (dls ? kStationary : kCreeping) * merit) break;
+      continue;
+    }
+    if (stalled && kicks < 2 && it < limit) {
+      ++it;
+      ++kicks;
+      if (Kick(mu, cost)) {
+        have_rho = false;
+        damp2 = 0.0;
+        nu = 2.0;
+        bend_weight_ = 0.0;
+        continue;
+      }
+    }
+    break;
+  }
+  return it;
+}
+
+}  // namespace motionkit::ik_internal

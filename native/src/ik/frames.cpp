@@ -1,0 +1,161 @@
+// A frame's start and finish (inputs in, outputs and errors out), and running a range of frames.
+#include "solver.hpp"
+
+namespace motionkit::ik_internal {
+
+void Solver::StartFrame(Eigen::Index f) {
+  const Eigen::Index rot_row = job_.input_rotations.rows() == 1 ? 0 : f;
+  const Eigen::Index loc_row = job_.input_locations.rows() == 1 ? 0 : f;
+  for (int b : needed_) {
+    At(input_.basis, b) = QuatAt(job_.input_rotations, rot_row, b).normalized();
+    At(input_.scale, b) = 1.0;
+  }
+  if (bones_ > 0) {
+    input_.root = rig_.offset(0) + rig_.relative(0) * job_.input_locations.row(loc_row).transpose();
+  }
+  // Every pose of the frame has the input's basis, scale and root on these.
+  for (int b : fixed_) {
+    Place(b, input_, fk_);
+    At(trial_fk_.frame, b) = At(fk_.frame, b);
+    At(trial_fk_.global, b) = At(fk_.global, b);
+    At(trial_fk_.head, b) = At(fk_.head, b);
+  }
+  // Pins hold where this frame's input pose has them.
+  bool pins = false;
+  for (const Effector& e : effectors_) pins = pins || e.pin;
+  if (pins) Forward(input_, fk_);
+  for (int e = 0; e < effector_count_; ++e) {
+    const Effector& ef = At(effectors_, e);
+    if (ef.pin) {
+      At(target_position_, e) = At(fk_.tip, e);
+      At(target_orientation_, e) = At(fk_.global, ef.bone);
+      continue;
+    }
+    const int id = At(ids_, e);
+    if (ef.position) At(target_position_, e) = job_.target_positions.row(f).segment<3>(3 * id).transpose();
+    if (ef.orientation) {
+      const double* q = job_.target_orientations.data() + f * job_.target_orientations.outerStride() + 4 * id;
+      At(target_orientation_, e) = Quat(q[0], q[1], q[2], q[3]).normalized();
+    }
+  }
+  const bool warm = options_.warm_start && have_solution_;
+  for (int b : needed_) {
+    At(current_.basis, b) = At(input_.basis, b);
+    At(current_.scale, b) = 1.0;
+  }
+  current_.root = warm && translate_ ? solution_.root : input_.root;
+  const bool previous = options_.reference == IkReference::kPrevious && have_solution_;
+  reference_.root = previous ? solution_.root : input_.root;
+  for (const Joint& j : joints_) {
+    if (warm) {
+      At(current_.basis, j.bone) = At(solution_.basis, j.bone);
+      At(current_.scale, j.bone) = At(solution_.scale, j.bone);
+    }
+    ClampJoint(j, current_);
+    At(reference_.basis, j.bone) = previous ? At(solution_.basis, j.bone) : At(input_.basis, j.bone);
+    At(reference_.scale, j.bone) = previous ? At(solution_.scale, j.bone) : 1.0;
+  }
+  trial_ = current_;
+  // Targets that move smoothly move the solution smoothly: carried on as the
+  // last two frames' solutions went, the start is often close enough for one
+  // step to meet the tolerance (from the last solution alone, two). Kept
+  // only when it starts nearer the targets.
+  if (warm && have_earlier_ && !joints_.empty()) {
+    for (const Joint& j : joints_) {
+      const Quat& last = At(solution_.basis, j.bone);
+      At(trial_.basis, j.bone) = (last * (At(earlier_.basis, j.bone).conjugate() * last)).normalized();
+      At(trial_.scale, j.bone) = 2.0 * At(solution_.scale, j.bone) - At(earlier_.scale, j.bone);
+      ClampJoint(j, trial_);
+    }
+    if (translate_) trial_.root = 2.0 * solution_.root - earlier_.root;
+    Forward(current_, fk_);
+    Forward(trial_, trial_fk_);
+    if (Evaluate(trial_fk_, r_.data()).task < Evaluate(fk_, e_.data()).task) {
+      std::swap(current_, trial_);
+    }
+    trial_ = current_;
+  }
+}
+
+
+void Solver::FinishFrame(Eigen::Index f, int iterations) {
+  // Never hand back a non-finite value: fall back on the frame's start.
+  bool finite = current_.root.allFinite();
+  for (const Joint& j : joints_) {
+    finite = finite && At(current_.basis, j.bone).coeffs().allFinite() && std::isfinite(At(current_.scale, j.bone));
+  }
+  if (!finite) {
+    StartFrame(f);
+    Forward(current_, fk_);
+  }
+  for (int e = 0; e < effector_count_; ++e) job_.errors(f, At(ids_, e)) = EffectorError(e, fk_, true);
+  iterations_[f] = iterations;
+  const Eigen::Index rot_row = job_.input_rotations.rows() == 1 ? 0 : f;
+  double* const out_row = job_.rotations.data() + f * job_.rotations.outerStride();
+  const double* const in_row = job_.input_rotations.data() + rot_row * job_.input_rotations.outerStride();
+  for (const Joint& j : joints_) {
+    const int b = j.bone;
+    double* out = out_row + 4 * b;
+    const double* in = in_row + 4 * b;
+    Quat q = At(current_.basis, b);
+    // Continuous with the previous frame's output (the input's on the first of the run).
+    const double* near = f > first_ ? out - job_.rotations.outerStride() : in;
+    if (q.w() * near[0] + q.x() * near[1] + q.y() * near[2] + q.z() * near[3] < 0.0) q.coeffs() = -q.coeffs();
+    out[0] = q.w();
+    out[1] = q.x();
+    out[2] = q.y();
+    out[3] = q.z();
+    job_.scales(f, b) = At(current_.scale, b);
+  }
+  if (translate_) {
+    job_.root_locations.row(f) = (rig_.relative(0).conjugate() * (current_.root - rig_.offset(0))).transpose();
+  }
+  earlier_.root = solution_.root;
+  for (const Joint& j : joints_) {
+    At(earlier_.basis, j.bone) = At(solution_.basis, j.bone);
+    At(earlier_.scale, j.bone) = At(solution_.scale, j.bone);
+  }
+  have_earlier_ = have_solution_;
+  solution_.root = current_.root;
+  for (const Joint& j : joints_) {
+    At(solution_.basis, j.bone) = At(current_.basis, j.bone);
+    At(solution_.scale, j.bone) = At(current_.scale, j.bone);
+  }
+  have_solution_ = true;
+}
+
+std::vector<int> Solver::Bones() const {
+  std::vector<int> bones;
+  bones.reserve(joints_.size());
+  for (const Joint& j : joints_) bones.push_back(j.bone);
+  return bones;
+}
+
+void Solver::Run(Eigen::Index first, Eigen::Index last) {
+  first_ = first;
+  for (Eigen::Index f = first; f < last; ++f) {
+    StartFrame(f);
+    const int iterations = options_.method == IkMethod::kCcd ? SolveCcd() : SolveJacobian();
+    FinishFrame(f, iterations);
+  }
+}
+
+RowMatrixXd Solver::Jacobian(Eigen::Index f) {
+  have_solution_ = false;
+  have_earlier_ = false;
+  StartFrame(f);
+  Forward(current_, fk_);
+  BuildJacobian(fk_);
+  RowMatrixXd j = RowMatrixXd::Zero(rows_, cols_);
+  for (const Effector& e : effectors_) {
+    const std::size_t n = e.columns.size();
+    for (int r = 0; r < e.rows; ++r) {
+      for (std::size_t i = 0; i < n; ++i) {
+        j(e.row + r, e.columns[i]) = e.block[i * static_cast<std::size_t>(e.rows) + static_cast<std::size_t>(r)];
+      }
+    }
+  }
+  return j;
+}
+
+}  // namespace motionkit::ik_internal
