@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "parallel.hpp"
+#include "so3.hpp"
 
 // How it is fast (about 8 ns per joint and frame on a 31-joint skeleton in
 // cache, AVX2): frames are solved several at a time in vector lanes, the
@@ -50,7 +51,7 @@ Eigen::Index fk_min_joint_frames_per_thread = 16384;
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
+using internal::kPi;
 
 // Adding and subtracting 1.5 * 2^52 rounds a double of magnitude below 2^51 to
 // the nearest integer in the default rounding mode, without a library call,

@@ -7,11 +7,12 @@
 #include "parallel.hpp"
 
 #include <cmath>
+#include "so3.hpp"
 
 namespace motionkit {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
+using internal::kPi;
 constexpr double kTwoPi = 2.0 * kPi;
 
 // Below this middle-angle distance from +-pi/2 (radians) the first and last

@@ -5,6 +5,7 @@
 #include <string>
 
 #include "quaternion_calculus.hpp"
+#include "so3.hpp"
 
 namespace motionkit {
 namespace {
@@ -21,7 +22,7 @@ using detail::Scaled;
 using detail::SlerpOf;
 using detail::Vec3;
 
-constexpr double kPi = 3.14159265358979323846;
+using internal::kPi;
 
 constexpr const char* kNames[] = {"slerp",            "squad",
                                   "catmull-rom",      "kochanek-bartels",
