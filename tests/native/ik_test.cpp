@@ -886,8 +886,18 @@ TEST(IkValidate, NonFiniteInputsNameTheEffectorAndFrame) {
   q.target_orientations = RowMatrixXd::Zero(2, 4);
   q.target_orientations(0, 0) = 1.0;
   EXPECT_THROW(q.Run(), Error);
-  q.effectors[0].weight = -1.0;
-  EXPECT_THROW(q.Run(), Error);
+  // Every orientation a rotation again, so that the weight check alone can refuse the next run.
+  q.target_orientations(1, 0) = 1.0;
+  EXPECT_NO_THROW(q.Run());
+  for (const double weight : {-1.0, 0.0, std::nan("")}) {
+    q.effectors[0].weight = weight;
+    try {
+      q.Run();
+      FAIL() << "weight " << weight << " was accepted";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find("the weight must be finite and positive"), std::string::npos) << e.what();
+    }
+  }
   // Settings: a negative thread count or size names itself.
   for (const auto& [threads, size, what] : {std::tuple{-1, 0.0, "threads"}, std::tuple{1, -2.0, "size"},
                                             std::tuple{1, std::nan(""), "size"}}) {

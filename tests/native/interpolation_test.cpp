@@ -471,7 +471,7 @@ TEST(Interpolation, TwoKeysAreALineForTheSecantKinds) {
   }
 }
 
-// Evaluates the Hermite form directly with the basis functions of the brief.
+// Evaluates the Hermite form directly with the Hermite basis functions (docs/resampling.md).
 double HermiteValue(const Eigen::VectorXd& t, const RowMatrixXd& y, const RowMatrixXd& in,
                     const RowMatrixXd& out, Eigen::Index j, double x) {
   const Eigen::Index n = t.size();

@@ -144,7 +144,7 @@ TEST(Retarget, SameRigGivesTheSamePose) {
   }
 }
 
-// The lab check of the brief: a T-pose and an A-pose rig with the same bones
+// The lab check (docs/retargeting.md): a T-pose and an A-pose rig with the same bones
 // pose the same world joints on every frame, both ways; rolls on the target
 // change nothing.
 TEST(Retarget, TPoseToAPoseAndBackKeepsEveryJoint) {

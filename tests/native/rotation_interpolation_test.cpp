@@ -99,7 +99,7 @@ TEST(Slerp, MatchesTheClosedForm) {
     Eigen::Quaterniond q1 = Eigen::Quaterniond::UnitRandom();
     const double u = u01(rng);
     const Eigen::Quaterniond got = Slerp(q0, q1, u);
-    // The brief's formula on the shorter arc.
+    // Slerp's formula (docs/resampling.md) on the shorter arc.
     if (q0.dot(q1) < 0) q1.coeffs() = -q1.coeffs();
     const double theta = std::acos(std::min(1.0, q0.dot(q1)));
     Eigen::Quaterniond expected;

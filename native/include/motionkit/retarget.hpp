@@ -1,4 +1,4 @@
-// Retargeting a whole clip from one rig to another (brief, section 2).
+// Retargeting a whole clip from one rig to another (docs/retargeting.md).
 //
 // Per mapped pair (source bone a, target bone b), with M the orientations of
 // the match pose (the rest pose, or a pose the user set so that the two rigs
@@ -6,7 +6,7 @@
 // S_b the shortest rotation that turns b's match direction (its Y axis) onto
 // a's (carried by R), the target bone's orientation on every frame is
 //   G_b(t) = D_a(t) S_b M_b,   D_a(t) = R G_a(t) M_a^-1 R^-1,
-// the brief's Q^B = Q^A (Q^{A->B})^T with Q^{A->B} = M_b^-1 S_b^-1 M_a
+// docs/retargeting.md's Q^B = Q^A (Q^{A->B})^T with Q^{A->B} = M_b^-1 S_b^-1 M_a
 // read in each rig's own bone frames. So b points where a points on every
 // frame whatever the rest poses (T, A, anything) and bone rolls, and turns
 // about itself as a does. Locals come back as G_p^-1 G_b against each bone's

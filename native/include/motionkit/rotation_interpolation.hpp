@@ -1,4 +1,4 @@
-// Interpolating rotation keys on the unit-quaternion sphere (brief, section 4),
+// Interpolating rotation keys on the unit-quaternion sphere (docs/resampling.md),
 // with the naive Euler and axis-angle splines beside them for comparison.
 //
 // Conventions: quaternions are w x y z rows; q and -q are the same rotation,
@@ -15,7 +15,7 @@
 //   Catmull-Rom            m_i = (d⁻ + d⁺) / (Δ⁻ + Δ⁺)
 //   Kochanek-Bartels in    m⁻_i = (1-T)[(1+B)(1-C) d⁻ + (1-B)(1+C) d⁺] / (Δ⁻ + Δ⁺)
 //                    out   m⁺_i = (1-T)[(1+B)(1+C) d⁻ + (1-B)(1-C) d⁺] / (Δ⁻ + Δ⁺)
-// i.e. the brief's chord Catmull-Rom (y_{i+1} - y_{i-1}) / (x_{i+1} - x_{i-1})
+// i.e. the chord Catmull-Rom of docs/resampling.md (y_{i+1} - y_{i-1}) / (x_{i+1} - x_{i-1})
 // and Kochanek and Bartels' (1984) tangents with their time adjustment for
 // uneven key spacing (2Δ/(Δ⁻ + Δ⁺) per side), written per unit time. With C =
 // 0 the incoming and outgoing velocities agree, so the curve is C1 in time
