@@ -130,7 +130,7 @@ class MOTIONKIT_OT_retarget(bpy.types.Operator):
                 overwrite=settings.overwrite)
 
         return common.run(self, context, work,
-                                 lambda action: f"Retargeted onto '{settings.target.name}' as action '{action.name}'")
+                          lambda action: f"Retargeted onto '{settings.target.name}' as action '{action.name}'")
 
 
 class MOTIONKIT_OT_bone_map_auto(bpy.types.Operator):
@@ -183,8 +183,8 @@ class MOTIONKIT_OT_bone_map_save(bpy.types.Operator, ExportHelper):
 
     def execute(self, context):
         return common.run(self, context,
-                                 lambda progress: bone_mapping.save_map(self.filepath, _settings(context).bone_map()),
-                                 lambda _: "")
+                          lambda progress: bone_mapping.save_map(self.filepath, _settings(context).bone_map()),
+                          lambda _: "")
 
 
 class MOTIONKIT_OT_bone_map_load(bpy.types.Operator, ImportHelper):
