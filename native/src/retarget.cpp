@@ -250,10 +250,11 @@ void RetargetJob::Run() {
   const auto pose_heads = [&](const std::vector<Eigen::Quaterniond>& g, const Eigen::Vector3d& root_location) {
     for (int b = 0; b < nt; ++b) {
       const int p = target.parent(b);
-      Eigen::Vector3d local = target.offset(b);
-      if (b == target_root) local += target.relative(b) * root_location;
       heads[static_cast<std::size_t>(b)] =
-          p < 0 ? local : heads[static_cast<std::size_t>(p)] + g[static_cast<std::size_t>(p)] * local;
+          PoseBone(target, b, p < 0 ? Eigen::Quaterniond::Identity() : g[static_cast<std::size_t>(p)],
+                   p < 0 ? Eigen::Vector3d::Zero() : heads[static_cast<std::size_t>(p)], Eigen::Quaterniond::Identity(),
+                   b == target_root ? root_location : Eigen::Vector3d::Zero())
+              .head;
     }
   };
   std::vector<Eigen::Quaterniond> match_globals(static_cast<std::size_t>(nt));
@@ -277,7 +278,7 @@ void RetargetJob::Run() {
           p < 0 ? Eigen::Quaterniond::Identity() : globals[static_cast<std::size_t>(p)];
       Eigen::Quaterniond g;
       if (d.kind == Drive::kKeep) {
-        g = parent * target.relative(b) * plan.match_basis(b);
+        g = RestFrame(target, b, parent) * plan.match_basis(b);
       } else {
         const auto delta = [&](int a) {
           return space * QuatAt(source_rotations, f, a).normalized() * plan.source_match_inverse(a) * space_inverse;
@@ -288,7 +289,7 @@ void RetargetJob::Run() {
       }
       g.normalize();
       globals[static_cast<std::size_t>(b)] = g;
-      Eigen::Quaterniond basis = (parent * target.relative(b)).conjugate() * g;
+      Eigen::Quaterniond basis = RestFrame(target, b, parent).conjugate() * g;
       basis.normalize();
       if (f > 0) {
         const double* previous = rotations.data() + (f - 1) * rotations.outerStride() + 4 * b;
@@ -331,17 +332,18 @@ void RetargetJob::Run() {
     wanted.z() += lift;
     const int p = target.parent(target_root);
     // head = anchor + frame * location, from the root's parent (posed this frame).
-    Eigen::Vector3d anchor = target.offset(target_root);
-    Eigen::Quaterniond frame = target.relative(target_root);
-    if (p >= 0) {
-      Eigen::Vector3d parent_head = Eigen::Vector3d::Zero();
-      for (int b : root_ancestors) {
-        const int bp = target.parent(b);
-        parent_head = bp < 0 ? target.offset(b) : parent_head + globals[static_cast<std::size_t>(bp)] * target.offset(b);
-      }
-      anchor = parent_head + globals[static_cast<std::size_t>(p)] * target.offset(target_root);
-      frame = globals[static_cast<std::size_t>(p)] * target.relative(target_root);
+    Eigen::Vector3d parent_head = Eigen::Vector3d::Zero();
+    for (int b : root_ancestors) {
+      const int bp = target.parent(b);
+      parent_head = PoseBone(target, b, bp < 0 ? Eigen::Quaterniond::Identity() : globals[static_cast<std::size_t>(bp)],
+                             parent_head, Eigen::Quaterniond::Identity(), Eigen::Vector3d::Zero())
+                        .head;
     }
+    const PosedBone at_rest =
+        PoseBone(target, target_root, p < 0 ? Eigen::Quaterniond::Identity() : globals[static_cast<std::size_t>(p)],
+                 parent_head, Eigen::Quaterniond::Identity(), Eigen::Vector3d::Zero());
+    const Eigen::Vector3d anchor = at_rest.head;
+    const Eigen::Quaterniond frame = at_rest.frame;
     root_locations.row(f) = (frame.conjugate() * (wanted - anchor)).transpose();
   };
 

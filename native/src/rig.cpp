@@ -120,19 +120,18 @@ void ArmaturePoseJob::Run() {
     double* rot = rotations.data() + f * rotations.outerStride();
     double* pos = heads.data() + f * heads.outerStride();
     for (int b = 0; b < bones; ++b) {
-      const Eigen::Quaterniond basis = QuatAt(basis_rotations, f, b).normalized();
       const int p = rig.parent(b);
-      Eigen::Quaterniond g = rig.relative(b) * basis;
-      Eigen::Vector3d local = rig.offset(b);
-      if (located) local += rig.relative(b) * basis_locations.row(f).segment<3>(3 * b).transpose();
-      Eigen::Vector3d head = local;
-      if (p >= 0) {
-        const double* pr = rot + 4 * p;
-        const Eigen::Quaterniond gp(pr[0], pr[1], pr[2], pr[3]);
-        g = gp * g;
-        head = Eigen::Map<const Eigen::Vector3d>(pos + 3 * p) + gp * local;
-      }
-      g.normalize();
+      const double* pr = rot + 4 * p;
+      const Eigen::Quaterniond parent =
+          p >= 0 ? Eigen::Quaterniond(pr[0], pr[1], pr[2], pr[3]) : Eigen::Quaterniond::Identity();
+      const Eigen::Vector3d parent_head =
+          p >= 0 ? Eigen::Vector3d(Eigen::Map<const Eigen::Vector3d>(pos + 3 * p)) : Eigen::Vector3d::Zero();
+      const Eigen::Vector3d location = located ? Eigen::Vector3d(basis_locations.row(f).segment<3>(3 * b).transpose())
+                                               : Eigen::Vector3d::Zero();
+      const PosedBone posed =
+          PoseBone(rig, b, parent, parent_head, QuatAt(basis_rotations, f, b).normalized(), location);
+      const Eigen::Quaterniond g = posed.global.normalized();
+      const Eigen::Vector3d& head = posed.head;
       rot[4 * b] = g.w();
       rot[4 * b + 1] = g.x();
       rot[4 * b + 2] = g.y();

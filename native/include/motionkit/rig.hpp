@@ -56,6 +56,35 @@ class RigModel {
   std::vector<Eigen::Vector3d> offset_;
 };
 
+// The rig's forward kinematics, one bone at a time: the one recurrence that the
+// armature pose job, the IK solver and the retarget job all use. Under its
+// parent's posed orientation `parent` (identity for a root) the bone's rest
+// frame is parent * relative(b); its head is parent_head + parent * offset(b)
+// (offset's Y scaled by the parent's length scale, 1 but for IK's stretching
+// bones) + frame * location (the bone's location channel); its orientation
+// is frame * basis (its pose rotation). For a root, parent_head is zero.
+inline Eigen::Quaterniond RestFrame(const RigModel& rig, int b, const Eigen::Quaterniond& parent) {
+  return parent * rig.relative(b);
+}
+
+struct PosedBone {
+  Eigen::Quaterniond frame;   // RestFrame: the bone at rest under its posed parent
+  Eigen::Quaterniond global;  // frame * basis: its posed orientation (not normalised)
+  Eigen::Vector3d head;
+};
+
+inline PosedBone PoseBone(const RigModel& rig, int b, const Eigen::Quaterniond& parent,
+                          const Eigen::Vector3d& parent_head, const Eigen::Quaterniond& basis,
+                          const Eigen::Vector3d& location, double parent_scale = 1.0) {
+  PosedBone out;
+  out.frame = RestFrame(rig, b, parent);
+  Eigen::Vector3d offset = rig.offset(b);
+  offset.y() *= parent_scale;
+  out.head = parent_head + parent * offset + out.frame * location;
+  out.global = out.frame * basis;
+  return out;
+}
+
 // Pose channels of every bone and frame to armature-space orientations and
 // heads. Caller-owned buffers; Run() allocates nothing.
 //   basis_rotations: frames x 4B, any non-zero length (normalised)

@@ -24,14 +24,14 @@ void Solver::Place(int b, const Pose& pose, Fk& fk) const {
   if (p < 0) {
     At(fk.frame, b) = rig_.relative(b);
     At(fk.head, b) = b == 0 ? pose.root : rig_.offset(b);
+    At(fk.global, b) = At(fk.frame, b) * At(pose.basis, b);
   } else {
-    const Quat& gp = At(fk.global, p);
-    At(fk.frame, b) = gp * rig_.relative(b);
-    Vec3 offset = rig_.offset(b);
-    offset.y() *= At(pose.scale, p);
-    At(fk.head, b) = At(fk.head, p) + gp * offset;
+    const PosedBone posed = PoseBone(rig_, b, At(fk.global, p), At(fk.head, p), At(pose.basis, b), Vec3::Zero(),
+                                     At(pose.scale, p));
+    At(fk.frame, b) = posed.frame;
+    At(fk.head, b) = posed.head;
+    At(fk.global, b) = posed.global;
   }
-  At(fk.global, b) = At(fk.frame, b) * At(pose.basis, b);
 }
 
 void Solver::Forward(const Pose& pose, Fk& fk) const {
