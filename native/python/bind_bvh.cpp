@@ -14,7 +14,7 @@
 #include "bindings.hpp"
 #include "motionkit/bvh.hpp"
 #include "motionkit/bvh_pose.hpp"
-#include "motionkit/fk.hpp"
+#include "motionkit/bvh_fk.hpp"
 #include "motionkit/skeleton.hpp"
 
 namespace py = pybind11;

@@ -1,4 +1,4 @@
-#include "motionkit/fk.hpp"
+#include "motionkit/bvh_fk.hpp"
 
 #include <gtest/gtest.h>
 

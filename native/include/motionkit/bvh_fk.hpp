@@ -1,4 +1,5 @@
-// Forward kinematics of a whole clip in one call (docs/bvh.md, "Forward kinematics"):
+// BVH's forward kinematics of a whole clip in one call (docs/bvh.md), with its own SIMD path; a rig's
+// (Blender armature's) forward kinematics is rig.hpp's PoseBone:
 //   Q_i = Q_p(i) R_i,   p_i = p_p(i) + Q_p(i) t_i
 // where R_i composes the joint's rotation channels in file order and t_i is
 // the joint's OFFSET with any position channels replacing its components.
