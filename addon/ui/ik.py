@@ -80,15 +80,19 @@ def _poll_effectors(cls, context) -> bool:
     return True
 
 
-class MOTIONKIT_OT_ik_solve(bpy.types.Operator):
-    """Solve full-body IK on the current frame and pose the armature (MotionKit)"""
-    bl_idname = "motionkit.ik_solve"
-    bl_label = "Solve"
+class _EffectorsOperator:
+    """What Solve and Bake share: one undo step, and an armature with effectors to run on."""
     bl_options = {'REGISTER', 'UNDO'}
 
     @classmethod
     def poll(cls, context):
         return _poll_effectors(cls, context)
+
+
+class MOTIONKIT_OT_ik_solve(_EffectorsOperator, bpy.types.Operator):
+    """Solve full-body IK on the current frame and pose the armature (MotionKit)"""
+    bl_idname = "motionkit.ik_solve"
+    bl_label = "Solve"
 
     def execute(self, context):
         obj = _armature(context)
@@ -100,15 +104,10 @@ class MOTIONKIT_OT_ik_solve(bpy.types.Operator):
                            f"{result.errors.max():.2e}")
 
 
-class MOTIONKIT_OT_ik_bake(bpy.types.Operator):
+class MOTIONKIT_OT_ik_bake(_EffectorsOperator, bpy.types.Operator):
     """Solve full-body IK on every frame of a range and key the solved bones (MotionKit)"""
     bl_idname = "motionkit.ik_bake"
     bl_label = "Bake"
-    bl_options = {'REGISTER', 'UNDO'}
-
-    @classmethod
-    def poll(cls, context):
-        return _poll_effectors(cls, context)
 
     def execute(self, context):
         obj = _armature(context)
