@@ -1037,3 +1037,13 @@ TEST(IkRobustness, RandomProblemsNeverGoNonFiniteOrLeaveTheirLimits) {
 }
 }  // namespace
 }  // namespace motionkit
+
+namespace motionkit {
+namespace {
+
+// The bindings default to every core (threads=0 in _native's signatures; tests/python/test_native_stub.py
+// checks that side): the C++ jobs take the same default.
+TEST(IkOptions, DefaultThreadCountIsEveryCoreAsInPython) { EXPECT_EQ(IkOptions{}.threads, 0); }
+
+}  // namespace
+}  // namespace motionkit

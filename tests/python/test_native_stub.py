@@ -119,3 +119,10 @@ def test_classes_have_the_stubs_attributes_and_constructors(native, stub):
         assert attributes == set(inside) - {"__init__", "__len__"}, f"{name}: attributes differ"
         if "__init__" in inside:
             assert _signatures(cls.__init__, "__init__") == inside["__init__"], f"{name}.__init__ differs"
+
+
+def test_thread_counts_default_to_every_core_as_in_cpp(native):
+    """threads=0 (every core) in each binding that takes a thread count, as the C++ jobs' own default
+    (tests/native: IkOptions.DefaultThreadCountIsEveryCoreAsInPython)."""
+    for function in (native.ik_solve, native.quaternion_to_euler, native._testing.forward_kinematics):
+        assert "threads: int = 0" in function.__doc__.splitlines()[0], function.__name__

@@ -12,7 +12,8 @@
 
 namespace motionkit {
 
-// Caller-owned buffers; with threads = 1 (the default) Run() allocates nothing.
+// Caller-owned buffers; with threads = 1 Run() allocates nothing (the default,
+// 0, as in Python, shares long clips among every core).
 //   values:       frames x skeleton.channel_count (BVH rows, degrees)
 //   positions:    frames x (3 * joints), world positions, x y z per joint
 //   orientations: frames x (4 * joints), world orientations, w x y z per joint
@@ -33,10 +34,10 @@ struct ForwardKinematicsJob {
   // Frames are independent: with more than one thread the clip is cut into
   // contiguous runs of rows, each solved on a thread of its own (the calling
   // thread takes the first), with the same numbers to the last bit as one
-  // thread gives. 0 means std::thread::hardware_concurrency(). Short clips use
-  // fewer threads than asked, down to one, where threads would cost more than
-  // they save.
-  int threads = 1;
+  // thread gives. 0 (the default, as in Python) means
+  // std::thread::hardware_concurrency(). Short clips use fewer threads than
+  // asked, down to one, where threads would cost more than they save.
+  int threads = 0;
 
   // Shapes agree, the skeleton validates, threads >= 0, every value is finite
   // (else names the frame and the joint's channel).

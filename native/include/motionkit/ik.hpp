@@ -78,10 +78,10 @@ struct IkOptions {
   bool warm_start = true;
   // Independent groups of effectors (see Run) may be solved on up to this
   // many threads, and without warm_start and with the input as reference
-  // (every frame its own problem) runs of frames too; 0 means
-  // std::thread::hardware_concurrency(). The results are the same whatever
-  // the count.
-  int threads = 1;
+  // (every frame its own problem) runs of frames too; 0 (the default, as in
+  // Python) means std::thread::hardware_concurrency(), 1 stays on the calling
+  // thread. The results are the same whatever the count.
+  int threads = 0;
 };
 
 // Inputs (caller-owned):
