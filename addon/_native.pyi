@@ -1,4 +1,5 @@
-# Hand-kept stub of the compiled module native/python/module.cpp.
+# Hand-kept stub of the compiled module native/python/module.cpp (tests/python/test_native_stub.py checks it).
+# Inputs are float64 C-contiguous arrays taken without a copy; every output is an array the function returns.
 from typing import Literal, overload
 
 import numpy as np
@@ -12,8 +13,7 @@ def build_info() -> dict[str, str]: ...
 def keyframe_co(
     frames: npt.NDArray[np.float64],
     values: npt.NDArray[np.float64],
-    co: npt.NDArray[np.float32],
-) -> None: ...
+) -> npt.NDArray[np.float32]: ...
 
 # Rotation interpolation (native/python/bind_rotation_interpolation.cpp).
 @overload
@@ -245,9 +245,7 @@ def bvh_to_pose(
     bone_rest: npt.NDArray[np.float64],
     conversion: npt.ArrayLike,
     scale: float,
-    rotations: npt.NDArray[np.float64],
-    locations: npt.NDArray[np.float64],
-) -> None: ...
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
 def pose_to_bvh(
     skeleton: Skeleton,
     rotations: npt.NDArray[np.float64],
@@ -255,19 +253,17 @@ def pose_to_bvh(
     bone_rest: npt.NDArray[np.float64],
     conversion: npt.ArrayLike,
     scale: float,
-    values: npt.NDArray[np.float64],
-) -> None: ...
+) -> npt.NDArray[np.float64]: ...
 
 # Euler angles (native/python/bind_rotation.cpp).
-def euler_to_quaternion(angles: npt.NDArray[np.float64], order: str, out: npt.NDArray[np.float64]) -> None: ...
+def euler_to_quaternion(angles: npt.NDArray[np.float64], order: str) -> npt.NDArray[np.float64]: ...
 def quaternion_to_euler(
     quaternions: npt.NDArray[np.float64],
     order: str,
-    out: npt.NDArray[np.float64],
     continuous: bool = True,
     previous: npt.NDArray[np.float64] = ...,
     threads: int = 0,
-) -> None: ...
+) -> npt.NDArray[np.float64]: ...
 
 # F-curve evaluation (native/python/bind_fcurve.cpp).
 def evaluate_fcurves(
@@ -278,8 +274,7 @@ def evaluate_fcurves(
     key_offsets: npt.NDArray[np.int32],
     linear_extrapolation: npt.NDArray[np.int32],
     times: npt.NDArray[np.float64],
-    values: npt.NDArray[np.float64],
-) -> None: ...
+) -> npt.NDArray[np.float64]: ...
 
 # Functions only the tests use (native/python: the _testing submodule), written as a namespace so that
 # this one stub holds the module.
@@ -294,11 +289,9 @@ class _testing:
     def forward_kinematics(
         skeleton: Skeleton,
         values: npt.NDArray[np.float64],
-        positions: npt.NDArray[np.float64],
-        orientations: npt.NDArray[np.float64],
         threads: int = 0,
-    ) -> None:
-        """Whole-clip FK in place; threads=0 shares the frames among all cores, 1 stays on this thread."""
+    ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+        """Whole-clip FK: (positions, orientations); threads=0 shares the frames among all cores."""
     @staticmethod
     def blender_euler_mode(order: str) -> str: ...
     @staticmethod

@@ -344,9 +344,8 @@ def _pack(native, id_data, channels, frames, values, what: str = "") -> np.ndarr
     """Keys as Blender's interleaved float32 (frame, value) rows, NaN and infinity refused."""
     frames = np.ascontiguousarray(frames, dtype=np.float64)
     values = np.ascontiguousarray(values, dtype=np.float64)
-    co = np.empty((len(channels), 2 * frames.size), dtype=np.float32)
     try:
-        native.keyframe_co(frames, values, co)
+        co = native.keyframe_co(frames, values)
     except native.MotionKitError as ex:
         if "not finite" in str(ex):
             raise ValueError(f"write_keys on {id_data.name}: {what}"
@@ -410,7 +409,5 @@ def sample(action: bpy.types.Action, id_data: bpy.types.ID, channels: Iterable,
                            for i in range(3))
         interp = np.concatenate([k[1] for k in keys])
         linear = np.array([k[2] for k in keys], dtype=np.int32)
-        out = np.empty((len(keys), frames.size))
-        native.evaluate_fcurves(co, left, right, interp, offsets, linear, frames, out)
-        values[native_rows] = out
+        values[native_rows] = native.evaluate_fcurves(co, left, right, interp, offsets, linear, frames)
     return values, found

@@ -50,8 +50,7 @@ def to_quaternions(native, mode: str, block, what: str = "rotation", frames=None
         q = np.hstack([np.cos(half), np.sin(half) * axis])
     else:
         order, axes = euler_order(mode)
-        q = np.empty((len(block), 4))
-        native.euler_to_quaternion(np.ascontiguousarray(block[:, axes]), order, q)
+        q = native.euler_to_quaternion(np.ascontiguousarray(block[:, axes]), order)
     norm = np.sqrt(np.einsum("ij,ij->i", q, q))[:, None]
     bad = np.flatnonzero(~(norm[:, 0] > 1e-12))
     if bad.size:
@@ -81,8 +80,8 @@ def from_quaternions(native, mode: str, q, previous=None) -> np.ndarray:
         start = np.zeros(3 * k) if previous is None else np.ascontiguousarray(previous[:, axes]).ravel()
         angles = np.empty((n, k, 3))
         if n and k:
-            native.quaternion_to_euler(np.ascontiguousarray(q.reshape(n, 4 * k)), order, angles.reshape(n, 3 * k),
-                                       True, start)
+            angles = native.quaternion_to_euler(np.ascontiguousarray(q.reshape(n, 4 * k)), order, True,
+                                                start).reshape(n, k, 3)
         out = np.empty((n, k, 3))
         out[..., axes] = angles
         return out[:, 0] if single else out

@@ -172,10 +172,8 @@ def load(filepath: str, options: ImportOptions | None = None, *, context=None, n
         bone_rest = np.tile([1.0, 0.0, 0.0, 0.0], (joints, 1))
         for i, bone in bone_names.items():
             bone_rest[i] = rest[bone]
-        rotations = np.empty((motion.frames, 4 * joints))
-        locations = np.empty((motion.frames, 3 * joints))
-        native.bvh_to_pose(skeleton, np.ascontiguousarray(motion.values), bone_rest, conv_quat,
-                           float(options.scale), rotations, locations)
+        rotations, locations = native.bvh_to_pose(skeleton, np.ascontiguousarray(motion.values), bone_rest,
+                                                  conv_quat, float(options.scale))
 
         # Plan the channels, then fill one (channels, frames) matrix in place.
         channels, fills = [], []
@@ -208,8 +206,7 @@ def load(filepath: str, options: ImportOptions | None = None, *, context=None, n
         for kind, joints in eulers.items():
             order, axes = rotation_channels.euler_order(kind)
             columns = (4 * np.array([i for _, i in joints])[:, None] + np.arange(4)).ravel()
-            angles = np.empty((motion.frames, 3 * len(joints)))
-            native.quaternion_to_euler(np.ascontiguousarray(rotations[:, columns]), order, angles)
+            angles = native.quaternion_to_euler(np.ascontiguousarray(rotations[:, columns]), order)
             for k, (row, _) in enumerate(joints):
                 matrix[[row + a for a in axes]] = angles[:, 3 * k:3 * k + 3].T
 
@@ -357,9 +354,7 @@ def save(obj, filepath: str, options: ExportOptions | None = None, *, context=No
         j = joint_of_bone[bone.name]
         joint_rot[:, 4 * j:4 * j + 4] = rotations[:, 4 * i:4 * i + 4]
         joint_loc[:, 3 * j:3 * j + 3] = locations[:, 3 * i:3 * i + 3]
-    values = np.empty((frames.size, skeleton.channel_count))
-    native.pose_to_bvh(skeleton, joint_rot, joint_loc, np.array(rest_rows), conv_quat,
-                       1.0 / options.scale, values)
+    values = native.pose_to_bvh(skeleton, joint_rot, joint_loc, np.array(rest_rows), conv_quat, 1.0 / options.scale)
     frame_time = scene.render.fps_base / scene.render.fps
     native.write_bvh(os.fspath(filepath), skeleton, native.Motion(values, frame_time))
 

@@ -212,17 +212,23 @@ void BindBvh(py::module_& m) {
 
   testing.def(
       "forward_kinematics",
-      [](const Skeleton& skeleton, Eigen::Ref<const RowMatrixXd> values, Eigen::Ref<RowMatrixXd> positions,
-         Eigen::Ref<RowMatrixXd> orientations, int threads) {
-        ForwardKinematicsJob job(skeleton, values, positions, orientations);
+      [](const Skeleton& skeleton, Eigen::Ref<const RowMatrixXd> values, int threads) {
+        const Eigen::Index frames = values.rows(), joints = static_cast<Eigen::Index>(skeleton.joints.size());
+        py::array_t<double, py::array::c_style> positions({frames, 3 * joints}), orientations({frames, 4 * joints});
+        Eigen::Map<RowMatrixXd> positions_view(positions.mutable_data(), frames, 3 * joints);
+        Eigen::Map<RowMatrixXd> orientations_view(orientations.mutable_data(), frames, 4 * joints);
+        ForwardKinematicsJob job(skeleton, values, positions_view, orientations_view);
         job.threads = threads;
-        job.Run();
+        {
+          py::gil_scoped_release release;
+          job.Run();
+        }
+        return py::make_tuple(positions, orientations);
       },
-      "skeleton"_a, "values"_a.noconvert(), "positions"_a.noconvert(), "orientations"_a.noconvert(),
-      "threads"_a = 0, py::call_guard<py::gil_scoped_release>(), R"pbdoc(
-        Whole-clip forward kinematics, in place.
-        values: (frames, channels); positions: (frames, 3 * joints) world x y z;
-        orientations: (frames, 4 * joints) world w x y z. End sites included.
+      "skeleton"_a, "values"_a.noconvert(), "threads"_a = 0, R"pbdoc(
+        Whole-clip forward kinematics: values (frames, channels) to (positions
+        (frames, 3 * joints) world x y z, orientations (frames, 4 * joints)
+        world w x y z). End sites included.
         threads: how many threads may share the frames; 0 (the default) uses
         every core, 1 stays on the calling thread. The numbers are the same
         either way; short clips use fewer threads.
@@ -231,35 +237,48 @@ void BindBvh(py::module_& m) {
   m.def(
       "bvh_to_pose",
       [](const Skeleton& skeleton, Eigen::Ref<const RowMatrixXd> values,
-         Eigen::Ref<const RowMatrixXd> bone_rest, const Eigen::Vector4d& conversion, double scale,
-         Eigen::Ref<RowMatrixXd> rotations, Eigen::Ref<RowMatrixXd> locations) {
-        BvhToPoseJob job(skeleton, values, bone_rest, rotations, locations);
+         Eigen::Ref<const RowMatrixXd> bone_rest, const Eigen::Vector4d& conversion, double scale) {
+        const Eigen::Index frames = values.rows(), joints = static_cast<Eigen::Index>(skeleton.joints.size());
+        py::array_t<double, py::array::c_style> rotations({frames, 4 * joints}), locations({frames, 3 * joints});
+        Eigen::Map<RowMatrixXd> rotations_view(rotations.mutable_data(), frames, 4 * joints);
+        Eigen::Map<RowMatrixXd> locations_view(locations.mutable_data(), frames, 3 * joints);
+        BvhToPoseJob job(skeleton, values, bone_rest, rotations_view, locations_view);
         job.conversion = ToQuaternion(conversion);
         job.scale = scale;
-        job.Run();
+        {
+          py::gil_scoped_release release;
+          job.Run();
+        }
+        return py::make_tuple(rotations, locations);
       },
       "skeleton"_a, "values"_a.noconvert(), "bone_rest"_a.noconvert(), "conversion"_a, "scale"_a,
-      "rotations"_a.noconvert(), "locations"_a.noconvert(), py::call_guard<py::gil_scoped_release>(),
       R"pbdoc(
-        BVH channels to Blender pose channels, in place.
+        BVH channels to Blender pose channels.
         bone_rest: (joints, 4) rest orientation w x y z of each bone in armature space.
         conversion: w x y z rotation from BVH space to armature space; scale: BVH units to metres.
-        rotations: (frames, 4 * joints) pose quaternions; locations: (frames, 3 * joints).
+        Returns (rotations (frames, 4 * joints) pose quaternions, locations (frames, 3 * joints)).
       )pbdoc");
 
   m.def(
       "pose_to_bvh",
       [](const Skeleton& skeleton, Eigen::Ref<const RowMatrixXd> rotations,
          Eigen::Ref<const RowMatrixXd> locations, Eigen::Ref<const RowMatrixXd> bone_rest,
-         const Eigen::Vector4d& conversion, double scale, Eigen::Ref<RowMatrixXd> values) {
-        PoseToBvhJob job(skeleton, rotations, locations, bone_rest, values);
+         const Eigen::Vector4d& conversion, double scale) {
+        const Eigen::Index frames = rotations.rows(), channels = skeleton.channel_count;
+        py::array_t<double, py::array::c_style> values({frames, channels});
+        Eigen::Map<RowMatrixXd> view(values.mutable_data(), frames, channels);
+        PoseToBvhJob job(skeleton, rotations, locations, bone_rest, view);
         job.conversion = ToQuaternion(conversion);
         job.scale = scale;
-        job.Run();
+        {
+          py::gil_scoped_release release;
+          job.Run();
+        }
+        return values;
       },
       "skeleton"_a, "rotations"_a.noconvert(), "locations"_a.noconvert(), "bone_rest"_a.noconvert(),
-      "conversion"_a, "scale"_a, "values"_a.noconvert(), py::call_guard<py::gil_scoped_release>(),
-      "The inverse of bvh_to_pose: BVH channel values (continuous Euler angles), in place.");
+      "conversion"_a, "scale"_a,
+      "The inverse of bvh_to_pose: BVH channel values (frames, channels), continuous Euler angles.");
 }
 
 }  // namespace motionkit::python

@@ -1,5 +1,6 @@
 // Euler angles and quaternions in bulk, for the add-on and for tests against scipy.
 #include <pybind11/eigen.h>
+#include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 
 #include <string>
@@ -21,45 +22,56 @@ EulerOrder Order(const std::string& text) {
   return *order;
 }
 
-void CheckRows(const char* what, Eigen::Index a, Eigen::Index b) {
-  if (a != b) throw Error(std::string(what) + ": input has " + std::to_string(a) + " rows, output " + std::to_string(b));
-}
-
 }  // namespace
 
 void BindRotation(py::module_& m) {
   m.def(
       "euler_to_quaternion",
-      [](Eigen::Ref<const RowMatrixXd> angles, const std::string& order_text, Eigen::Ref<RowMatrixXd> out) {
+      [](Eigen::Ref<const RowMatrixXd> angles, const std::string& order_text) {
         const EulerOrder order = Order(order_text);
-        if (angles.cols() != 3 || out.cols() != 4) throw Error("euler_to_quaternion: angles (n, 3) and out (n, 4)");
-        CheckRows("euler_to_quaternion", angles.rows(), out.rows());
-        for (Eigen::Index i = 0; i < angles.rows(); ++i) {
-          const Eigen::Quaterniond q = EulerToQuaternion(angles.row(i).transpose(), order);
-          out.row(i) << q.w(), q.x(), q.y(), q.z();
+        if (angles.cols() != 3) throw Error("euler_to_quaternion: angles must be (n, 3)");
+        py::array_t<double, py::array::c_style> quaternions({angles.rows(), Eigen::Index{4}});
+        Eigen::Map<RowMatrixXd> out(quaternions.mutable_data(), angles.rows(), 4);
+        {
+          py::gil_scoped_release release;
+          for (Eigen::Index i = 0; i < angles.rows(); ++i) {
+            const Eigen::Quaterniond q = EulerToQuaternion(angles.row(i).transpose(), order);
+            out.row(i) << q.w(), q.x(), q.y(), q.z();
+          }
         }
+        return quaternions;
       },
-      "angles"_a.noconvert(), "order"_a, "out"_a.noconvert(), py::call_guard<py::gil_scoped_release>(),
+      "angles"_a.noconvert(), "order"_a,
       R"pbdoc(
-        Intrinsic Euler angles (radians, in the order's letter order) to w x y z
-        quaternions, in place. "ZXY" means Rz Rx Ry, as scipy's upper case.
+        Intrinsic Euler angles (n, 3) (radians, in the order's letter order) to
+        w x y z quaternions (n, 4). "ZXY" means Rz Rx Ry, as scipy's upper case.
       )pbdoc");
 
   m.def(
       "quaternion_to_euler",
-      [](Eigen::Ref<const RowMatrixXd> quaternions, const std::string& order_text, Eigen::Ref<RowMatrixXd> out,
-         bool continuous, const Eigen::VectorXd& previous, int threads) {
-        QuaternionsToEulers(quaternions, Order(order_text), out, continuous, previous, threads).ThrowIfFailed();
+      [](Eigen::Ref<const RowMatrixXd> quaternions, const std::string& order_text, bool continuous,
+         const Eigen::VectorXd& previous, int threads) {
+        const EulerOrder order = Order(order_text);
+        const Eigen::Index columns = 3 * (quaternions.cols() / 4);
+        py::array_t<double, py::array::c_style> angles({quaternions.rows(), columns});
+        Eigen::Map<RowMatrixXd> out(angles.mutable_data(), quaternions.rows(), columns);
+        Status status = Status::Ok();
+        {
+          py::gil_scoped_release release;
+          status = QuaternionsToEulers(quaternions, order, out, continuous, previous, threads);
+        }
+        status.ThrowIfFailed();
+        return angles;
       },
-      "quaternions"_a.noconvert(), "order"_a, "out"_a.noconvert(), "continuous"_a = true,
-      "previous"_a = Eigen::VectorXd(), "threads"_a = 0, py::call_guard<py::gil_scoped_release>(),
+      "quaternions"_a.noconvert(), "order"_a, "continuous"_a = true, "previous"_a = Eigen::VectorXd(),
+      "threads"_a = 0,
       R"pbdoc(
-        w x y z quaternions to intrinsic Euler angles (radians, letter order), in
-        place: quaternions (n, 4k) and out (n, 3k), each of the k column groups
-        one bone's sequence (k bones in one call, spread over `threads` threads,
-        0: every core). continuous=True makes each row the equivalent triple
-        closest to the row before (the first to `previous`, 3k angles, default
-        zeros), as Blender's to_euler(order, compat).
+        w x y z quaternions (n, 4k) to intrinsic Euler angles (n, 3k) (radians,
+        letter order), each of the k column groups one bone's sequence (k bones
+        in one call, spread over `threads` threads, 0: every core).
+        continuous=True makes each row the equivalent triple closest to the row
+        before (the first to `previous`, 3k angles, default zeros), as
+        Blender's to_euler(order, compat).
       )pbdoc");
 
   TestingModule(m).def("blender_euler_mode", [](const std::string& order) { return std::string(BlenderEulerMode(Order(order))); },

@@ -1,8 +1,9 @@
 // The private extension module motionkit._native. Arrays cross without copies:
 // inputs bind as Eigen::Ref<const RowMajor> with noconvert(), so a wrong dtype
-// or layout is a TypeError rather than a silent copy, and outputs are
-// caller-owned numpy arrays written in place.
+// or layout is a TypeError rather than a silent copy, and every output is a
+// numpy array the function allocates and returns (docs/architecture.md).
 #include <pybind11/eigen.h>
+#include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 
 #include <cstdint>
@@ -24,10 +25,16 @@ std::uintptr_t DataAddress(const motionkit::ConstMatrixView& a) {
   return reinterpret_cast<std::uintptr_t>(a.data());
 }
 
-void KeyframeCo(const motionkit::ConstVectorView& frames, const motionkit::ConstMatrixView& values,
-                motionkit::MatrixViewF co) {
-  motionkit::KeyframeCoJob job(frames, values, co);
-  job.Run();
+py::array_t<float, py::array::c_style> KeyframeCo(const motionkit::ConstVectorView& frames,
+                                                  const motionkit::ConstMatrixView& values) {
+  py::array_t<float, py::array::c_style> co({values.rows(), 2 * frames.size()});
+  Eigen::Map<motionkit::RowMatrixXf> view(co.mutable_data(), values.rows(), 2 * frames.size());
+  motionkit::KeyframeCoJob job(frames, values, view);
+  {
+    py::gil_scoped_release release;
+    job.Run();
+  }
+  return co;
 }
 
 }  // namespace
@@ -36,8 +43,9 @@ PYBIND11_MODULE(_native, m) {
   m.doc() = R"pbdoc(
     MotionKit's native core (private module; use the motionkit package).
 
-    Arrays are float64 C-contiguous inputs and caller-owned outputs; nothing
-    is copied on the way in or out. Failures raise MotionKitError.
+    Arrays are float64 C-contiguous inputs, taken without a copy; every output
+    is an array the function returns, allocated once, natively. Failures raise
+    MotionKitError.
   )pbdoc";
 
   py::register_exception<motionkit::Error>(m, "MotionKitError", PyExc_ValueError);
@@ -78,13 +86,12 @@ PYBIND11_MODULE(_native, m) {
       )pbdoc");
 
   m.def("keyframe_co", &KeyframeCo, "frames"_a.noconvert(), "values"_a.noconvert(),
-        "co"_a.noconvert(), py::call_guard<py::gil_scoped_release>(),
         R"pbdoc(
-        Interleave key times and values into F-curve "co" layout, in place.
+        Interleave key times and values into F-curve "co" layout.
 
         frames: float64 (n,), strictly increasing.
         values: float64 (c, n), C-contiguous; row k is curve k.
-        co:     float32 (c, 2n), C-contiguous, written in place:
+        Returns co, float32 (c, 2n):
                 co[k] = [frames[0], values[k,0], frames[1], values[k,1], ...].
         Raises MotionKitError naming the curve and key on NaN or infinity.
       )pbdoc");

@@ -31,8 +31,7 @@ def native_world(native, path, axis_forward='-Z', axis_up='Y', scale=1.0):
     """World joint positions (frames, joints, 3) from native FK, in Blender's frame."""
     skeleton, motion = native.read_bvh(path)
     frames, joints = motion.frames, len(skeleton)
-    positions, orientations = np.empty((frames, 3 * joints)), np.empty((frames, 4 * joints))
-    native._testing.forward_kinematics(skeleton, np.ascontiguousarray(motion.values), positions, orientations)
+    positions, _ = native._testing.forward_kinematics(skeleton, np.ascontiguousarray(motion.values))
     conv = np.array(axis_conversion(from_forward=axis_forward, from_up=axis_up)) * scale
     return skeleton, positions.reshape(frames, joints, 3) @ conv.T
 

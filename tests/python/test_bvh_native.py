@@ -24,16 +24,14 @@ def same_rotation(q1, q2, atol=1e-12):
 def test_euler_to_quaternion_matches_scipy(native, order):
     rng = np.random.default_rng(1)
     angles = rng.uniform(-np.pi, np.pi, (200, 3))
-    out = np.empty((200, 4))
-    native.euler_to_quaternion(angles, order, out)
+    out = native.euler_to_quaternion(angles, order)
     assert same_rotation(out, wxyz(Rotation.from_euler(order, angles)))
 
 
 @pytest.mark.parametrize("order", ORDERS)
 def test_quaternion_to_euler_matches_scipy_principal_angles(native, order):
     rotations = Rotation.random(300, random_state=2)
-    out = np.empty((300, 3))
-    native.quaternion_to_euler(np.ascontiguousarray(wxyz(rotations)), order, out, continuous=False)
+    out = native.quaternion_to_euler(np.ascontiguousarray(wxyz(rotations)), order, continuous=False)
     expected = rotations.as_euler(order)
     np.testing.assert_allclose(out, expected, atol=1e-9)
 
@@ -43,8 +41,7 @@ def test_continuous_euler_has_no_jumps_and_same_rotations(native, order):
     t = np.linspace(0, 4 * np.pi, 400)[:, None]
     angles = np.hstack([t[:, :1] * 1.3, 0.6 * np.sin(t[:, :1]), -t[:, :1]])
     q = wxyz(Rotation.from_euler(order, angles))
-    out = np.empty((400, 3))
-    native.quaternion_to_euler(np.ascontiguousarray(q), order, out, continuous=True)
+    out = native.quaternion_to_euler(np.ascontiguousarray(q), order, continuous=True)
     assert np.max(np.abs(np.diff(out, axis=0))) < 0.2  # smooth input, smooth angles
     assert same_rotation(wxyz(Rotation.from_euler(order, out)), q, atol=1e-9)
 
@@ -52,7 +49,7 @@ def test_continuous_euler_has_no_jumps_and_same_rotations(native, order):
 def test_blender_mode_reverses_letters(native):
     assert native._testing.blender_euler_mode("ZXY") == "YXZ"
     with pytest.raises(native.MotionKitError, match="unknown Euler order 'XYX'"):
-        native.quaternion_to_euler(np.array([[1.0, 0, 0, 0]]), "XYX", np.empty((1, 3)))
+        native.quaternion_to_euler(np.array([[1.0, 0, 0, 0]]), "XYX")
 
 
 def reference_fk(skeleton, values):
@@ -81,8 +78,7 @@ def reference_fk(skeleton, values):
 
 def run_fk(native, skeleton, motion):
     frames, joints = motion.frames, len(skeleton)
-    positions, orientations = np.empty((frames, 3 * joints)), np.empty((frames, 4 * joints))
-    native._testing.forward_kinematics(skeleton, np.ascontiguousarray(motion.values), positions, orientations)
+    positions, orientations = native._testing.forward_kinematics(skeleton, np.ascontiguousarray(motion.values))
     return positions.reshape(frames, joints, 3), orientations.reshape(frames, joints, 4)
 
 
@@ -108,17 +104,12 @@ def test_fk_on_threads_gives_the_same_numbers(native, shared_files):
     walk = [p for p in shared_files if p.endswith("walk60.bvh")][0]
     skeleton, motion = native.read_bvh(walk)
     values = np.ascontiguousarray(np.tile(motion.values, (20, 1)))  # long enough to be split
-    frames, joints = values.shape[0], len(skeleton)
-    results = []
-    for threads in (1, 0, 3):
-        positions, orientations = np.empty((frames, 3 * joints)), np.empty((frames, 4 * joints))
-        native._testing.forward_kinematics(skeleton, values, positions, orientations, threads=threads)
-        results.append((positions, orientations))
+    results = [native._testing.forward_kinematics(skeleton, values, threads=threads) for threads in (1, 0, 3)]
     for positions, orientations in results[1:]:
         assert np.array_equal(positions, results[0][0])
         assert np.array_equal(orientations, results[0][1])
     with pytest.raises(native.MotionKitError, match="threads must be 0"):
-        native._testing.forward_kinematics(skeleton, values, positions, orientations, threads=-2)
+        native._testing.forward_kinematics(skeleton, values, threads=-2)
 
 
 def test_the_real_walk_has_the_briefs_shape(native, shared_files):
@@ -167,10 +158,8 @@ def test_pose_conversion_round_trips(native, name, text):
     rest = random_unit_quaternions(joints, 5)
     conversion = wxyz(Rotation.from_euler("x", 90, degrees=True))
     values = np.ascontiguousarray(motion.values)
-    rotations, locations = np.empty((frames, 4 * joints)), np.empty((frames, 3 * joints))
-    native.bvh_to_pose(skeleton, values, rest, conversion, 2.5, rotations, locations)
-    back = np.empty_like(values)
-    native.pose_to_bvh(skeleton, rotations, locations, rest, conversion, 2.5, back)
+    rotations, locations = native.bvh_to_pose(skeleton, values, rest, conversion, 2.5)
+    back = native.pose_to_bvh(skeleton, rotations, locations, rest, conversion, 2.5)
     pos_a, rot_a = run_fk(native, skeleton, motion)
     pos_b, rot_b = run_fk(native, skeleton, native.Motion(back, motion.frame_time))
     if name == "sparse_channels":
@@ -187,9 +176,8 @@ def test_pose_conversion_of_one_hand_derived_bone(native):
         "HIERARCHY\nROOT r\n{\nOFFSET 0 0 0\nCHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation\n"
         "End Site\n{\nOFFSET 0 1 0\n}\n}\nMOTION\nFrames: 1\nFrame Time: 0.1\n1 2 3 90 0 0\n", "hand")
     rest = np.array([[math.cos(math.pi / 4), 0, math.sin(math.pi / 4), 0], [1, 0, 0, 0]])
-    rotations, locations = np.empty((1, 8)), np.empty((1, 6))
-    native.bvh_to_pose(skeleton, np.ascontiguousarray(motion.values), rest, np.array([1.0, 0, 0, 0]), 1.0,
-                       rotations, locations)
+    rotations, locations = native.bvh_to_pose(skeleton, np.ascontiguousarray(motion.values), rest,
+                                              np.array([1.0, 0, 0, 0]), 1.0)
     # B = Ry(90) takes x to -z and z to x, so B^-1 takes z to -x:
     # M = B^-1 Rz(90) B is 90 degrees about -x.
     expected = wxyz(Rotation.from_euler("x", -90, degrees=True))
@@ -204,8 +192,7 @@ def test_fcurve_evaluation_by_hand(native):
     interp = np.array([1, 1, 0, 0], dtype=np.int32)
     offsets = np.array([0, 2, 4], dtype=np.int32)
     times = np.array([-5.0, 0.0, 2.5, 5.0, 12.0])
-    out = np.empty((2, 5))
-    native.evaluate_fcurves(co, co, co, interp, offsets, np.array([1, 0], dtype=np.int32), times, out)
+    out = native.evaluate_fcurves(co, co, co, interp, offsets, np.array([1, 0], dtype=np.int32), times)
     np.testing.assert_allclose(out[0], [-5, 0, 2.5, 5, 12])  # linear extrapolation
     np.testing.assert_allclose(out[1], [1, 1, 1, 2, 2])
 
