@@ -17,9 +17,6 @@ using namespace pybind11::literals;
 namespace motionkit::python {
 namespace {
 
-using DoubleArray = py::array_t<double, py::array::c_style>;
-using BoolArray = py::array_t<bool, py::array::c_style>;
-
 py::tuple FootTargets(const ConstMatrixView& points, const BoolArray& contacts, int blend_frames,
                       std::vector<std::array<int, 2>> rigid_pairs) {
   if (contacts.ndim() != 2) throw Error("foot targets: contacts must be (frames, P)");

@@ -20,11 +20,6 @@ using namespace pybind11::literals;
 namespace motionkit::python {
 namespace {
 
-using DoubleArray = py::array_t<double, py::array::c_style>;
-using BoolArray = py::array_t<bool, py::array::c_style>;
-using IntArray = py::array_t<int, py::array::c_style>;
-using RowMap = Eigen::Map<RowMatrixXd>;
-
 // A per-bone table's checked shape: (bones, width), or (bones,) for width 0.
 template <class Array>
 void CheckShape(const Array& a, py::ssize_t bones, py::ssize_t width, const char* what) {

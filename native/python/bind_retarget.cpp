@@ -21,8 +21,6 @@ using namespace pybind11::literals;
 namespace motionkit::python {
 namespace {
 
-using DoubleArray = py::array_t<double, py::array::c_style>;
-using RowMap = Eigen::Map<RowMatrixXd>;
 using ConstRowMap = Eigen::Map<const RowMatrixXd>;
 
 // A per-bone table (bones x width) seen as one row, as the jobs take it.

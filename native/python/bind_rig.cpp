@@ -19,9 +19,6 @@ using namespace pybind11::literals;
 namespace motionkit::python {
 namespace {
 
-using DoubleArray = py::array_t<double, py::array::c_style>;
-using RowMap = Eigen::Map<RowMatrixXd>;
-
 py::tuple ArmaturePose(const RigModel& rig, const ConstMatrixView& basis_rotations,
                        const ConstMatrixView& basis_locations) {
   const Eigen::Index frames = basis_rotations.rows(), bones = rig.size();

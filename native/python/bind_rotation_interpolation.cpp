@@ -18,19 +18,18 @@ using namespace pybind11::literals;
 namespace motionkit::python {
 namespace {
 
-using DoubleArray = py::array_t<double, py::array::c_style | py::array::forcecast>;
-using RowMap = Eigen::Map<RowMatrixXd>;
+using CastingArray = py::array_t<double, py::array::c_style | py::array::forcecast>;
 
 // Per-key parameters are small and often typed as lists: converted, not
 // required to be float64 arrays.
-std::optional<DoubleArray> PerKey(const py::object& values, const char* name) {
+std::optional<CastingArray> PerKey(const py::object& values, const char* name) {
   if (values.is_none()) return std::nullopt;
-  DoubleArray array = DoubleArray::ensure(values);
+  CastingArray array = CastingArray::ensure(values);
   if (!array || array.ndim() != 1) throw Error(std::string(name) + " must be None or one number per key");
   return array;
 }
 
-Eigen::Map<const Eigen::VectorXd> View(const std::optional<DoubleArray>& array) {
+Eigen::Map<const Eigen::VectorXd> View(const std::optional<CastingArray>& array) {
   if (!array) return Eigen::Map<const Eigen::VectorXd>(nullptr, 0);
   return Eigen::Map<const Eigen::VectorXd>(array->data(), array->shape(0));
 }
@@ -51,12 +50,12 @@ py::object InterpolateRotations(const ConstVectorView& times, const ConstMatrixV
     throw Error("unknown rotation interpolation '" + kind_text + "'; expected one of " +
                 RotationInterpolantNames());
   }
-  const std::optional<DoubleArray> t = PerKey(tension, "tension");
-  const std::optional<DoubleArray> c = PerKey(continuity, "continuity");
-  const std::optional<DoubleArray> b = PerKey(bias, "bias");
+  const std::optional<CastingArray> t = PerKey(tension, "tension");
+  const std::optional<CastingArray> c = PerKey(continuity, "continuity");
+  const std::optional<CastingArray> b = PerKey(bias, "bias");
   const py::ssize_t m = eval_times.size();
-  DoubleArray out({m, py::ssize_t{4}});
-  DoubleArray velocity({want_velocity ? m : py::ssize_t{0}, py::ssize_t{3}});
+  CastingArray out({m, py::ssize_t{4}});
+  CastingArray velocity({want_velocity ? m : py::ssize_t{0}, py::ssize_t{3}});
   RowMap out_view(out.mutable_data(), m, 4);
   RowMap velocity_view(velocity.mutable_data(), velocity.shape(0), 3);
   RotationInterpolateJob job(times, quats, eval_times, out_view, velocity_view,
@@ -68,13 +67,13 @@ py::object InterpolateRotations(const ConstVectorView& times, const ConstMatrixV
   return py::object(std::move(out));
 }
 
-DoubleArray SlerpMany(const Eigen::Vector4d& q0, const Eigen::Vector4d& q1, const ConstVectorView& u) {
+CastingArray SlerpMany(const Eigen::Vector4d& q0, const Eigen::Vector4d& q1, const ConstVectorView& u) {
   const Eigen::Quaterniond a(q0[0], q0[1], q0[2], q0[3]), b(q1[0], q1[1], q1[2], q1[3]);
   if (!q0.allFinite() || !q1.allFinite() || !(q0.norm() > 1e-12) || !(q1.norm() > 1e-12)) {
     throw Error("slerp: q0 and q1 must be finite and not zero");
   }
   if (!u.allFinite()) throw Error("slerp: u must be finite");
-  DoubleArray out({u.size(), Eigen::Index{4}});
+  CastingArray out({u.size(), Eigen::Index{4}});
   RowMap view(out.mutable_data(), u.size(), 4);
   {
     py::gil_scoped_release release;
@@ -123,8 +122,8 @@ void BindRotationInterpolation(py::module_& m) {
       "slerp",
       [](const Eigen::Vector4d& q0, const Eigen::Vector4d& q1, double u) {
         const Eigen::VectorXd one = Eigen::VectorXd::Constant(1, u);
-        DoubleArray out = SlerpMany(q0, q1, one);
-        return DoubleArray(out.attr("reshape")(4));
+        CastingArray out = SlerpMany(q0, q1, one);
+        return CastingArray(out.attr("reshape")(4));
       },
       "q0"_a, "q1"_a, "u"_a, "The same for one u: float64 (4,).");
 }

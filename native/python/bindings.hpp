@@ -1,9 +1,18 @@
 // Each area of the core binds itself into motionkit._native.
 #pragma once
 
+#include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 
+#include "motionkit/types.hpp"
+
 namespace motionkit::python {
+
+// The array types the bindings return (C order, as the jobs' row-major views expect).
+using DoubleArray = pybind11::array_t<double, pybind11::array::c_style>;
+using BoolArray = pybind11::array_t<bool, pybind11::array::c_style>;
+using IntArray = pybind11::array_t<int, pybind11::array::c_style>;
+using RowMap = Eigen::Map<RowMatrixXd>;
 
 // The bindings' one way of running a job: validated with the GIL held (a failure is a MotionKitError
 // naming the place), then run without it, so that other Python threads go on meanwhile.
