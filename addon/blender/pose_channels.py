@@ -176,3 +176,19 @@ def current_pose(obj, bones) -> tuple[np.ndarray, np.ndarray]:
                                                              f"'{obj.name}' pose rotation")
     order = [pose_bones.find(bone.name) for bone in bones]
     return quaternions[order], arrays["location"][order]
+
+
+# Blender 5.0 moved bone selection from the armature's bones to the pose bones.
+BONE_SELECTION_ON_POSE = "select" not in bpy.types.Bone.bl_rna.properties
+
+
+def select_all(obj) -> None:
+    """Select every bone of an armature object, wherever this Blender keeps bone selection."""
+    bones = obj.pose.bones if BONE_SELECTION_ON_POSE else obj.data.bones
+    bones.foreach_set("select", np.ones(len(bones), dtype=bool))
+
+
+def selected(obj) -> list[bool]:
+    """Each bone's selection, in the armature's order, wherever this Blender keeps it."""
+    return [b.select for b in (obj.pose.bones if BONE_SELECTION_ON_POSE else obj.data.bones)]
+

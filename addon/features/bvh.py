@@ -19,7 +19,7 @@ from bpy_extras.io_utils import axis_conversion
 from mathutils import Quaternion
 
 from ..blender import animdata, pose_channels
-from ..core import bone_mapping, native_state, rotation_channels
+from ..core import bone_mapping, frame_rates, native_state, rotation_channels
 
 ROTATION_MODES = ('QUATERNION', 'NATIVE', 'XYZ', 'XZY', 'YXZ', 'YZX', 'ZXY', 'ZYX')
 FRAME_RATE = "motionkit_frame_rate"  # an action's custom property: its keys' frames per second
@@ -149,7 +149,12 @@ def load(filepath: str, options: ImportOptions | None = None, *, context=None, n
         raise ValueError(f"bvh.load: unknown rotation_mode {options.rotation_mode!r}")
     if not (options.scale > 0 and np.isfinite(options.scale)):
         raise ValueError("bvh.load: scale must be positive")
-    skeleton, motion = native.read_bvh(os.fspath(filepath))  # MotionKitError is a ValueError
+    filepath = os.fspath(filepath)
+    if not filepath or os.path.basename(filepath) == "" and os.path.isdir(filepath):
+        raise ValueError("no BVH file was chosen" + (f" (only the folder {filepath})" if filepath else ""))
+    if os.path.isdir(filepath):
+        raise ValueError(f"{filepath} is a folder, not a BVH file")
+    skeleton, motion = native.read_bvh(filepath)  # MotionKitError is a ValueError
     if all(skeleton.end_sites):
         raise ValueError(f"{filepath}: the hierarchy has no joints to make bones of")
     context = context or bpy.context
@@ -230,10 +235,12 @@ def load(filepath: str, options: ImportOptions | None = None, *, context=None, n
                 bpy.data.actions.remove(item)
         raise
 
+    # Every bone selected, as Blender's own importer leaves them: the Graph Editor and the Dope Sheet show
+    # only selected bones' curves by default, so a fresh import would otherwise look unkeyed there.
+    pose_channels.select_all(obj)
     if options.update_scene_fps and motion.frame_time > 0:
-        fps = 1.0 / motion.frame_time
-        scene.render.fps = max(1, int(round(fps)))
-        scene.render.fps_base = scene.render.fps / fps
+        # The rate the file meant: its printed frame time (0.016667 s) is 60 fps, not 59.9988.
+        scene.render.fps, scene.render.fps_base = frame_rates.scene_rate(motion.frame_time)
     if options.update_scene_duration and motion.frames:
         last = _key_frames(motion, options, scene)[-1]
         scene.frame_start = options.frame_start

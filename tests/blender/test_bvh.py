@@ -255,3 +255,40 @@ def test_native_fcurve_sampling_equals_fcurve_evaluate(mk, animdata):
         bad = np.flatnonzero(~np.isclose(got[i], want[i], rtol=1e-5, atol=1e-5))
         assert not bad.size, (kinds[i], curves[i].extrapolation, times[bad[:5]], got[i, bad[:5]],
                               want[i, bad[:5]], frames[:3], frames[-1])
+
+
+def test_no_file_chosen_and_folders_are_named_and_change_nothing(mk, tmp_path):
+    """Import with no file picked (the file browser then passes its folder, ending in a separator) says so,
+    instead of reading the folder as a file; a folder path is refused by name."""
+    before = (set(bpy.data.objects), set(bpy.data.actions))
+    for path, message in (("", r"^no BVH file was chosen$"),
+                          (str(tmp_path) + os.sep, r"no BVH file was chosen \(only the folder .*\)"),
+                          (str(tmp_path), r"is a folder, not a BVH file")):
+        with pytest.raises(ValueError, match=message):
+            mk.bvh.load(path)
+        with pytest.raises(RuntimeError, match=message.lstrip("^").rstrip("$")):
+            bpy.ops.motionkit.import_bvh(filepath=path)
+    assert (set(bpy.data.objects), set(bpy.data.actions)) == before
+
+
+@pytest.mark.parametrize("frame_time, fps, fps_base", [(0.016667, 60, 1.0), (0.033333, 30, 1.0),
+                                                        (0.041708, 24, 1.001)])
+def test_the_files_frame_rate_is_the_one_it_meant(mk, tmp_path, frame_time, fps, fps_base):
+    """'Use File's Frame Rate' on a file that prints 0.016667 s gives the scene exactly 60 fps (fps_base 1),
+    not 59.9988."""
+    text = CASES[0][1]
+    lines = text.splitlines()
+    lines = [f"Frame Time: {frame_time}" if line.startswith("Frame Time:") else line for line in lines]
+    path = write_case(tmp_path, "rate", "\n".join(lines) + "\n")
+    scene = bpy.context.scene
+    scene.render.fps, scene.render.fps_base = 24, 1.0
+    mk.bvh.load(path, update_scene_fps=True)
+    assert (scene.render.fps, scene.render.fps_base) == (fps, pytest.approx(fps_base, abs=1e-6))
+
+
+def test_imported_bones_are_selected_so_their_curves_show(mk, shared_dir):
+    """The Graph Editor shows only selected bones' curves by default (Only Show Selected): a fresh import
+    selects its bones, as Blender's importer does."""
+    obj, action = mk.bvh.load(os.path.join(shared_dir, "data", "bvh", "walk60.bvh"))
+    selected = mk.pose_channels.selected(obj)
+    assert len(selected) == 20 and all(selected)
