@@ -59,7 +59,34 @@ def sync() -> None:
         _last.clear()
 
 
+@bpy.app.handlers.persistent
+def _on_load(*_args):
+    """After a file is opened (Blender clears non-persistent handlers then), or an undo or redo changed the
+    Live toggles without their update callback: the re-solve runs exactly while some armature has Live on,
+    so the toggle never shows on over a dead handler."""
+    _last.clear()
+    sync()
+
+
+_STATE_CHANGES = ("load_post", "undo_post", "redo_post")
+
+
+def register() -> None:
+    for name in _STATE_CHANGES:
+        handlers = getattr(bpy.app.handlers, name)
+        if _on_load not in handlers:
+            handlers.append(_on_load)
+    try:
+        sync()  # enabled on an open file that was saved with Live on
+    except AttributeError:
+        pass  # registered while Blender starts: bpy.data is not readable yet, and load_post follows
+
+
 def unregister() -> None:
+    for name in _STATE_CHANGES:
+        handlers = getattr(bpy.app.handlers, name)
+        if _on_load in handlers:
+            handlers.remove(_on_load)
     for handlers in (bpy.app.handlers.depsgraph_update_post, bpy.app.handlers.frame_change_post):
         if _on_update in handlers:
             handlers.remove(_on_update)

@@ -35,6 +35,16 @@ def native(mk):
     return mk.native()
 
 
+def fresh_blender_env(folder):
+    """The environment for a Blender of its own, run by a test: an empty user folder under `folder`, so that
+    installing the add-on there never overwrites the files (the native module among them) that this
+    session's Blender has loaded."""
+    user = os.path.join(str(folder), "user")
+    return dict(os.environ, BLENDER_USER_RESOURCES=user, BLENDER_USER_CONFIG=os.path.join(user, "config"),
+                BLENDER_USER_SCRIPTS=os.path.join(user, "scripts"), BLENDER_USER_EXTENSIONS=os.path.join(user, "ext"),
+                BLENDER_USER_DATAFILES=os.path.join(user, "data"))
+
+
 def clear_scene():
     """Removes every object and the data they used, without touching preferences."""
     for collection in (bpy.data.objects, bpy.data.armatures, bpy.data.meshes, bpy.data.actions,

@@ -5,6 +5,7 @@ the clip, the bonus), joint limits, Blender's own IK constraint as a peer,
 live re-solving, the operators, and bad input.
 """
 import math
+import os
 
 import bpy
 import numpy as np
@@ -285,3 +286,21 @@ def test_a_game_rig_with_a_floor_root_solves_below_it(mk, ik, root_moves):
         scene.frame_set(int(f))
         assert (tail(obj, spec.canonical["hand.L"]) - Vector(targets[i])).length < 1e-3
         assert np.abs(np.array(obj.pose.bones["root"].matrix.col[3])[:3] - root_before[i]).max() < 1e-6
+
+
+def test_live_survives_saving_and_opening_the_file(mk, walk60, tmp_path):
+    """Saved with Live on and opened again (Blender drops non-persistent handlers on load), moving the target
+    still re-solves: the toggle never shows on over a dead handler. Run in a Blender of its own, since
+    opening a file replaces everything this session's other tests hold."""
+    import subprocess
+    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+    script = os.path.join(root, "tests", "blender", "sessions", "live_after_reload.py")
+    cmd = [bpy.app.binary_path, "--background", "--factory-startup", "--python-exit-code", "1", "--python", script,
+           "--", os.environ["MOTIONKIT_ZIP"], walk60, str(tmp_path / "live.blend")]
+    import conftest
+    out = subprocess.run(cmd, capture_output=True, text=True, timeout=300, env=conftest.fresh_blender_env(tmp_path))
+    report = dict(line.split()[1:3] for line in out.stdout.splitlines() if line.startswith("LIVE "))
+    assert out.returncode == 0 and len(report) == 3, out.stdout[-3000:] + out.stderr[-3000:]
+    assert float(report["before-save"]) < 1e-3
+    assert report["toggle-after-open"] == "True"
+    assert float(report["after-open"]) < 1e-3, report

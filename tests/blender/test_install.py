@@ -11,6 +11,7 @@ import bpy
 import numpy as np
 import pytest
 
+import conftest
 from conftest import ROOT
 
 
@@ -85,10 +86,7 @@ def test_native_errors_become_python_exceptions(native):
 
 def _run_enable_in_fresh_blender(zip_path, tmp_path):
     """Installs zip_path in a new Blender with an empty user folder; returns its output."""
-    user = tmp_path / "user"
-    env = dict(os.environ, BLENDER_USER_RESOURCES=str(user), BLENDER_USER_CONFIG=str(user / "config"),
-               BLENDER_USER_SCRIPTS=str(user / "scripts"), BLENDER_USER_EXTENSIONS=str(user / "ext"),
-               BLENDER_USER_DATAFILES=str(user / "data"))
+    env = conftest.fresh_blender_env(tmp_path)
     probe = ("import bpy; m = bpy.context.preferences.addons; "
              "print('MOTIONKIT_ENABLED', any(a.module.endswith('motionkit') for a in m))")
     cmd = [bpy.app.binary_path, "--background", "--factory-startup", "--python-exit-code", "1",
