@@ -22,6 +22,13 @@ from ..core import bone_mapping, native_state, root_motion, rotation_channels
 from ..core.foot_contacts import ContactSettings
 from ..core.root_motion import FLOOR_ROOTS
 
+# What a BVH file's helper armature (the source retarget() imports) becomes once the retarget is done.
+BVH_SOURCES = (
+    ("keep", "Keep", "Leave the imported armature in the scene, scaled as asked"),
+    ("hide", "Hide", "Keep the imported armature, hidden in the viewport and in renders"),
+    ("remove", "Remove", "Remove the imported armature and its action once the target is keyed"),
+)
+
 ROOT_MOTIONS = (
     ("scaled", "Scaled", "Translation scaled by the ratio of leg lengths"),
     ("in_place", "In place", "Keep only the vertical motion (scaled)"),
@@ -577,11 +584,17 @@ def retarget(source, target, bone_map=None, frame_range=None, root: str = "scale
              source_match: str = 'REST', match_frame: float | None = None, target_match: str = 'REST',
              ground: bool = False, align_facing: bool = True, floor_root: str = "auto",
              root_smoothing: float = 0.25, plant_feet: bool = True, contact_settings: ContactSettings | None = None,
-             action_name: str | None = None, overwrite: bool = False):
+             action_name: str | None = None, overwrite: bool = False, bvh_scale: float | str = "auto",
+             bvh_source: str = "keep"):
     """Retarget the source's action onto the target; returns the target's new action.
 
     source: an armature object with an action, or a BVH file path (imported
-    first with motionkit.bvh.load; the imported armature stays in the scene).
+    first with motionkit.bvh.load). For a file, bvh_scale sizes the imported
+    armature: "auto" stands it as tall as the target (a centimetre file would
+    otherwise stand 100 times too tall), or a number multiplies the file's
+    distances; the retarget itself does not depend on it (the motion is scaled
+    by the legs' ratio). bvh_source: "keep", "hide" or "remove" the imported
+    armature afterwards (BVH_SOURCES).
     bone_map: (source bone, target bone) pairs or a {source: target} dict;
     None maps automatically (motionkit.bone_mapping). frame_range: inclusive
     source frames (default: the action's), one key per frame on the same
@@ -603,19 +616,48 @@ def retarget(source, target, bone_map=None, frame_range=None, root: str = "scale
     file as it was (a BVH source is removed again).
     """
     imported = None
+    if bvh_source not in [b[0] for b in BVH_SOURCES]:
+        raise ValueError(f"unknown bvh_source {bvh_source!r}; expected one of {[b[0] for b in BVH_SOURCES]}")
     if isinstance(source, (str, os.PathLike)):
-        imported, _ = bvh.load(os.fspath(source))
+        if not (bvh_scale == "auto" or (isinstance(bvh_scale, (int, float)) and np.isfinite(bvh_scale)
+                                        and bvh_scale > 0)):
+            raise ValueError(f"bvh_scale must be 'auto' or a positive number, not {bvh_scale!r}")
+        imported, _ = bvh.load(os.fspath(source), scale=1.0 if bvh_scale == "auto" else float(bvh_scale))
         source = imported
     try:
+        if imported is not None and bvh_scale == "auto":
+            _stand_as_tall_as(imported, target)
         result = plan(source, target, bone_map, frame_range, root, source_match=source_match,
                       match_frame=match_frame, target_match=target_match, ground=ground,
                       align_facing=align_facing, floor_root=floor_root, root_smoothing=root_smoothing,
                       plant_feet=plant_feet, contact_settings=contact_settings, defer_solve=True)
-        return apply(result, action_name=action_name, overwrite=overwrite)
+        action = apply(result, action_name=action_name, overwrite=overwrite)
     except BaseException:
         if imported is not None:
             remove_armature(imported)
         raise
+    if imported is not None and bvh_source == "remove":
+        remove_armature(imported)
+    elif imported is not None and bvh_source == "hide":
+        imported.hide_set(True)
+        imported.hide_render = True
+    return action
+
+
+def _stand_as_tall_as(obj, other) -> None:
+    """Scale obj (uniformly, as an object) so that its rest pose stands as tall as other's."""
+    def height(o):
+        points = np.empty((2, 3 * len(o.data.bones)))
+        o.data.bones.foreach_get("head_local", points[0])
+        o.data.bones.foreach_get("tail_local", points[1])
+        world = np.array(o.matrix_world)
+        z = (points.reshape(-1, 3) @ world[:3, :3].T + world[:3, 3])[:, 2]
+        return float(np.ptp(z))
+
+    mine, theirs = height(obj), height(other)
+    if mine > 0 and theirs > 0:
+        obj.scale = obj.scale * (theirs / mine)
+        bpy.context.view_layer.update()
 
 
 def remove_armature(obj) -> None:

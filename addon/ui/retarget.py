@@ -27,6 +27,13 @@ class MOTIONKIT_PG_retarget(bpy.types.PropertyGroup):
         ('BVH', "BVH File", "A BVH file, imported as the source armature when retargeting")], default='ARMATURE')
     source: PointerProperty(name="Source Armature", type=bpy.types.Object, poll=_is_armature)
     bvh_path: StringProperty(name="BVH File", subtype='FILE_PATH')
+    bvh_auto_scale: BoolProperty(name="Auto Scale", default=True,
+                                 description="Stand the imported armature as tall as the target (a centimetre "
+                                             "file would otherwise stand 100 times too tall)")
+    bvh_scale: FloatProperty(name="Scale", default=1.0, min=1e-6, max=1e6,
+                             description="Multiply the file's distances by this")
+    bvh_source: EnumProperty(name="Imported", items=retargeting.BVH_SOURCES, default="hide",
+                             description="What the imported armature becomes once the target is keyed")
     target: PointerProperty(name="Target Armature", type=bpy.types.Object, poll=_is_armature)
     pairs: CollectionProperty(type=MOTIONKIT_PG_bone_pair)
     active_pair: IntProperty(name="Active Pair")
@@ -119,6 +126,9 @@ class MOTIONKIT_OT_retarget(bpy.types.Operator):
         source = bpy.path.abspath(settings.bvh_path) if settings.source_kind == 'BVH' else settings.source
         frame_range = (settings.frame_start, settings.frame_end) if settings.use_frame_range else None
 
+        bvh_options = ({"bvh_scale": "auto" if settings.bvh_auto_scale else settings.bvh_scale,
+                        "bvh_source": settings.bvh_source} if settings.source_kind == 'BVH' else {})
+
         def work(progress):
             progress(0, 1)
             return retargeting.retarget(
@@ -127,7 +137,7 @@ class MOTIONKIT_OT_retarget(bpy.types.Operator):
                 target_match=settings.target_match, ground=settings.ground, align_facing=settings.align_facing,
                 floor_root=settings.floor_root, root_smoothing=settings.root_smoothing,
                 plant_feet=settings.plant_feet, contact_settings=contact_ui.settings(settings.contacts),
-                overwrite=settings.overwrite)
+                overwrite=settings.overwrite, **bvh_options)
 
         return common.run(self, context, work,
                           lambda action: f"Retargeted onto '{settings.target.name}' as action '{action.name}'")
@@ -232,6 +242,10 @@ class MOTIONKIT_PT_retarget(bpy.types.Panel):
         layout.prop(settings, "source_kind", expand=True)
         if settings.source_kind == 'BVH':
             layout.prop(settings, "bvh_path")
+            layout.prop(settings, "bvh_auto_scale")
+            if not settings.bvh_auto_scale:
+                layout.prop(settings, "bvh_scale")
+            layout.prop(settings, "bvh_source")
         else:
             layout.prop(settings, "source")
         layout.prop(settings, "target")

@@ -624,3 +624,35 @@ def test_the_feet_solve_beside_the_key_writing_gives_the_same_keys_and_fails_cle
     with pytest.raises(ValueError, match="failing solve"):
         retargeting.apply(plan)
     assert set(bpy.data.actions) == actions and target.animation_data.action == second
+
+
+def test_a_bvh_source_stands_as_tall_as_the_target_and_goes_as_asked(mk, walk60, shared_dir):
+    """A file retargeted straight from its path: the helper armature is sized to the target ("auto"; a
+    centimetre file would stand 100 times too tall) or by a given scale, the keys are the same either way,
+    and the helper is kept, hidden or removed as asked (UI issue, item 5)."""
+    target = generate.build_armature(characters.MIXAMO_T)
+    bandai = os.path.join(shared_dir, "data", "bvh", "more", "bandai_dash_normal_001.bvh")
+
+    def height(obj):
+        z = [(obj.matrix_world @ b.head_local).z for b in obj.data.bones]
+        z += [(obj.matrix_world @ b.tail_local).z for b in obj.data.bones]
+        return max(z) - min(z)
+
+    objects = set(bpy.data.objects)
+    auto = mk.retarget(bandai, target, plant_feet=False, bvh_source="keep")
+    (helper,) = set(bpy.data.objects) - objects
+    assert abs(height(helper) - height(target)) < 1e-6 * height(target)
+    keys_auto = channel_values(mk, target, auto)
+    objects = set(bpy.data.objects)
+    given = mk.retarget(bandai, target, plant_feet=False, bvh_scale=1.0, bvh_source="hide")
+    (hidden,) = set(bpy.data.objects) - objects
+    assert hidden.hide_get() and hidden.hide_render and height(hidden) > 50 * height(target)  # centimetres
+    keys_given = channel_values(mk, target, given)
+    assert keys_auto.keys() == keys_given.keys()
+    for key in keys_auto:
+        np.testing.assert_allclose(keys_auto[key], keys_given[key], rtol=0, atol=1e-5, err_msg=str(key))
+    objects, actions = set(bpy.data.objects), set(bpy.data.actions)
+    mk.retarget(walk60, target, plant_feet=False, bvh_source="remove")
+    assert set(bpy.data.objects) == objects and len(set(bpy.data.actions) - actions) == 1  # the target's only
+    with pytest.raises(ValueError, match="bvh_source"):
+        mk.retarget(walk60, target, bvh_source="bin")
