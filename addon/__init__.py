@@ -31,6 +31,13 @@ __all__ = ["animdata", "bone_mapping", "bvh", "contacts", "foot_contacts", "ik",
            "reduce_keys", "resample", "resampling", "retarget", "retarget_files", "retargeting",
            "rotation_channels"]
 
+# The public modules answer at the package's top as well (`from motionkit.ik import Effector`, `import
+# motionkit.bvh`), wherever the layers keep them, so that scripts do not depend on the add-on's layout.
+for _module in (animdata, bone_mapping, bvh, contacts, foot_contacts, ik, pose_channels, resampling, retargeting,
+                rotation_channels):
+    sys.modules.setdefault(f"{__package__}.{_module.__name__.rsplit('.', 1)[1]}", _module)
+del _module
+
 
 def register():
     ui.register()

@@ -29,6 +29,17 @@ def test_import_motionkit_works_however_it_was_installed(mk):
     assert motionkit is mk
 
 
+def test_the_public_modules_import_by_their_short_names(mk):
+    """Scripts import the public modules at the package's top, whatever layer holds them."""
+    import importlib
+    for name in ("animdata", "bone_mapping", "bvh", "contacts", "foot_contacts", "ik", "pose_channels",
+                 "resampling", "retargeting", "rotation_channels"):
+        module = importlib.import_module(f"motionkit.{name}")
+        assert module is getattr(mk, name), name
+    from motionkit.ik import Effector
+    assert Effector is mk.ik.Effector
+
+
 def test_native_core_is_built_for_this_python(native):
     info = native.build_info()
     assert info["python"] == "%d.%d" % sys.version_info[:2]
