@@ -14,14 +14,21 @@ BLENDER_ARGS := --background --factory-startup --python-exit-code 1
 B5 := tools/blender5.sh
 
 .PHONY: demo test deps deps-5.2 build-3.4 build-5.2 test-native test-python test-fuzz \
-        test-blender test-blender-3.4 test-blender-5.2 bench clean
+        test-blender test-blender-3.4 test-blender-5.2 test-demo bench clean
 
 demo: deps build-3.4
 	tools/with_blender.sh 3.4 $(BLENDER_ARGS) --python demo/demo.py -- --zip $(ZIP_3.4) --out out
 	@echo "Demo output: out/demo.blend and out/demo.png"
 
-test: deps deps-5.2 build-3.4 build-5.2 test-native test-python test-blender test-fuzz
+test: deps deps-5.2 build-3.4 build-5.2 test-native test-python test-blender test-demo test-fuzz
 	@echo "make test: everything passed on Blender 3.4 and 5.2"
+
+# The README's other command, the demo, run whole into a scratch folder: a script or API change that breaks it
+# fails the tests (out/ is left to `make demo`).
+test-demo:
+	scratch=$$(mktemp -d) && trap 'rm -rf "$$scratch"' EXIT && \
+	tools/with_blender.sh 3.4 $(BLENDER_ARGS) --python demo/demo.py -- --zip $(ZIP_3.4) --out "$$scratch" && \
+	test -s "$$scratch/demo.png" && test -s "$$scratch/demo.blend" && test -s "$$scratch/contacts.png"
 
 deps:
 	tools/install_deps.sh
