@@ -2,13 +2,15 @@
 # Installs, with apt, the Debian 12 packages MotionKit builds, tests and demos
 # with; only what is missing, so a prepared machine pays nothing.
 #   tools/install_deps.sh            host packages (Blender 3.4 and its toolchain)
-#   tools/install_deps.sh --blender5 also create or update the sid chroot (5.2)
+#   tools/install_deps.sh --chroots  also create or update the trixie (4.3) and
+#                                    sid (5.2) chroots (tools/chroot.sh)
 set -euo pipefail
 packages=(
   blender python3 python3-dev python3-numpy python3-scipy python3-pytest python3-matplotlib
   g++ cmake make libeigen3-dev pybind11-dev libgtest-dev libgmock-dev libbenchmark-dev
   debootstrap util-linux zip
   clang libclang-rt-dev
+  xvfb xauth libgl1-mesa-dri libegl1 mesa-utils
 )
 missing=()
 for p in "${packages[@]}"; do
@@ -17,9 +19,10 @@ done
 if ((${#missing[@]})); then
   [ "$(id -u)" = 0 ] || { echo "install_deps.sh: run as root to install: ${missing[*]}" >&2; exit 1; }
   echo "install_deps.sh: installing ${missing[*]}"
-  apt-get update -q
-  DEBIAN_FRONTEND=noninteractive apt-get install -y -q --no-install-recommends "${missing[@]}"
+  # Another apt (a concurrent setup) is waited for, not broken into.
+  apt-get -o DPkg::Lock::Timeout=600 update -q
+  DEBIAN_FRONTEND=noninteractive apt-get -o DPkg::Lock::Timeout=600 install -y -q --no-install-recommends "${missing[@]}"
 fi
-if [ "${1:-}" = --blender5 ]; then
-  "$(dirname "$0")/blender5.sh" setup
-fi
+case "${1:-}" in
+  --chroots|--blender5) for suite in trixie sid; do "$(dirname "$0")/chroot.sh" "$suite" setup; done ;;
+esac
