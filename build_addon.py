@@ -10,8 +10,10 @@ motionkit/ (from addon/) with the module, build_info.json and the extension
 manifest. The zip installs as a legacy add-on on Blender 3.4 (bl_info) and as
 an extension on 4.2 and later (blender_manifest.toml).
 
-For Blender 5.2 from Debian sid run it inside the chroot:
-    tools/blender5.sh run python3 build_addon.py --blender /usr/bin/blender
+For Blender 4.3 from Debian 13 (trixie) and Blender 5.2 from Debian sid run it
+inside their chroots (tools/chroot.sh):
+    tools/chroot.sh trixie run python3 build_addon.py --blender /usr/bin/blender
+    tools/chroot.sh sid run python3 build_addon.py --blender /usr/bin/blender
 """
 from __future__ import annotations
 
