@@ -86,10 +86,6 @@ Skeleton MakeSkeleton(const std::vector<std::string>& names, const std::vector<i
   return skeleton;
 }
 
-Eigen::Quaterniond ToQuaternion(const Eigen::Ref<const Eigen::Vector4d>& wxyz) {
-  return Eigen::Quaterniond(wxyz[0], wxyz[1], wxyz[2], wxyz[3]);
-}
-
 }  // namespace
 
 void BindBvh(py::module_& m) {
@@ -237,7 +233,7 @@ void BindBvh(py::module_& m) {
   m.def(
       "bvh_to_pose",
       [](const Skeleton& skeleton, Eigen::Ref<const RowMatrixXd> values,
-         Eigen::Ref<const RowMatrixXd> bone_rest, const Eigen::Vector4d& conversion, double scale) {
+         Eigen::Ref<const RowMatrixXd> bone_rest, const QuaternionArg& conversion, double scale) {
         const Eigen::Index frames = values.rows(), joints = static_cast<Eigen::Index>(skeleton.joints.size());
         py::array_t<double, py::array::c_style> rotations({frames, 4 * joints}), locations({frames, 3 * joints});
         Eigen::Map<RowMatrixXd> rotations_view(rotations.mutable_data(), frames, 4 * joints);
@@ -263,7 +259,7 @@ void BindBvh(py::module_& m) {
       "pose_to_bvh",
       [](const Skeleton& skeleton, Eigen::Ref<const RowMatrixXd> rotations,
          Eigen::Ref<const RowMatrixXd> locations, Eigen::Ref<const RowMatrixXd> bone_rest,
-         const Eigen::Vector4d& conversion, double scale) {
+         const QuaternionArg& conversion, double scale) {
         const Eigen::Index frames = rotations.rows(), channels = skeleton.channel_count;
         py::array_t<double, py::array::c_style> values({frames, channels});
         Eigen::Map<RowMatrixXd> view(values.mutable_data(), frames, channels);

@@ -33,9 +33,9 @@ ConstRowMap AsRow(const ConstMatrixView& table, Eigen::Index bones, Eigen::Index
 
 py::tuple Retarget(const RigModel& source, const RigModel& target, const ConstMatrixView& source_rotations,
                    const ConstMatrixView& source_root_heads, const std::vector<int>& bone_map,
-                   const ConstMatrixView& source_match, const Eigen::Vector3d& source_match_root,
-                   const ConstMatrixView& target_match_basis, const Eigen::Vector3d& target_match_location,
-                   int source_root, int target_root, const Eigen::Vector4d& space, double scale, double unit_scale,
+                   const ConstMatrixView& source_match, const PointArg& source_match_root,
+                   const ConstMatrixView& target_match_basis, const PointArg& target_match_location,
+                   int source_root, int target_root, const QuaternionArg& space, double scale, double unit_scale,
                    double vertical_offset, const std::string& root_motion, const std::vector<int>& ground_bones) {
   const auto motion = ParseRootMotion(root_motion);
   if (!motion) throw Error("unknown root motion '" + root_motion + "'; expected scaled, in_place, offset or none");
@@ -55,7 +55,7 @@ py::tuple Retarget(const RigModel& source, const RigModel& target, const ConstMa
   job.options.scale = scale;
   job.options.unit_scale = unit_scale;
   job.options.vertical_offset = vertical_offset;
-  job.options.space = Eigen::Quaterniond(space[0], space[1], space[2], space[3]);
+  job.options.space = ToQuaternion(space);
   job.options.ground_bones = ground_bones;
   ValidateAndRun(job);
   return py::make_tuple(rotations, root_locations);

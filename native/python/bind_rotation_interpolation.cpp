@@ -67,8 +67,8 @@ py::object InterpolateRotations(const ConstVectorView& times, const ConstMatrixV
   return py::object(std::move(out));
 }
 
-CastingArray SlerpMany(const Eigen::Vector4d& q0, const Eigen::Vector4d& q1, const ConstVectorView& u) {
-  const Eigen::Quaterniond a(q0[0], q0[1], q0[2], q0[3]), b(q1[0], q1[1], q1[2], q1[3]);
+CastingArray SlerpMany(const QuaternionArg& q0, const QuaternionArg& q1, const ConstVectorView& u) {
+  const Eigen::Quaterniond a = ToQuaternion(q0), b = ToQuaternion(q1);
   if (!q0.allFinite() || !q1.allFinite() || !(q0.norm() > 1e-12) || !(q1.norm() > 1e-12)) {
     throw Error("slerp: q0 and q1 must be finite and not zero");
   }
@@ -120,7 +120,7 @@ void BindRotationInterpolation(py::module_& m) {
       )pbdoc");
   testing.def(
       "slerp",
-      [](const Eigen::Vector4d& q0, const Eigen::Vector4d& q1, double u) {
+      [](const QuaternionArg& q0, const QuaternionArg& q1, double u) {
         const Eigen::VectorXd one = Eigen::VectorXd::Constant(1, u);
         CastingArray out = SlerpMany(q0, q1, one);
         return CastingArray(out.attr("reshape")(4));

@@ -4,6 +4,8 @@
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 
+#include <Eigen/Geometry>
+
 #include "motionkit/types.hpp"
 
 namespace motionkit::python {
@@ -13,6 +15,17 @@ using DoubleArray = pybind11::array_t<double, pybind11::array::c_style>;
 using BoolArray = pybind11::array_t<bool, pybind11::array::c_style>;
 using IntArray = pybind11::array_t<int, pybind11::array::c_style>;
 using RowMap = Eigen::Map<RowMatrixXd>;
+
+// Small fixed-size arguments (a quaternion, a point) are taken as views, never as plain fixed-size
+// matrices: pybind11 2.13's caster for those (Debian 13's) move-assigns an uninitialised temporary into
+// its value before copying the numbers in (g++ 14 rightly warns, -Wmaybe-uninitialized); the view's caster
+// maps numpy's array or its converted copy instead. Either accepts the same arguments.
+using QuaternionArg = Eigen::Ref<const Eigen::Vector4d>;  // w x y z
+using PointArg = Eigen::Ref<const Eigen::Vector3d>;
+
+inline Eigen::Quaterniond ToQuaternion(const QuaternionArg& wxyz) {
+  return Eigen::Quaterniond(wxyz[0], wxyz[1], wxyz[2], wxyz[3]);
+}
 
 // The bindings' one way of running a job: validated with the GIL held (a failure is a MotionKitError
 // naming the place), then run without it, so that other Python threads go on meanwhile.
