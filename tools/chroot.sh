@@ -104,6 +104,8 @@ setup() {
     touch "$root/.debootstrap-done"
   fi
   echo "deb $mirror $suite main" > "$root/etc/apt/sources.list"
+  # Blender lists the mounted file systems (the file browser's side bar) from /etc/mtab.
+  [ -e "$root/etc/mtab" ] || ln -s ../proc/self/mounts "$root/etc/mtab"
   if [ "$suite" = sid ]; then
     echo 'Acquire::Check-Valid-Until "false";' > "$root/etc/apt/apt.conf.d/99motionkit-valid-until"
   fi
