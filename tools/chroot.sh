@@ -37,13 +37,14 @@ cache=${MOTIONKIT_CACHE:-${XDG_CACHE_HOME:-${HOME:-/root}/.cache}/motionkit}
 root=$cache/$suite-chroot
 
 # Everything the Blender side needs: the Blender itself, the toolchain that
-# builds our module for its Python, and what a windowed Blender needs under
-# Xvfb (the UI tests). The same names in trixie and sid.
+# builds our module for its Python, and what the UI tests need: a windowed
+# Blender under Xvfb (mesa's software OpenGL) and tesseract to read its
+# screenshots. The same names in trixie and sid.
 packages=(
   blender python3 python3-dev python3-numpy python3-scipy python3-pytest
   python3-matplotlib g++ cmake make libeigen3-dev pybind11-dev libgtest-dev
   libgmock-dev libbenchmark-dev ca-certificates xz-utils
-  xvfb xauth libgl1-mesa-dri libegl1 mesa-utils
+  xvfb xauth libgl1-mesa-dri libegl1 mesa-utils tesseract-ocr
 )
 
 [ "$(id -u)" = 0 ] || die "must run as root (debootstrap and chroot need it)"
@@ -105,7 +106,7 @@ setup() {
   fi
   echo "deb $mirror $suite main" > "$root/etc/apt/sources.list"
   # Blender lists the mounted file systems (the file browser's side bar) from /etc/mtab.
-  [ -e "$root/etc/mtab" ] || ln -s ../proc/self/mounts "$root/etc/mtab"
+  [ -e "$root/etc/mtab" ] || [ -L "$root/etc/mtab" ] || ln -s ../proc/self/mounts "$root/etc/mtab"
   if [ "$suite" = sid ]; then
     echo 'Acquire::Check-Valid-Until "false";' > "$root/etc/apt/apt.conf.d/99motionkit-valid-until"
   fi
