@@ -1,6 +1,6 @@
 """Benchmark: writing keys into F-curves, MotionKit's bulk path against insert loops.
 
-Run inside Blender (`make bench` runs it on both Blenders):
+Run inside Blender (`make bench` runs it on the three Blenders):
 
     tools/with_blender.sh 3.4 -b --factory-startup --python bench/fcurve_write.py -- \\
         --zip dist/motionkit-0.1.0-linux-x64-py311.zip

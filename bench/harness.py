@@ -1,7 +1,7 @@
 """What the end-to-end benchmarks share: their arguments, installing the add-on, timing with medians,
 and Blender's own floors for the keys a job reads and writes.
 
-Every bench runs inside Blender (`tools/with_blender.sh 3.4|5.2 -b --factory-startup --python
+Every bench runs inside Blender (`tools/with_blender.sh 3.4|4.3|5.2 -b --factory-startup --python
 bench/<name>.py -- --zip dist/motionkit-...zip [--repeat N] ...`). Besides its own comparison with the
 Blender-native way of doing the same job, each prints, for the same keys in the same run:
 - RNA's bulk floor: `foreach_get("co")` of the keys the job reads, plus `keyframe_points.add` +

@@ -1,6 +1,6 @@
 """Benchmark: baking full-body IK over a 10,000-frame clip on a 60-bone rig, MotionKit against Blender's IK.
 
-Run inside Blender (`make bench` runs it on both Blenders):
+Run inside Blender (`make bench` runs it on the three Blenders):
 
     tools/with_blender.sh 5.2 -b --factory-startup --python bench/ik.py -- \\
         --zip dist/motionkit-0.1.0-linux-x64-py314.zip

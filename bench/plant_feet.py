@@ -1,6 +1,6 @@
 """Benchmark: retargeting a 10,000-frame walk with and without planted feet, end to end.
 
-Run inside Blender (`make bench` runs it on both Blenders):
+Run inside Blender (`make bench` runs it on the three Blenders):
 
     tools/with_blender.sh 5.2 -b --factory-startup --python bench/plant_feet.py -- \\
         --zip dist/motionkit-0.1.0-linux-x64-py314.zip

@@ -1,6 +1,6 @@
 """Benchmark: resampling a 10,000-frame, 60-bone action, MotionKit against the usual Python way.
 
-Run inside Blender (`make bench` runs it on both Blenders):
+Run inside Blender (`make bench` runs it on the three Blenders):
 
     tools/with_blender.sh 5.2 -b --factory-startup --python bench/resample.py -- \\
         --zip dist/motionkit-0.1.0-linux-x64-py314.zip

@@ -1,6 +1,6 @@
 """Benchmark: retargeting a 10,000-frame clip onto a 60-bone rig, MotionKit against the constraint way.
 
-Run inside Blender (`make bench` runs it on both Blenders):
+Run inside Blender (`make bench` runs it on the three Blenders):
 
     tools/with_blender.sh 5.2 -b --factory-startup --python bench/retarget.py -- \\
         --zip dist/motionkit-0.1.0-linux-x64-py314.zip

@@ -1,5 +1,5 @@
 """BVH import and export in Blender, against native FK, Blender's own evaluation
-and (on 5.2) Blender's own BVH importer."""
+and (on 4.3 and 5.2) Blender's own BVH importer."""
 import os
 
 import bpy
