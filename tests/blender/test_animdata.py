@@ -63,6 +63,19 @@ def test_curves_live_where_this_blender_keeps_them(animdata):
         assert [fc.data_path for fc in action.fcurves] == ["location"]
 
 
+def test_the_feature_tests_agree_with_the_release_notes(animdata):
+    """animdata and pose_channels feature-test Blender's world; the release notes date it: legacy actions
+    (action.fcurves) through 4.3, slotted ones from 4.4; bone selection on the bones through 4.x, on the pose
+    bones from 5.0; key enums copied straight from a uint8 buffer from 4.0 (seen on 4.3 and 5.2), through
+    the keys' bytes before."""
+    import motionkit
+    assert animdata.LAYERED == (bpy.app.version >= (4, 4, 0))
+    assert motionkit.pose_channels.BONE_SELECTION_ON_POSE == (bpy.app.version >= (5, 0, 0))
+    obj = make_armature()
+    animdata.write_keys(obj, animdata.new_action("Ways"), [("location", 0)], np.arange(1.0, 6.0), [np.zeros(5)])
+    assert animdata._enum_way["interpolation"] == ("uint8" if bpy.app.version >= (4, 0, 0) else "keys")
+
+
 @pytest.mark.skipif(bpy.app.version < (4, 4, 0), reason="legacy actions have no slots")
 def test_one_action_animates_two_armatures_through_their_own_slots(animdata):
     a, b = make_armature("A"), make_armature("B")
