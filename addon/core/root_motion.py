@@ -25,7 +25,7 @@ FLOOR_ROOTS = (
     ("auto", "Auto", "Copy the source's floor root if it has one, else keep the target's still"),
     ("still", "Still", "The floor root stays where the match pose has it; the hips carry all the motion"),
     ("copy", "Copy", "The floor root moves as the source's floor root does (translation scaled)"),
-    ("extract", "Extract root motion",
+    ("extract", "Extract",
      "The floor root follows the hips' ground projection and facing, smoothed, for game engines; "
      "the hips keep the rest, so the world pose is the same"),
 )

@@ -20,9 +20,10 @@ from ..blender import animdata, pose_channels
 from ..core import native_state, rotation_channels
 
 METHODS = (
-    ("dls", "Damped Least Squares", "Robust near singular poses; regularised towards the previous frame"),
+    ("dls", "Damped LS", "Damped least squares: robust near singular poses; regularised towards the previous "
+                         "frame"),
     ("pinv", "Pseudo-inverse", "Gauss-Newton steps; fast, fragile near singular poses"),
-    ("transpose", "Jacobian Transpose", "Gradient steps: simple and slow"),
+    ("transpose", "Transpose", "Jacobian transpose: gradient steps, simple and slow"),
     ("ccd", "CCD", "Cyclic coordinate descent, joint by joint"),
 )
 _AXES = "xyz"

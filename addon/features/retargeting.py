@@ -32,7 +32,7 @@ BVH_SOURCES = (
 ROOT_MOTIONS = (
     ("scaled", "Scaled", "Translation scaled by the ratio of leg lengths"),
     ("in_place", "In place", "Keep only the vertical motion (scaled)"),
-    ("offset", "Horizontal scaled, vertical offset",
+    ("offset", "Offset Height",
      "Horizontal translation scaled, vertical as the source's plus the difference in hip height"),
     ("none", "None", "The root stays where the match pose has it"),
 )

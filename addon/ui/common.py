@@ -58,11 +58,15 @@ def poll_native(operator_class) -> bool:
     return True
 
 
-def draw_status(layout) -> None:
-    """Draws the core's versions, or the reason it did not load, in a UI layout."""
+def draw_status(layout, compact: bool = False) -> None:
+    """Draws the core's versions (compact: only MotionKit's, for the sidebar's width), or the reason it did
+    not load, in a UI layout."""
     status = native_state.status
     if status.ok:
         info = status.module.build_info()
+        if compact:
+            layout.label(text=f"MotionKit {info['version']} ready", icon='CHECKMARK')
+            return
         col = layout.column(align=True)
         col.label(text=f"MotionKit {info['version']}: native core loaded", icon='CHECKMARK')
         col.label(text=f"Eigen {info['eigen']}, pybind11 {info['pybind11']}, Python {info['python']}")
@@ -71,10 +75,10 @@ def draw_status(layout) -> None:
     box.alert = True
     col = box.column(align=True)
     col.label(text="MotionKit cannot run in this Blender:", icon='ERROR')
-    # The message is long; split it into label-sized lines.
+    # The message is long; split it into label-sized lines (the sidebar's are short).
     words, line = status.message.split(), ""
     for word in words:
-        if len(line) + len(word) > 70:
+        if len(line) + len(word) > (28 if compact else 70):
             col.label(text=line)
             line = ""
         line += (" " if line else "") + word

@@ -5,6 +5,7 @@ from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProp
                        PointerProperty, StringProperty)
 
 from . import common
+from ..core import display_names
 from ..features import ik, ik_live
 
 
@@ -21,7 +22,7 @@ class MOTIONKIT_PG_ik_effector(bpy.types.PropertyGroup):
     weight: FloatProperty(name="Weight", default=1.0, min=1e-3, max=1e3)
     use_position: BoolProperty(name="Position", default=True)
     use_orientation: BoolProperty(name="Orientation", description="Also match the target's rotation")
-    chain_count: IntProperty(name="Chain Length", default=0, min=0, max=255,
+    chain_count: IntProperty(name="Chain", default=0, min=0, max=255,
                              description="Bones this effector moves, up from its bone; 0: up to the root")
 
     def effector(self) -> ik.Effector:
@@ -39,15 +40,15 @@ class MOTIONKIT_PG_ik(bpy.types.PropertyGroup):
     max_iterations: IntProperty(name="Iterations", default=64, min=1, max=10000)
     damping: FloatProperty(name="Damping", default=0.0, min=0.0, max=1e3, precision=4,
                            description="Lambda of damped least squares; 0 picks one from the rig's size")
-    regularization: FloatProperty(name="Regularisation", default=1e-4, min=0.0, max=1e3, precision=5,
-                                  description="Pull towards the previous frame's pose")
-    root_translation: BoolProperty(name="Move Root", default=True, description="The root's location is solved")
-    root_rotation: BoolProperty(name="Turn Root", default=True, description="The root's rotation is solved")
-    use_limits: BoolProperty(name="Joint Limits", default=True,
+    regularization: FloatProperty(name="Smoothing", default=1e-4, min=0.0, max=1e3, precision=5,
+                                  description="Regularisation: the pull towards the previous frame's pose")
+    root_translation: BoolProperty(name="Move", default=True, description="The root's location is solved")
+    root_rotation: BoolProperty(name="Turn", default=True, description="The root's rotation is solved")
+    use_limits: BoolProperty(name="Limits", default=True,
                              description="Respect the bones' IK limits, locks and stiffness")
     live: BoolProperty(name="Live", update=_live_changed,
                        description="Re-solve the current frame whenever a target moves or the frame changes")
-    use_scene_range: BoolProperty(name="Scene Frame Range", default=True)
+    use_scene_range: BoolProperty(name="Scene Range", default=True, description="Bake the scene's frame range")
     frame_start: IntProperty(name="Start", default=1)
     frame_end: IntProperty(name="End", default=250)
     new_action: BoolProperty(name="New Action", default=True,
@@ -127,21 +128,33 @@ class MOTIONKIT_OT_ik_bake(_EffectorsOperator, bpy.types.Operator):
                          f"'{done[1].name}'; largest error {done[0].errors.max():.2e}")
 
 
+# The prefix the effectors' bone names share ("mixamorig:"), found once per draw of the panel.
+_SHOWN_PREFIX = [""]
+
+
 class MOTIONKIT_UL_ik_effectors(bpy.types.UIList):
-    """One row per effector: bone, then its target or the pin."""
+    """One row per effector, as text: its bone, then an icon for pinned or reaching. Nothing in a row is a
+    button, so a click picks the row (highlighted), whose settings the panel shows below the list."""
 
     def draw_item(self, context, layout, data, item, icon, active_data, active_propname, index=0):
-        obj = data.id_data
-        row = layout.row(align=True)
-        row.prop_search(item, "bone", obj.data, "bones", text="")
-        row.prop(item, "pin", text="", icon='PINNED' if item.pin else 'UNPINNED')
-        if not item.pin:
-            row.prop(item, "target", text="")
-            if item.target is not None and item.target.type == 'ARMATURE':
-                row.prop_search(item, "subtarget", item.target.data, "bones", text="")
+        row = layout.row()
+        row.label(text=display_names.strip(item.bone, _SHOWN_PREFIX[0]) or "(no bone)")
+        # Pinned, reaching for an object, or missing its target: an icon, so the bone's name has the room.
+        row.label(text="", icon='PINNED' if item.pin else 'OBJECT_DATA' if item.target is not None else 'ERROR')
+
+
+class _IkPanel:
+    bl_space_type = 'VIEW_3D'
+    bl_region_type = 'UI'
+    bl_category = "MotionKit"
+
+    @classmethod
+    def poll(cls, context):
+        return _armature(context) is not None
 
 
 class MOTIONKIT_PT_ik(bpy.types.Panel):
+    """The effectors, the active one's settings, Solve and Live."""
     bl_label = "Full-body IK"
     bl_idname = "MOTIONKIT_PT_ik"
     bl_space_type = 'VIEW_3D'
@@ -150,23 +163,56 @@ class MOTIONKIT_PT_ik(bpy.types.Panel):
 
     def draw(self, context):
         layout = self.layout
-        obj = context.object
-        if obj is None or obj.type != 'ARMATURE':
+        obj = _armature(context)
+        if obj is None:
             layout.label(text="Select an armature", icon='INFO')
             return
         settings = obj.motionkit_ik
+        _SHOWN_PREFIX[0] = display_names.shared_prefix(e.bone for e in settings.effectors)
+        layout.label(text=f"Effectors ({_SHOWN_PREFIX[0]}*)" if _SHOWN_PREFIX[0] else "Effectors")
         row = layout.row()
         row.template_list("MOTIONKIT_UL_ik_effectors", "", settings, "effectors", settings, "active_effector",
                           rows=4)
-        col = row.column(align=True)
-        common.draw_list_buttons(col, EFFECTORS.name)
+        common.draw_list_buttons(row.column(align=True), EFFECTORS.name)
         if 0 <= settings.active_effector < len(settings.effectors):
-            item = settings.effectors[settings.active_effector]
-            row = layout.row(align=True)
-            row.prop(item, "weight")
-            row.prop(item, "use_position", toggle=True)
-            row.prop(item, "use_orientation", toggle=True)
-            layout.prop(item, "chain_count")
+            self.draw_effector(settings.effectors[settings.active_effector], obj, layout.box())
+        row = layout.row(align=True)
+        row.scale_y = 1.3
+        row.operator("motionkit.ik_solve", icon='CON_KINEMATIC')
+        row.prop(settings, "live", toggle=True, text="Live: On" if settings.live else "Live: Off",
+                 icon='REC' if settings.live else 'PLAY')
+
+    @staticmethod
+    def draw_effector(item, obj, box):
+        """The active effector's own settings, under its name."""
+        box.label(text="Selected Effector")
+        col = box.column(align=True)
+        col.prop_search(item, "bone", obj.data, "bones", text="", icon='BONE_DATA')
+        col.prop(item, "pin", toggle=True, icon='PINNED' if item.pin else 'UNPINNED',
+                 text="Pinned where it stands" if item.pin else "Pin")
+        if not item.pin:
+            col.prop(item, "target", text="", icon='OBJECT_DATA')
+            if item.target is not None and item.target.type == 'ARMATURE':
+                col.prop_search(item, "subtarget", item.target.data, "bones", text="", icon='BONE_DATA')
+        row = box.row(align=True)
+        row.prop(item, "use_position", toggle=True)
+        row.prop(item, "use_orientation", toggle=True)
+        col = box.column(align=True)
+        col.use_property_split = True
+        col.use_property_decorate = False
+        col.prop(item, "weight")
+        col.prop(item, "chain_count")
+
+
+class MOTIONKIT_PT_ik_solver(_IkPanel, bpy.types.Panel):
+    bl_label = "Solver"
+    bl_idname = "MOTIONKIT_PT_ik_solver"
+    bl_parent_id = "MOTIONKIT_PT_ik"
+    bl_options = {'DEFAULT_CLOSED'}
+
+    def draw(self, context):
+        settings = _armature(context).motionkit_ik
+        layout = self.layout
         layout.use_property_split = True
         layout.use_property_decorate = False
         layout.prop(settings, "method")
@@ -174,18 +220,31 @@ class MOTIONKIT_PT_ik(bpy.types.Panel):
         col.prop(settings, "max_iterations")
         col.prop(settings, "damping")
         col.prop(settings, "regularization")
-        layout.prop(settings, "root_translation")
-        layout.prop(settings, "root_rotation")
-        layout.prop(settings, "use_limits")
-        row = layout.row(align=True)
-        row.operator("motionkit.ik_solve", icon='CON_KINEMATIC')
-        row.prop(settings, "live", toggle=True, icon='PLAY')
-        layout.prop(settings, "use_scene_range")
+        col = layout.column(heading="Root")
+        col.prop(settings, "root_translation")
+        col.prop(settings, "root_rotation")
+        col = layout.column(heading="Joints")
+        col.prop(settings, "use_limits")
+
+
+class MOTIONKIT_PT_ik_bake(_IkPanel, bpy.types.Panel):
+    bl_label = "Bake"
+    bl_idname = "MOTIONKIT_PT_ik_bake"
+    bl_parent_id = "MOTIONKIT_PT_ik"
+
+    def draw(self, context):
+        settings = _armature(context).motionkit_ik
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        col = layout.column(heading="Frames")
+        col.prop(settings, "use_scene_range")
         if not settings.use_scene_range:
-            col = layout.column(align=True)
-            col.prop(settings, "frame_start")
-            col.prop(settings, "frame_end")
-        layout.prop(settings, "new_action")
+            sub = col.column(align=True)
+            sub.prop(settings, "frame_start")
+            sub.prop(settings, "frame_end", text="End")
+        col = layout.column(heading="Keys")
+        col.prop(settings, "new_action")
         layout.operator("motionkit.ik_bake", icon='REC')
 
 
@@ -199,7 +258,7 @@ EFFECTORS = common.editable_list(common.EditableList(
     "effectors", "active_effector", "Select an armature", _add_on_active_bone))
 
 classes = (MOTIONKIT_PG_ik_effector, MOTIONKIT_PG_ik, MOTIONKIT_OT_ik_solve, MOTIONKIT_OT_ik_bake,
-           MOTIONKIT_UL_ik_effectors, MOTIONKIT_PT_ik)
+           MOTIONKIT_UL_ik_effectors, MOTIONKIT_PT_ik, MOTIONKIT_PT_ik_solver, MOTIONKIT_PT_ik_bake)
 
 
 def register_properties():

@@ -77,7 +77,7 @@ class MOTIONKIT_OT_resample_keys(_KeysOperator, bpy.types.Operator):
             layout.prop(self, "step")
         else:
             layout.prop(self, "fps")
-            layout.prop(self, "change_scene_rate")
+            layout.column(heading="Scene").prop(self, "change_scene_rate", text="Change Rate")
         layout.prop(self, "scalar")
         layout.prop(self, "rotation")
         if "kochanek-bartels" in (self.scalar, self.rotation):

@@ -9,8 +9,9 @@ from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProp
 from bpy_extras.io_utils import ExportHelper, ImportHelper
 
 from . import common, contacts as contact_ui
-from ..core import bone_mapping
-from ..features import bvh, retargeting
+from ..core import bone_mapping, display_names
+from ..features import bvh, retargeting, scene_timing
+
 
 def _is_armature(self, obj):
     return obj.type == 'ARMATURE'
@@ -25,8 +26,9 @@ class MOTIONKIT_PG_retarget(bpy.types.PropertyGroup):
     source_kind: EnumProperty(name="Source", items=[
         ('ARMATURE', "Armature", "An animated armature in this file"),
         ('BVH', "BVH File", "A BVH file, imported as the source armature when retargeting")], default='ARMATURE')
-    source: PointerProperty(name="Source Armature", type=bpy.types.Object, poll=_is_armature)
-    bvh_path: StringProperty(name="BVH File", subtype='FILE_PATH')
+    source: PointerProperty(name="Source", type=bpy.types.Object, poll=_is_armature,
+                            description="The animated armature whose motion is retargeted")
+    bvh_path: StringProperty(name="File", subtype='FILE_PATH', description="The BVH file to retarget")
     bvh_auto_scale: BoolProperty(name="Auto Scale", default=True,
                                  description="Stand the imported armature as tall as the target (a centimetre "
                                              "file would otherwise stand 100 times too tall)")
@@ -34,12 +36,13 @@ class MOTIONKIT_PG_retarget(bpy.types.PropertyGroup):
                              description="Multiply the file's distances by this")
     bvh_source: EnumProperty(name="Imported", items=retargeting.BVH_SOURCES, default="hide",
                              description="What the imported armature becomes once the target is keyed")
-    target: PointerProperty(name="Target Armature", type=bpy.types.Object, poll=_is_armature)
+    target: PointerProperty(name="Target", type=bpy.types.Object, poll=_is_armature,
+                            description="The armature that receives the motion as a new action")
     pairs: CollectionProperty(type=MOTIONKIT_PG_bone_pair)
     active_pair: IntProperty(name="Active Pair")
-    source_match: EnumProperty(name="Source Match Pose", items=retargeting.SOURCE_MATCHES, default='REST')
+    source_match: EnumProperty(name="Source Pose", description="The source's pose that matches the target's", items=retargeting.SOURCE_MATCHES, default='REST')
     match_frame: IntProperty(name="Match Frame", description="Frame of the source's match pose", default=0)
-    target_match: EnumProperty(name="Target Match Pose", items=retargeting.TARGET_MATCHES, default='REST')
+    target_match: EnumProperty(name="Target Pose", description="The target's pose that matches the source's", items=retargeting.TARGET_MATCHES, default='REST')
     root_motion: EnumProperty(name="Root Motion", items=retargeting.ROOT_MOTIONS, default="scaled")
     floor_root: EnumProperty(name="Floor Root", items=retargeting.FLOOR_ROOTS, default="auto",
                              description="What a target bone on the floor above the hips (a game rig's root) does")
@@ -49,16 +52,19 @@ class MOTIONKIT_PG_retarget(bpy.types.PropertyGroup):
                              description="Feet that stand still in the source stay planted on the target "
                                          "(contacts detected on the source, held with full-body IK)")
     contacts: PointerProperty(type=contact_ui.MOTIONKIT_PG_contacts)
-    ground: BoolProperty(name="Feet on the Floor",
+    ground: BoolProperty(name="On the Floor",
                          description="Move the root so that the target's lowest point touches the floor "
                                      "on the first frame")
     align_facing: BoolProperty(name="Align Facing", default=True,
                                description="Turn the motion by quarter turns so that each rig walks the way "
                                            "it faces")
     use_frame_range: BoolProperty(name="Frame Range", description="Retarget these source frames only")
+    scene_from_clip: BoolProperty(name="From Clip", default=True,
+                                  description="Set the scene's frame rate and range from the retargeted clip, so "
+                                              "that it plays at the speed it was captured at and whole")
     frame_start: IntProperty(name="Start", default=1)
     frame_end: IntProperty(name="End", default=250)
-    overwrite: BoolProperty(name="Overwrite Target Action",
+    overwrite: BoolProperty(name="Overwrite",
                             description="Write into the target's own action instead of a new one")
 
     def bone_map(self) -> list[tuple[str, str]]:
@@ -131,16 +137,22 @@ class MOTIONKIT_OT_retarget(bpy.types.Operator):
 
         def work(progress):
             progress(0, 1)
-            return retargeting.retarget(
+            action = retargeting.retarget(
                 source, settings.target, settings.bone_map() or None, frame_range, settings.root_motion,
                 source_match=settings.source_match, match_frame=settings.match_frame,
                 target_match=settings.target_match, ground=settings.ground, align_facing=settings.align_facing,
                 floor_root=settings.floor_root, root_smoothing=settings.root_smoothing,
                 plant_feet=settings.plant_feet, contact_settings=contact_ui.settings(settings.contacts),
                 overwrite=settings.overwrite, **bvh_options)
+            timing = scene_timing.from_clip(context.scene, action) if settings.scene_from_clip else None
+            return action, timing
 
-        return common.run(self, context, work,
-                          lambda action: f"Retargeted onto '{settings.target.name}' as action '{action.name}'")
+        def done(result):
+            action, timing = result
+            played = f"; the scene plays it at {timing[0]:g} fps, frames {timing[1]}-{timing[2]}" if timing else ""
+            return f"Retargeted onto '{settings.target.name}' as action '{action.name}'{played}"
+
+        return common.run(self, context, work, done)
 
 
 class MOTIONKIT_OT_bone_map_auto(bpy.types.Operator):
@@ -176,7 +188,8 @@ class MOTIONKIT_OT_bone_map_scheme(bpy.types.Operator):
         return _poll_rigs(cls, context)
 
     def invoke(self, context, event):
-        return context.window_manager.invoke_props_dialog(self)
+        # Wide enough for the schemes' names ("Bandai Namco Research Motion Dataset").
+        return context.window_manager.invoke_props_dialog(self, width=480)
 
     def execute(self, context):
         return _fill_map(self, context, lambda settings: bone_mapping.map_from_presets(
@@ -210,87 +223,156 @@ class MOTIONKIT_OT_bone_map_load(bpy.types.Operator, ImportHelper):
         return _fill_map(self, context, lambda settings: bone_mapping.load_map(self.filepath))
 
 
+# The prefixes the bone map's names share on each side ("mixamorig:"), found once per draw of the panel for
+# the list's rows and headers.
+_SHOWN_PREFIXES = ["", ""]
+# The source column's share of a row: as the longest names on each side need.
+_SHOWN_SPLIT = [0.5]
+
+
 class MOTIONKIT_UL_bone_map(bpy.types.UIList):
-    """One row per source -> target pair; bone names pick from the armatures when they are in the file."""
+    """One row per source -> target pair, as names: the list is for reading and picking a row; the picked
+    pair is edited below it, where its fields have the panel's whole width."""
 
     def draw_item(self, context, layout, data, item, icon, active_data, active_propname, index=0):
-        settings = context.scene.motionkit_retarget
-        row = layout.row(align=True)
-        if settings.source_kind == 'ARMATURE' and settings.source is not None:
-            row.prop_search(item, "source", settings.source.data, "bones", text="")
-        else:
-            row.prop(item, "source", text="", emboss=True)
-        row.label(text="", icon='FORWARD')
-        if settings.target is not None:
-            row.prop_search(item, "target", settings.target.data, "bones", text="")
-        else:
-            row.prop(item, "target", text="")
+        split = layout.split(factor=_SHOWN_SPLIT[0])
+        split.label(text=display_names.strip(item.source, _SHOWN_PREFIXES[0]) or "(none)")
+        split.label(text=display_names.strip(item.target, _SHOWN_PREFIXES[1]) or "(none)")
 
 
-class MOTIONKIT_PT_retarget(bpy.types.Panel):
-    bl_label = "Retarget"
-    bl_idname = "MOTIONKIT_PT_retarget"
+def _draw_bone_field(layout, holder, prop, rig, label):
+    """A bone name over the panel's whole width, picked from the rig's bones when there is one."""
+    layout.label(text=label)
+    if rig is not None:
+        layout.prop_search(holder, prop, rig.data, "bones", text="")
+    else:
+        layout.prop(holder, prop, text="")
+
+
+def _labelled(layout, text):
+    """A short label, then the rest of the row for a field."""
+    split = layout.split(factor=0.3)
+    split.alignment = 'RIGHT'
+    split.label(text=text)
+    return split
+
+
+class _RetargetPanel:
     bl_space_type = 'VIEW_3D'
     bl_region_type = 'UI'
     bl_category = "MotionKit"
+
+    @staticmethod
+    def layout_split(layout):
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        return layout
+
+
+class MOTIONKIT_PT_retarget(_RetargetPanel, bpy.types.Panel):
+    bl_label = "Retarget"
+    bl_idname = "MOTIONKIT_PT_retarget"
 
     def draw(self, context):
         settings = context.scene.motionkit_retarget
         layout = self.layout
-        layout.use_property_split = True
-        layout.use_property_decorate = False
-        layout.prop(settings, "source_kind", expand=True)
+        layout.row().prop(settings, "source_kind", expand=True)
+        # Names of rigs and files get the room a split's 40 % label column would take.
+        col = layout.column(align=True)
         if settings.source_kind == 'BVH':
-            layout.prop(settings, "bvh_path")
-            layout.prop(settings, "bvh_auto_scale")
-            if not settings.bvh_auto_scale:
-                layout.prop(settings, "bvh_scale")
-            layout.prop(settings, "bvh_source")
+            _labelled(col, "File").prop(settings, "bvh_path", text="")
         else:
-            layout.prop(settings, "source")
-        layout.prop(settings, "target")
-
-        layout.label(text="Bone Map")
-        row = layout.row()
-        row.template_list("MOTIONKIT_UL_bone_map", "", settings, "pairs", settings, "active_pair", rows=6)
-        col = row.column(align=True)
-        common.draw_list_buttons(col, BONE_MAP.name)
-        col.separator()
-        col.operator("motionkit.bone_map_load", text="", icon='FILEBROWSER')
-        col.operator("motionkit.bone_map_save", text="", icon='FILE_TICK')
-        row = layout.row(align=True)
-        row.operator("motionkit.bone_map_auto", icon='AUTO')
-        row.operator("motionkit.bone_map_scheme", icon='PRESET')
-        if not settings.pairs:
-            layout.label(text="An empty map is filled automatically", icon='INFO')
-
-        layout.prop(settings, "source_match")
-        if settings.source_match == 'FRAME':
-            layout.prop(settings, "match_frame")
-        layout.prop(settings, "target_match")
-        layout.prop(settings, "root_motion")
-        layout.prop(settings, "floor_root")
-        if settings.floor_root == "extract":
-            layout.prop(settings, "root_smoothing")
-        layout.prop(settings, "ground")
-        layout.prop(settings, "align_facing")
-        layout.prop(settings, "use_frame_range")
-        if settings.use_frame_range:
-            col = layout.column(align=True)
-            col.prop(settings, "frame_start")
-            col.prop(settings, "frame_end")
-        layout.prop(settings, "overwrite")
+            _labelled(col, "Source").prop(settings, "source", text="")
+        _labelled(col, "Target").prop(settings, "target", text="")
+        if settings.source_kind == 'BVH':
+            col = self.layout_split(layout.column())
+            col.prop(settings, "bvh_auto_scale")
+            if not settings.bvh_auto_scale:
+                col.prop(settings, "bvh_scale")
+            col.prop(settings, "bvh_source")
         layout.operator("motionkit.retarget", icon='ARMATURE_DATA')
 
 
-class MOTIONKIT_PT_retarget_feet(bpy.types.Panel):
+class MOTIONKIT_PT_retarget_map(_RetargetPanel, bpy.types.Panel):
+    """The bone map: names side by side, the shared prefixes said once, the picked pair's fields below."""
+    bl_label = "Bone Map"
+    bl_idname = "MOTIONKIT_PT_retarget_map"
+    bl_parent_id = "MOTIONKIT_PT_retarget"
+
+    def draw(self, context):
+        settings = context.scene.motionkit_retarget
+        layout = self.layout
+        _SHOWN_PREFIXES[:] = [display_names.shared_prefix(p.source for p in settings.pairs),
+                              display_names.shared_prefix(p.target for p in settings.pairs)]
+        longest = [max((len(display_names.strip(getattr(p, side), prefix)) for p in settings.pairs), default=6)
+                   for side, prefix in zip(("source", "target"), _SHOWN_PREFIXES)]
+        _SHOWN_SPLIT[0] = min(max(longest[0] / max(sum(longest), 1), 0.3), 0.7)
+        header = layout.split(factor=_SHOWN_SPLIT[0])
+        for prefix, side in zip(_SHOWN_PREFIXES, ("Source", "Target")):
+            header.label(text=f"{prefix}*" if prefix else side)
+        # The list takes the panel's whole width, its buttons under it, and shows a whole body's map without a
+        # scroll bar: each takes room from the names.
+        layout.template_list("MOTIONKIT_UL_bone_map", "", settings, "pairs", settings, "active_pair",
+                             rows=min(max(len(settings.pairs), 6), 40))
+        row = layout.row()
+        sub = row.row(align=True)
+        common.draw_list_buttons(sub, BONE_MAP.name)
+        sub = row.row(align=True)
+        sub.operator("motionkit.bone_map_load", text="Load", icon='FILEBROWSER')
+        sub.operator("motionkit.bone_map_save", text="Save", icon='FILE_TICK')
+        row = layout.row(align=True)
+        row.operator("motionkit.bone_map_auto", text="Auto-map", icon='AUTO')
+        row.operator("motionkit.bone_map_scheme", text="Schemes", icon='PRESET')
+        if not settings.pairs:
+            layout.label(text="Empty: mapped when retargeting", icon='INFO')
+        elif 0 <= settings.active_pair < len(settings.pairs):
+            item = settings.pairs[settings.active_pair]
+            col = layout.column(align=True)
+            _draw_bone_field(col, item, "source", settings.source if settings.source_kind == 'ARMATURE' else None,
+                             "Source Bone")
+            _draw_bone_field(col, item, "target", settings.target, "Target Bone")
+
+
+class MOTIONKIT_PT_retarget_options(_RetargetPanel, bpy.types.Panel):
+    bl_label = "Options"
+    bl_idname = "MOTIONKIT_PT_retarget_options"
+    bl_parent_id = "MOTIONKIT_PT_retarget"
+
+    def draw(self, context):
+        settings = context.scene.motionkit_retarget
+        layout = self.layout_split(self.layout)
+        layout.label(text="Match Poses")
+        col = layout.column()
+        col.prop(settings, "source_match", text="Source")
+        if settings.source_match == 'FRAME':
+            col.prop(settings, "match_frame")
+        col.prop(settings, "target_match", text="Target")
+        col = layout.column()
+        col.prop(settings, "root_motion")
+        col.prop(settings, "floor_root")
+        if settings.floor_root == "extract":
+            col.prop(settings, "root_smoothing")
+        col = layout.column(heading="Feet")
+        col.prop(settings, "ground")
+        col = layout.column(heading="Motion")
+        col.prop(settings, "align_facing")
+        col = layout.column(heading="Source")
+        col.prop(settings, "use_frame_range")
+        if settings.use_frame_range:
+            sub = col.column(align=True)
+            sub.prop(settings, "frame_start")
+            sub.prop(settings, "frame_end", text="End")
+        col = layout.column(heading="Scene")
+        col.prop(settings, "scene_from_clip")
+        col = layout.column(heading="Action")
+        col.prop(settings, "overwrite")
+
+
+class MOTIONKIT_PT_retarget_feet(_RetargetPanel, bpy.types.Panel):
     """Planted feet: contacts detected on the source and held on the target; their thresholds."""
     bl_label = "Plant Feet"
     bl_idname = "MOTIONKIT_PT_retarget_feet"
     bl_parent_id = "MOTIONKIT_PT_retarget"
-    bl_space_type = 'VIEW_3D'
-    bl_region_type = 'UI'
-    bl_category = "MotionKit"
     bl_options = {'DEFAULT_CLOSED'}
 
     def draw_header(self, context):
@@ -298,12 +380,10 @@ class MOTIONKIT_PT_retarget_feet(bpy.types.Panel):
 
     def draw(self, context):
         settings = context.scene.motionkit_retarget
-        layout = self.layout
-        layout.use_property_split = True
-        layout.use_property_decorate = False
+        layout = self.layout_split(self.layout)
         layout.active = settings.plant_feet
         contact_ui.draw(layout, settings.contacts)
-        layout.label(text="Keyed as 0/1 curves on the feet", icon='INFO')
+        layout.label(text="Keyed as 0/1 curves", icon='INFO')
 
 
 BONE_MAP = common.editable_list(common.EditableList(
@@ -311,7 +391,8 @@ BONE_MAP = common.editable_list(common.EditableList(
 
 classes = (MOTIONKIT_PG_bone_pair, MOTIONKIT_PG_retarget, MOTIONKIT_OT_retarget, MOTIONKIT_OT_bone_map_auto,
            MOTIONKIT_OT_bone_map_scheme, MOTIONKIT_OT_bone_map_save, MOTIONKIT_OT_bone_map_load,
-           MOTIONKIT_UL_bone_map, MOTIONKIT_PT_retarget, MOTIONKIT_PT_retarget_feet)
+           MOTIONKIT_UL_bone_map, MOTIONKIT_PT_retarget, MOTIONKIT_PT_retarget_map, MOTIONKIT_PT_retarget_options,
+           MOTIONKIT_PT_retarget_feet)
 
 
 def register_properties():

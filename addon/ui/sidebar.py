@@ -13,18 +13,21 @@ class MOTIONKIT_PT_main(bpy.types.Panel):
     bl_category = "MotionKit"
 
     def draw(self, context):
-        common.draw_status(self.layout)
+        layout = self.layout
+        common.draw_status(layout, compact=True)
         obj = context.object
         if obj is not None and obj.type == 'ARMATURE':
-            self.layout.label(text=f"Armature: {obj.name} ({len(obj.data.bones)} bones)",
-                              icon='ARMATURE_DATA')
+            row = layout.row()
+            row.label(text=obj.name, icon='ARMATURE_DATA')
+            row.label(text=f"{len(obj.data.bones)} bones")
         else:
-            self.layout.label(text="Select an armature", icon='INFO')
-        row = self.layout.row(align=True)
-        row.operator("motionkit.import_bvh", text="Import BVH", icon='IMPORT')
-        row.operator("motionkit.export_bvh", text="Export BVH", icon='EXPORT')
-        self.layout.label(text="Keys")
-        row = self.layout.row(align=True)
+            layout.label(text="Select an armature", icon='INFO')
+        layout.label(text="Motion Capture (BVH)")
+        row = layout.row(align=True)
+        row.operator("motionkit.import_bvh", text="Import", icon='IMPORT')
+        row.operator("motionkit.export_bvh", text="Export", icon='EXPORT')
+        layout.label(text="Keys")
+        row = layout.row(align=True)
         row.operator("motionkit.resample_keys", text="Resample", icon='IPO_BEZIER')
         row.operator("motionkit.reduce_keys", text="Reduce", icon='IPO_LINEAR')
-        self.layout.operator("motionkit.fix_foot_sliding", icon='CON_FLOOR')
+        layout.operator("motionkit.fix_foot_sliding", icon='CON_FLOOR')

@@ -1,0 +1,28 @@
+"""Bone names as a narrow list shows them: a prefix every name shares ("mixamorig:", "DEF-") is said once
+above the list instead of on every row, so that the part that differs fits the sidebar. No bpy here."""
+from __future__ import annotations
+
+from collections.abc import Iterable
+
+# A shared prefix is only cut at one of these, so "LeftArm"/"LeftLeg" keep "Left".
+SEPARATORS = ":-_.|/"
+
+
+def shared_prefix(names: Iterable[str]) -> str:
+    """The longest prefix, ending in a separator, that every non-empty name has and none is wholly made of;
+    '' for fewer than two names."""
+    names = [n for n in names if n]
+    if len(names) < 2:
+        return ""
+    first, last = min(names), max(names)
+    common = 0
+    while common < min(len(first), len(last)) and first[common] == last[common]:
+        common += 1
+    cut = max((first.rfind(sep, 0, common) for sep in SEPARATORS), default=-1) + 1
+    if cut == 0 or any(len(n) <= cut for n in names):
+        return ""
+    return first[:cut]
+
+
+def strip(name: str, prefix: str) -> str:
+    return name[len(prefix):] if prefix and name.startswith(prefix) else name
