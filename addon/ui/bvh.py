@@ -1,4 +1,5 @@
-"""File > Import/Export > Motion capture (.bvh) [MotionKit]."""
+"""File > Import/Export > Motion Capture (.bvh) [MotionKit], with the file browser's options grouped in
+sub-panels as Blender's own importers group theirs."""
 import time
 
 import bpy
@@ -42,6 +43,9 @@ class MOTIONKIT_OT_import_bvh(bpy.types.Operator, ImportHelper):
     @classmethod
     def poll(cls, context):
         return common.poll_native(cls)
+
+    def draw(self, context):
+        pass  # the sub-panels below draw the options
 
     def execute(self, context):
         wm = context.window_manager
@@ -87,6 +91,9 @@ class MOTIONKIT_OT_export_bvh(bpy.types.Operator, ExportHelper):
     frame_end: IntProperty(name="End Frame", default=-1,
                            description="Last frame to write (-1: the scene's)")
 
+    def draw(self, context):
+        pass  # the sub-panels below draw the options
+
     @classmethod
     def poll(cls, context):
         if not common.poll_native(cls):
@@ -116,12 +123,71 @@ class MOTIONKIT_OT_export_bvh(bpy.types.Operator, ExportHelper):
         return {'FINISHED'}
 
 
+class _FileOptions:
+    """One group of a MotionKit file operator's options in the file browser's side panel."""
+    bl_space_type = 'FILE_BROWSER'
+    bl_region_type = 'TOOL_PROPS'
+    bl_parent_id = "FILE_PT_operator"
+    operator_class = None
+    groups: tuple = ()  # (heading or "", ((property, label or None), ...)), ...
+
+    @classmethod
+    def poll(cls, context):
+        operator = context.space_data.active_operator
+        return operator is not None and operator.bl_idname == cls.operator_class.__name__
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        operator = context.space_data.active_operator
+        for heading, props in self.groups:
+            col = layout.column(heading=heading)
+            for prop, label in props:
+                col.prop(operator, prop, **({} if label is None else {"text": label}))
+
+
+class MOTIONKIT_PT_import_bvh_transform(_FileOptions, bpy.types.Panel):
+    bl_label = "Transform"
+    operator_class = MOTIONKIT_OT_import_bvh
+    groups = (("", (("scale", None), ("axis_forward", None), ("axis_up", None))),)
+
+
+class MOTIONKIT_PT_import_bvh_animation(_FileOptions, bpy.types.Panel):
+    bl_label = "Animation"
+    operator_class = MOTIONKIT_OT_import_bvh
+    groups = (("", (("rotation_mode", None), ("frame_start", None))),
+              ("Keys", (("use_fps_scale", "At Scene Rate"),)))
+
+
+class MOTIONKIT_PT_import_bvh_scene(_FileOptions, bpy.types.Panel):
+    bl_label = "Scene"
+    operator_class = MOTIONKIT_OT_import_bvh
+    groups = (("From Clip", (("update_scene_fps", "Frame Rate"), ("update_scene_duration", "Frame Range"))),)
+
+
+class MOTIONKIT_PT_export_bvh_transform(_FileOptions, bpy.types.Panel):
+    bl_label = "Transform"
+    operator_class = MOTIONKIT_OT_export_bvh
+    groups = (("", (("scale", None), ("axis_forward", None), ("axis_up", None))),)
+
+
+class MOTIONKIT_PT_export_bvh_animation(_FileOptions, bpy.types.Panel):
+    bl_label = "Animation"
+    operator_class = MOTIONKIT_OT_export_bvh
+    groups = (("", (("rotation_order", "Order"), ("frame_start", "Start"), ("frame_end", "End"))),)
+
+
 def menu_import(self, context):
-    self.layout.operator(MOTIONKIT_OT_import_bvh.bl_idname, text="Motion capture (.bvh) [MotionKit]")
+    self.layout.operator(MOTIONKIT_OT_import_bvh.bl_idname, text=MENU_LABEL)
 
 
 def menu_export(self, context):
-    self.layout.operator(MOTIONKIT_OT_export_bvh.bl_idname, text="Motion capture (.bvh) [MotionKit]")
+    self.layout.operator(MOTIONKIT_OT_export_bvh.bl_idname, text=MENU_LABEL)
 
 
-classes = (MOTIONKIT_OT_import_bvh, MOTIONKIT_OT_export_bvh)
+MENU_LABEL = "Motion Capture (.bvh) [MotionKit]"
+
+classes = (MOTIONKIT_OT_import_bvh, MOTIONKIT_OT_export_bvh, MOTIONKIT_PT_import_bvh_transform,
+           MOTIONKIT_PT_import_bvh_animation, MOTIONKIT_PT_import_bvh_scene, MOTIONKIT_PT_export_bvh_transform,
+           MOTIONKIT_PT_export_bvh_animation)
