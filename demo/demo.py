@@ -293,7 +293,8 @@ def main() -> None:
     if os.path.isfile(mocap):
         # Back row: real motion capture through MotionKit's importer, and the
         # three characters retargeted from it.
-        walker, action = motionkit.bvh.load(mocap)
+        # The scene takes the capture's rate and range, as a user importing it would have it.
+        walker, action = motionkit.bvh.load(mocap, update_scene_fps=True, update_scene_duration=True)
         walker.location = (-3.3, BACK, 0.0)
         generate.skin_bones(walker, {b.name: (0.045, 0.035) for b in walker.data.bones},
                             (0.85, 0.75, 0.25, 1.0), "walk60")
@@ -314,7 +315,10 @@ def main() -> None:
         interpolant_plot.plot(motionkit.native(), plot, before["scalar"], before["rotation"],
                               resampled_curve(motionkit, walker, action, before))
         print(f"demo: wrote {plot}")
-    scene.frame_start, scene.frame_end = 1, 73
+    if before is not None:
+        motionkit.scene_timing.from_clip(scene, action)  # the capture's range at its new rate: 1-73 at 24 fps
+    else:
+        scene.frame_start, scene.frame_end = 1, 73
     scene.frame_set(SHOW_FRAME)
     place_labels(labels, camera)
     blend = os.path.join(out, "demo.blend")

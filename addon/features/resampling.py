@@ -19,6 +19,7 @@ import numpy as np
 from ..blender import animdata, pose_channels
 from ..core import native_state, resample_plan, rotation_channels
 from ..core.resample_plan import ChannelGroup
+from . import bvh
 
 POLYNOMIAL_MAX_KEYS = 64
 # Slopes of sphere curves for exact output come from one-sided second-order
@@ -334,6 +335,11 @@ def resample(targets, step: float | None = None, fps: float | None = None, *, ro
                                 write.interpolation, write.handles)
     if timing.scene_fps is not None:
         _set_scene_rate(scene, timing)
+        # The actions' frames now count the new rate's frames: a capture's recorded rate (bvh.FRAME_RATE,
+        # which contacts and root smoothing turn seconds into frames with) follows.
+        for _, action, _ in planned:
+            if action.get(bvh.FRAME_RATE) is not None:
+                action[bvh.FRAME_RATE] = float(timing.scene_fps)
     return [action for _, action, _ in planned]
 
 
