@@ -324,7 +324,7 @@ class MOTIONKIT_PT_retarget_map(_RetargetPanel, bpy.types.Panel):
         row.operator("motionkit.bone_map_auto", text="Auto-map", icon='AUTO')
         row.operator("motionkit.bone_map_scheme", text="Schemes", icon='PRESET')
         if not settings.pairs:
-            layout.label(text="Empty: mapped when retargeting", icon='INFO')
+            layout.label(text="Empty: auto-mapped", icon='INFO')
         elif 0 <= settings.active_pair < len(settings.pairs):
             item = settings.pairs[settings.active_pair]
             col = layout.column(align=True)

@@ -1,0 +1,210 @@
+"""MotionKit in a real Blender window (Xvfb, mesa's software OpenGL), as a person sees it: every panel,
+dialog, redo panel, file browser and menu drawn, read back from the screen's pixels (tests/blender/ui/),
+judged here. Screenshots stay in out/ui/<Blender version>/ for a person to look at.
+
+Each scenario runs in a windowed Blender of its own, started by this (background) Blender's tests with
+the same zip; any Python error printed while it draws fails the test.
+"""
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+
+import bpy
+import pytest
+
+import conftest
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "ui"))
+import screen_text  # noqa: E402
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(os.path.dirname(HERE))
+OUT = os.path.join(ROOT, "out", "ui", "%d.%d" % bpy.app.version[:2])
+READY = "MOTIONKIT-UI-READY"
+# A tall screen, so that every panel of the sidebar fits without scrolling; the sidebar keeps Blender's
+# default width.
+SCREEN = "-screen 0 1400x3200x24"
+# Lines in a window session's output that are not errors of MotionKit's (checked by eye when added).
+NOT_OURS = (re.compile(r"^(Info|Warning): "), re.compile(r"^UI "), re.compile(r"ALSA|libdecor|Xlib|GLX"))
+PROBLEM = re.compile(r"Traceback|Error|rna_ui|not found|Exception", re.IGNORECASE)
+
+
+def run_window(script: str, args: list, folder) -> dict:
+    """Runs a scenario in a windowed Blender under Xvfb; returns its reports, with the error lines it
+    printed after installing the add-on under 'problems' and its whole output under 'output'."""
+    xvfb = shutil.which("xvfb-run")
+    if xvfb is None:
+        pytest.fail("xvfb-run is missing: tools/install_deps.sh (or the chroot's setup) installs xvfb")
+    if shutil.which("tesseract") is None:
+        pytest.fail("tesseract is missing: tools/install_deps.sh (or the chroot's setup) installs tesseract-ocr")
+    cmd = [xvfb, "-a", "-s", SCREEN, bpy.app.binary_path, "--factory-startup", "--enable-event-simulate",
+           "--python-exit-code", "1", "--python", os.path.join(HERE, "ui", script), "--", *args]
+    out = subprocess.run(cmd, capture_output=True, text=True, timeout=900, env=conftest.fresh_blender_env(folder))
+    report = {"problems": [], "output": out.stdout[-4000:] + out.stderr[-4000:], "returncode": out.returncode}
+    for stream in (out.stdout, out.stderr):
+        for line in stream.split(READY, 1)[1].splitlines() if READY in stream else ["no add-on: " + stream[-2000:]]:
+            if line.startswith("UI "):
+                key, value = line[3:].split(" ", 1)
+                report[key] = json.loads(value)
+            elif PROBLEM.search(line) and not any(p.search(line) for p in NOT_OURS):
+                report["problems"].append(line)
+    with open(os.path.join(OUT, script.replace(".py", ".json")), "w") as f:
+        json.dump(report, f, indent=1)  # what was read, beside the screenshots, for a person checking a failure
+    return report
+
+
+def walk60(shared_dir):
+    return os.path.join(shared_dir, "data", "bvh", "walk60.bvh")
+
+
+@pytest.fixture(scope="module")
+def panels(shared_dir, tmp_path_factory):
+    """Every surface drawn once (tests/blender/ui/panels.py), its screenshots in out/ui/."""
+    os.makedirs(OUT, exist_ok=True)
+    return run_window("panels.py", [os.environ["MOTIONKIT_ZIP"], walk60(shared_dir), OUT], tmp_path_factory.mktemp("ui"))
+
+
+def unread(report, name, phrases):
+    """The phrases a person could not read whole in the picture (see screen_text.find_words)."""
+    assert name + ".words" in report, f"{name} was never drawn: {report.get('error') or report['output']}"
+    return screen_text.missing(report[name + ".words"], phrases)
+
+
+def test_every_surface_draws_without_a_python_error(panels):
+    assert "error" not in panels, panels["error"]
+    assert panels.get("done") is True, panels["output"]
+    assert panels["problems"] == [], panels["problems"]
+
+
+SCREENS = ("sidebar-object", "sidebar-pose", "dialog-resample", "dialog-reduce", "dialog-schemes", "redo-reduce",
+           "redo-resample", "browser-import", "browser-export", "menu-import", "menu-graph-key",
+           "menu-dopesheet-key")
+
+
+@pytest.mark.parametrize("name", SCREENS)
+def test_screenshots_are_not_blank(panels, name):
+    blank = panels.get(name + ".blank")
+    assert blank is not None, f"{name} was never drawn"
+    assert blank["colours"] > 20 and blank["spread"] > 5, blank
+    assert os.path.getsize(os.path.join(OUT, name + ".png")) > 1000
+
+
+SIDEBAR_LABELS = (
+    # MotionKit
+    "Motion Capture (BVH)", "Import", "Export", "Keys", "Resample", "Reduce", "Fix Foot Sliding",
+    # Retarget, Bone Map, Options, Plant Feet
+    "Armature", "BVH File", "Source", "Target", "Retarget", "Bone Map", "Load", "Save", "Auto-map", "Schemes",
+    "Source Bone", "Target Bone", "Options", "Match Poses", "Rest pose", "Root Motion", "Scaled", "Floor Root",
+    "On the Floor", "Align Facing", "Frame Range", "From Clip", "Overwrite", "Plant Feet", "Height In",
+    "Height Out", "Speed In", "Speed Out", "Shortest", "Blend", "Keyed as 0/1 curves",
+    # Full-body IK, Solver, Bake
+    "Full-body IK", "Effectors (mixamorig:*)", "Selected Effector", "Position", "Orientation", "Weight", "Chain",
+    "Solve", "Solver", "Method", "Damped LS", "Iterations", "Damping", "Smoothing", "Move", "Turn", "Limits",
+    "Scene Range", "New Action", "Bake",
+)
+
+
+@pytest.mark.parametrize("mode", ["object", "pose"])
+def test_every_sidebar_label_is_whole_at_the_default_width(panels, mode):
+    """Item 2: at Blender's default sidebar width, no label is cut ("Source Ar...", "Regularis...")."""
+    assert unread(panels, f"sidebar-{mode}", SIDEBAR_LABELS) == []
+
+
+def test_lists_show_bone_names_at_the_default_width(panels):
+    """Item 2: the bone map's rows and the effectors show names, not only icons and x buttons: each row's
+    target whole, each source whole or, when longer than its column, its first letters before Blender's
+    ellipsis; the effectors' names whole, their shared prefix said once above."""
+    rows = panels["bone_map.rows"]
+    assert len(rows) >= 6
+    read = [w["text"] for w in panels["sidebar-object.words"]]
+    for source, target in rows:
+        assert unread(panels, "sidebar-object", [target]) == [], (target, read)
+        assert not unread(panels, "sidebar-object", [source]) or (
+            len(source) > 12 and any(w.startswith(source[:6]) for w in read)), (source, read)
+    assert unread(panels, "sidebar-object", ["LeftHand", "LeftFoot", "RightFoot"]) == []
+
+
+def test_a_click_on_an_effector_row_picks_it_and_changes_nothing_else(panels):
+    """Item 3: the row clicked (where the pin icon is) becomes the active one, highlighted, and the box under
+    the list names it; its pin is not toggled by the click."""
+    assert panels["effector.clicked_row_found"], "the effector's name is not on screen"
+    assert panels["effector.active"] == 1
+    assert panels["effector.pins_unchanged"]
+    assert panels["effector.box_names_it"]
+
+
+def test_the_live_toggle_says_its_state(panels):
+    """Item 3: Live reads 'Live: Off', a click turns it on and it then reads 'Live: On'."""
+    assert panels["live.off_readable"]
+    assert panels["live.on_after_click"]
+    assert panels["live.on_readable"]
+
+
+DIALOG_LABELS = {
+    "dialog-resample": ("Resample Keys", "Timing", "Frame Rate", "Change Rate", "Location/Scale", "Rotation",
+                        "Output"),
+    "dialog-reduce": ("Reduce Keys", "Tolerance", "Rotation Tolerance", "Samples per Frame"),
+    "dialog-schemes": ("Map by Schemes", "Source Scheme", "Target Scheme"),
+    "redo-reduce": ("Reduce Keys", "Tolerance", "Rotation Tolerance", "Samples per Frame"),
+    "redo-resample": ("Resample Keys", "Timing", "Frame Rate", "Change Rate", "Location/Scale", "Rotation",
+                      "Output"),
+}
+
+
+@pytest.mark.parametrize("name", sorted(DIALOG_LABELS))
+def test_dialogs_and_redo_panels_are_readable(panels, name):
+    assert unread(panels, name, DIALOG_LABELS[name]) == []
+
+
+BROWSER_LABELS = {
+    "browser-import": ("Transform", "Scale", "Forward", "Up", "Animation", "Rotation", "Start Frame",
+                       "At Scene Rate", "Scene", "From Clip", "Frame Rate", "Frame Range"),
+    "browser-export": ("Transform", "Scale", "Forward", "Up", "Animation", "Order", "Start", "End"),
+}
+
+
+@pytest.mark.parametrize("name", sorted(BROWSER_LABELS))
+def test_file_browsers_group_options_in_sub_panels(panels, name):
+    """Item 8: the options in sub-panels, as Blender's importers have them, none cut off."""
+    assert unread(panels, name, BROWSER_LABELS[name]) == []
+
+
+def test_menus_name_motionkit_in_blenders_capitalisation(panels):
+    """Item 8: File > Import reads 'Motion Capture (.bvh) [MotionKit]'; the Key menus of the Graph Editor
+    and the Dope Sheet hold Resample Keys and Reduce Keys."""
+    assert unread(panels, "menu-import", ["Motion Capture (.bvh) [MotionKit]"]) == []
+    assert "Capture" in [w["text"] for w in panels["menu-import.words"]]
+    for menu in ("menu-graph-key", "menu-dopesheet-key"):
+        assert unread(panels, menu, ["Resample Keys [MotionKit]", "Reduce Keys [MotionKit]"]) == []
+
+
+@pytest.fixture(scope="module")
+def session(shared_dir, tmp_path_factory):
+    """A whole first session through the UI (tests/blender/ui/session.py)."""
+    os.makedirs(OUT, exist_ok=True)
+    return run_window("session.py", [os.environ["MOTIONKIT_ZIP"], walk60(shared_dir), OUT], tmp_path_factory.mktemp("session"))
+
+
+def test_a_whole_session_through_the_ui(session):
+    """Import, retarget, resample, IK with Live clicked on, save, open, move the target, undo: operators
+    invoked in the window as clicks invoke them, each its own undo step."""
+    assert "error" not in session, session["error"]
+    assert session.get("done") is True, session["output"]
+    assert session["problems"] == [], session["problems"]
+    # The 60 fps capture sets the scene's rate and range (item 6), its bones selected (item 7).
+    assert session["import.scene_rate"] == [60, 1.0]
+    assert session["import.frames"] == [1, 182]
+    assert session["import.bones_selected"]
+    # The retarget plays at the capture's rate, whole (item 6).
+    assert session["retarget.action"]
+    fps, start, end, keyed = session["retarget.scene"]
+    assert fps == 60 and [start, end] == keyed
+    assert session["resample.scene_rate"] == 30 and session["resample.keys"] == 91
+    # Live reaches the goal, survives saving and opening (item 1), follows a move, and an undo of the move.
+    assert session["ik.live_on"] and session["ik.reached"] < 1e-3
+    assert session["reopen.live_on"]
+    assert session["move.goal_moved"] > 0.1 and session["move.reached"] < 1e-3
+    assert session["undo.goal_back"] < 1e-6 and session["undo.reached"] < 1e-3

@@ -1,0 +1,256 @@
+"""Drives a real Blender window (under Xvfb, software OpenGL) the way a person does: events through
+Window.event_simulate (Blender started with --enable-event-simulate), operators invoked in the window's
+context, screenshots through Blender's own screen.screenshot, and text read back from the pixels with
+tesseract, so that a label Blender cut ("Regularis...") or a list row with no name is seen as a person
+would see it.
+
+A scenario is a generator of steps: each `yield` lets Blender run its event loop and redraw for a
+moment (a number: that many seconds). What the scenario finds is printed as `UI <key> <json>` lines for
+test_ui.py, which also fails on any Python error printed after the `MOTIONKIT-UI-READY` marker.
+"""
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import traceback
+
+from screen_text import find_words, missing  # noqa: F401  (scenarios use them through harness)
+
+import bpy
+import numpy as np
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(HERE)))
+for path in (os.path.join(ROOT, "tools"), os.path.join(ROOT, "blend_samples")):
+    if path not in sys.path:
+        sys.path.insert(0, path)
+
+READY = "MOTIONKIT-UI-READY"
+
+
+def report(key: str, value) -> None:
+    print(f"UI {key} {json.dumps(value)}", flush=True)
+
+
+def start(zip_path: str):
+    """Installs the add-on, sets the preferences automation needs; returns the package."""
+    import importlib
+
+    import install_addon
+    prefs = bpy.context.preferences
+    prefs.view.show_splash = False
+    prefs.view.use_save_prompt = False
+    prefs.filepaths.use_auto_save_temporary_files = False
+    module = install_addon.install(zip_path)
+    print(READY, file=sys.stderr, flush=True)
+    print(READY, flush=True)
+    return importlib.import_module(module)
+
+
+def run(steps) -> None:
+    """Runs a scenario (a generator) from a persistent timer, so it carries on across opening files; quits
+    Blender at the end, or at the first exception (reported as UI error)."""
+    iterator = iter(steps)
+
+    def step():
+        try:
+            wait = next(iterator)
+        except StopIteration:
+            report("done", True)
+            bpy.ops.wm.quit_blender()
+            return None
+        except Exception:
+            report("error", traceback.format_exc())
+            bpy.ops.wm.quit_blender()
+            return None
+        return 0.2 if wait is None else float(wait)
+
+    bpy.app.timers.register(step, first_interval=0.5, persistent=True)
+
+
+# ---------------------------------------------------------------------------------------------------------
+# Where things are
+
+def window():
+    return bpy.context.window_manager.windows[0]
+
+
+def area(kind: str, win=None):
+    win = win or window()
+    return next(a for a in win.screen.areas if a.type == kind)
+
+
+def region(area_, kind: str):
+    return next(r for r in area_.regions if r.type == kind)
+
+
+def override(win=None, area_=None, region_=None):
+    """Context for an operator run in a window, as Blender gives it to a click there."""
+    win = win or window()
+    kwargs = {"window": win, "screen": win.screen}
+    if area_ is not None:
+        kwargs["area"] = area_
+        kwargs["region"] = region_ or region(area_, 'WINDOW')
+    return bpy.context.temp_override(**kwargs)
+
+
+# ---------------------------------------------------------------------------------------------------------
+# Input
+
+def move(x: int, y: int, win=None) -> None:
+    (win or window()).event_simulate('MOUSEMOVE', 'NOTHING', x=int(x), y=int(y))
+
+
+def click(x: int, y: int, win=None, **modifiers):
+    """A scenario step (`yield from`): the pointer moves there, Blender redraws (a button becomes active
+    only under a pointer it has seen), then the button is pressed and released."""
+    win = win or window()
+    move(x, y, win)
+    yield 0.2
+    win.event_simulate('LEFTMOUSE', 'PRESS', x=int(x), y=int(y), **modifiers)
+    win.event_simulate('LEFTMOUSE', 'RELEASE', x=int(x), y=int(y), **modifiers)
+
+
+def key(kind: str, win=None, x: int | None = None, y: int | None = None, **modifiers) -> None:
+    win = win or window()
+    x = win.width // 2 if x is None else x
+    y = win.height // 2 if y is None else y
+    win.event_simulate(kind, 'PRESS', x=int(x), y=int(y), **modifiers)
+    win.event_simulate(kind, 'RELEASE', x=int(x), y=int(y), **modifiers)
+
+
+# ---------------------------------------------------------------------------------------------------------
+# Which sidebar tab is showing: a header-less, empty panel of the test's own in a category records that
+# Blender drew it (wrapping the add-on's own draw methods crashes Blender 3.4)
+
+DRAWN: set[str] = set()
+
+
+def watch_category(category: str) -> str:
+    """Registers the watcher of a sidebar category; returns the name open_tab waits for."""
+    name = "MOTIONKIT_TEST_PT_watch_" + "".join(c for c in category if c.isalnum())
+
+    def draw(self, context):
+        DRAWN.add(name)
+
+    panel = type(name, (bpy.types.Panel,), {
+        "bl_label": "", "bl_space_type": 'VIEW_3D', "bl_region_type": 'UI', "bl_category": category,
+        "bl_options": {'HIDE_HEADER'}, "bl_order": 10000, "draw": draw})
+    bpy.utils.register_class(panel)
+    return name
+
+
+def open_tab(region_, panel: str, win=None):
+    """Clicks down the sidebar's tab strip until `panel` draws (a scenario step: `yield from`)."""
+    win = win or window()
+    x = region_.x + region_.width - 10
+    top = region_.y + region_.height - 8
+    for y in range(top, region_.y, -12):
+        DRAWN.clear()
+        yield from click(x, y, win)
+        yield 0.1
+        if panel in DRAWN:
+            return
+    raise AssertionError(f"no sidebar tab shows {panel}")
+
+
+# ---------------------------------------------------------------------------------------------------------
+# Pixels
+
+def screenshot(path: str, win=None) -> np.ndarray:
+    """The window as RGBA floats, rows from the top, also saved to path."""
+    win = win or window()
+    os.makedirs(os.path.dirname(path), exist_ok=True)
+    with bpy.context.temp_override(window=win, screen=win.screen):
+        result = bpy.ops.screen.screenshot(filepath=path)
+    assert result == {'FINISHED'}, f"screenshot failed: {result}"
+    return load_png(path)
+
+
+def load_png(path: str) -> np.ndarray:
+    image = bpy.data.images.load(path, check_existing=False)
+    try:
+        w, h = image.size
+        pixels = np.empty(w * h * 4, dtype=np.float32)
+        image.pixels.foreach_get(pixels)
+    finally:
+        bpy.data.images.remove(image)
+    return pixels.reshape(h, w, 4)[::-1]
+
+
+def save_png(pixels: np.ndarray, path: str) -> None:
+    h, w = pixels.shape[:2]
+    image = bpy.data.images.new("motionkit-ui-crop", w, h, alpha=True)
+    try:
+        image.pixels.foreach_set(np.ascontiguousarray(pixels[::-1], dtype=np.float32).ravel())
+        image.filepath_raw = path
+        image.file_format = 'PNG'
+        image.save()
+    finally:
+        bpy.data.images.remove(image)
+
+
+def crop(pixels: np.ndarray, box) -> np.ndarray:
+    """box = (x, y, width, height) in window coordinates (y from the bottom, as Blender's regions)."""
+    x, y, w, h = (int(v) for v in box)
+    top = pixels.shape[0] - (y + h)
+    return pixels[max(top, 0):top + h, max(x, 0):x + w]
+
+
+def box_of(region_) -> tuple:
+    return (region_.x, region_.y, region_.width, region_.height)
+
+
+def not_blank(pixels: np.ndarray) -> dict:
+    """How much the picture varies: a blank or single-colour frame has one colour and no spread."""
+    rgb = np.round(pixels[..., :3] * 255).astype(np.int32).reshape(-1, 3)
+    colours = len(np.unique(rgb[:, 0] * 65536 + rgb[:, 1] * 256 + rgb[:, 2]))
+    return {"colours": int(colours), "spread": float(rgb.std())}
+
+
+# ---------------------------------------------------------------------------------------------------------
+# Reading the screen
+
+def ocr(pixels: np.ndarray, origin) -> list[dict]:
+    """Words tesseract reads in a crop (rows from the top) whose window position is origin = (x, y, w, h):
+    each {'text', 'x', 'y', 'conf'} with the word's centre in window coordinates. The crop is enlarged
+    three times and turned into dark text on light, which tesseract reads best; the darkest channel makes
+    white text as clear on a blue (pressed) button as on grey."""
+    scale = 3
+    grey = pixels[..., :3].min(axis=2)
+    grey = 1.0 - np.clip((grey - grey.min()) / max(float(np.ptp(grey)), 1e-6), 0.0, 1.0)
+    big = np.kron(grey, np.ones((scale, scale)))
+    rgba = np.dstack([big, big, big, np.ones_like(big)])
+    with tempfile.TemporaryDirectory() as folder:
+        png = os.path.join(folder, "crop.png")
+        save_png(rgba, png)
+        out = subprocess.run(["tesseract", png, "stdout", "--psm", "12", "tsv"], capture_output=True,
+                             text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    x0, y0, _, h0 = origin
+    words = []
+    for line in out.stdout.splitlines()[1:]:
+        cols = line.split("\t")
+        if len(cols) < 12 or not cols[11].strip():
+            continue
+        left, top, width, height, conf = (float(c) for c in cols[6:11])
+        cx, cy = (left + width / 2) / scale, (top + height / 2) / scale
+        words.append({"text": cols[11].strip(), "x": x0 + cx, "y": y0 + h0 - cy, "conf": conf})
+    return words
+
+
+def plain(words: list[dict]) -> list[dict]:
+    """Words as reported: text and whole-pixel centre."""
+    return [{"text": w["text"], "x": round(w["x"]), "y": round(w["y"])} for w in words]
+
+
+def read_region(path: str, region_, win=None) -> tuple[list[dict], dict]:
+    """Screenshot of the window (saved at path's -window.png), the region's crop saved at path, the words
+    read in it and how far from blank it is."""
+    pixels = screenshot(path.replace(".png", "-window.png"), win)
+    part = crop(pixels, box_of(region_))
+    save_png(part, path)
+    return ocr(part, box_of(region_)), not_blank(part)

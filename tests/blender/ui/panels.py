@@ -1,0 +1,195 @@
+"""Every MotionKit surface drawn in a real window, read back from its pixels (run by test_ui.py):
+
+    blender --factory-startup --enable-event-simulate --python panels.py -- ZIP WALK60 OUT_DIR
+
+The sidebar's MotionKit tab at its default width in object and pose mode, each panel expanded (closed
+sub-panels opened by clicking their headers where the screen shows them); the active effector picked by a
+click on its row; the Live toggle clicked; each operator's dialog and redo panel; the BVH import and export
+file browsers; the File > Import menu and the Graph Editor's and Dope Sheet's Key menus. Each picture is
+saved in OUT_DIR and what is read in it is reported (`UI <key> <json>`) for test_ui.py to judge.
+"""
+import os
+import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import bpy  # noqa: E402
+
+import harness  # noqa: E402
+import scene  # noqa: E402
+
+zip_path, walk60, out = sys.argv[sys.argv.index("--") + 1:]
+mk = harness.start(zip_path)
+watch = harness.watch_category("MotionKit")
+
+
+def shot(name):
+    return os.path.join(out, name + ".png")
+
+
+def read_sidebar(name, view):
+    side = harness.region(view, 'UI')
+    words, blank = harness.read_region(shot(name), side)
+    harness.report(f"{name}.words", harness.plain(words))
+    harness.report(f"{name}.blank", blank)
+    return words
+
+
+def open_closed_panels(view, headers):
+    """Clicks each closed sub-panel's header where the screen shows it; yields between clicks."""
+    for header in headers:
+        words = read_sidebar("sidebar-before-open", view)
+        found = harness.find_words(words, header)
+        assert found, f"no '{header}' header on screen"
+        yield from harness.click(found[0]["x"], found[0]["y"])
+        yield 0.4
+
+
+def popup_words(name, before, win=None):
+    """The words of what a popup added to the window: the box where the pixels changed since `before`."""
+    import numpy as np
+    after = harness.screenshot(shot(name + "-window"), win)
+    changed = np.argwhere(np.abs(after[..., :3] - before[..., :3]).max(axis=2) > 0.02)
+    assert len(changed), f"{name}: nothing appeared"
+    (top, left), (bottom, right) = changed.min(axis=0), changed.max(axis=0) + 1
+    part = after[top:bottom, left:right]
+    harness.save_png(part, shot(name))
+    height = after.shape[0]
+    words = harness.ocr(part, (left, height - bottom, right - left, bottom - top))
+    harness.report(f"{name}.words", harness.plain(words))
+    harness.report(f"{name}.blank", harness.not_blank(part))
+    return words
+
+
+def steps():
+    objects = scene.build(mk, walk60)
+    target = objects["target"]
+    yield 0.3
+    view = harness.area('VIEW_3D')
+    view.spaces[0].show_region_ui = True
+    yield 0.5
+    yield from harness.open_tab(harness.region(view, 'UI'), watch)
+    yield from open_closed_panels(view, ("Plant Feet", "Solver"))
+    yield 0.3
+    read_sidebar("sidebar-object", view)
+    pairs = bpy.context.scene.motionkit_retarget.pairs
+    prefixes = [mk.core.display_names.shared_prefix(getattr(p, side) for p in pairs) for side in ("source", "target")]
+    harness.report("bone_map.rows", [[mk.core.display_names.strip(p.source, prefixes[0]),
+                                      mk.core.display_names.strip(p.target, prefixes[1])] for p in pairs[:6]])
+
+    # Item 3: a click on a row picks that effector, whatever part of the row it lands on, and changes
+    # nothing else; the box below then names it.
+    words = harness.read_region(shot("sidebar-rows"), harness.region(view, 'UI'))[0]
+    header = harness.find_words(words, "Effectors (mixamorig:*)")
+    row = header and harness.find_words([w for w in words if w["y"] < header[0]["y"]], "LeftFoot")
+    pins_before = [e.pin for e in target.motionkit_ik.effectors]
+    if row:
+        # On the row's icon, where the pin button was: past the name, short of the list's + and - column.
+        side = harness.region(view, 'UI')
+        x = min(row[0]["x"] + 90, side.x + side.width - 70)
+        yield from harness.click(x, row[0]["y"])
+    yield 0.4
+    harness.report("effector.clicked_row_found", bool(row))
+    harness.report("effector.active", target.motionkit_ik.active_effector)
+    harness.report("effector.pins_unchanged", pins_before == [e.pin for e in target.motionkit_ik.effectors])
+    words = read_sidebar("sidebar-effector", view)
+    harness.report("effector.box_names_it", bool(harness.find_words(words, "Selected Effector"))
+                   and bool(harness.find_words(words, "mixamorig:LeftFoot")))
+
+    # The Live toggle says its state, and a click turns it on.
+    live = harness.find_words(words, "Live: Off")
+    harness.report("live.off_readable", bool(live))
+    if live:
+        yield from harness.click(live[0]["x"], live[0]["y"])
+    yield 0.5
+    harness.report("live.on_after_click", target.motionkit_ik.live)
+    words = read_sidebar("sidebar-live", view)
+    harness.report("live.on_readable", bool(harness.find_words(words, "Live: On")))
+    target.motionkit_ik.live = False
+
+    # Pose mode: the same tab, drawn for the bones.
+    with harness.override(area_=view):
+        bpy.ops.object.posemode_toggle()
+        bpy.ops.pose.select_all(action='SELECT')
+    yield 0.5
+    read_sidebar("sidebar-pose", view)
+
+    # Dialogs, as a click on their buttons opens them.
+    win = harness.window()
+    for name, operator in (("dialog-resample", bpy.ops.motionkit.resample_keys),
+                           ("dialog-reduce", bpy.ops.motionkit.reduce_keys),
+                           ("dialog-schemes", bpy.ops.motionkit.bone_map_scheme)):
+        harness.move(view.x + view.width // 2, view.y + view.height // 2)
+        yield 0.2
+        before = harness.screenshot(shot(name + "-before"))
+        with harness.override(area_=view):
+            operator('INVOKE_DEFAULT')
+        yield 0.6
+        popup_words(name, before)
+        harness.key('ESC', x=view.x + view.width // 2, y=view.y + view.height // 2)
+        yield 0.4
+
+    # Redo panels: the last operation's settings in the viewport's corner.
+    with harness.override(area_=view):
+        bpy.ops.object.mode_set(mode='OBJECT')
+    for obj in bpy.context.view_layer.objects:
+        obj.select_set(obj == objects["capture"])
+    bpy.context.view_layer.objects.active = objects["capture"]
+    for name, operator in (("redo-reduce", bpy.ops.motionkit.reduce_keys),
+                           ("redo-resample", bpy.ops.motionkit.resample_keys)):
+        with harness.override(area_=view):
+            result = operator('EXEC_DEFAULT', True)
+        harness.report(f"{name}.result", sorted(result))
+        yield 0.8
+        hud = harness.region(view, 'HUD')
+        yield from harness.click(hud.x + hud.width // 2, hud.y + hud.height // 2)  # open it, as its header does
+        yield 0.6
+        hud = harness.region(view, 'HUD')
+        words, blank = harness.read_region(shot(name), hud)
+        harness.report(f"{name}.words", harness.plain(words))
+        harness.report(f"{name}.blank", blank)
+
+    # File browsers: import and export, each option group in its sub-panel.
+    for name, operator in (("browser-import", bpy.ops.motionkit.import_bvh),
+                           ("browser-export", bpy.ops.motionkit.export_bvh)):
+        with harness.override(area_=view):
+            operator('INVOKE_DEFAULT')
+        for _ in range(20):
+            yield 0.25
+            windows = bpy.context.window_manager.windows
+            browser = windows[len(windows) - 1]
+            files = next((a for a in browser.screen.areas if a.type == 'FILE_BROWSER'), None)
+            side = files and next((r for r in files.regions if r.type == 'TOOL_PROPS' and r.width > 1), None)
+            if side is not None:
+                break
+        assert side is not None, f"{name}: no file browser with options: {[a.type for a in browser.screen.areas]}"
+        yield 0.5
+        words, blank = harness.read_region(shot(name), side, browser)
+        harness.report(f"{name}.words", harness.plain(words))
+        harness.report(f"{name}.blank", blank)
+        harness.key('ESC', win=browser, x=files.x + files.width // 2, y=files.y + files.height // 2)
+        yield 1.0
+
+    # Menus: File > Import, and each animation editor's Key menu.
+    menus = [("menu-import", None, "TOPBAR_MT_file_import")]
+    timeline = harness.area('DOPESHEET_EDITOR')
+    for name, ui_type, menu in (("menu-graph-key", 'FCURVES', "GRAPH_MT_key"),
+                                ("menu-dopesheet-key", 'DOPESHEET', "DOPESHEET_MT_key")):
+        menus.append((name, ui_type, menu))
+    for name, ui_type, menu in menus:
+        where = view
+        if ui_type is not None:
+            timeline.ui_type = ui_type
+            where = timeline
+        yield 0.5
+        harness.move(where.x + where.width // 2, where.y + where.height // 2)
+        yield 0.2
+        before = harness.screenshot(shot(name + "-before"))
+        with harness.override(area_=where):
+            bpy.ops.wm.call_menu(name=menu)
+        yield 0.6
+        popup_words(name, before)
+        harness.key('ESC', x=where.x + where.width // 2, y=where.y + where.height // 2)
+        yield 0.4
+
+
+harness.run(steps())

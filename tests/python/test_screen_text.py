@@ -1,0 +1,35 @@
+"""How the UI tests find a label in the words read off a screenshot (tests/blender/ui/screen_text.py)."""
+import os
+import sys
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "blender", "ui"))
+from screen_text import find_words, missing  # noqa: E402
+
+
+def line(*texts, y=100):
+    return [{"text": t, "x": 10 + 40 * i, "y": y} for i, t in enumerate(texts)]
+
+
+def test_a_label_cut_by_blender_is_not_found():
+    assert missing(line("Source", "Ar..."), ["Source Armature"]) == ["Source Armature"]
+    assert missing(line("Regularis..."), ["Regularisation"]) == ["Regularisation"]
+
+
+def test_a_state_is_not_mistaken_for_another():
+    assert missing(line("Live:", "Off"), ["Live: On"]) == ["Live: On"]
+    assert missing(line("Solve"), ["Solver"]) == ["Solver"]
+
+
+def test_ocr_slips_are_forgiven_one_letter_in_eight():
+    words = line("Motion", "Capture", "(.bvh)", "[MotionkKit]")
+    assert [w["text"] for w in find_words(words, "Motion Capture (.bvh) [MotionKit]")] == \
+        ["Motion", "Capture", "(.bvh)", "[MotionkKit]"]
+    assert missing(line("torso", "head"), ["torso_head"]) == []
+    assert missing(line("SamplesperFrame_"), ["Samples per Frame"]) == []
+    assert missing(line("Rotation", "Tolerence"), ["Rotation Tolerance"]) == []
+
+
+def test_words_must_be_side_by_side_on_one_line():
+    words = line("Feet", "On", "the", "Floor", y=100) + line("Plant", y=300)
+    assert missing(words, ["Plant Feet"]) == ["Plant Feet"]
+    assert [w["y"] for w in find_words(words, "Feet")] == [100]
