@@ -44,7 +44,7 @@ packages=(
   blender python3 python3-dev python3-numpy python3-scipy python3-pytest
   python3-matplotlib g++ cmake make libeigen3-dev pybind11-dev libgtest-dev
   libgmock-dev libbenchmark-dev ca-certificates xz-utils
-  xvfb xauth libgl1-mesa-dri libegl1 mesa-utils tesseract-ocr
+  xvfb xauth libgl1-mesa-dri libegl1 mesa-utils tesseract-ocr x11-apps
 )
 
 [ "$(id -u)" = 0 ] || die "must run as root (debootstrap and chroot need it)"

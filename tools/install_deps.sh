@@ -10,7 +10,7 @@ packages=(
   g++ cmake make libeigen3-dev pybind11-dev libgtest-dev libgmock-dev libbenchmark-dev
   debootstrap util-linux zip
   clang libclang-rt-dev
-  xvfb xauth libgl1-mesa-dri libegl1 mesa-utils tesseract-ocr
+  xvfb xauth libgl1-mesa-dri libegl1 mesa-utils tesseract-ocr x11-apps
 )
 missing=()
 for p in "${packages[@]}"; do

@@ -137,9 +137,7 @@ class _FileOptions:
         return operator is not None and operator.bl_idname == cls.operator_class.__name__
 
     def draw(self, context):
-        layout = self.layout
-        layout.use_property_split = True
-        layout.use_property_decorate = False
+        layout = common.split_layout(self.layout)
         operator = context.space_data.active_operator
         for heading, props in self.groups:
             col = layout.column(heading=heading)

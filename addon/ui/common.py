@@ -86,6 +86,30 @@ def draw_status(layout, compact: bool = False) -> None:
         col.label(text=line)
 
 
+class SidebarPanel:
+    """What every panel of the MotionKit tab in the 3D view's sidebar shares."""
+    bl_space_type = 'VIEW_3D'
+    bl_region_type = 'UI'
+    bl_category = "MotionKit"
+
+
+def split_layout(layout):
+    """A layout with labels in a column on the left, as Blender's own panels draw properties."""
+    layout.use_property_split = True
+    layout.use_property_decorate = False
+    return layout
+
+
+def draw_frame_range(layout, holder, toggle: str, heading: str, frames_when: bool = True) -> None:
+    """A checkbox under a heading and, when it is `frames_when`, the holder's frame_start and frame_end."""
+    col = layout.column(heading=heading)
+    col.prop(holder, toggle)
+    if getattr(holder, toggle) == frames_when:
+        sub = col.column(align=True)
+        sub.prop(holder, "frame_start")
+        sub.prop(holder, "frame_end", text="End")
+
+
 # ---------------------------------------------------------------------------
 # Lists
 

@@ -43,7 +43,7 @@ class MOTIONKIT_PG_ik(bpy.types.PropertyGroup):
     regularization: FloatProperty(name="Smoothing", default=1e-4, min=0.0, max=1e3, precision=5,
                                   description="Regularisation: the pull towards the previous frame's pose")
     root_translation: BoolProperty(name="Move", default=True, description="The root's location is solved")
-    root_rotation: BoolProperty(name="Turn", default=True, description="The root's rotation is solved")
+    root_rotation: BoolProperty(name="Rotate", default=True, description="The root's rotation is solved")
     use_limits: BoolProperty(name="Limits", default=True,
                              description="Respect the bones' IK limits, locks and stiffness")
     live: BoolProperty(name="Live", update=_live_changed,
@@ -143,23 +143,16 @@ class MOTIONKIT_UL_ik_effectors(bpy.types.UIList):
         row.label(text="", icon='PINNED' if item.pin else 'OBJECT_DATA' if item.target is not None else 'ERROR')
 
 
-class _IkPanel:
-    bl_space_type = 'VIEW_3D'
-    bl_region_type = 'UI'
-    bl_category = "MotionKit"
-
+class _IkPanel(common.SidebarPanel):
     @classmethod
     def poll(cls, context):
         return _armature(context) is not None
 
 
-class MOTIONKIT_PT_ik(bpy.types.Panel):
+class MOTIONKIT_PT_ik(common.SidebarPanel, bpy.types.Panel):
     """The effectors, the active one's settings, Solve and Live."""
     bl_label = "Full-body IK"
     bl_idname = "MOTIONKIT_PT_ik"
-    bl_space_type = 'VIEW_3D'
-    bl_region_type = 'UI'
-    bl_category = "MotionKit"
 
     def draw(self, context):
         layout = self.layout
@@ -197,9 +190,7 @@ class MOTIONKIT_PT_ik(bpy.types.Panel):
         row = box.row(align=True)
         row.prop(item, "use_position", toggle=True)
         row.prop(item, "use_orientation", toggle=True)
-        col = box.column(align=True)
-        col.use_property_split = True
-        col.use_property_decorate = False
+        col = common.split_layout(box.column(align=True))
         col.prop(item, "weight")
         col.prop(item, "chain_count")
 
@@ -212,9 +203,7 @@ class MOTIONKIT_PT_ik_solver(_IkPanel, bpy.types.Panel):
 
     def draw(self, context):
         settings = _armature(context).motionkit_ik
-        layout = self.layout
-        layout.use_property_split = True
-        layout.use_property_decorate = False
+        layout = common.split_layout(self.layout)
         layout.prop(settings, "method")
         col = layout.column(align=True)
         col.prop(settings, "max_iterations")
@@ -234,15 +223,8 @@ class MOTIONKIT_PT_ik_bake(_IkPanel, bpy.types.Panel):
 
     def draw(self, context):
         settings = _armature(context).motionkit_ik
-        layout = self.layout
-        layout.use_property_split = True
-        layout.use_property_decorate = False
-        col = layout.column(heading="Frames")
-        col.prop(settings, "use_scene_range")
-        if not settings.use_scene_range:
-            sub = col.column(align=True)
-            sub.prop(settings, "frame_start")
-            sub.prop(settings, "frame_end", text="End")
+        layout = common.split_layout(self.layout)
+        common.draw_frame_range(layout, settings, "use_scene_range", "Frames", frames_when=False)
         col = layout.column(heading="Keys")
         col.prop(settings, "new_action")
         layout.operator("motionkit.ik_bake", icon='REC')

@@ -257,19 +257,7 @@ def _labelled(layout, text):
     return split
 
 
-class _RetargetPanel:
-    bl_space_type = 'VIEW_3D'
-    bl_region_type = 'UI'
-    bl_category = "MotionKit"
-
-    @staticmethod
-    def layout_split(layout):
-        layout.use_property_split = True
-        layout.use_property_decorate = False
-        return layout
-
-
-class MOTIONKIT_PT_retarget(_RetargetPanel, bpy.types.Panel):
+class MOTIONKIT_PT_retarget(common.SidebarPanel, bpy.types.Panel):
     bl_label = "Retarget"
     bl_idname = "MOTIONKIT_PT_retarget"
 
@@ -285,7 +273,7 @@ class MOTIONKIT_PT_retarget(_RetargetPanel, bpy.types.Panel):
             _labelled(col, "Source").prop(settings, "source", text="")
         _labelled(col, "Target").prop(settings, "target", text="")
         if settings.source_kind == 'BVH':
-            col = self.layout_split(layout.column())
+            col = common.split_layout(layout.column())
             col.prop(settings, "bvh_auto_scale")
             if not settings.bvh_auto_scale:
                 col.prop(settings, "bvh_scale")
@@ -293,7 +281,7 @@ class MOTIONKIT_PT_retarget(_RetargetPanel, bpy.types.Panel):
         layout.operator("motionkit.retarget", icon='ARMATURE_DATA')
 
 
-class MOTIONKIT_PT_retarget_map(_RetargetPanel, bpy.types.Panel):
+class MOTIONKIT_PT_retarget_map(common.SidebarPanel, bpy.types.Panel):
     """The bone map: names side by side, the shared prefixes said once, the picked pair's fields below."""
     bl_label = "Bone Map"
     bl_idname = "MOTIONKIT_PT_retarget_map"
@@ -333,14 +321,14 @@ class MOTIONKIT_PT_retarget_map(_RetargetPanel, bpy.types.Panel):
             _draw_bone_field(col, item, "target", settings.target, "Target Bone")
 
 
-class MOTIONKIT_PT_retarget_options(_RetargetPanel, bpy.types.Panel):
+class MOTIONKIT_PT_retarget_options(common.SidebarPanel, bpy.types.Panel):
     bl_label = "Options"
     bl_idname = "MOTIONKIT_PT_retarget_options"
     bl_parent_id = "MOTIONKIT_PT_retarget"
 
     def draw(self, context):
         settings = context.scene.motionkit_retarget
-        layout = self.layout_split(self.layout)
+        layout = common.split_layout(self.layout)
         layout.label(text="Match Poses")
         col = layout.column()
         col.prop(settings, "source_match", text="Source")
@@ -356,19 +344,14 @@ class MOTIONKIT_PT_retarget_options(_RetargetPanel, bpy.types.Panel):
         col.prop(settings, "ground")
         col = layout.column(heading="Motion")
         col.prop(settings, "align_facing")
-        col = layout.column(heading="Source")
-        col.prop(settings, "use_frame_range")
-        if settings.use_frame_range:
-            sub = col.column(align=True)
-            sub.prop(settings, "frame_start")
-            sub.prop(settings, "frame_end", text="End")
+        common.draw_frame_range(layout, settings, "use_frame_range", "Source")
         col = layout.column(heading="Scene")
         col.prop(settings, "scene_from_clip")
         col = layout.column(heading="Action")
         col.prop(settings, "overwrite")
 
 
-class MOTIONKIT_PT_retarget_feet(_RetargetPanel, bpy.types.Panel):
+class MOTIONKIT_PT_retarget_feet(common.SidebarPanel, bpy.types.Panel):
     """Planted feet: contacts detected on the source and held on the target; their thresholds."""
     bl_label = "Plant Feet"
     bl_idname = "MOTIONKIT_PT_retarget_feet"
@@ -380,7 +363,7 @@ class MOTIONKIT_PT_retarget_feet(_RetargetPanel, bpy.types.Panel):
 
     def draw(self, context):
         settings = context.scene.motionkit_retarget
-        layout = self.layout_split(self.layout)
+        layout = common.split_layout(self.layout)
         layout.active = settings.plant_feet
         contact_ui.draw(layout, settings.contacts)
         layout.label(text="Keyed as 0/1 curves", icon='INFO')

@@ -5,12 +5,9 @@ import bpy
 from . import common
 
 
-class MOTIONKIT_PT_main(bpy.types.Panel):
+class MOTIONKIT_PT_main(common.SidebarPanel, bpy.types.Panel):
     bl_label = "MotionKit"
     bl_idname = "MOTIONKIT_PT_main"
-    bl_space_type = 'VIEW_3D'
-    bl_region_type = 'UI'
-    bl_category = "MotionKit"
 
     def draw(self, context):
         layout = self.layout
