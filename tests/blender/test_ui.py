@@ -67,10 +67,10 @@ def panels(shared_dir, tmp_path_factory):
     return run_window("panels.py", [os.environ["MOTIONKIT_ZIP"], walk60(shared_dir), OUT], tmp_path_factory.mktemp("ui"))
 
 
-def unread(report, name, phrases):
+def unread(report, name, phrases, slips=None):
     """The phrases a person could not read whole in the picture (see screen_text.find_words)."""
     assert name + ".words" in report, f"{name} was never drawn: {report.get('error') or report['output']}"
-    return screen_text.missing(report[name + ".words"], phrases)
+    return screen_text.missing(report[name + ".words"], phrases, slips)
 
 
 def test_every_surface_draws_without_a_python_error(panels):
@@ -102,7 +102,7 @@ SIDEBAR_LABELS = (
     "Height Out", "Speed In", "Speed Out", "Shortest", "Blend", "Keyed as 0/1 curves",
     # Full-body IK, Solver, Bake
     "Full-body IK", "Effectors (mixamorig:*)", "Selected Effector", "Position", "Orientation", "Weight", "Chain",
-    "Solve", "Solver", "Method", "Damped LS", "Iterations", "Damping", "Smoothing", "Move", "Turn", "Limits",
+    "Solve", "Solver", "Method", "Damped LS", "Iterations", "Damping", "Smoothing", "Move", "Rotate", "Limits",
     "Scene Range", "New Action", "Bake",
 )
 
@@ -116,15 +116,16 @@ def test_every_sidebar_label_is_whole_at_the_default_width(panels, mode):
 def test_lists_show_bone_names_at_the_default_width(panels):
     """Item 2: the bone map's rows and the effectors show names, not only icons and x buttons: each row's
     target whole, each source whole or, when longer than its column, its first letters before Blender's
-    ellipsis; the effectors' names whole, their shared prefix said once above."""
+    ellipsis; the effectors' names whole, their shared prefix said once above. Names are no words tesseract
+    knows: one letter of each may be misread ('Spinez')."""
     rows = panels["bone_map.rows"]
     assert len(rows) >= 6
     read = [w["text"] for w in panels["sidebar-object.words"]]
     for source, target in rows:
-        assert unread(panels, "sidebar-object", [target]) == [], (target, read)
-        assert not unread(panels, "sidebar-object", [source]) or (
+        assert unread(panels, "sidebar-object", [target], slips=1) == [], (target, read)
+        assert not unread(panels, "sidebar-object", [source], slips=1) or (
             len(source) > 12 and any(w.startswith(source[:6]) for w in read)), (source, read)
-    assert unread(panels, "sidebar-object", ["LeftHand", "LeftFoot", "RightFoot"]) == []
+    assert unread(panels, "sidebar-object", ["LeftHand", "LeftFoot", "RightFoot"], slips=1) == []
 
 
 def test_a_click_on_an_effector_row_picks_it_and_changes_nothing_else(panels):

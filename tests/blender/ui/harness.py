@@ -112,6 +112,9 @@ def click(x: int, y: int, win=None, **modifiers):
     yield 0.2
     win.event_simulate('LEFTMOUSE', 'PRESS', x=int(x), y=int(y), **modifiers)
     win.event_simulate('LEFTMOUSE', 'RELEASE', x=int(x), y=int(y), **modifiers)
+    # A panel header opens as the pointer moves on after the click (a press there may start a drag over
+    # several headers), as a hand always does.
+    move(x + 1, y, win)
 
 
 def key(kind: str, win=None, x: int | None = None, y: int | None = None, **modifiers) -> None:
@@ -161,13 +164,36 @@ def open_tab(region_, panel: str, win=None):
 # Pixels
 
 def screenshot(path: str, win=None) -> np.ndarray:
-    """The window as RGBA floats, rows from the top, also saved to path."""
+    """The window as the X server shows it (RGBA floats, rows from the top), also saved to path.
+
+    Taken with xwd from the X server, as a person's screen grabber would: Blender's own screen.screenshot
+    reads its GL front buffer, which Blender 4.3 and 5.2 on mesa's llvmpipe under Xvfb return black."""
     win = win or window()
     os.makedirs(os.path.dirname(path), exist_ok=True)
-    with bpy.context.temp_override(window=win, screen=win.screen):
-        result = bpy.ops.screen.screenshot(filepath=path)
-    assert result == {'FINISHED'}, f"screenshot failed: {result}"
-    return load_png(path)
+    out = subprocess.run(["xwd", "-root", "-silent"], capture_output=True, timeout=60)
+    assert out.returncode == 0, out.stderr.decode(errors="replace")
+    screen = _xwd_pixels(out.stdout)
+    top = screen.shape[0] - (win.y + win.height)
+    pixels = screen[max(top, 0):top + win.height, max(win.x, 0):win.x + win.width]
+    save_png(pixels, path)
+    return pixels
+
+
+def _xwd_pixels(data: bytes) -> np.ndarray:
+    """RGBA floats, rows from the top, of an X window dump of a TrueColor screen (24 or 32 bits a pixel)."""
+    header = np.frombuffer(data[:100], dtype=">u4")
+    size, width, height, byte_order = int(header[0]), int(header[4]), int(header[5]), int(header[7])
+    bits, line, colours = int(header[11]), int(header[12]), int(header[19])
+    masks = [int(m) for m in header[14:17]]
+    assert bits in (24, 32), f"xwd gave {bits} bits a pixel"
+    start = size + 12 * colours
+    rows = np.frombuffer(data[start:start + height * line], dtype=np.uint8).reshape(height, line)
+    step = bits // 8
+    pixel = rows[:, :width * step].reshape(height, width, step).astype(np.uint32)
+    order = range(step) if byte_order == 0 else range(step - 1, -1, -1)  # LSBFirst: the first byte is lowest
+    value = sum(pixel[..., i] << (8 * k) for k, i in enumerate(order))
+    channels = [((value & m) >> ((m & -m).bit_length() - 1)).astype(np.float32) / 255.0 for m in masks]
+    return np.dstack(channels + [np.ones((height, width), dtype=np.float32)])
 
 
 def load_png(path: str) -> np.ndarray:

@@ -35,13 +35,19 @@ def read_sidebar(name, view):
 
 
 def open_closed_panels(view, headers):
-    """Clicks each closed sub-panel's header where the screen shows it; yields between clicks."""
-    for header in headers:
+    """Clicks each closed sub-panel's header where the screen shows it, then waits until a label inside it
+    is on screen (Blender slides the panels below down as it opens). headers: (header, a label inside)."""
+    for header, inside in headers:
         words = read_sidebar("sidebar-before-open", view)
         found = harness.find_words(words, header)
         assert found, f"no '{header}' header on screen"
         yield from harness.click(found[0]["x"], found[0]["y"])
-        yield 0.4
+        for _ in range(12):
+            yield 0.5
+            if harness.find_words(read_sidebar("sidebar-opening", view), inside):
+                break
+        else:
+            raise AssertionError(f"'{header}' did not open: no '{inside}' on screen")
 
 
 def popup_words(name, before, win=None):
@@ -68,7 +74,7 @@ def steps():
     view.spaces[0].show_region_ui = True
     yield 0.5
     yield from harness.open_tab(harness.region(view, 'UI'), watch)
-    yield from open_closed_panels(view, ("Plant Feet", "Solver"))
+    yield from open_closed_panels(view, (("Plant Feet", "Height In"), ("Solver", "Iterations")))
     yield 0.3
     read_sidebar("sidebar-object", view)
     pairs = bpy.context.scene.motionkit_retarget.pairs
@@ -162,8 +168,11 @@ def steps():
             if side is not None:
                 break
         assert side is not None, f"{name}: no file browser with options: {[a.type for a in browser.screen.areas]}"
-        yield 0.5
-        words, blank = harness.read_region(shot(name), side, browser)
+        for _ in range(10):  # a new window draws its first frame a moment after it opens
+            yield 0.5
+            words, blank = harness.read_region(shot(name), side, browser)
+            if blank["colours"] > 20:
+                break
         harness.report(f"{name}.words", harness.plain(words))
         harness.report(f"{name}.blank", blank)
         harness.key('ESC', win=browser, x=files.x + files.width // 2, y=files.y + files.height // 2)

@@ -32,15 +32,15 @@ def _distance(a: str, b: str) -> int:
     return row[len(b)]
 
 
-def find_words(words: list[dict], phrase: str) -> list[dict]:
+def find_words(words: list[dict], phrase: str, slips: int | None = None) -> list[dict]:
     """The read words that make up phrase: consecutive words of one line whose letters and digits, joined,
     differ from the phrase's by at most one letter in eight whole ones (OCR misreads a letter now and then, and splits
     or joins words at '_' or spaces; a label Blender cut loses its end, 'Live: On' is not 'Live: Off').
-    [] when the phrase is not on screen whole."""
+    [] when the phrase is not on screen whole. slips: the letters allowed to differ, instead."""
     wanted = _norm(phrase)
     if not wanted:
         return []
-    allowed = len(wanted) // 8  # none in a short word: 'Solve' is not 'Solver'
+    allowed = len(wanted) // 8 if slips is None else slips  # none in a short word: 'Solve' is not 'Solver'
     for line in _lines(words):
         names = [_norm(w["text"]) for w in line]
         for i in range(len(line)):
@@ -54,11 +54,11 @@ def find_words(words: list[dict], phrase: str) -> list[dict]:
     return []
 
 
-def missing(words: list[dict], phrases) -> list[str]:
+def missing(words: list[dict], phrases, slips: int | None = None) -> list[str]:
     """The phrases not found whole; words may be dicts with positions or, as reported, plain strings (read
     left to right, top to bottom)."""
     if words and isinstance(words[0], str):
         words = [{"text": w, "x": i, "y": 0} for i, w in enumerate(words)]
-    return [phrase for phrase in phrases if not find_words(words, phrase)]
+    return [phrase for phrase in phrases if not find_words(words, phrase, slips)]
 
 

@@ -59,9 +59,10 @@ def steps():
     capture = bpy.context.view_layer.objects.active
     harness.report("import.scene_rate", [scene.render.fps, scene.render.fps_base])
     harness.report("import.frames", [scene.frame_start, scene.frame_end])
-    harness.report("import.bones_selected", all(b.select for b in capture.data.bones))
+    harness.report("import.bones_selected", all(mk.pose_channels.selected(capture)))
     yield 0.3
 
+    scene.render.fps, scene.frame_start, scene.frame_end = 24, 1, 100  # as if the import had left them
     settings = scene.motionkit_retarget
     settings.source_kind, settings.source, settings.target = 'ARMATURE', capture, hero
     run(bpy.ops.motionkit.retarget)
