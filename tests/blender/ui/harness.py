@@ -146,9 +146,29 @@ def watch_category(category: str) -> str:
     return name
 
 
+def show_sidebar(view):
+    """Opens the 3D view's sidebar, as N does, and waits until it has slid open (a scenario step)."""
+    view.spaces[0].show_region_ui = True
+    for _ in range(40):
+        yield 0.25
+        if region(view, 'UI').width > 150:
+            return
+    raise AssertionError(f"the sidebar did not open: {region(view, 'UI').width} pixels wide")
+
+
 def open_tab(region_, panel: str, win=None):
-    """Clicks down the sidebar's tab strip until `panel` draws (a scenario step: `yield from`)."""
+    """Shows the sidebar tab whose watcher is `panel` (a scenario step: `yield from`): by setting the
+    region's active category where that works (5.x, where a click on the active tab folds the sidebar to
+    its tabs), else by clicking down the tab strip until the watcher draws (3.4, 4.3)."""
     win = win or window()
+    prop = bpy.types.Region.bl_rna.properties.get("active_panel_category")
+    if prop is not None and not prop.is_readonly:
+        DRAWN.clear()
+        region_.active_panel_category = panel.rsplit("_", 1)[1]
+        for _ in range(10):
+            yield 0.2
+            if panel in DRAWN:
+                return
     x = region_.x + region_.width - 10
     top = region_.y + region_.height - 8
     for y in range(top, region_.y, -12):
@@ -170,6 +190,10 @@ def screenshot(path: str, win=None) -> np.ndarray:
     reads its GL front buffer, which Blender 4.3 and 5.2 on mesa's llvmpipe under Xvfb return black."""
     win = win or window()
     os.makedirs(os.path.dirname(path), exist_ok=True)
+    # Draw and swap now: what the last events changed is otherwise on screen only at Blender's next redraw,
+    # which llvmpipe may not have reached yet.
+    with bpy.context.temp_override(window=win):  # a file browser's temporary screen cannot be overridden
+        bpy.ops.wm.redraw_timer(type='DRAW_WIN_SWAP', iterations=1)
     out = subprocess.run(["xwd", "-root", "-silent"], capture_output=True, timeout=60)
     assert out.returncode == 0, out.stderr.decode(errors="replace")
     screen = _xwd_pixels(out.stdout)

@@ -36,10 +36,13 @@ def read_sidebar(name, view):
 
 def open_closed_panels(view, headers):
     """Clicks each closed sub-panel's header where the screen shows it, then waits until a label inside it
-    is on screen (Blender slides the panels below down as it opens). headers: (header, a label inside)."""
+    is on screen (Blender slides the panels below down as it opens). headers: (header, a label inside);
+    a panel already open is left as it is."""
     for header, inside in headers:
         words = read_sidebar("sidebar-before-open", view)
-        found = harness.find_words(words, header)
+        if harness.find_words(words, inside):
+            continue
+        found = harness.find_words(words, header, slips=0)  # the Solver header, not the Solve button
         assert found, f"no '{header}' header on screen"
         yield from harness.click(found[0]["x"], found[0]["y"])
         for _ in range(12):
@@ -71,8 +74,7 @@ def steps():
     target = objects["target"]
     yield 0.3
     view = harness.area('VIEW_3D')
-    view.spaces[0].show_region_ui = True
-    yield 0.5
+    yield from harness.show_sidebar(view)
     yield from harness.open_tab(harness.region(view, 'UI'), watch)
     yield from open_closed_panels(view, (("Plant Feet", "Height In"), ("Solver", "Iterations")))
     yield 0.3
@@ -99,7 +101,7 @@ def steps():
     harness.report("effector.pins_unchanged", pins_before == [e.pin for e in target.motionkit_ik.effectors])
     words = read_sidebar("sidebar-effector", view)
     harness.report("effector.box_names_it", bool(harness.find_words(words, "Selected Effector"))
-                   and bool(harness.find_words(words, "mixamorig:LeftFoot")))
+                   and bool(harness.find_words(words, "mixamorig:LeftFoot", slips=1)))
 
     # The Live toggle says its state, and a click turns it on.
     live = harness.find_words(words, "Live: Off")
@@ -117,6 +119,7 @@ def steps():
         bpy.ops.object.posemode_toggle()
         bpy.ops.pose.select_all(action='SELECT')
     yield 0.5
+    yield from open_closed_panels(view, (("Plant Feet", "Height In"), ("Solver", "Iterations")))
     read_sidebar("sidebar-pose", view)
 
     # Dialogs, as a click on their buttons opens them.

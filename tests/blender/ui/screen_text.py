@@ -34,13 +34,14 @@ def _distance(a: str, b: str) -> int:
 
 def find_words(words: list[dict], phrase: str, slips: int | None = None) -> list[dict]:
     """The read words that make up phrase: consecutive words of one line whose letters and digits, joined,
-    differ from the phrase's by at most one letter in eight whole ones (OCR misreads a letter now and then, and splits
-    or joins words at '_' or spaces; a label Blender cut loses its end, 'Live: On' is not 'Live: Off').
+    differ from the phrase's by at most one letter in five whole ones (OCR misreads a letter now and then, 'BYH'
+    or 'Onentation', and splits or joins words at '_' or spaces; a label Blender cut loses its end and gains
+    dots, 'Live: On' is not 'Live: Off').
     [] when the phrase is not on screen whole. slips: the letters allowed to differ, instead."""
     wanted = _norm(phrase)
     if not wanted:
         return []
-    allowed = len(wanted) // 8 if slips is None else slips  # none in a short word: 'Solve' is not 'Solver'
+    allowed = len(wanted) // 5 if slips is None else slips
     for line in _lines(words):
         names = [_norm(w["text"]) for w in line]
         for i in range(len(line)):

@@ -88,8 +88,7 @@ def steps():
     run(bpy.ops.motionkit.list_edit, list="ik_effectors", action='ADD')
     effector = hero.motionkit_ik.effectors[-1]
     effector.bone, effector.target = HAND, goal
-    view().spaces[0].show_region_ui = True
-    yield 0.5
+    yield from harness.show_sidebar(view())
     side = harness.region(view(), 'UI')
     yield from harness.open_tab(side, watch)
     words, _ = harness.read_region(os.path.join(out, "session-ik.png"), side)
