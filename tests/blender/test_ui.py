@@ -68,9 +68,13 @@ def panels(shared_dir, tmp_path_factory):
 
 
 def unread(report, name, phrases, slips=None):
-    """The phrases a person could not read whole in the picture (see screen_text.find_words)."""
+    """The phrases a person could not read whole in the picture (see screen_text.find_words), in any of its
+    readings (popups are read twice, at two sizes)."""
     assert name + ".words" in report, f"{name} was never drawn: {report.get('error') or report['output']}"
-    return screen_text.missing(report[name + ".words"], phrases, slips)
+    missed = screen_text.missing(report[name + ".words"], phrases, slips)
+    if name + ".words-again" in report:
+        missed = screen_text.missing(report[name + ".words-again"], missed, slips)
+    return missed
 
 
 def test_every_surface_draws_without_a_python_error(panels):

@@ -264,12 +264,11 @@ def not_blank(pixels: np.ndarray) -> dict:
 # ---------------------------------------------------------------------------------------------------------
 # Reading the screen
 
-def ocr(pixels: np.ndarray, origin) -> list[dict]:
+def ocr(pixels: np.ndarray, origin, scale: int = 3) -> list[dict]:
     """Words tesseract reads in a crop (rows from the top) whose window position is origin = (x, y, w, h):
     each {'text', 'x', 'y', 'conf'} with the word's centre in window coordinates. The crop is enlarged
     three times and turned into dark text on light, which tesseract reads best; the darkest channel makes
     white text as clear on a blue (pressed) button as on grey."""
-    scale = 3
     grey = pixels[..., :3].min(axis=2)
     grey = 1.0 - np.clip((grey - grey.min()) / max(float(np.ptp(grey)), 1e-6), 0.0, 1.0)
     big = np.kron(grey, np.ones((scale, scale)))

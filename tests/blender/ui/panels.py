@@ -65,6 +65,9 @@ def popup_words(name, before, win=None):
     height = after.shape[0]
     words = harness.ocr(part, (left, height - bottom, right - left, bottom - top))
     harness.report(f"{name}.words", harness.plain(words))
+    # A second reading at another size: tesseract now and then drops a word of a small popup.
+    again = harness.ocr(part, (left, height - bottom, right - left, bottom - top), scale=4)
+    harness.report(f"{name}.words-again", harness.plain(again))
     harness.report(f"{name}.blank", harness.not_blank(part))
     return words
 
