@@ -40,9 +40,11 @@ class MOTIONKIT_PG_retarget(bpy.types.PropertyGroup):
                             description="The armature that receives the motion as a new action")
     pairs: CollectionProperty(type=MOTIONKIT_PG_bone_pair)
     active_pair: IntProperty(name="Active Pair")
-    source_match: EnumProperty(name="Source Pose", description="The source's pose that matches the target's", items=retargeting.SOURCE_MATCHES, default='REST')
+    source_match: EnumProperty(name="Source Pose", items=retargeting.SOURCE_MATCHES, default='REST',
+                               description="The source's pose that matches the target's")
     match_frame: IntProperty(name="Match Frame", description="Frame of the source's match pose", default=0)
-    target_match: EnumProperty(name="Target Pose", description="The target's pose that matches the source's", items=retargeting.TARGET_MATCHES, default='REST')
+    target_match: EnumProperty(name="Target Pose", items=retargeting.TARGET_MATCHES, default='REST',
+                               description="The target's pose that matches the source's")
     root_motion: EnumProperty(name="Root Motion", items=retargeting.ROOT_MOTIONS, default="scaled")
     floor_root: EnumProperty(name="Floor Root", items=retargeting.FLOOR_ROOTS, default="auto",
                              description="What a target bone on the floor above the hips (a game rig's root) does")

@@ -56,15 +56,17 @@ def run_window(script: str, args: list, folder) -> dict:
     return report
 
 
-def walk60(shared_dir):
-    return os.path.join(shared_dir, "data", "bvh", "walk60.bvh")
+def scenario(script, shared_dir, tmp_path_factory) -> dict:
+    """A scenario of tests/blender/ui/ on walk60, its pictures in OUT."""
+    os.makedirs(OUT, exist_ok=True)
+    walk60 = os.path.join(shared_dir, "data", "bvh", "walk60.bvh")
+    return run_window(script, [os.environ["MOTIONKIT_ZIP"], walk60, OUT], tmp_path_factory.mktemp(script[:-3]))
 
 
 @pytest.fixture(scope="module")
 def panels(shared_dir, tmp_path_factory):
     """Every surface drawn once (tests/blender/ui/panels.py), its screenshots in out/ui/."""
-    os.makedirs(OUT, exist_ok=True)
-    return run_window("panels.py", [os.environ["MOTIONKIT_ZIP"], walk60(shared_dir), OUT], tmp_path_factory.mktemp("ui"))
+    return scenario("panels.py", shared_dir, tmp_path_factory)
 
 
 def unread(report, name, phrases, slips=None):
@@ -189,8 +191,7 @@ def test_menus_name_motionkit_in_blenders_capitalisation(panels):
 @pytest.fixture(scope="module")
 def session(shared_dir, tmp_path_factory):
     """A whole first session through the UI (tests/blender/ui/session.py)."""
-    os.makedirs(OUT, exist_ok=True)
-    return run_window("session.py", [os.environ["MOTIONKIT_ZIP"], walk60(shared_dir), OUT], tmp_path_factory.mktemp("session"))
+    return scenario("session.py", shared_dir, tmp_path_factory)
 
 
 def test_a_whole_session_through_the_ui(session):

@@ -17,7 +17,7 @@ import sys
 import tempfile
 import traceback
 
-from screen_text import find_words, missing  # noqa: F401  (scenarios use them through harness)
+from screen_text import find_words  # noqa: F401  (scenarios use it through harness)
 
 import bpy
 import numpy as np

@@ -127,7 +127,6 @@ def steps():
     read_sidebar("sidebar-pose", view)
 
     # Dialogs, as a click on their buttons opens them.
-    win = harness.window()
     for name, operator in (("dialog-resample", bpy.ops.motionkit.resample_keys),
                            ("dialog-reduce", bpy.ops.motionkit.reduce_keys),
                            ("dialog-schemes", bpy.ops.motionkit.bone_map_scheme)):

@@ -1,6 +1,6 @@
 """The scene the UI scenarios work in, as a user has it after a few minutes: the sample characters, a
-motion capture imported, a bone map filled from it to the T-pose Mixamo-named character (the longest names), and IK effectors
-on that character (a hand to a goal, both feet pinned)."""
+motion capture imported, a bone map filled from it to the T-pose Mixamo-named character (the longest
+names), and IK effectors on that character (a hand to a goal, both feet pinned)."""
 import bpy
 from mathutils import Vector
 
