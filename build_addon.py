@@ -140,13 +140,14 @@ def build(info: dict, build_dir: str, everything: bool, werror: bool, jobs: int)
 
 def addon_sources(addon_dir: str) -> list[str]:
     """The add-on's files, relative to addon/: every module of its tree, the stub of the native module,
-    and bone_mapping's scheme presets (core/presets/*.json); no caches."""
+    bone_mapping's scheme presets (core/presets/*.json) and the control rig maps (core/presets/control_rigs/);
+    no caches."""
     sources = []
     for folder, dirs, names in os.walk(addon_dir):
         dirs[:] = sorted(d for d in dirs if d != "__pycache__")
         relative = os.path.relpath(folder, addon_dir)
         sources += [os.path.normpath(os.path.join(relative, n)) for n in sorted(names)
-                    if n.endswith((".py", ".pyi")) or (n.endswith(".json") and os.path.basename(folder) == "presets")]
+                    if n.endswith((".py", ".pyi")) or (n.endswith(".json") and os.path.basename(folder) in ("presets", "control_rigs"))]
     return sources
 
 

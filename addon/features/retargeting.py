@@ -44,6 +44,12 @@ TARGET_MATCHES = (
     ('REST', "Rest pose", "The target's rest pose is its reference pose"),
     ('CURRENT', "Current pose", "The target's current pose, set to stand like the source's reference pose"),
 )
+CONTROLS = (
+    ("auto", "Auto", "A recognised control rig's controls (legs IK, arms FK); the bones on any other rig"),
+    ("fk", "FK", "Every limb of the control rig in FK"),
+    ("ik", "IK", "Every limb of the control rig that has IK controls in IK"),
+    ("none", "Bones", "Key the mapped bones themselves, even on a control rig"),
+)
 _IDENTITY = np.array([1.0, 0.0, 0.0, 0.0])
 
 
@@ -68,7 +74,9 @@ class _Side:
 def _side(obj, role: str) -> _Side:
     if obj is None:
         raise ValueError(f"no {role} armature given")
-    if not isinstance(obj, bpy.types.Object) or obj.type != 'ARMATURE':
+    # A control rig's deform skeleton (control_rigs.DeformSkeleton) reads as an armature object.
+    if not (isinstance(obj, bpy.types.Object) or getattr(obj, "is_deform_skeleton", False)) \
+            or obj.type != 'ARMATURE':
         raise ValueError(f"the {role} '{getattr(obj, 'name', obj)}' is not an armature object")
     if not len(obj.data.bones):
         raise ValueError(f"the {role} armature '{obj.name}' has no bones")
@@ -287,6 +295,8 @@ class Plan:
     contact_report: object = None  # contacts.Report of the cleanup
     frame_rate: float = 0.0  # the source keys' frames per second (bvh.frame_rate), kept on the new action
     pending: _PlantedFeet | None = None  # the feet's IK solve, when plan(defer_solve=True) left it to apply()
+    pose: tuple = ()  # (rotations (frames, 4B), locations (frames, 3B)): every target bone's basis, final once
+    #                   resolved (the feet's solve writes into them)
 
     def resolve(self) -> None:
         """Runs a pending feet's IK solve here and now: values, contact_report and all are then final."""
@@ -436,6 +446,7 @@ def plan(source, target, bone_map=None, frame_range=None, root: str = "scaled", 
                  feet=planted[2] if planted else None, contacts=planted[3] if planted else None,
                  frame_rate=bvh.frame_rate(action))
     plan_.pending = pending
+    plan_.pose = (rotations, locations)
     if not defer_solve:
         plan_.resolve()
     if not (np.all(np.isfinite(plan_.values)) and np.all(np.isfinite(plan_.still_values))):
@@ -585,7 +596,8 @@ def retarget(source, target, bone_map=None, frame_range=None, root: str = "scale
              ground: bool = False, align_facing: bool = True, floor_root: str = "auto",
              root_smoothing: float = 0.25, plant_feet: bool = True, contact_settings: ContactSettings | None = None,
              action_name: str | None = None, overwrite: bool = False, bvh_scale: float | str = "auto",
-             bvh_source: str = "keep"):
+             bvh_source: str = "keep", controls: str = "auto", limbs: dict | None = None, control_map=None,
+             keys: str = "every", reduce: bool = False, progress=None):
     """Retarget the source's action onto the target; returns the target's new action.
 
     source: an armature object with an action, or a BVH file path (imported
@@ -595,6 +607,14 @@ def retarget(source, target, bone_map=None, frame_range=None, root: str = "scale
     distances; the retarget itself does not depend on it (the motion is scaled
     by the legs' ratio). bvh_source: "keep", "hide" or "remove" the imported
     armature afterwards (BVH_SOURCES).
+    controls: on a control rig (Rigify's, recognised from its bones, or one
+    control_map describes: a motionkit-control-rig JSON file, a parsed map or a
+    preset id) "auto" keys its controls with legs in IK and arms in FK, "fk"
+    or "ik" puts every limb in that mode, "none" keys the mapped bones
+    themselves; limbs {"leg.L": "fk", ...} overrides per limb; bone_map then
+    pairs source bones with the rig's deform bones (see control_rigs). keys:
+    "every" frame or only where the "source" has keys; reduce: afterwards,
+    the fewest keys that stay within resampling.reduce_keys' tolerances.
     bone_map: (source bone, target bone) pairs or a {source: target} dict;
     None maps automatically (motionkit.bone_mapping). frame_range: inclusive
     source frames (default: the action's), one key per frame on the same
@@ -627,11 +647,20 @@ def retarget(source, target, bone_map=None, frame_range=None, root: str = "scale
     try:
         if imported is not None and bvh_scale == "auto":
             _stand_as_tall_as(imported, target)
-        result = plan(source, target, bone_map, frame_range, root, source_match=source_match,
-                      match_frame=match_frame, target_match=target_match, ground=ground,
-                      align_facing=align_facing, floor_root=floor_root, root_smoothing=root_smoothing,
-                      plant_feet=plant_feet, contact_settings=contact_settings, defer_solve=True)
-        action = apply(result, action_name=action_name, overwrite=overwrite)
+        options = dict(bone_map=bone_map, frame_range=frame_range, root=root, source_match=source_match,
+                       match_frame=match_frame, target_match=target_match, ground=ground,
+                       align_facing=align_facing, floor_root=floor_root, root_smoothing=root_smoothing,
+                       plant_feet=plant_feet, contact_settings=contact_settings)
+        action = _retarget_controls(source, target, controls, limbs, control_map, keys, reduce, action_name,
+                                    overwrite, progress, options)
+        if action is None:
+            if keys != "every":
+                raise ValueError("keys='source' is for control rigs; a plain retarget keys every frame")
+            action = apply(plan(source, target, defer_solve=True, **options), action_name=action_name,
+                           overwrite=overwrite)
+            if reduce:
+                from . import resampling
+                resampling.reduce_keys(target)
     except BaseException:
         if imported is not None:
             remove_armature(imported)
@@ -641,6 +670,24 @@ def retarget(source, target, bone_map=None, frame_range=None, root: str = "scale
     elif imported is not None and bvh_source == "hide":
         imported.hide_set(True)
         imported.hide_render = True
+    return action
+
+
+def _retarget_controls(source, target, controls, limbs, control_map, keys, reduce, action_name, overwrite,
+                       progress, options):
+    """The action keyed on target's controls, or None when it is to be keyed bone by bone."""
+    if controls not in [c[0] for c in CONTROLS]:
+        raise ValueError(f"unknown controls {controls!r}; expected one of {[c[0] for c in CONTROLS]}")
+    if controls == "none":
+        return None
+    from . import control_rigs, resampling  # they build on this module
+    result = control_rigs.plan(source, target, controls=controls, limbs=limbs, control_map=control_map,
+                               keys=keys, progress=progress, **options)
+    if result is None:
+        return None
+    action = control_rigs.apply(result, action_name=action_name, overwrite=overwrite)
+    if reduce:
+        resampling.reduce_keys(target, bones=result.keyed)
     return action
 
 

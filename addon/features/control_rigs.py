@@ -1,0 +1,524 @@
+"""Retarget onto a control rig's controls (Rigify's or any rig a control rig map describes).
+
+The motion is first retargeted onto the rig's deform skeleton (the map's
+deform bones, seen as an armature of their own: DeformSkeleton), by the same
+engine as any retarget (proportions, facing, root motion, planted feet). Each
+control is then keyed so that it stands where it stood at rest relative to the
+deform bone it drives; IK limbs get their effector from the limb's end bone and
+a pole in the plane of the limb. How each control's parent moves (Rigify puts
+mechanism bones with constraints between controls) is measured once per
+retarget: the rig is posed in a few random poses and evaluated by Blender
+(core/control_rig.fit_relation), never frame by frame. The limb's other mode is
+keyed too, so that flipping the IK/FK switch in the rig's own UI keeps the pose.
+"""
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+
+import bpy
+import mathutils
+import numpy as np
+
+from . import bvh, contacts, retargeting
+from ..blender import animdata, pose_channels
+from ..core import control_rig, native_state
+from ..core.control_rig import ControlRigMap
+
+KEYS = (
+    ("every", "Every Frame", "A key on every frame of the range"),
+    ("source", "Source Keys", "Keys only on the frames where the source has keys"),
+)
+_SAMPLES = 4          # calibration poses besides the rest pose
+_CALIBRATION_ANGLE = 0.6  # radians, the random poses' largest turn
+_SEED = 1907
+_UNKEYED_MOVE = 1e-4  # times the rig's size: a rotation-only control's translation that a map must not need
+
+
+# ---------------------------------------------------------------------------
+# The deform skeleton as an armature of its own
+
+class _Bone:
+    """A deform bone as the retarget engine reads bones (name, parent, rest, length)."""
+
+    def __init__(self, name, real, tail):
+        self.name = name
+        self.parent = None
+        self.children = []
+        self.head_local = real.head_local.copy()
+        self.tail_local = tail.copy()
+        self.length = (self.tail_local - self.head_local).length
+        self.matrix_local = real.matrix_local.copy()
+        self.use_connect = False  # set once the parent is known: the head on the parent's tail
+
+
+class _Bones(list):
+    def __init__(self, bones):
+        super().__init__(bones)
+        self._by_name = {b.name: b for b in bones}
+
+    def __getitem__(self, key):
+        return self._by_name[key] if isinstance(key, str) else super().__getitem__(key)
+
+    def __contains__(self, key):
+        return key in self._by_name if isinstance(key, str) else super().__contains__(key)
+
+    def get(self, name, default=None):
+        return self._by_name.get(name, default)
+
+    def foreach_get(self, attr, out):
+        out[:] = np.array([tuple(getattr(b, attr)) for b in self], dtype=out.dtype).ravel()
+
+
+class _Armature:
+    def __init__(self, name, bones):
+        self.name = name
+        self.bones = _Bones(bones)
+
+
+class DeformSkeleton:
+    """A control rig's deform bones as the armature the retarget poses: the map's parents and tails where
+    the rig's own hierarchy goes through mechanism bones. Reads as an armature object (name, data.bones,
+    matrix_world, pose) without being one: the retarget computes on it and writes nothing."""
+    is_deform_skeleton = True
+    type = 'ARMATURE'
+
+    def __init__(self, obj, rig_map: ControlRigMap):
+        self.obj = obj
+        real = obj.data.bones
+        missing = [s.bone for s in rig_map.skeleton if s.bone not in real]
+        if missing:
+            raise ValueError(f"'{obj.name}' lacks the deform bones {missing} of control rig '{rig_map.id}'")
+        names = {s.bone for s in rig_map.skeleton}
+        bones = {}
+        for entry in rig_map.skeleton:
+            bone = real[entry.bone]
+            tail = real[entry.tail].head_local if entry.tail else bone.tail_local
+            if entry.tail and entry.tail not in real:
+                raise ValueError(f"control rig '{rig_map.id}': the tail bone '{entry.tail}' is not in '{obj.name}'")
+            made = _Bone(entry.bone, bone, tail)
+            axis = bone.matrix_local.to_3x3().col[1]
+            if made.length < 1e-9 or axis.angle(made.tail_local - made.head_local) > np.radians(1.0):
+                raise ValueError(f"control rig '{rig_map.id}': '{entry.bone}' does not point at its tail "
+                                 f"'{entry.tail}'")
+            bones[entry.bone] = made
+        for entry in rig_map.skeleton:
+            parent = entry.parent
+            if parent is None and not entry.root:
+                above = real[entry.bone].parent
+                while above is not None and above.name not in names:
+                    above = above.parent
+                parent = above.name if above is not None else None
+            if parent is not None:
+                if parent not in bones:
+                    raise ValueError(f"control rig '{rig_map.id}': the parent '{parent}' of '{entry.bone}' is not "
+                                     "in its skeleton")
+                child, above = bones[entry.bone], bones[parent]
+                child.parent = above
+                above.children.append(child)
+                child.use_connect = (child.head_local - above.tail_local).length < 1e-6 * max(above.length, 1e-3)
+        self.name = obj.name
+        self.data = _Armature(obj.data.name, list(bones.values()))
+        pose_channels.depth_first(self.data)  # a cycle in the given parents would never end: none can be given
+        self.pose = obj.pose
+        self.matrix_world = obj.matrix_world
+        self.animation_data = obj.animation_data
+
+    def __eq__(self, other):
+        return other is self or other == self.obj
+
+    __hash__ = object.__hash__
+
+
+# ---------------------------------------------------------------------------
+# Recognising a control rig
+
+def _armature_keys(obj) -> list:
+    return list(obj.data.keys())
+
+
+def find_map(obj, control_map=None) -> ControlRigMap | None:
+    """The control rig map for obj: control_map (a map, a JSON file path or a preset id), else the shipped
+    preset obj is recognised as, else None. A generator's metarig (Rigify's) raises ValueError saying to
+    generate the rig first."""
+    if obj is None or getattr(obj, "type", None) != 'ARMATURE':
+        raise ValueError(f"the target '{getattr(obj, 'name', obj)}' is not an armature object")
+    if isinstance(control_map, ControlRigMap):
+        rig_map = control_map
+    elif isinstance(control_map, (str, os.PathLike)) and os.fspath(control_map) in control_rig.presets():
+        rig_map = control_rig.presets()[os.fspath(control_map)]
+    elif isinstance(control_map, (str, os.PathLike)):
+        rig_map = control_rig.load(control_map)
+    elif isinstance(control_map, dict):
+        rig_map = control_rig.parse(control_map)
+    elif control_map is None:
+        rig_map = control_rig.detect([b.name for b in obj.data.bones], _armature_keys(obj))
+        if rig_map is None:
+            # A generator's property on the pose bones: an ID property, or (Rigify in 4.x and 5.x) an RNA one.
+            wanted = {m.metarig_property for m in control_rig.presets().values() if m.metarig_property}
+            props = {k for pb in obj.pose.bones for k in wanted if k in pb.keys() or getattr(pb, k, None)}
+            meta = control_rig.metarig_of(props)
+            if meta is not None:
+                raise ValueError(f"'{obj.name}' {meta.metarig_message}")
+            return None
+    else:
+        raise ValueError(f"control_map must be a map, a JSON file or a preset id, not {control_map!r}")
+    missing = rig_map.missing(b.name for b in obj.data.bones)
+    if missing:
+        shown = ", ".join(missing[:8]) + (f" and {len(missing) - 8} more" if len(missing) > 8 else "")
+        raise ValueError(f"'{obj.name}' lacks bones that control rig '{rig_map.id}' names: {shown}"
+                         + (f" ({rig_map.path})" if rig_map.path else ""))
+    return rig_map
+
+
+def describe(obj) -> str:
+    """What kind of rig obj is, for the panel: a control rig's label, a metarig, or its deform bones."""
+    try:
+        rig_map = find_map(obj)
+    except ValueError:
+        return "Metarig (generate it first)"
+    return f"{rig_map.label} (controls)" if rig_map else "Bones (no control rig)"
+
+
+# ---------------------------------------------------------------------------
+# Measuring the rig
+
+def _pose_matrices(obj) -> dict:
+    flat = np.empty(16 * len(obj.pose.bones), dtype=np.float32)
+    obj.pose.bones.foreach_get("matrix", flat)
+    mats = flat.reshape(-1, 4, 4).transpose(0, 2, 1).astype(np.float64)  # Blender's matrices are column-major
+    return {pb.name: mats[i] for i, pb in enumerate(obj.pose.bones)}
+
+
+def _property(obj, bone, prop):
+    pose_bone = obj.pose.bones[bone]
+    if prop not in pose_bone.keys():
+        raise ValueError(f"'{obj.name}': the control '{bone}' has no property '{prop}'")
+    return pose_bone[prop]
+
+
+@dataclass
+class _Layout:
+    """What the retarget keys on the rig: controls with their deform bones, poles, bones at rest, and the
+    properties with their values."""
+    driven: dict = field(default_factory=dict)     # control -> deform bone
+    located: set = field(default_factory=set)      # controls keyed with their location
+    poles: dict = field(default_factory=dict)      # pole control -> limb
+    rest: list = field(default_factory=list)       # controls keyed at rest
+    settings: list = field(default_factory=list)   # (bone, property, value)
+    modes: dict = field(default_factory=dict)      # limb -> "fk" | "ik"
+
+
+def _layout(rig_map: ControlRigMap, modes: dict, posed: set) -> _Layout:
+    out = _Layout(modes=modes)
+    for c in rig_map.controls:
+        if c.bone in posed:
+            out.driven[c.control] = c.bone
+            if c.location:
+                out.located.add(c.control)
+    for limb in rig_map.limbs:
+        if not set(limb.chain) <= posed:
+            continue
+        for c in limb.fk + limb.ik:
+            if c.bone in posed:
+                out.driven[c.control] = c.bone
+                if c.location:
+                    out.located.add(c.control)
+        if limb.pole:
+            out.poles[limb.pole] = limb
+        out.rest += list(limb.ik_rest)
+        if limb.switch:
+            out.settings.append((limb.switch.bone, limb.switch.property,
+                                 limb.switch.ik if modes[limb.name] == "ik" else limb.switch.fk))
+        out.settings += [(p.bone, p.property, p.value) for p in limb.properties]
+    out.rest = list(dict.fromkeys(n for n in list(rig_map.rest) + out.rest if n not in out.driven))
+    out.settings = [(p.bone, p.property, p.value) for p in rig_map.properties] + out.settings
+    return out
+
+
+def _calibrate(obj, rig_map, layout: _Layout, deform: list, size: float) -> dict:
+    """Each keyed control's parent's Relation, measured in Blender's own evaluation of the rig posed at rest
+    and in a few random poses (with the layout's properties), and the evaluated rest pose ({bone: (4, 4)}:
+    a deform bone copying a control that is rolled against it stands rolled there); the rig's pose and
+    properties are put back."""
+    pose = obj.pose.bones
+    moving = list(layout.driven) + list(layout.poles)
+    touched = moving + layout.rest
+    saved = {n: pose[n].matrix_basis.copy() for n in touched}
+    saved_props = [(b, p, _property(obj, b, p)) for b, p, _ in layout.settings]
+    rng = np.random.default_rng(_SEED)
+    samples = []
+    # The random poses reach beyond the limbs: a limb's no-stretch setting would clamp its IK target there
+    # (a Limit Distance in Rigify) and hide how the target follows its control when in reach; calibration
+    # stretches.
+    reach = {(limb.ik_stretch.bone, limb.ik_stretch.property) for limb in rig_map.limbs if limb.ik_stretch}
+    # The rig's own action would put its keyed values back on every evaluation: it stands aside meanwhile.
+    playing = animdata.assigned_action(obj)
+    if playing is not None:
+        obj.animation_data.action = None
+    try:
+        for b, p, value in layout.settings:
+            # A no-stretch setting at its "stretch" end (the driver's factor times 1, as generated).
+            pose[b][p] = type(pose[b][p])(1 if (b, p) in reach else value)
+        for s in range(_SAMPLES + 1):
+            for name in touched:
+                if s == 0 or name not in moving:
+                    pose[name].matrix_basis = mathutils.Matrix.Identity(4)
+                    continue
+                axis = rng.normal(size=3)
+                turn = mathutils.Quaternion(axis / np.linalg.norm(axis), rng.uniform(0.2, 1) * _CALIBRATION_ANGLE)
+                m = turn.to_matrix().to_4x4()
+                if name in layout.located or name in layout.poles:
+                    m.translation = rng.uniform(-0.05, 0.05, size=3) * size
+                pose[name].matrix_basis = m
+            bpy.context.view_layer.update()
+            samples.append(_pose_matrices(obj))
+    finally:
+        if playing is not None:
+            animdata.assign(obj, playing)
+        for name, m in saved.items():
+            pose[name].matrix_basis = m
+        for b, p, value in saved_props:
+            pose[b][p] = value
+        bpy.context.view_layer.update()
+    stack = lambda name: np.array([s[name] for s in samples])  # noqa: E731
+    candidates = {n: stack(n) for n in deform}
+    candidates.update({n: stack(n) for n in moving})
+    relations = {}
+    for name in moving:
+        parent = pose[name].parent
+        if parent is None:
+            relations[name] = None
+            continue
+        others = {k: v for k, v in candidates.items() if k != name}
+        relation, why = control_rig.fit_relation(stack(parent.name), others, size)
+        if relation is None:
+            raise ValueError(f"'{obj.name}': the control '{name}' hangs from '{parent.name}', and {why}; "
+                             "set the rig's follow/parent switches to a plain value (0 or 1) and retarget again")
+        relations[name] = relation
+    return relations, samples[0]
+
+
+# ---------------------------------------------------------------------------
+# The plan
+
+@dataclass
+class ControlPlan:
+    """A retarget onto controls, computed before anything is written."""
+    target: bpy.types.Object
+    rig_map: ControlRigMap
+    modes: dict                  # limb -> "fk" | "ik"
+    frames: np.ndarray
+    channels: list
+    values: np.ndarray           # (channels, frames)
+    rest_channels: list
+    rest_values: np.ndarray      # (rest channels, 1): controls at rest and the properties
+    deform: retargeting.Plan     # the retarget onto the deform skeleton
+    keyed: list                  # the controls keyed every frame
+
+    @property
+    def source_name(self):
+        return self.deform.source_name
+
+
+def _source_key_frames(source, frames) -> np.ndarray:
+    """The frames among frames where the source action has a key on any curve."""
+    action = animdata.assigned_action(source)
+    found = set()
+    for fcurve in animdata.fcurves(action, source):
+        co = np.empty(2 * len(fcurve.keyframe_points))
+        fcurve.keyframe_points.foreach_get("co", co)
+        found.update(np.round(co[0::2]).astype(int).tolist())
+    keep = np.isin(np.round(frames).astype(int), sorted(found))
+    return keep
+
+
+def plan(source, target, *, controls: str = "auto", limbs=None, control_map=None, keys: str = "every",
+         progress=None, **options):
+    """A ControlPlan, or None when target is not a control rig (and controls is "auto"). options: those of
+    retargeting.plan (bone_map then pairs source bones with the deform skeleton's)."""
+    if keys not in [k[0] for k in KEYS]:
+        raise ValueError(f"keys must be one of {[k[0] for k in KEYS]}, not {keys!r}")
+    rig_map = find_map(target, control_map)
+    if rig_map is None:
+        if controls in ("fk", "ik") or limbs:
+            raise ValueError(f"'{target.name}' is not a control rig MotionKit knows (no preset matches; "
+                             "give a control rig map)")
+        return None
+    modes = control_rig.limb_modes(rig_map, controls, limbs)
+    native = native_state.native()
+    skeleton = DeformSkeleton(target, rig_map)
+    if source is target:
+        raise ValueError(f"the source and the target are the same armature '{target.name}' (a cycle)")
+    deform_plan = retargeting.plan(source, skeleton, **options)
+    deform_plan.resolve()
+    if progress:
+        progress(1, 4)
+    names = [b.name for b in pose_channels.depth_first(skeleton.data)]
+    rig, bones = pose_channels.native_rig(skeleton.data)
+    rotations, locations = deform_plan.pose
+    world_rot, world_heads = native.armature_pose(rig, np.ascontiguousarray(rotations),
+                                                  np.ascontiguousarray(locations))
+    frames_n = world_rot.shape[0]
+    deform_world = {n: control_rig.matrices(world_rot[:, 4 * i:4 * i + 4], world_heads[:, 3 * i:3 * i + 3])
+                    for i, n in enumerate(names)}
+    mapped = {tgt for _, tgt in deform_plan.pairs}
+    posed = set(mapped)
+    for name in mapped:  # bones between the hips and a mapped bone are posed too
+        posed.update(b.name for b in pose_channels.ancestors(skeleton.data.bones[name]))
+    layout = _layout(rig_map, modes, posed)
+    size = float(max(b.length for b in skeleton.data.bones)) * 4 or 1.0
+    relations, standing = _calibrate(target, rig_map, layout, [n for n in names if n in posed], size)
+    if progress:
+        progress(2, 4)
+
+    rest = {b.name: np.array(b.matrix_local, dtype=np.float64) for b in target.data.bones}
+    # The retarget poses each deform bone from its rest; the rig may stand it otherwise with its controls at
+    # rest (a Copy Transforms from a control rolled against it): the relations were measured on the latter.
+    for n in deform_world:
+        if n in standing:
+            deform_world[n] = deform_world[n] @ (np.linalg.inv(rest[n]) @ standing[n])
+    worlds = dict(deform_world)
+    bases = {}
+    keyed_order = control_rig.order({c: relations[c] for c in layout.driven if relations[c] is not None}
+                                    | {c: relations[c] for c in layout.poles if relations[c] is not None},
+                                    set(deform_world))
+    keyed_order = [c for c in layout.driven if relations[c] is None] + \
+                  [c for c in layout.poles if relations[c] is None] + keyed_order
+    for name in keyed_order:
+        pb = target.pose.bones[name]
+        relation = relations[name]
+        if relation is None:
+            frame = np.repeat(np.eye(4)[None], frames_n, axis=0)
+            offset = rest[name]
+        else:
+            frame = relation.evaluate(lambda n: worlds[n], frames_n)
+            offset = np.linalg.inv(rest[pb.parent.name]) @ rest[name]
+        if name in layout.poles:
+            world = _pole_world(layout.poles[name], deform_world, standing, name, frame @ offset)
+        else:  # where the control stands, relative to its deform bone, when the rig stands at rest
+            bone = layout.driven[name]
+            world = deform_world[bone] @ (np.linalg.inv(standing[bone]) @ standing[name])
+        worlds[name] = world
+        bases[name] = control_rig.basis(frame, offset, world, target.data.bones[name].use_local_location)
+    for name, b in bases.items():
+        moved = float(np.max(np.linalg.norm(b[:, :3, 3], axis=1)))
+        if name not in layout.located and name not in layout.poles and moved > _UNKEYED_MOVE * size:
+            raise ValueError(f"control rig '{rig_map.id}': the control '{name}' would have to move by "
+                             f"{moved * 1000:.1f} mm to put '{layout.driven[name]}' in place, but the map keys only "
+                             "its rotation; mark it \"location\": true, or drive the control it hangs from with "
+                             "the bone next to it")
+    keyed = [n for n in target.pose.bones.keys() if n in bases]  # the rig's bone order
+    channels, rows = [], []
+    for name in keyed:
+        if name in layout.located or name in layout.poles:
+            channels += [(f"{pose_channels.bone_path(name)}.location", k, name) for k in range(3)]
+            rows.append(bases[name][:, :3, 3].T)
+    quats = np.hstack([control_rig.quaternions(bases[n]) for n in keyed])
+    more, values = pose_channels.rotation_keys(target, keyed, quats)
+    channels += more
+    rows.append(values)
+    values = np.vstack(rows)
+    frames = deform_plan.frames
+    if keys == "source":
+        keep = _source_key_frames(source, frames)
+        frames, values = frames[keep], values[:, keep]
+    rest_channels, rest_values = _rest_keys(target, layout)
+    if not (np.all(np.isfinite(values)) and np.all(np.isfinite(rest_values))):
+        raise ValueError("the controls' keys are not finite; check the rig's rest pose")
+    if progress:
+        progress(3, 4)
+    return ControlPlan(target, rig_map, modes, frames, channels, values, rest_channels, rest_values,
+                       deform_plan, keyed)
+
+
+def _pole_world(limb, deform_world, rest, pole, parent_frame) -> np.ndarray:
+    """The pole's armature matrices: its parent's rotation (a basis without rotation), its head in the plane
+    of the limb at its rest distance from the middle joint."""
+    upper, lower, end = (deform_world[n] for n in limb.chain)
+    rest_lower = rest[limb.chain[1]]
+    rest_pole = rest[pole][:3, 3]
+    distance = float(np.linalg.norm(rest_pole - rest_lower[:3, 3]))
+    # Where the pole stood at rest, carried by the upper bone: the plane for a straight limb.
+    carried = upper @ (np.linalg.inv(rest[limb.chain[0]]) @ np.append(rest_pole, 1.0))
+    lower_head = lower[:, :3, 3]
+    fallback = carried[:, :3] - lower_head
+    heads = control_rig.pole_positions(upper[:, :3, 3], lower_head, end[:, :3, 3], fallback, distance)
+    world = parent_frame.copy()
+    world[:, :3, 3] = heads
+    return world
+
+
+def _rest_keys(target, layout: _Layout):
+    channels, values = [], []
+    for name in layout.rest:
+        more, v = pose_channels.rotation_keys(target, [name], np.array([[1.0, 0.0, 0.0, 0.0]]))
+        channels += [(f"{pose_channels.bone_path(name)}.location", k, name) for k in range(3)] + more
+        values += [[0.0]] * 3 + v.tolist()
+    for bone, prop, value in layout.settings:
+        path = f'{pose_channels.bone_path(bone)}["{bpy.utils.escape_identifier(prop)}"]'
+        channels.append((path, 0, bone))
+        values.append([float(value)])
+    return channels, np.array(values, dtype=np.float64).reshape(-1, 1)
+
+
+def apply(plan_: ControlPlan, *, action_name: str | None = None, overwrite: bool = False):
+    """Write the controls' keys: a new action on the rig (or its own with overwrite)."""
+    target = plan_.target
+    deform = plan_.deform
+
+    def write(action):
+        for limb in plan_.rig_map.limbs:
+            if limb.ik_stretch is not None and limb.name in plan_.modes:
+                _drive_ik_stretch(target, limb.ik_stretch)
+        animdata.write_keys(target, action, plan_.channels, plan_.frames, plan_.values)
+        animdata.write_keys(target, action, plan_.rest_channels, plan_.frames[:1], plan_.rest_values)
+        if deform.contacts is not None:  # on the feet's controls, where the animator keys
+            contacts.write_contacts(target, action, _control_feet(plan_), deform.frames, deform.contacts)
+        if deform.frame_rate > 0:
+            action[bvh.FRAME_RATE] = deform.frame_rate
+
+    previous = animdata.assigned_action(target)
+    if overwrite and previous is not None:
+        write(previous)
+        return previous
+    return animdata.install_action(target, animdata.new_action(action_name or f"{plan_.source_name} -> {target.name}"),
+                                   write)
+
+
+def _drive_ik_stretch(obj, stretch) -> None:
+    """A driver on each IK chain bone's ik_stretch: factor * the control's property (unless one is there)."""
+    prop_path = f'{pose_channels.bone_path(stretch.bone)}["{bpy.utils.escape_identifier(stretch.property)}"]'
+    for bone in stretch.bones:
+        path = f"{pose_channels.bone_path(bone)}.ik_stretch"
+        if obj.animation_data is not None and obj.animation_data.drivers.find(path) is not None:
+            continue
+        fcurve = obj.pose.bones[bone].driver_add("ik_stretch")
+        for modifier in list(fcurve.modifiers):
+            fcurve.modifiers.remove(modifier)
+        driver = fcurve.driver
+        driver.type = 'SCRIPTED'
+        variable = driver.variables.new()
+        variable.name = "stretch"
+        variable.targets[0].id = obj
+        variable.targets[0].data_path = prop_path
+        driver.expression = f"{stretch.factor!r} * stretch"
+
+
+def _control_feet(plan_: ControlPlan) -> list:
+    """The deform plan's feet, each on the control that keys its foot (a limb's IK one in IK, else its FK
+    one, else the control the map pairs with the foot), so that the contact curves sit on a control."""
+    rig_map = plan_.rig_map
+    feet = []
+    for foot in plan_.deform.feet:
+        drivers = [c.control for c in rig_map.controls if c.bone == foot.foot]
+        for limb in rig_map.limbs:
+            if foot.foot in limb.chain and limb.name in plan_.modes:
+                group = limb.ik if plan_.modes[limb.name] == "ik" else limb.fk
+                drivers = [c.control for c in group if c.bone == foot.foot] + drivers
+        if not drivers:
+            raise ValueError(f"control rig '{rig_map.id}': no control drives the foot '{foot.foot}', so its "
+                             "contacts have no control to live on; pair one with it or retarget with "
+                             "plant_feet=False")
+        feet.append(contacts.Foot(foot.side, foot.thigh, foot.shin, drivers[0], foot.toe))
+    return feet
