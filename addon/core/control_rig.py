@@ -322,14 +322,18 @@ def metarig_of(pose_bone_properties) -> ControlRigMap | None:
 
 def limb_modes(rig_map: ControlRigMap, controls: str, overrides=None) -> dict[str, str]:
     """Each limb's mode: "auto" puts legs in IK and the rest in FK (the usual choice: planted feet hold still,
-    arms keep their arcs), "fk" or "ik" every limb that has that mode; overrides {limb name: mode} last."""
+    arms keep their arcs), "fk" or "ik" every limb that has that mode; overrides {limb name or kind ("arm",
+    "leg"): mode} last, names after kinds."""
     if controls not in ("auto", "fk", "ik"):
         raise ValueError(f"controls must be 'auto', 'fk', 'ik' or 'none', not {controls!r}")
     modes = {}
     for limb in rig_map.limbs:
         want = ("ik" if limb.kind == "leg" else "fk") if controls == "auto" else controls
         modes[limb.name] = want if (want == "fk" or limb.ik) else "fk"
-    for name, mode in (overrides or {}).items():
+    overrides = dict(overrides or {})
+    kinds = {k: overrides.pop(k) for k in ("arm", "leg", "other") if k in overrides}
+    for name, mode in [(limb.name, kinds[limb.kind]) for limb in rig_map.limbs if limb.kind in kinds] + \
+            list(overrides.items()):
         limb = rig_map.limb(name)
         if mode not in MODES:
             raise ValueError(f"limb '{name}': mode must be 'fk' or 'ik', not {mode!r}")

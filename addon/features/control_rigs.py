@@ -171,12 +171,12 @@ def find_map(obj, control_map=None) -> ControlRigMap | None:
     return rig_map
 
 
-def describe(obj) -> str:
-    """What kind of rig obj is, for the panel: a control rig's label, a metarig, or its deform bones."""
+def describe(obj, control_map=None) -> str:
+    """What kind of rig obj is, for the panel: a control rig's label, a metarig, or bones."""
     try:
-        rig_map = find_map(obj)
-    except ValueError:
-        return "Metarig (generate it first)"
+        rig_map = find_map(obj, bpy.path.abspath(control_map) if control_map else None)
+    except ValueError as error:
+        return "Metarig: generate it first" if "metarig" in str(error) else "Control map does not fit"
     return f"{rig_map.label} (controls)" if rig_map else "Bones (no control rig)"
 
 
@@ -315,6 +315,7 @@ class ControlPlan:
     rest_values: np.ndarray      # (rest channels, 1): controls at rest and the properties
     deform: retargeting.Plan     # the retarget onto the deform skeleton
     keyed: list                  # the controls keyed every frame
+    feet: list | None = None     # contacts.Foot per side, the foot being the control its contacts live on
 
     @property
     def source_name(self):
@@ -428,8 +429,11 @@ def plan(source, target, *, controls: str = "auto", limbs=None, control_map=None
         raise ValueError("the controls' keys are not finite; check the rig's rest pose")
     if progress:
         progress(3, 4)
-    return ControlPlan(target, rig_map, modes, frames, channels, values, rest_channels, rest_values,
-                       deform_plan, keyed)
+    result = ControlPlan(target, rig_map, modes, frames, channels, values, rest_channels, rest_values,
+                         deform_plan, keyed)
+    if deform_plan.contacts is not None:
+        result.feet = _control_feet(result)
+    return result
 
 
 def _pole_world(limb, deform_world, rest, pole, parent_frame) -> np.ndarray:
@@ -474,7 +478,7 @@ def apply(plan_: ControlPlan, *, action_name: str | None = None, overwrite: bool
         animdata.write_keys(target, action, plan_.channels, plan_.frames, plan_.values)
         animdata.write_keys(target, action, plan_.rest_channels, plan_.frames[:1], plan_.rest_values)
         if deform.contacts is not None:  # on the feet's controls, where the animator keys
-            contacts.write_contacts(target, action, _control_feet(plan_), deform.frames, deform.contacts)
+            contacts.write_contacts(target, action, plan_.feet, deform.frames, deform.contacts)
         if deform.frame_rate > 0:
             action[bvh.FRAME_RATE] = deform.frame_rate
 

@@ -1,6 +1,6 @@
 """Retargeting in the UI: the Retarget panel's settings (kept on the scene, scene.motionkit_retarget),
 the bone map list and its operators (auto-map, schemes, load and save), the Retarget operator, and the
-panel with its Plant Feet sub-panel."""
+panel with its Bone Map, Controls, Options and Plant Feet sub-panels."""
 import os
 
 import bpy
@@ -10,7 +10,11 @@ from bpy_extras.io_utils import ExportHelper, ImportHelper
 
 from . import common, contacts as contact_ui
 from ..core import bone_mapping, display_names
-from ..features import bvh, retargeting, scene_timing
+from ..features import bvh, control_rigs, retargeting, scene_timing
+
+
+_LIMB_MODES = (("fk", "FK", "Forward kinematics: the limb's bones are keyed"),
+               ("ik", "IK", "The limb's IK effector and pole are keyed (feet hold still where planted)"))
 
 
 def _is_armature(self, obj):
@@ -68,6 +72,19 @@ class MOTIONKIT_PG_retarget(bpy.types.PropertyGroup):
     frame_end: IntProperty(name="End", default=250)
     overwrite: BoolProperty(name="Overwrite",
                             description="Write into the target's own action instead of a new one")
+    controls: EnumProperty(name="Key", items=retargeting.CONTROLS, default="auto",
+                           description="On a control rig (Rigify's, or one a control rig map describes): key its "
+                                       "controls, or the mapped bones themselves")
+    arms: EnumProperty(name="Arms", items=_LIMB_MODES, default="fk", description="The arms' mode on a control rig")
+    legs: EnumProperty(name="Legs", items=_LIMB_MODES, default="ik", description="The legs' mode on a control rig")
+    control_map: StringProperty(name="Control Map", subtype='FILE_PATH',
+                                description="A control rig map (JSON) for a rig MotionKit does not recognise; "
+                                            "empty: recognised rigs only")
+    keys: EnumProperty(name="Keys", items=control_rigs.KEYS, default="every",
+                       description="Which frames the controls are keyed on")
+    reduce: BoolProperty(name="Reduce Keys",
+                         description="Afterwards, the fewest keys that stay within 0.1 degree and 1 mm, so that "
+                                     "the result stays editable")
 
     def bone_map(self) -> list[tuple[str, str]]:
         return [(p.source, p.target) for p in self.pairs if p.source and p.target]
@@ -137,15 +154,20 @@ class MOTIONKIT_OT_retarget(bpy.types.Operator):
         bvh_options = ({"bvh_scale": "auto" if settings.bvh_auto_scale else settings.bvh_scale,
                         "bvh_source": settings.bvh_source} if settings.source_kind == 'BVH' else {})
 
+        controls = {"controls": settings.controls, "keys": settings.keys, "reduce": settings.reduce,
+                    "control_map": bpy.path.abspath(settings.control_map) if settings.control_map else None}
+        if settings.controls == "auto":
+            controls["limbs"] = {"arm": settings.arms, "leg": settings.legs}
+
         def work(progress):
-            progress(0, 1)
+            progress(0, 4)
             action = retargeting.retarget(
                 source, settings.target, settings.bone_map() or None, frame_range, settings.root_motion,
                 source_match=settings.source_match, match_frame=settings.match_frame,
                 target_match=settings.target_match, ground=settings.ground, align_facing=settings.align_facing,
                 floor_root=settings.floor_root, root_smoothing=settings.root_smoothing,
                 plant_feet=settings.plant_feet, contact_settings=contact_ui.settings(settings.contacts),
-                overwrite=settings.overwrite, **bvh_options)
+                overwrite=settings.overwrite, progress=progress, **controls, **bvh_options)
             timing = scene_timing.from_clip(context.scene, action) if settings.scene_from_clip else None
             return action, timing
 
@@ -323,6 +345,30 @@ class MOTIONKIT_PT_retarget_map(common.SidebarPanel, bpy.types.Panel):
             _draw_bone_field(col, item, "target", settings.target, "Target Bone")
 
 
+class MOTIONKIT_PT_retarget_controls(common.SidebarPanel, bpy.types.Panel):
+    """What the target is (a control rig MotionKit recognises, or bones), and how its limbs are keyed."""
+    bl_label = "Controls"
+    bl_idname = "MOTIONKIT_PT_retarget_controls"
+    bl_parent_id = "MOTIONKIT_PT_retarget"
+
+    def draw(self, context):
+        settings = context.scene.motionkit_retarget
+        layout = self.layout
+        kind = control_rigs.describe(settings.target, settings.control_map) if settings.target else "No target"
+        layout.label(text=kind, icon='ARMATURE_DATA')
+        layout.row().prop(settings, "controls", expand=True)
+        col = common.split_layout(layout.column())
+        col.active = settings.controls == "auto" and kind.endswith("(controls)")
+        col.row().prop(settings, "arms", expand=True)
+        col.row().prop(settings, "legs", expand=True)
+        col = common.split_layout(layout.column())
+        col.active = settings.controls != "none"
+        col.prop(settings, "keys")
+        col.prop(settings, "reduce")
+        layout.label(text="Map (other rigs)")
+        layout.prop(settings, "control_map", text="")
+
+
 class MOTIONKIT_PT_retarget_options(common.SidebarPanel, bpy.types.Panel):
     bl_label = "Options"
     bl_idname = "MOTIONKIT_PT_retarget_options"
@@ -376,8 +422,8 @@ BONE_MAP = common.editable_list(common.EditableList(
 
 classes = (MOTIONKIT_PG_bone_pair, MOTIONKIT_PG_retarget, MOTIONKIT_OT_retarget, MOTIONKIT_OT_bone_map_auto,
            MOTIONKIT_OT_bone_map_scheme, MOTIONKIT_OT_bone_map_save, MOTIONKIT_OT_bone_map_load,
-           MOTIONKIT_UL_bone_map, MOTIONKIT_PT_retarget, MOTIONKIT_PT_retarget_map, MOTIONKIT_PT_retarget_options,
-           MOTIONKIT_PT_retarget_feet)
+           MOTIONKIT_UL_bone_map, MOTIONKIT_PT_retarget, MOTIONKIT_PT_retarget_map, MOTIONKIT_PT_retarget_controls,
+           MOTIONKIT_PT_retarget_options, MOTIONKIT_PT_retarget_feet)
 
 
 def register_properties():

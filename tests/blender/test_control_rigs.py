@@ -263,3 +263,37 @@ def test_generic_json_map_on_a_hand_made_control_rig(mk, control_rigs, shared_di
     drift = np.max(np.linalg.norm(got[..., :3, 3] - want[..., :3, 3], axis=-1))
     print(f"\nhand-made control rig: deform bones within {worst:.5f} deg and {drift * 1000:.4f} mm")
     assert worst < 0.5 and drift < 1e-3
+
+
+def test_keys_only_where_the_source_has_keys(mk, rig, shared_dir):
+    """A source keyed sparsely (its keys reduced): the controls get keys on the union of its key frames."""
+    walk, action = mk.bvh.load(_clip(shared_dir, "bvh/walk60.bvh"))
+    mk.reduce_keys(walk, tolerance=5e-3, rotation_tolerance=np.radians(1.0))
+    frames = set()
+    for fc in mk.animdata.fcurves(action, walk):
+        frames.update(int(round(k.co.x)) for k in fc.keyframe_points)
+    assert 20 < len(frames) < 182
+    mk.retarget(walk, rig, controls="auto", keys="source", plant_feet=False)
+    curve = next(fc for fc in mk.animdata.fcurves(rig.animation_data.action, rig)
+                 if fc.data_path == 'pose.bones["foot_ik.L"].location')
+    assert sorted(int(round(k.co.x)) for k in curve.keyframe_points) == sorted(frames)
+
+
+def test_operator_keys_rigify_controls_and_refuses_a_metarig(mk, rig, rigify_file, shared_dir):
+    """The Retarget button on a Rigify rig: its Controls sub-panel's choices (arms in IK here) reach the
+    retarget; a metarig target is refused, nothing changes."""
+    settings = bpy.context.scene.motionkit_retarget
+    settings.source_kind, settings.bvh_path = 'BVH', _clip(shared_dir, "bvh/walk60.bvh")
+    settings.target = rig
+    settings.arms, settings.legs = "ik", "ik"
+    assert bpy.ops.motionkit.retarget() == {'FINISHED'}
+    rig.animation_data.action.name = "first"
+    bpy.context.scene.frame_set(10)
+    assert rig.pose.bones["upper_arm_parent.L"]["IK_FK"] == 0.0 and rig.pose.bones["thigh_parent.R"]["IK_FK"] == 0.0
+    assert not [b for b in _keyed_bones(rig) if b.startswith(("DEF-", "ORG-", "MCH-"))]
+    metarig = _append(rigify_file, "metarig")[0]
+    settings.target = metarig
+    objects, actions = set(bpy.data.objects), set(bpy.data.actions)
+    with pytest.raises(RuntimeError, match="metarig.*[Gg]enerate"):
+        bpy.ops.motionkit.retarget()
+    assert set(bpy.data.objects) == objects and set(bpy.data.actions) == actions
