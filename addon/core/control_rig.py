@@ -471,7 +471,10 @@ def fit_relation(bone: np.ndarray, candidates: dict, size: float) -> tuple[Relat
     if rotation is None:
         return None, "its rotation follows no single bone (a blend, such as a Copy Rotation at part influence?)"
     if location is None:
-        return None, "its position follows no single bone"
+        spread = min(float(np.max(np.linalg.norm((np.linalg.inv(np.asarray(f)) @ bone)[:, :3, 3]
+                                                 - (np.linalg.inv(np.asarray(f)) @ bone)[:1, :3, 3], axis=1)))
+                     for f in candidates.values()) if candidates else float("nan")
+        return None, f"its position follows no single bone (the nearest drifts {spread / size:.1e} of the rig's size)"
     # A rigid follower of one bone is preferred to a split between two, when both fit.
     for name, frames in candidates.items():
         if name == location[0] and name != rotation[0]:

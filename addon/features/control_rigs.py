@@ -260,6 +260,9 @@ def _calibrate(obj, rig_map, layout: _Layout, deform: list, size: float) -> dict
         for b, p, value in layout.settings:
             # A no-stretch setting at its "stretch" end (the driver's factor times 1, as generated).
             pose[b][p] = type(pose[b][p])(1 if (b, p) in reach else value)
+        # Writing an ID property tags nothing: the drivers that read it (Rigify's switches) are evaluated
+        # again only when the object's animation is tagged.
+        obj.update_tag(refresh={'OBJECT', 'DATA', 'TIME'})
         for s in range(_SAMPLES + 1):
             for name in touched:
                 if s == 0 or name not in moving:
@@ -280,6 +283,7 @@ def _calibrate(obj, rig_map, layout: _Layout, deform: list, size: float) -> dict
             pose[name].matrix_basis = m
         for b, p, value in saved_props:
             pose[b][p] = value
+        obj.update_tag(refresh={'OBJECT', 'DATA', 'TIME'})
         bpy.context.view_layer.update()
     stack = lambda name: np.array([s[name] for s in samples])  # noqa: E731
     candidates = {n: stack(n) for n in deform}
@@ -341,8 +345,8 @@ def plan(source, target, *, controls: str = "auto", limbs=None, control_map=None
     if keys not in [k[0] for k in KEYS]:
         raise ValueError(f"keys must be one of {[k[0] for k in KEYS]}, not {keys!r}")
     rig_map = find_map(target, control_map)
-    if rig_map is None:
-        if controls in ("fk", "ik") or limbs:
+    if rig_map is None:  # limb kinds ("arm", "leg") are preferences for a control rig, if there is one
+        if controls in ("fk", "ik") or set(limbs or ()) - {"arm", "leg", "other"}:
             raise ValueError(f"'{target.name}' is not a control rig MotionKit knows (no preset matches; "
                              "give a control rig map)")
         return None

@@ -106,8 +106,8 @@ SIDEBAR_LABELS = (
     "Source Bone", "Target Bone", "Options", "Match Poses", "Rest pose", "Root Motion", "Scaled", "Floor Root",
     "On the Floor", "Align Facing", "Frame Range", "From Clip", "Overwrite", "Plant Feet", "Height In",
     "Height Out", "Speed In", "Speed Out", "Shortest", "Blend", "Keyed as 0/1 curves",
-    # Controls
-    "Controls", "Bones (no control rig)", "Arms", "Legs", "Every Frame", "Reduce Keys", "Map (other rigs)",
+    # Controls (its Arms and Legs rows are greyed out on the scene's plain rig, too faint to read)
+    "Controls", "Bones (no control rig)", "Every Frame", "Reduce Keys", "Map (other rigs)",
     # Full-body IK, Solver, Bake
     "Full-body IK", "Effectors (mixamorig:*)", "Selected Effector", "Position", "Orientation", "Weight", "Chain",
     "Solve", "Solver", "Method", "Damped LS", "Iterations", "Damping", "Smoothing", "Move", "Rotate", "Limits",
