@@ -249,15 +249,18 @@ def rigify_character(motionkit, source, x: float, y: float, labels: dict, source
         obj.hide_render = True
     rig.name = "RigifyRig"
     rig.location = (x, y, 0.0)
-    thick = {"spine": (0.11, 0.09), "thigh": (0.07, 0.055), "shin": (0.05, 0.04), "upper_arm": (0.045, 0.04),
-             "forearm": (0.04, 0.03)}
+    # The body's deform bones (not the face's, fingers' or breasts'), the head as a ball.
+    thick = {"spine": (0.11, 0.09), "spine.004": (0.05, 0.045), "spine.005": (0.05, 0.045),
+             "spine.006": (0.1, 0.1), "shoulder": (0.045, 0.04), "upper_arm": (0.045, 0.04),
+             "forearm": (0.04, 0.03), "hand": (0.035, 0.03), "thigh": (0.07, 0.055), "shin": (0.05, 0.04),
+             "foot": (0.04, 0.035), "toe": (0.035, 0.03)}
     radii = {}
     for bone in rig.data.bones:
-        if bone.use_deform and not bone.name.startswith(("DEF-f_", "DEF-thumb", "DEF-palm", "DEF-breast",
-                                                         "DEF-pelvis")):
-            part = bone.name[4:].split(".")[0]
-            radii[bone.name] = thick.get(part, (0.04, 0.03))
-    generate.skin_bones(rig, radii, (0.35, 0.55, 0.35, 1.0), "Rigify")
+        name = bone.name[4:]
+        part = name if name in thick else name.split(".")[0]
+        if bone.use_deform and bone.name.startswith("DEF-") and part in thick:
+            radii[bone.name] = thick[part] if part != "spine" or name == "spine" else (0.1, 0.09)
+    generate.skin_bones(rig, radii, (0.55, 0.4, 0.75, 1.0), "Rigify")
     started = time.perf_counter()
     motionkit.retarget(source, rig, controls="auto")
     print(f"demo: retargeted {source.name} onto the Rigify rig's controls in {time.perf_counter() - started:.3f} s")
@@ -338,7 +341,7 @@ def main() -> None:
         row = retarget_row(motionkit, walker, BACK, tuple(zip(characters.CHARACTERS, (-1.1, 1.1, 3.3))),
                            labels, "walk60.bvh")
         animated += [walker] + row
-        animated.append(rigify_character(motionkit, walker, 3.3, FRONT, labels, "walk60.bvh"))
+        animated.append(rigify_character(motionkit, walker, 3.25, FRONT + 0.9, labels, "walk60.bvh"))
         contacts_figure(motionkit, walker, row[-1], os.path.join(out, "contacts.png"))
         before = resample_inputs(motionkit, walker, action)
     else:
