@@ -21,7 +21,7 @@ BUILD_3.4 := build/py311
 BUILD_4.3 := build/py313
 BUILD_5.2 := build/py314
 BLENDER_ARGS := --background --factory-startup --python-exit-code 1
-BENCHES := fcurve_write bvh_import resample retarget plant_feet ik ik_live
+BENCHES := fcurve_write bvh_import resample retarget plant_feet control_rig ik ik_live
 
 .PHONY: demo test deps deps-4.3 deps-5.2 build-3.4 build-4.3 build-5.2 test-native test-python test-fuzz \
         test-blender test-blender-3.4 test-blender-4.3 test-blender-5.2 test-demo bench clean

@@ -367,10 +367,8 @@ def matrices(quaternions, heads) -> np.ndarray:
 
 
 def quaternions(m) -> np.ndarray:
-    """Unit quaternions w x y z (n, 4) of the rotation parts of (n, 3+, 3+) matrices (orthonormalised first)."""
+    """Unit quaternions w x y z (n, 4), positive w, of the rotation parts of (n, 3+, 3+) rigid matrices."""
     r = np.asarray(m, dtype=np.float64)[:, :3, :3]
-    u, _, vt = np.linalg.svd(r)
-    r = u @ vt
     trace = r[:, 0, 0] + r[:, 1, 1] + r[:, 2, 2]
     q = np.empty((r.shape[0], 4))
     # Shepperd's method: the largest of the four candidates is taken, per matrix.
@@ -394,13 +392,19 @@ def quaternions(m) -> np.ndarray:
             v[:, 1 + j] = (a[:, j, i] + a[:, i, j]) / t
             v[:, 1 + l] = (a[:, l, i] + a[:, i, l]) / t
             q[s] = v
-    q *= np.where(q[:, :1] < 0, -1.0, 1.0)
+    q *= np.where(q[:, :1] < 0, -1.0, 1.0) / np.linalg.norm(q, axis=1, keepdims=True)
     return q
 
 
-def inverse(m) -> np.ndarray:
-    """Inverses of rigid (n, 4, 4) matrices; scale allowed (general inverse)."""
-    return np.linalg.inv(m)
+def rigid_inverse(m) -> np.ndarray:
+    """Inverses of rigid (..., 4, 4) matrices (rotation and translation only): the rotation transposed."""
+    m = np.asarray(m, dtype=np.float64)
+    out = np.zeros_like(m)
+    rt = np.swapaxes(m[..., :3, :3], -1, -2)
+    out[..., :3, :3] = rt
+    out[..., :3, 3] = -np.einsum("...ij,...j->...i", rt, m[..., :3, 3])
+    out[..., 3, 3] = 1.0
+    return out
 
 
 # ---------------------------------------------------------------------------
@@ -520,14 +524,14 @@ def pole_positions(upper, lower, end, fallback, distance: float, bias: float = 1
 
 
 def basis(parent: np.ndarray, rest_offset: np.ndarray, target: np.ndarray, local_location: bool = True) -> np.ndarray:
-    """A bone's basis matrices (n, 4, 4) that put it at target (n, 4, 4). Blender's pose is parent @
+    """A bone's basis matrices (n, 4, 4) that put it at target (n, 4, 4), all rigid. Blender's pose is parent @
     rest_offset @ basis, rest_offset = inverse(parent's rest) @ bone's rest (no parent: the armature, and
     rest_offset the bone's rest); a bone without local location takes its translation in the parent's
     axes instead: parent @ translation @ rest_offset @ rotation."""
     if local_location:
-        return np.linalg.inv(parent @ rest_offset) @ target
-    relative = np.linalg.inv(parent) @ target
-    out = np.linalg.inv(rest_offset)[None] @ relative
+        return rigid_inverse(parent @ rest_offset) @ target
+    relative = rigid_inverse(parent) @ target
+    out = rigid_inverse(rest_offset)[None] @ relative
     out[:, :3, 3] = relative[:, :3, 3] - rest_offset[:3, 3]
     return out
 
