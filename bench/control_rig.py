@@ -94,7 +94,9 @@ def rigify_way(source, rig, mode: str, bake_frames: int):
     bpy.context.view_layer.objects.active = rig
     start = time.perf_counter()
     bpy.ops.object.mode_set(mode='POSE')
-    for bone in rig.data.bones:
+    # Bone selection lives on the pose bones in 5.x, on the bones before.
+    selectable = rig.pose.bones if hasattr(rig.pose.bones[0], "select") else rig.data.bones
+    for bone in selectable:
         bone.select = False
     for src, control in pairs + list(feet):
         pose_bone = rig.pose.bones[control]
@@ -104,7 +106,7 @@ def rigify_way(source, rig, mode: str, bake_frames: int):
             con = pose_bone.constraints.new(kind)
             con.target, con.subtarget = source, src
             con.target_space = con.owner_space = 'WORLD'
-        rig.data.bones[control].select = True
+        selectable[control].select = True
     for side in "LR":
         rig.pose.bones[f"thigh_parent.{side}"]["IK_FK"] = 0.0 if mode == "ik" else 1.0
         rig.pose.bones[f"upper_arm_parent.{side}"]["IK_FK"] = 1.0

@@ -241,6 +241,11 @@ def _calibrate(obj, rig_map, layout: _Layout, deform: list, size: float) -> dict
     and in a few random poses (with the layout's properties), and the evaluated rest pose ({bone: (4, 4)}:
     a deform bone copying a control that is rolled against it stands rolled there); the rig's pose and
     properties are put back."""
+    if obj.name not in bpy.context.view_layer.objects:
+        raise ValueError(f"'{obj.name}' is not in the view layer, so Blender does not evaluate it: include its "
+                         "collection and retarget again")
+    if obj.mode == 'EDIT':
+        raise ValueError(f"'{obj.name}' is in Edit Mode: leave it (Object or Pose Mode) and retarget again")
     pose = obj.pose.bones
     moving = list(layout.driven) + list(layout.poles)
     touched = moving + layout.rest
