@@ -332,15 +332,14 @@ class ControlPlan:
 
 
 def _source_key_frames(source, frames) -> np.ndarray:
-    """The frames among frames where the source action has a key on any curve."""
+    """Which of frames (a bool mask) hold a key on any of the source action's curves."""
     action = animdata.assigned_action(source)
     found = set()
     for fcurve in animdata.fcurves(action, source):
         co = np.empty(2 * len(fcurve.keyframe_points))
         fcurve.keyframe_points.foreach_get("co", co)
         found.update(np.round(co[0::2]).astype(int).tolist())
-    keep = np.isin(np.round(frames).astype(int), sorted(found))
-    return keep
+    return np.isin(np.round(frames).astype(int), sorted(found))
 
 
 def plan(source, target, *, controls: str = "auto", limbs=None, control_map=None, keys: str = "every",
