@@ -11,7 +11,7 @@ import bpy
 import numpy as np
 
 from . import animdata
-from ..core import native_state, rotation_channels
+from ..core import bone_mapping, native_state, rotation_channels
 
 
 def depth_first(armature) -> list:
@@ -21,6 +21,16 @@ def depth_first(armature) -> list:
         order.append(bone)
         stack.extend(reversed(bone.children))
     return order
+
+
+def mapping_rig(obj):
+    """The armature at rest as core.bone_mapping sees it."""
+    bones = depth_first(obj.data)
+    index = {b.name: i for i, b in enumerate(bones)}
+    return bone_mapping.Rig(tuple(b.name for b in bones),
+                            tuple(index[b.parent.name] if b.parent else -1 for b in bones),
+                            np.array([b.head_local for b in bones], dtype=np.float64).reshape(-1, 3),
+                            np.array([b.tail_local for b in bones], dtype=np.float64).reshape(-1, 3))
 
 
 def ancestors(bone) -> list:

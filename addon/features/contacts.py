@@ -30,7 +30,7 @@ import numpy as np
 
 from . import bvh
 from ..blender import animdata, pose_channels
-from ..core import native_state, rotation_channels
+from ..core import bone_mapping, native_state, rotation_channels
 from ..core.rotation_channels import conjugate as _conj, multiply as _mul, rotate_each as _rotate
 from ..core.foot_contacts import ContactSettings, all_intervals, detect as detect_contacts, plant_targets
 
@@ -94,9 +94,7 @@ def _swing_twist(q):
 
 def find_feet(obj) -> list[Foot]:
     """The two legs of an armature from MotionKit's bone map (labels thigh.L, shin.L, foot.L, toe.L, ...)."""
-    from . import retargeting  # retargeting imports this module
-    from ..core import bone_mapping
-    return feet_of(bone_mapping.classify(retargeting.mapping_rig(obj)), obj.name)
+    return feet_of(bone_mapping.classify(pose_channels.mapping_rig(obj)), obj.name)
 
 
 def feet_of(body, name: str) -> list[Foot]:

@@ -20,7 +20,7 @@ import bpy
 import mathutils
 import numpy as np
 
-from . import bvh, contacts, retargeting
+from . import bvh, contacts
 from ..blender import animdata, pose_channels
 from ..core import control_rig, native_state
 from ..core.control_rig import ControlRigMap
@@ -322,7 +322,7 @@ class ControlPlan:
     values: np.ndarray           # (channels, frames)
     rest_channels: list
     rest_values: np.ndarray      # (rest channels, 1): controls at rest and the properties
-    deform: retargeting.Plan     # the retarget onto the deform skeleton
+    deform: object               # retargeting.Plan: the retarget onto the deform skeleton
     keyed: list                  # the controls keyed every frame
     feet: list | None = None     # contacts.Foot per side, the foot being the control its contacts live on
 
@@ -342,10 +342,11 @@ def _source_key_frames(source, frames) -> np.ndarray:
     return np.isin(np.round(frames).astype(int), sorted(found))
 
 
-def plan(source, target, *, controls: str = "auto", limbs=None, control_map=None, keys: str = "every",
-         progress=None, **options):
-    """A ControlPlan, or None when target is not a control rig (and controls is "auto"). options: those of
-    retargeting.plan (bone_map then pairs source bones with the deform skeleton's)."""
+def plan(source, target, deform_plan, *, controls: str = "auto", limbs=None, control_map=None,
+         keys: str = "every", progress=None):
+    """A ControlPlan, or None when target is not a control rig (and controls is "auto"). deform_plan(skeleton):
+    the retarget onto the rig's DeformSkeleton (retargeting.plan with the retarget's options: a bone map
+    then pairs source bones with the deform skeleton's)."""
     if keys not in [k[0] for k in KEYS]:
         raise ValueError(f"keys must be one of {[k[0] for k in KEYS]}, not {keys!r}")
     rig_map = find_map(target, control_map)
@@ -359,7 +360,7 @@ def plan(source, target, *, controls: str = "auto", limbs=None, control_map=None
     skeleton = DeformSkeleton(target, rig_map)
     if source is target:
         raise ValueError(f"the source and the target are the same armature '{target.name}' (a cycle)")
-    deform_plan = retargeting.plan(source, skeleton, **options)
+    deform_plan = deform_plan(skeleton)
     deform_plan.resolve()
     if progress:
         progress(1, 4)

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import bpy
 import numpy as np
 
-from . import bvh, contacts
+from . import bvh, contacts, control_rigs, resampling
 from ..blender import animdata, pose_channels
 from ..core import bone_mapping, native_state, root_motion, rotation_channels
 from ..core.foot_contacts import ContactSettings
@@ -84,14 +84,7 @@ def _side(obj, role: str) -> _Side:
     return _Side(obj, bones, rig)
 
 
-def mapping_rig(obj):
-    """The armature at rest as motionkit.bone_mapping sees it."""
-    bones = pose_channels.depth_first(obj.data)
-    index = {b.name: i for i, b in enumerate(bones)}
-    return bone_mapping.Rig(tuple(b.name for b in bones),
-                            tuple(index[b.parent.name] if b.parent else -1 for b in bones),
-                            np.array([b.head_local for b in bones], dtype=np.float64).reshape(-1, 3),
-                            np.array([b.tail_local for b in bones], dtype=np.float64).reshape(-1, 3))
+mapping_rig = pose_channels.mapping_rig  # the armature at rest as bone_mapping sees it
 
 
 def auto_map(source, target) -> list[tuple[str, str]]:
@@ -659,7 +652,6 @@ def retarget(source, target, bone_map=None, frame_range=None, root: str = "scale
             action = apply(plan(source, target, defer_solve=True, **options), action_name=action_name,
                            overwrite=overwrite)
             if reduce:
-                from . import resampling
                 resampling.reduce_keys(target)
     except BaseException:
         if imported is not None:
@@ -680,9 +672,10 @@ def _retarget_controls(source, target, controls, limbs, control_map, keys, reduc
         raise ValueError(f"unknown controls {controls!r}; expected one of {[c[0] for c in CONTROLS]}")
     if controls == "none":
         return None
-    from . import control_rigs, resampling  # they build on this module
-    result = control_rigs.plan(source, target, controls=controls, limbs=limbs, control_map=control_map,
-                               keys=keys, progress=progress, **options)
+    # The deform skeleton's retarget is this module's plan(), handed over: control_rigs builds on it.
+    result = control_rigs.plan(source, target, lambda skeleton: plan(source, skeleton, **options),
+                               controls=controls, limbs=limbs, control_map=control_map, keys=keys,
+                               progress=progress)
     if result is None:
         return None
     action = control_rigs.apply(result, action_name=action_name, overwrite=overwrite)
