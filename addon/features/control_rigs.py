@@ -364,71 +364,19 @@ def plan(source, target, deform_plan, *, controls: str = "auto", limbs=None, con
     deform_plan.resolve()
     if progress:
         progress(1, 4)
-    names = [b.name for b in pose_channels.depth_first(skeleton.data)]
-    rig, bones = pose_channels.native_rig(skeleton.data)
-    rotations, locations = deform_plan.pose
-    world_rot, world_heads = native.armature_pose(rig, np.ascontiguousarray(rotations),
-                                                  np.ascontiguousarray(locations))
-    frames_n = world_rot.shape[0]
-    deform_world = {n: control_rig.matrices(world_rot[:, 4 * i:4 * i + 4], world_heads[:, 3 * i:3 * i + 3])
-                    for i, n in enumerate(names)}
+    deform_world = _deform_worlds(native, skeleton, deform_plan)
     mapped = {tgt for _, tgt in deform_plan.pairs}
     posed = set(mapped)
     for name in mapped:  # bones between the hips and a mapped bone are posed too
         posed.update(b.name for b in pose_channels.ancestors(skeleton.data.bones[name]))
     layout = _layout(rig_map, modes, posed)
     size = float(max(b.length for b in skeleton.data.bones)) * 4 or 1.0
-    relations, standing = _calibrate(target, rig_map, layout, [n for n in names if n in posed], size)
+    relations, standing = _calibrate(target, rig_map, layout, [n for n in deform_world if n in posed], size)
     if progress:
         progress(2, 4)
-
-    rest = {b.name: np.array(b.matrix_local, dtype=np.float64) for b in target.data.bones}
-    # The retarget poses each deform bone from its rest; the rig may stand it otherwise with its controls at
-    # rest (a Copy Transforms from a control rolled against it): the relations were measured on the latter.
-    for n in deform_world:
-        if n in standing:
-            deform_world[n] = deform_world[n] @ (np.linalg.inv(rest[n]) @ standing[n])
-    worlds = dict(deform_world)
-    bases = {}
-    keyed_order = control_rig.order({c: relations[c] for c in layout.driven if relations[c] is not None}
-                                    | {c: relations[c] for c in layout.poles if relations[c] is not None},
-                                    set(deform_world))
-    keyed_order = [c for c in layout.driven if relations[c] is None] + \
-                  [c for c in layout.poles if relations[c] is None] + keyed_order
-    for name in keyed_order:
-        pb = target.pose.bones[name]
-        relation = relations[name]
-        if relation is None:
-            frame = np.repeat(np.eye(4)[None], frames_n, axis=0)
-            offset = rest[name]
-        else:
-            frame = relation.evaluate(lambda n: worlds[n], frames_n)
-            offset = np.linalg.inv(rest[pb.parent.name]) @ rest[name]
-        if name in layout.poles:
-            world = _pole_world(layout.poles[name], deform_world, standing, name, frame @ offset)
-        else:  # where the control stands, relative to its deform bone, when the rig stands at rest
-            bone = layout.driven[name]
-            world = deform_world[bone] @ (np.linalg.inv(standing[bone]) @ standing[name])
-        worlds[name] = world
-        bases[name] = control_rig.basis(frame, offset, world, target.data.bones[name].use_local_location)
-    for name, b in bases.items():
-        moved = float(np.max(np.linalg.norm(b[:, :3, 3], axis=1)))
-        if name not in layout.located and name not in layout.poles and moved > _UNKEYED_MOVE * size:
-            raise ValueError(f"control rig '{rig_map.id}': the control '{name}' would have to move by "
-                             f"{moved * 1000:.1f} mm to put '{layout.driven[name]}' in place, but the map keys only "
-                             "its rotation; mark it \"location\": true, or drive the control it hangs from with "
-                             "the bone next to it")
+    bases = _solve(target, rig_map, layout, relations, standing, deform_world, size)
     keyed = [n for n in target.pose.bones.keys() if n in bases]  # the rig's bone order
-    channels, rows = [], []
-    for name in keyed:
-        if name in layout.located or name in layout.poles:
-            channels += [(f"{pose_channels.bone_path(name)}.location", k, name) for k in range(3)]
-            rows.append(bases[name][:, :3, 3].T)
-    quats = np.hstack([control_rig.quaternions(bases[n]) for n in keyed])
-    more, values = pose_channels.rotation_keys(target, keyed, quats)
-    channels += more
-    rows.append(values)
-    values = np.vstack(rows)
+    channels, values = _channels(target, layout, bases, keyed)
     frames = deform_plan.frames
     if keys == "source":
         keep = _source_key_frames(source, frames)
@@ -443,6 +391,65 @@ def plan(source, target, deform_plan, *, controls: str = "auto", limbs=None, con
     if deform_plan.contacts is not None:
         result.feet = _control_feet(result)
     return result
+
+
+def _deform_worlds(native, skeleton, deform_plan) -> dict:
+    """The deform skeleton's armature-space matrices (frames, 4, 4) by bone, as the retarget posed it."""
+    rig, bones = pose_channels.native_rig(skeleton.data)
+    rotations, locations = deform_plan.pose
+    world_rot, world_heads = native.armature_pose(rig, np.ascontiguousarray(rotations),
+                                                  np.ascontiguousarray(locations))
+    return {b.name: control_rig.matrices(world_rot[:, 4 * i:4 * i + 4], world_heads[:, 3 * i:3 * i + 3])
+            for i, b in enumerate(bones)}
+
+
+def _solve(target, rig_map, layout, relations, standing, deform_world, size) -> dict:
+    """Each keyed control's basis matrices (frames, 4, 4), parents first."""
+    rest = {b.name: np.array(b.matrix_local, dtype=np.float64) for b in target.data.bones}
+    # The retarget poses each deform bone from its rest; the rig may stand it otherwise with its controls at
+    # rest (a Copy Transforms from a control rolled against it): the relations were measured on the latter.
+    deform_world = {n: m @ (np.linalg.inv(rest[n]) @ standing[n]) if n in standing else m
+                    for n, m in deform_world.items()}
+    frames_n = next(iter(deform_world.values())).shape[0]
+    controls = list(layout.driven) + list(layout.poles)
+    top = [c for c in controls if relations[c] is None]  # no parent: the armature's frame
+    ordered = top + control_rig.order({c: relations[c] for c in controls if relations[c] is not None},
+                                      set(deform_world))
+    worlds, bases = dict(deform_world), {}
+    for name in ordered:
+        relation = relations[name]
+        if relation is None:
+            frame, offset = np.repeat(np.eye(4)[None], frames_n, axis=0), rest[name]
+        else:
+            frame = relation.evaluate(lambda n: worlds[n], frames_n)
+            offset = np.linalg.inv(rest[target.pose.bones[name].parent.name]) @ rest[name]
+        if name in layout.poles:
+            world = _pole_world(layout.poles[name], deform_world, standing, name, frame @ offset)
+        else:  # where the control stands, relative to its deform bone, when the rig stands at rest
+            bone = layout.driven[name]
+            world = deform_world[bone] @ (np.linalg.inv(standing[bone]) @ standing[name])
+        worlds[name] = world
+        bases[name] = control_rig.basis(frame, offset, world, target.data.bones[name].use_local_location)
+        moved = float(np.max(np.linalg.norm(bases[name][:, :3, 3], axis=1)))
+        if name not in layout.located and name not in layout.poles and moved > _UNKEYED_MOVE * size:
+            raise ValueError(f"control rig '{rig_map.id}': the control '{name}' would have to move by "
+                             f"{moved * 1000:.1f} mm to put '{layout.driven[name]}' in place, but the map keys only "
+                             "its rotation; mark it \"location\": true, or drive the control it hangs from with "
+                             "the bone next to it")
+    return bases
+
+
+def _channels(target, layout, bases, keyed):
+    """(channels, values (channels, frames)): the located controls' locations, every control's rotation in
+    its own rotation mode."""
+    channels, rows = [], []
+    for name in keyed:
+        if name in layout.located or name in layout.poles:
+            channels += [(f"{pose_channels.bone_path(name)}.location", k, name) for k in range(3)]
+            rows.append(bases[name][:, :3, 3].T)
+    more, values = pose_channels.rotation_keys(target, keyed,
+                                               np.hstack([control_rig.quaternions(bases[n]) for n in keyed]))
+    return channels + more, np.vstack(rows + [values])
 
 
 def _pole_world(limb, deform_world, rest, pole, parent_frame) -> np.ndarray:
