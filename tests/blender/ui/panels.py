@@ -5,7 +5,8 @@
 The sidebar's MotionKit tab at its default width in object and pose mode, each panel expanded (closed
 sub-panels opened by clicking their headers where the screen shows them); the active effector picked by a
 click on its row; the Live toggle clicked; each operator's dialog and redo panel; the BVH import and export
-file browsers; the File > Import menu and the Graph Editor's and Dope Sheet's Key menus. Each picture is
+file browsers; the File > Import menu and the Graph Editor's and Dope Sheet's Key menus; the Controls
+sub-panel with a Rigify rig as the target. Each picture is
 saved in OUT_DIR and what is read in it is reported (`UI <key> <json>`) for test_ui.py to judge.
 """
 import os
@@ -205,6 +206,23 @@ def steps():
         popup_words(name, before)
         harness.key('ESC', x=where.x + where.width // 2, y=where.y + where.height // 2)
         yield 0.4
+
+    # A Rigify rig as the retarget's target: the Controls sub-panel says what it is, its arms' and legs'
+    # FK/IK choice active.
+    import addon_utils
+    addon_utils.enable("rigify", default_set=True)
+    import rigify.generate
+    with harness.override(area_=view):
+        bpy.ops.object.mode_set(mode='OBJECT')
+        before = set(bpy.data.objects)
+        bpy.ops.object.armature_human_metarig_add()
+        metarig = bpy.context.view_layer.objects.active
+        rigify.generate.generate_rig(bpy.context, metarig)
+    rig = next(o for o in set(bpy.data.objects) - before if o.type == 'ARMATURE' and o is not metarig)
+    bpy.context.scene.motionkit_retarget.target = rig
+    harness.report("rigify.described", mk.control_rigs.describe(rig))
+    yield 1.0
+    read_sidebar("sidebar-rigify", view)
 
 
 harness.run(steps())
