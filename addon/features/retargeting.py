@@ -723,7 +723,7 @@ def retarget_files(paths, target, *, keep_sources: bool = False, **options) -> l
         name = os.path.splitext(os.path.basename(path))[0]
         source, _ = bvh.load(os.fspath(path))
         try:
-            action = apply(plan(source, target, defer_solve=True, **options), action_name=name)
+            action = retarget(source, target, action_name=name, **options)  # onto controls too
             action.use_fake_user = True
             actions.append(action)
         except ValueError as ex:

@@ -329,3 +329,14 @@ def test_operator_keys_rigify_controls_and_refuses_a_metarig(mk, rig, rigify_fil
     with pytest.raises(RuntimeError, match="metarig.*[Gg]enerate"):
         bpy.ops.motionkit.retarget()
     assert set(bpy.data.objects) == objects and set(bpy.data.actions) == actions
+
+
+def test_batch_retarget_keys_the_controls_of_each_file(mk, rig, shared_dir):
+    """retarget_files onto a Rigify rig: one action per file, each keyed on controls only."""
+    files = [_clip(shared_dir, c) for c in CLIPS]
+    actions = mk.retarget_files(files, rig, controls="fk", plant_feet=False)
+    assert [a.name for a in actions] == ["walk60", "walk_and_turn_left"]
+    for action in actions:
+        bones = {fc.data_path.split('"')[1] for fc in mk.animdata.fcurves(action, rig)
+                 if fc.data_path.startswith("pose.bones")}
+        assert "upper_arm_fk.L" in bones and not [b for b in bones if b.startswith(("DEF-", "ORG-", "MCH-"))]
