@@ -26,18 +26,17 @@ import importlib
 import os
 import statistics
 import sys
-import tempfile
 import time
 
-import addon_utils
 import bpy
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))  # Blender's --python adds no folder
 
 import harness  # noqa: E402
+import retarget as retarget_bench  # noqa: E402
+import rigify_rig  # noqa: E402  (blend_samples, on the path harness sets)
 
-CAPTURE = os.path.join(harness.SHARED, "data", "bvh", "more", "walk_and_turn_left.bvh")
 # Source bone -> Rigify FK control (world rotation copied), as a user would pair them by hand.
 FK_PAIRS = (("RootJoint", "torso"), ("pelvis_lowerback", "spine_fk.001"), ("lowerback_torso", "spine_fk.003"),
             ("torso_head", "head"), ("lTorso_Clavicle", "shoulder.L"), ("rTorso_Clavicle", "shoulder.R"),
@@ -49,30 +48,11 @@ IK_FEET = (("lAnkle", "foot_ik.L"), ("rAnkle", "foot_ik.R"))
 
 
 def generate_rigify():
-    errors = []
-    if not addon_utils.enable("rigify", default_set=True, handle_error=errors.append):
-        raise SystemExit(f"control_rig.py: Rigify did not enable: {errors}")
-    import rigify.generate
-    before = set(bpy.data.objects)
-    bpy.ops.object.armature_human_metarig_add()
-    metarig = bpy.context.view_layer.objects.active
     started = time.perf_counter()
-    rigify.generate.generate_rig(bpy.context, metarig)
+    rig, metarig = rigify_rig.generate()
     seconds = time.perf_counter() - started
-    rig = next(o for o in set(bpy.data.objects) - before if o.type == 'ARMATURE' and o is not metarig)
     metarig.hide_set(True)
     return rig, seconds
-
-
-def long_clip(native, frames: int) -> str:
-    skeleton, motion = native.read_bvh(CAPTURE)
-    values = np.asarray(motion.values)
-    there_and_back = np.vstack([values, values[-2:0:-1]])
-    repeats = int(np.ceil(frames / len(there_and_back)))
-    path = os.path.join(tempfile.mkdtemp(), "walk_and_turn_long.bvh")
-    native.write_bvh(path, skeleton, native.Motion(
-        np.ascontiguousarray(np.tile(there_and_back, (repeats, 1))[:frames]), motion.frame_time))
-    return path
 
 
 def _unassign(rig) -> None:
@@ -85,45 +65,25 @@ def _unassign(rig) -> None:
 
 def rigify_way(source, rig, mode: str, bake_frames: int):
     """Constraints on the controls to the source's bones, then nla.bake of those controls with visual
-    keying: (seconds to set up, seconds to bake)."""
+    keying (retarget.constrain_and_bake): (seconds to set up, seconds to bake)."""
     _unassign(rig)
     pairs = [p for p in FK_PAIRS if not (mode == "ik" and p[1].startswith(("thigh_fk", "shin_fk", "foot_fk")))]
     feet = IK_FEET if mode == "ik" else ()
-    for other in bpy.context.view_layer.objects:
-        other.select_set(other == rig)
-    bpy.context.view_layer.objects.active = rig
-    start = time.perf_counter()
-    bpy.ops.object.mode_set(mode='POSE')
-    # Bone selection lives on the pose bones in 5.x, on the bones before.
-    selectable = rig.pose.bones if hasattr(rig.pose.bones[0], "select") else rig.data.bones
-    for bone in selectable:
-        bone.select = False
-    for src, control in pairs + list(feet):
-        pose_bone = rig.pose.bones[control]
-        kinds = (('COPY_TRANSFORMS',) if (src, control) in feet else
-                 ('COPY_ROTATION', 'COPY_LOCATION') if control == "torso" else ('COPY_ROTATION',))
-        for kind in kinds:
-            con = pose_bone.constraints.new(kind)
-            con.target, con.subtarget = source, src
-            con.target_space = con.owner_space = 'WORLD'
-        selectable[control].select = True
     for side in "LR":
         rig.pose.bones[f"thigh_parent.{side}"]["IK_FK"] = 0.0 if mode == "ik" else 1.0
         rig.pose.bones[f"upper_arm_parent.{side}"]["IK_FK"] = 1.0
-    setup = time.perf_counter() - start
-    options = dict(frame_start=1, frame_end=bake_frames, only_selected=True, visual_keying=True,
-                   clear_constraints=True, bake_types={'POSE'})
-    if "channel_types" in bpy.ops.nla.bake.get_rna_type().properties:
-        options["channel_types"] = {'LOCATION', 'ROTATION'}
-    start = time.perf_counter()
-    result = bpy.ops.nla.bake(**options)
-    bake = time.perf_counter() - start
-    bpy.ops.object.mode_set(mode='OBJECT')
-    if result != {'FINISHED'}:
-        raise SystemExit(f"control_rig.py: nla.bake returned {result}")
-    left = [c for _, c in pairs + list(feet) if len(rig.pose.bones[c].constraints)]
-    if left:
-        raise SystemExit(f"control_rig.py: nla.bake left constraints on {left}")
+
+    def add_constraints():
+        for src, control in pairs + list(feet):
+            kinds = (('COPY_TRANSFORMS',) if (src, control) in feet else
+                     ('COPY_ROTATION', 'COPY_LOCATION') if control == "torso" else ('COPY_ROTATION',))
+            for kind in kinds:
+                con = rig.pose.bones[control].constraints.new(kind)
+                con.target, con.subtarget = source, src
+                con.target_space = con.owner_space = 'WORLD'
+
+    setup, bake, _ = retarget_bench.constrain_and_bake(rig, add_constraints, bake_frames,
+                                                       bones={c for _, c in pairs + list(feet)})
     return setup, bake
 
 
@@ -158,7 +118,7 @@ def main() -> None:
     animdata = mk.animdata
     retargeting = mk.retargeting
     rig, generate_s = generate_rigify()
-    path = long_clip(mk.native(), args.frames)
+    path = harness.long_walk(mk.native(), args.frames)
     source, _ = mk.bvh.load(path)
     retargeting._stand_as_tall_as(source, rig)
     scene = bpy.context.scene

@@ -16,6 +16,7 @@ import argparse
 import os
 import statistics
 import sys
+import tempfile
 import time
 
 import bpy
@@ -44,6 +45,22 @@ def start(prog: str, description: str, add_arguments=None, repeat: int = 5):
     install_addon.install(args.zip)
     import motionkit
     return args, motionkit
+
+
+WALK_AND_TURN = os.path.join(SHARED, "data", "bvh", "more", "walk_and_turn_left.bvh")
+
+
+def long_walk(native, frames: int) -> str:
+    """A BVH file of GAMES-105's walk_and_turn_left played forwards then backwards until frames frames
+    (continuous, so its feet really stand), in a temporary folder: its path."""
+    skeleton, motion = native.read_bvh(WALK_AND_TURN)
+    values = np.asarray(motion.values)
+    there_and_back = np.vstack([values, values[-2:0:-1]])
+    repeats = int(np.ceil(frames / len(there_and_back)))
+    path = os.path.join(tempfile.mkdtemp(), "walk_and_turn_long.bvh")
+    native.write_bvh(path, skeleton, native.Motion(
+        np.ascontiguousarray(np.tile(there_and_back, (repeats, 1))[:frames]), motion.frame_time))
+    return path
 
 
 def timed(run, repeat: int, before=None) -> list[float]:

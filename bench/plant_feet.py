@@ -28,7 +28,6 @@ import importlib
 import os
 import statistics
 import sys
-import tempfile
 import time
 
 import bpy
@@ -40,9 +39,6 @@ import harness  # noqa: E402
 import characters  # noqa: E402  (blend_samples, on the path harness sets)
 import generate  # noqa: E402
 
-CAPTURE = os.path.join(harness.SHARED, "data", "bvh", "more", "walk_and_turn_left.bvh")
-
-
 def main() -> None:
     args, mk = harness.start("plant_feet.py", __doc__,
                              lambda parser: parser.add_argument("--frames", type=int, default=10_000))
@@ -50,14 +46,7 @@ def main() -> None:
     pose_channels = importlib.import_module(mk.__name__ + ".blender.pose_channels")
     animdata = mk.animdata
 
-    native = mk.native()
-    skeleton, motion = native.read_bvh(CAPTURE)
-    values = np.asarray(motion.values)
-    there_and_back = np.vstack([values, values[-2:0:-1]])
-    repeats = int(np.ceil(args.frames / len(there_and_back)))
-    long_clip = os.path.join(tempfile.mkdtemp(), "walk_and_turn_long.bvh")
-    native.write_bvh(long_clip, skeleton, native.Motion(np.ascontiguousarray(np.tile(there_and_back, (repeats, 1))[
-        :args.frames]), motion.frame_time))
+    long_clip = harness.long_walk(mk.native(), args.frames)
     source, _ = mk.bvh.load(long_clip)
     target = generate.build_armature(characters.UNREAL_A, x=1.5)
     frames_count = int(animdata.assigned_action(source).frame_range[1])

@@ -191,17 +191,23 @@ def run_motionkit(mk, source, target, pairs):
 
 
 def constrain_and_bake(obj, add_constraints, bake_frames: int, all_channels: bool = False,
-                       use_current_action: bool = False):
+                       use_current_action: bool = False, bones=None):
     """Blender's recipe, timed: add_constraints() on obj in pose mode, then bpy.ops.nla.bake with visual
-    keying over frames 1..bake_frames. Returns (seconds to set up, seconds to bake, the bake's options)."""
+    keying over frames 1..bake_frames, of every bone or (bones) of those alone, selected (a control rig's
+    own constraints elsewhere must stay). Returns (seconds to set up, seconds to bake, the bake's options)."""
     for other in bpy.context.view_layer.objects:
         other.select_set(other == obj)
     bpy.context.view_layer.objects.active = obj
     start = time.perf_counter()
     bpy.ops.object.mode_set(mode='POSE')
+    if bones is not None:
+        # Bone selection lives on the pose bones in 5.x, on the bones before.
+        selectable = obj.pose.bones if hasattr(obj.pose.bones[0], "select") else obj.data.bones
+        for bone in selectable:
+            bone.select = bone.name in bones
     add_constraints()
     setup = time.perf_counter() - start
-    options = dict(frame_start=1, frame_end=bake_frames, only_selected=False, visual_keying=True,
+    options = dict(frame_start=1, frame_end=bake_frames, only_selected=bones is not None, visual_keying=True,
                    clear_constraints=True, use_current_action=use_current_action, bake_types={'POSE'})
     # 4.1 and later bake only the channels asked for: location and rotation, what MotionKit writes, unless
     # all_channels keeps Blender's default (scale, B-Bone and custom properties too). 3.4 bakes location,
@@ -214,7 +220,7 @@ def constrain_and_bake(obj, add_constraints, bake_frames: int, all_channels: boo
     bpy.ops.object.mode_set(mode='OBJECT')
     if result != {'FINISHED'}:
         raise SystemExit(f"nla.bake returned {result}")
-    if any(len(pb.constraints) for pb in obj.pose.bones):
+    if any(len(pb.constraints) for pb in obj.pose.bones if bones is None or pb.name in bones):
         raise SystemExit("nla.bake left constraints behind")
     return setup, bake, options
 

@@ -26,7 +26,7 @@ from __future__ import annotations
 import functools
 import json
 import os
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -458,26 +458,25 @@ def fit_relation(bone: np.ndarray, candidates: dict, size: float) -> tuple[Relat
         return None, f"it is scaled (axis lengths {np.round(scale.min(), 4)}..{np.round(scale.max(), 4)})"
     fixed = {None: np.repeat(np.eye(4)[None], bone.shape[0], axis=0)}
     rotation = location = None
+    spread = np.inf  # how far the bone's head drifts in the frame of the candidate nearest to carrying it
     for name, frames in {**fixed, **candidates}.items():
         frames = np.asarray(frames, dtype=np.float64)
-        inv = np.linalg.inv(frames)
-        rel = inv @ bone
+        rel = np.linalg.inv(frames) @ bone  # a candidate may be scaled (a stretched bone): not rigid_inverse
         if rotation is None:
             offsets = np.transpose(frames[:, :3, :3], (0, 2, 1)) @ bone[:, :3, :3]
             if np.max(_angle(offsets, offsets[:1])) < ANGLE_TOLERANCE:
                 rotation = (name, offsets[0])
         if location is None:
             points = rel[:, :3, 3]
-            if np.max(np.linalg.norm(points - points[:1], axis=1)) < DISTANCE_TOLERANCE * size:
+            drift = float(np.max(np.linalg.norm(points - points[:1], axis=1)))
+            spread = min(spread, drift)
+            if drift < DISTANCE_TOLERANCE * size:
                 location = (name, points[0])
         if rotation is not None and location is not None and rotation[0] == location[0]:
             break
     if rotation is None:
         return None, "its rotation follows no single bone (a blend, such as a Copy Rotation at part influence?)"
     if location is None:
-        spread = min(float(np.max(np.linalg.norm((np.linalg.inv(np.asarray(f)) @ bone)[:, :3, 3]
-                                                 - (np.linalg.inv(np.asarray(f)) @ bone)[:1, :3, 3], axis=1)))
-                     for f in candidates.values()) if candidates else float("nan")
         return None, f"its position follows no single bone (the nearest drifts {spread / size:.1e} of the rig's size)"
     # A rigid follower of one bone is preferred to a split between two, when both fit.
     for name, frames in candidates.items():
@@ -535,9 +534,3 @@ def basis(parent: np.ndarray, rest_offset: np.ndarray, target: np.ndarray, local
     out[:, :3, 3] = relative[:, :3, 3] - rest_offset[:3, 3]
     return out
 
-
-@dataclass
-class Solved:
-    """The controls' bases per frame, in the order solved."""
-    bases: dict = field(default_factory=dict)  # control -> (frames, 4, 4)
-    worlds: dict = field(default_factory=dict)  # control -> (frames, 4, 4), armature space

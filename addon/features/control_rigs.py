@@ -470,11 +470,14 @@ def _pole_world(limb, deform_world, rest, pole, parent_frame) -> np.ndarray:
 
 
 def _rest_keys(target, layout: _Layout):
-    channels, values = [], []
-    for name in layout.rest:
-        more, v = pose_channels.rotation_keys(target, [name], np.array([[1.0, 0.0, 0.0, 0.0]]))
-        channels += [(f"{pose_channels.bone_path(name)}.location", k, name) for k in range(3)] + more
-        values += [[0.0]] * 3 + v.tolist()
+    """One key each: the controls held at rest (location and rotation) and the properties set."""
+    channels = [(f"{pose_channels.bone_path(name)}.location", k, name) for name in layout.rest for k in range(3)]
+    values = [[0.0]] * len(channels)
+    if layout.rest:
+        more, rotations = pose_channels.rotation_keys(target, layout.rest,
+                                                      np.tile([1.0, 0.0, 0.0, 0.0], (1, len(layout.rest))))
+        channels += more
+        values += rotations.tolist()
     for bone, prop, value in layout.settings:
         path = f'{pose_channels.bone_path(bone)}["{bpy.utils.escape_identifier(prop)}"]'
         channels.append((path, 0, bone))

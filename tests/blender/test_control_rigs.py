@@ -10,6 +10,8 @@ import bpy
 import numpy as np
 import pytest
 
+import rigify_rig
+
 DEGREE = np.radians(1.0)
 CLIPS = ("bvh/walk60.bvh", "bvh/more/walk_and_turn_left.bvh")
 
@@ -27,15 +29,7 @@ def control_rigs(mk):
 def rigify_file(tmp_path_factory):
     """A .blend with Rigify's human metarig and the rig generated from it (headless, a few seconds)."""
     was_enabled = addon_utils.check("rigify")[1]
-    errors = []
-    if not addon_utils.enable("rigify", default_set=True, handle_error=errors.append):
-        pytest.fail(f"the bundled Rigify add-on did not enable: {errors}")
-    import rigify.generate
-    before = set(bpy.data.objects)
-    bpy.ops.object.armature_human_metarig_add()
-    metarig = bpy.context.view_layer.objects.active
-    rigify.generate.generate_rig(bpy.context, metarig)
-    rig = next(o for o in set(bpy.data.objects) - before if o.type == 'ARMATURE' and o is not metarig)
+    rig, metarig = rigify_rig.generate()
     rig.name, metarig.name = "rig", "metarig"
     path = str(tmp_path_factory.mktemp("rigify") / "rigify.blend")
     bpy.data.libraries.write(path, {rig, metarig}, fake_user=True)

@@ -209,16 +209,10 @@ def steps():
 
     # A Rigify rig as the retarget's target: the Controls sub-panel says what it is, its arms' and legs'
     # FK/IK choice active.
-    import addon_utils
-    addon_utils.enable("rigify", default_set=True)
-    import rigify.generate
+    import rigify_rig
     with harness.override(area_=view):
         bpy.ops.object.mode_set(mode='OBJECT')
-        before = set(bpy.data.objects)
-        bpy.ops.object.armature_human_metarig_add()
-        metarig = bpy.context.view_layer.objects.active
-        rigify.generate.generate_rig(bpy.context, metarig)
-    rig = next(o for o in set(bpy.data.objects) - before if o.type == 'ARMATURE' and o is not metarig)
+        rig, _ = rigify_rig.generate()
     bpy.context.scene.motionkit_retarget.target = rig
     harness.report("rigify.described", mk.control_rigs.describe(rig))
     yield 1.0
