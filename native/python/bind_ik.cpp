@@ -42,9 +42,12 @@ IkArrays IkSolve(const RigModel& rig, const ConstMatrixView& input_rotations, co
                  const std::optional<DoubleArray>& limit_max, const std::optional<BoolArray>& locked,
                  const std::optional<DoubleArray>& stiffness, const std::optional<BoolArray>& excluded,
                  const std::optional<DoubleArray>& stretch, const std::optional<DoubleArray>& scale_range,
+                 const std::optional<BoolArray>& soft, const std::optional<IntArray>& stage,
+                 const std::optional<DoubleArray>& mass,
                  const std::string& method, int max_iterations, double tolerance, double max_step, double damping,
                  double regularization, const std::string& reference, double orientation_scale,
-                 bool root_translation, bool root_rotation, bool warm_start, int threads, double size) {
+                 bool root_translation, bool root_rotation, bool warm_start, int threads, double size,
+                 bool priorities, bool balance, const Eigen::Vector3d& up, double balance_margin) {
   const auto parsed = ParseIkMethod(method);
   if (!parsed) throw Error("ik_solve: unknown method '" + method + "'; expected ccd, transpose, pinv or dls");
   if (reference != "previous" && reference != "input") {
@@ -52,7 +55,7 @@ IkArrays IkSolve(const RigModel& rig, const ConstMatrixView& input_rotations, co
   }
   const py::ssize_t bones = rig.size();
   std::vector<IkJoint> joints;
-  if (limit_min || limit_max || locked || stiffness || excluded || stretch || scale_range) {
+  if (limit_min || limit_max || locked || stiffness || excluded || stretch || scale_range || soft || stage || mass) {
     joints.resize(static_cast<std::size_t>(bones));
     if (limit_min) CheckShape(*limit_min, bones, 3, "limit_min");
     if (limit_max) CheckShape(*limit_max, bones, 3, "limit_max");
@@ -61,6 +64,9 @@ IkArrays IkSolve(const RigModel& rig, const ConstMatrixView& input_rotations, co
     if (excluded) CheckShape(*excluded, bones, 0, "excluded");
     if (stretch) CheckShape(*stretch, bones, 0, "stretch");
     if (scale_range) CheckShape(*scale_range, bones, 2, "scale_range");
+    if (soft) CheckShape(*soft, bones, 3, "soft");
+    if (stage) CheckShape(*stage, bones, 0, "stage");
+    if (mass) CheckShape(*mass, bones, 0, "mass");
     for (py::ssize_t b = 0; b < bones; ++b) {
       IkJoint& j = joints[static_cast<std::size_t>(b)];
       for (py::ssize_t k = 0; k < 3; ++k) {
@@ -69,7 +75,10 @@ IkArrays IkSolve(const RigModel& rig, const ConstMatrixView& input_rotations, co
         if (limit_max) j.max[i] = limit_max->at(b, k);
         if (locked) j.locked[static_cast<std::size_t>(k)] = locked->at(b, k);
         if (stiffness) j.stiffness[i] = stiffness->at(b, k);
+        if (soft) j.soft[static_cast<std::size_t>(k)] = soft->at(b, k);
       }
+      if (stage) j.stage = stage->at(b);
+      if (mass) j.mass = mass->at(b);
       if (excluded) j.excluded = excluded->at(b);
       if (stretch) j.stretch = stretch->at(b);
       if (scale_range) {
@@ -111,6 +120,10 @@ IkArrays IkSolve(const RigModel& rig, const ConstMatrixView& input_rotations, co
   job.options.warm_start = warm_start;
   job.options.threads = threads;
   job.options.size = size;
+  job.options.priorities = priorities;
+  job.options.balance = balance;
+  job.options.up = up;
+  job.options.balance_margin = balance_margin;
   ValidateAndRun(job);
   return IkArrays{rotations, root_locations, scales, errors, iterations};
 }
@@ -156,10 +169,12 @@ void BindIk(py::module_& m) {
         "limit_min"_a.noconvert() = py::none(), "limit_max"_a.noconvert() = py::none(),
         "locked"_a.noconvert() = py::none(), "stiffness"_a.noconvert() = py::none(),
         "excluded"_a.noconvert() = py::none(), "stretch"_a.noconvert() = py::none(),
-        "scale_range"_a.noconvert() = py::none(), "method"_a = "dls", "max_iterations"_a = 64,
+        "scale_range"_a.noconvert() = py::none(), "soft"_a.noconvert() = py::none(),
+        "stage"_a = py::none(), "mass"_a.noconvert() = py::none(), "method"_a = "dls", "max_iterations"_a = 64,
         "tolerance"_a = 1e-5, "max_step"_a = 0.3, "damping"_a = 0.0, "regularization"_a = 1e-4,
         "reference"_a = "previous", "orientation_scale"_a = 0.0, "root_translation"_a = false,
-        "root_rotation"_a = false, "warm_start"_a = true, "threads"_a = 0, "size"_a = 0.0,
+        "root_rotation"_a = false, "warm_start"_a = true, "threads"_a = 0, "size"_a = 0.0, "priorities"_a = true,
+        "balance"_a = false, "up"_a = Eigen::Vector3d(0.0, 0.0, 1.0), "balance_margin"_a = 0.0,
         R"pbdoc(
         Full-body inverse kinematics on a whole clip.
 
@@ -169,14 +184,24 @@ void BindIk(py::module_& m) {
         target_positions: (frames, 3e) armature space; target_orientations:
         (frames, 4e) w x y z, or (frames, 0) when no effector asks for one.
         effectors: a list of IkEffector; an effector is its bone's tail, a
-        pin holds where the frame's input pose has it (weighted like any
-        effector: pins and targets that cannot all be met share the error).
+        pin holds where the frame's input pose has it.
+        priorities (DLS): strict levels, each in the null space of those
+        above: pins, then balance, then targets, then the pull towards the
+        reference; off, pins are weighted like targets and share the error.
 
         Per bone (all optional): limit_min, limit_max float64 (b, 3) radians
         (swing x, twist y, swing z; Blender's ik_min/ik_max), locked bool
         (b, 3), stiffness float64 (b, 3) in [0, 1), excluded bool (b,),
         stretch float64 (b,) (0: rigid), scale_range float64 (b, 2) (min and
-        max length scale of a stretching bone).
+        max length scale of a stretching bone), soft bool (b, 3) (that
+        axis's limits widen to take in each frame's input), stage int32 (b,)
+        (recruitment: stage 0 first, each later stage joins, from the input,
+        only while a target stays out of reach), mass float64 (b,) (balance;
+        negative: the bone's length).
+        balance (with priorities and a pin): the centre of mass, projected
+        along `up` (armature space), stays inside the support polygon of the
+        pinned bones (heads and tails, theirs and their descendants'),
+        balance_margin in from its edges (0: 0.005 of the rig's size).
 
         method: "dls" (damped least squares), "pinv", "transpose" or "ccd".
         tolerance: armature units; max_step: radians per joint per iteration;

@@ -44,6 +44,16 @@ struct IkJoint {
   bool excluded = false;      // never moved by the solver
   double stretch = 0.0;       // 0: rigid; > 0: length may scale within [min_scale, max_scale]
   double min_scale = 1.0, max_scale = 1.0;
+  // Per axis: the limits widen on each frame to take in the input pose, so
+  // that default limits never move a joint the targets do not need to move.
+  std::array<bool, 3> soft{{false, false, false}};
+  // Recruitment (Jacobian methods): a frame is solved with the stage-0 joints
+  // alone; only while some target stays out of their reach are the stage-1
+  // joints freed as well (from the input pose), then stage 2, and so on.
+  int stage = 0;
+  // For the centre of mass (balance): the bone's mass, at its midpoint;
+  // negative: its length (a mass per unit length of 1).
+  double mass = -1.0;
 };
 
 struct IkEffector {
@@ -82,6 +92,18 @@ struct IkOptions {
   // Python) means std::thread::hardware_concurrency(), 1 stays on the calling
   // thread. The results are the same whatever the count.
   int threads = 0;
+  // Strict priorities (DLS; Baerlocher and Boulic 2004): pins, then balance,
+  // then targets, then the posture prior, each solved in the null space of
+  // the levels above it (a target out of reach never moves a pin). Off: every
+  // effector is weighted against every other.
+  bool priorities = true;
+  // Keep the centre of mass, projected along `up`, inside the support polygon
+  // of the pinned effectors' bones (the convex hull of their heads and tails
+  // and their descendants' tails), `balance_margin` in from its edges (0
+  // picks 0.005 of the rig's size). Needs priorities and a pin.
+  bool balance = false;
+  Eigen::Vector3d up = Eigen::Vector3d::UnitZ();  // armature space
+  double balance_margin = 0.0;
 };
 
 // Inputs (caller-owned):
@@ -92,6 +114,8 @@ struct IkOptions {
 // Outputs: rotations frames x 4B, root_locations frames x 3, scales frames x B
 // (length scale per bone, 1 unless stretched), errors frames x E (position
 // error of each effector after the solve, armature units), iterations frames.
+// With priorities, pins are met to 1e-7 of the rig's size (or the tolerance,
+// if smaller), whatever else cannot be.
 struct IkClipJob {
   IkClipJob(const RigModel& rig_in, ConstMatrixView input_rotations_in, ConstMatrixView input_locations_in,
             ConstMatrixView target_positions_in, ConstMatrixView target_orientations_in,

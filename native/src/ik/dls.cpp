@@ -19,7 +19,7 @@ bool Solver::Kick(double mu, Cost& cost) {
         if (!rig_.IsAncestor(joints_[j].bone, At(effectors_, e).bone)) continue;
         (At(met_, e) ? met : unmet) = true;
       }
-      kick_[j] = unmet && (pass == 1 || !met) && joints_[j].axis_count > 0;
+      kick_[j] = unmet && (pass == 1 || !met) && joints_[j].axis_count > 0 && joints_[j].stage <= stage_;
       any = any || kick_[j];
     }
   }
@@ -82,12 +82,16 @@ bool Solver::Kick(double mu, Cost& cost) {
 }
 
 
-int Solver::SolveJacobian() {
+int Solver::SolveJacobian(int budget) {
   Forward(current_, fk_);
   Cost cost = Evaluate(fk_, e_.data());
   const IkMethod method = options_.method;
   const bool dls = method == IkMethod::kDls, damped = method != IkMethod::kTranspose;
-  const int limit = options_.max_iterations;
+  // With priorities a few iterations are kept back for the pins' polish.
+  bool pinned = false;
+  for (const Effector& e : effectors_) pinned = pinned || e.pin;
+  const int reserve = priorities_ && pinned ? std::min(8, budget / 4) : 0;
+  const int limit = budget - reserve;
   int it = 0, kicks = 0;
   double damp2 = 0.0, nu = 2.0;  // the damping term (lambda^2, or the pseudo-inverse's eps) and its growth
   bend_weight_ = 0.0;
@@ -95,7 +99,7 @@ int Solver::SolveJacobian() {
   // trial that produced it.
   bool have_rho = false;
   double regulariser = 0.0, trial_regulariser = 0.0;
-  while (cost.worst > tolerance_ && it < limit) {
+  while (Unmet(cost) && it < limit) {
     // The regulariser steers while the targets are far and fades as they are
     // met, so that a reachable target is reached rather than traded for it.
     const double fade = std::min(1.0, cost.worst / (1e-2 * size_));
@@ -116,7 +120,7 @@ int Solver::SolveJacobian() {
     }
     damp2 = std::max(damp2, floor2);
     FindBounds();
-    bool have_direction = false, accepted = false, stalled = false, broken = false;
+    bool have_direction = false, accepted = false, stalled = false, broken = false, pins_first = false;
     double fraction = 1.0, next_merit = 0.0;
     Cost next;
     while (it < limit) {
@@ -157,7 +161,10 @@ int Solver::SolveJacobian() {
       if (damped) {
         MultiplyA(u_.data(), h_.data());
         double model = 0.0;
-        for (int i = 0; i < rows_; ++i) model += (At(e_, i) - At(h_, i)) * (At(e_, i) - At(h_, i));
+        for (int i = 0; i < rows_; ++i) {
+          if (priorities_ && At(pin_row_, i)) continue;  // the pins are judged apart
+          model += (At(e_, i) - At(h_, i)) * (At(e_, i) - At(h_, i));
+        }
         if (mu > 0.0) {
           for (int j = 0; j < cols_; ++j) {
             const Column& c = columns_[static_cast<std::size_t>(j)];
@@ -186,9 +193,19 @@ int Solver::SolveJacobian() {
         broken = true;
         break;
       }
-      if (next_merit < merit) {
+      // With priorities the pins come first: while they are off by more than
+      // the budget a step must bring them closer; within it, it must keep them
+      // there and lower the rest (curvature takes a step's pins a little off;
+      // the next step's level 1 and the polish bring them back).
+      bool better = next_merit < merit;
+      if (priorities_) {
+        const double slack = std::max(pin_tolerance_, 1e-2 * size_);
+        pins_first = cost.pins > slack;
+        better = pins_first ? next.pins < cost.pins : next.pins <= slack && next_merit < merit;
+      }
+      if (better) {
         accepted = true;
-        if (damped) {  // Nielsen's update
+        if (damped && !pins_first) {  // Nielsen's update
           const double gain = predicted > 0.0 ? (merit - next_merit) / predicted : 1.0;
           const double t = 2.0 * gain - 1.0;
           damp2 = std::max(floor2, damp2 * std::max(1.0 / 3.0, 1.0 - t * t * t));
@@ -226,7 +243,22 @@ int Solver::SolveJacobian() {
       }
       have_rho = mu > 0.0;
       // A minimum that does not meet the targets: the cost no longer falls.
-      if (merit - next_merit <= (dls ? kStationary : kCreeping) * merit) break;
+      if (!pins_first && merit - next_merit <= (dls ? kStationary : kCreeping) * merit) {
+        // With priorities a singular chain (a straight arm asked to fold)
+        // stands still instead of failing its steps: bend it as a stall would.
+        if (priorities_ && kicks < 2 && it < limit && cost.worst > tolerance_) {
+          ++it;
+          ++kicks;
+          if (Kick(mu, cost)) {
+            have_rho = false;
+            damp2 = 0.0;
+            nu = 2.0;
+            bend_weight_ = 0.0;
+            continue;
+          }
+        }
+        break;
+      }
       continue;
     }
     if (stalled && kicks < 2 && it < limit) {
@@ -242,6 +274,31 @@ int Solver::SolveJacobian() {
     }
     break;
   }
+  if (priorities_ && cost.pins > pin_tolerance_) it += PolishPins(cost, budget - it);
+  return it;
+}
+
+int Solver::PolishPins(Cost& cost, int budget) {
+  int it = 0;
+  pins_only_ = true;
+  bend_weight_ = 0.0;
+  while (cost.pins > pin_tolerance_ && it < budget) {
+    ++it;
+    BuildJacobian(fk_);
+    FindBounds();
+    bool ok = Direction(lambda_ * lambda_, 0.0);
+    while (ok && Freeze(u_.data())) ok = Direction(lambda_ * lambda_, 0.0);
+    if (!ok) break;
+    Apply(current_, u_.data(), trial_);
+    Forward(trial_, trial_fk_);
+    const Cost next = Evaluate(trial_fk_, r_.data());
+    if (!(next.pins < cost.pins)) break;
+    std::swap(current_, trial_);
+    std::swap(fk_, trial_fk_);
+    std::swap(e_, r_);
+    cost = next;
+  }
+  pins_only_ = false;
   return it;
 }
 

@@ -24,6 +24,17 @@ void Solver::StartFrame(Eigen::Index f) {
   bool pins = false;
   for (const Effector& e : effectors_) pins = pins || e.pin;
   if (pins) Forward(input_, fk_);
+  if (balance_) FindSupport();
+  // Soft limits take in this frame's input.
+  for (Joint& j : joints_) {
+    if (!(j.soft[0] || j.soft[1] || j.soft[2])) continue;
+    const Vec3 a = IkSwingTwist(At(input_.basis, j.bone));
+    for (int k = 0; k < 3; ++k) {
+      if (!j.soft[static_cast<std::size_t>(k)]) continue;
+      j.lo[k] = std::min(j.base_lo[k], a[k]);
+      j.hi[k] = std::max(j.base_hi[k], a[k]);
+    }
+  }
   for (int e = 0; e < effector_count_; ++e) {
     const Effector& ef = At(effectors_, e);
     if (ef.pin) {
@@ -70,8 +81,20 @@ void Solver::StartFrame(Eigen::Index f) {
     if (translate_) trial_.root = 2.0 * solution_.root - earlier_.root;
     Forward(current_, fk_);
     Forward(trial_, trial_fk_);
-    if (Evaluate(trial_fk_, r_.data()).task < Evaluate(fk_, e_.data()).task) {
+    const Cost extrapolated = Evaluate(trial_fk_, r_.data()), last = Evaluate(fk_, e_.data());
+    if (extrapolated.task + extrapolated.pin_task < last.task + last.pin_task) {
       std::swap(current_, trial_);
+    }
+    trial_ = current_;
+  }
+  // Recruitment: the later stages start from the input (the first stage holds them there).
+  if (stages_ > 1 && options_.method != IkMethod::kCcd) {
+    if (translate_ && columns_[0].stage > 0) current_.root = input_.root;
+    for (const Joint& j : joints_) {
+      if (j.stage == 0) continue;
+      At(current_.basis, j.bone) = At(input_.basis, j.bone);
+      At(current_.scale, j.bone) = 1.0;
+      ClampJoint(j, current_);
     }
     trial_ = current_;
   }
@@ -135,7 +158,7 @@ void Solver::Run(Eigen::Index first, Eigen::Index last) {
   first_ = first;
   for (Eigen::Index f = first; f < last; ++f) {
     StartFrame(f);
-    const int iterations = options_.method == IkMethod::kCcd ? SolveCcd() : SolveJacobian();
+    const int iterations = options_.method == IkMethod::kCcd ? SolveCcd() : SolveStaged();
     FinishFrame(f, iterations);
   }
 }

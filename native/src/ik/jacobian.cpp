@@ -74,6 +74,7 @@ void Solver::BuildJacobian(const Fk& fk) {
       }
     }
   }
+  if (balance_) BuildBalance(fk);
 }
 
 // The residuals' curvature per joint (DLS), at the pose the Jacobian was
@@ -113,6 +114,7 @@ void Solver::MultiplyA(const double* x, double* out) const {
       BlockTimes<6>(e.block.data(), e.columns.data(), n, x, out + e.row);
     }
   }
+  if (balance_) BlockTimes<3>(com_.block.data(), com_.columns.data(), com_.columns.size(), x, out + com_.row);
 }
 
 void Solver::MultiplyW(const double* x, double* out) const {
@@ -138,6 +140,9 @@ void Solver::MultiplyAt(const double* y, double* out) const {
     } else {
       BlockTransposeTimes<6>(e.block.data(), e.columns.data(), n, y + e.row, out);
     }
+  }
+  if (balance_) {
+    BlockTransposeTimes<3>(com_.block.data(), com_.columns.data(), com_.columns.size(), y + com_.row, out);
   }
 }
 
@@ -170,6 +175,36 @@ void Solver::Gram(bool weighted, double diagonal) {
           s_[static_cast<std::size_t>(i1 * m + i0)] = s;
         }
       }
+    }
+  }
+  if (!balance_) return;
+  // The centre of mass's rows span every column (its block is indexed by
+  // column): against an effector, a sum over that effector's columns.
+  const double* com = com_.block.data();
+  const double* wcom = weighted ? com_.wblock.data() : com;
+  const auto put = [&](int i0, int i1, double s) {
+    if (i0 == i1) s += diagonal;
+    s_[static_cast<std::size_t>(i0 * m + i1)] = s;
+    s_[static_cast<std::size_t>(i1 * m + i0)] = s;
+  };
+  for (const Effector& e : effectors_) {
+    const double* left = weighted ? e.wblock.data() : e.block.data();
+    const auto rows = static_cast<std::size_t>(e.rows);
+    for (std::size_t r = 0; r < rows; ++r) {
+      for (int k = 0; k < 3; ++k) {
+        double s = 0.0;
+        for (std::size_t i = 0; i < e.columns.size(); ++i) {
+          s += left[i * rows + r] * com[3 * static_cast<std::size_t>(e.columns[i]) + static_cast<std::size_t>(k)];
+        }
+        put(e.row + static_cast<int>(r), com_.row + k, s);
+      }
+    }
+  }
+  for (int a = 0; a < 3; ++a) {
+    for (int b = a; b < 3; ++b) {
+      double s = 0.0;
+      for (int c = 0; c < cols_; ++c) s += wcom[3 * c + a] * com[3 * c + b];
+      put(com_.row + a, com_.row + b, s);
     }
   }
 }
@@ -218,7 +253,9 @@ bool Solver::Direction(double lambda2, double mu) {
       MultiplyW(g_.data(), u0_.data());  // u0 = W b
       MultiplyA(u0_.data(), h_.data());
       for (int i = 0; i < rows_; ++i) At(y_, i) = At(e_, i) - At(h_, i);
-      for (Effector& e : effectors_) {
+      for (std::size_t ei = 0; ei <= effectors_.size(); ++ei) {
+        if (ei == effectors_.size() && !balance_) break;
+        Effector& e = ei < effectors_.size() ? effectors_[ei] : com_;
         const std::size_t n = e.columns.size();
         const auto rows = static_cast<std::size_t>(e.rows);
         if (!full_weight_) {
@@ -246,9 +283,14 @@ bool Solver::Direction(double lambda2, double mu) {
           }
         }
       }
-      Gram(true, 1.0);
-      if (!Cholesky(s_.data(), rows_)) return false;
-      CholeskySolve(s_.data(), rows_, y_.data());
+      if (priorities_) {
+        Gram(true, 0.0);
+        if (!SolveLevels()) return false;
+      } else {
+        Gram(true, 1.0);
+        if (!Cholesky(s_.data(), rows_)) return false;
+        CholeskySolve(s_.data(), rows_, y_.data());
+      }
       MultiplyAt(y_.data(), g_.data());
       MultiplyW(g_.data(), u_.data());
       for (int j = 0; j < cols_; ++j) At(u_, j) += At(u0_, j);

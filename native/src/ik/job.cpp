@@ -43,6 +43,12 @@ std::vector<std::vector<int>> IndependentGroups(const IkClipJob& job) {
       if (b == 0 && job.options.root_translation && !excluded(0)) claim(static_cast<std::size_t>(bones), e);
     }
   }
+  // Balance weighs the whole body against the pins: one problem.
+  bool pinned = false;
+  for (const IkEffector& e : job.effectors) pinned = pinned || e.pin;
+  if (job.options.balance && job.options.priorities && job.options.method == IkMethod::kDls && pinned) {
+    for (int e = 0; e < count; ++e) At(parent, find(e)) = find(0);
+  }
   std::vector<std::vector<int>> groups;
   std::vector<int> group_of(static_cast<std::size_t>(count), -1);
   for (int e = 0; e < count; ++e) {
@@ -107,6 +113,10 @@ Status IkClipJob::Validate() const {
   if (!(std::isfinite(o.orientation_scale) && o.orientation_scale >= 0)) {
     return fail("orientation_scale must be finite and >= 0");
   }
+  if (!(o.up.allFinite() && o.up.norm() > 1e-12)) return fail("up must be a finite, non-zero direction");
+  if (!(std::isfinite(o.balance_margin) && o.balance_margin >= 0)) {
+    return fail("balance_margin must be finite and >= 0");
+  }
   for (std::size_t i = 0; i < effectors.size(); ++i) {
     const IkEffector& e = effectors[i];
     const std::string name = EffectorName(e, i);
@@ -139,6 +149,8 @@ Status IkClipJob::Validate() const {
       return fail(name + ": the limits leave no rotation (twist within [-pi, pi], swing at most pi)");
     }
     if (!(std::isfinite(j.stretch) && j.stretch >= 0)) return fail(name + ": stretch must be finite and >= 0");
+    if (j.stage < 0) return fail(name + ": the stage must be 0 or more");
+    if (!std::isfinite(j.mass)) return fail(name + ": the mass must be finite (negative: from its length)");
     if (j.stretch > 0 && !(std::isfinite(j.min_scale) && std::isfinite(j.max_scale) && j.min_scale > 0 &&
                            j.min_scale <= j.max_scale)) {
       return fail(name + ": the scale range must be positive, finite and ordered");

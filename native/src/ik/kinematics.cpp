@@ -16,6 +16,7 @@ Solver::Fk Solver::MakeFk() const {
   fk.global.assign(static_cast<std::size_t>(bones_), Quat::Identity());
   fk.head.assign(static_cast<std::size_t>(bones_), Vec3::Zero());
   fk.tip.assign(static_cast<std::size_t>(effector_count_), Vec3::Zero());
+  fk.moment.assign(static_cast<std::size_t>(bones_), Vec3::Zero());
   return fk;
 }
 
@@ -40,6 +41,22 @@ void Solver::Forward(const Pose& pose, Fk& fk) const {
     const int b = At(effectors_, e).bone;
     At(fk.tip, e) = At(fk.head, b) + At(fk.global, b) * Vec3(0.0, At(pose.scale, b) * rig_.length(b), 0.0);
   }
+  if (!balance_) return;
+  // Each bone's mass at its midpoint, summed up the tree (parents come first).
+  for (int b = 0; b < bones_; ++b) {
+    const Vec3 half = At(fk.global, b) * Vec3(0.0, 0.5 * At(pose.scale, b) * rig_.length(b), 0.0);
+    At(fk.moment, b) = At(mass_, b) * (At(fk.head, b) + half);
+  }
+  Vec3 sum = Vec3::Zero();
+  for (int b = bones_ - 1; b >= 0; --b) {
+    const int p = rig_.parent(b);
+    if (p >= 0) {
+      At(fk.moment, p) += At(fk.moment, b);
+    } else {
+      sum += At(fk.moment, b);
+    }
+  }
+  fk.com = sum / total_mass_;
 }
 
 double Solver::EffectorError(int e, const Fk& fk, bool position_only) const {
@@ -73,8 +90,21 @@ Solver::Cost Solver::Evaluate(const Fk& fk, double* residual) const {
       out = (ef.sqrt_weight * ls_) * w;
     }
     const double weighted = ef.sqrt_weight * ef.sqrt_weight;
-    cost.task += weighted * (position * position + orientation * orientation);
-    cost.worst = std::max({cost.worst, position, orientation});
+    (ef.pin && priorities_ ? cost.pin_task : cost.task) += weighted * (position * position + orientation * orientation);
+    (ef.pin ? cost.pins : cost.worst) = std::max({ef.pin ? cost.pins : cost.worst, position, orientation});
+  }
+  if (balance_) {
+    // Zero rows while the centre of mass is inside: the level is then left out.
+    Eigen::Map<Vec3> out(residual + com_.row);
+    Vec3 target;
+    if (BalanceTarget(fk.com, target)) {
+      const Vec3 d = target - fk.com;
+      out = com_.sqrt_weight * d;
+      cost.task += com_.sqrt_weight * com_.sqrt_weight * d.squaredNorm();
+      cost.worst = std::max(cost.worst, d.norm());
+    } else {
+      out.setZero();
+    }
   }
   if (!std::isfinite(cost.task)) cost.worst = kInf;
   return cost;

@@ -50,6 +50,26 @@ void Solver::FindBounds() {
   for (std::size_t jo = 0; jo < joints_.size(); ++jo) {
     if (joints_[jo].limited) coordinates_[jo] = IkSwingTwist(At(current_.basis, joints_[jo].bone));
   }
+  if (stages_ < 2) return;
+  // Recruitment: the later stages' columns are held (and drop out of A).
+  bool any = false;
+  for (int c = 0; c < cols_; ++c) {
+    At(frozen_, c) = columns_[static_cast<std::size_t>(c)].stage > stage_;
+    any = any || At(frozen_, c);
+  }
+  if (any) ZeroHeldColumns();
+}
+
+void Solver::ZeroHeldColumns() {
+  for (std::size_t ei = 0; ei <= effectors_.size(); ++ei) {
+    if (ei == effectors_.size() && !balance_) break;
+    Effector& e = ei < effectors_.size() ? effectors_[ei] : com_;
+    const std::size_t n = e.columns.size(), rows = static_cast<std::size_t>(e.rows);
+    for (std::size_t i = 0; i < n; ++i) {
+      if (!At(frozen_, e.columns[i])) continue;
+      for (std::size_t r = 0; r < rows; ++r) e.block[i * rows + r] = 0.0;
+    }
+  }
 }
 
 // Holds the unknowns that sit on a bound the step `u` would push them past
@@ -79,13 +99,7 @@ bool Solver::Freeze(const double* u) {
     }
   }
   if (!any) return false;
-  for (Effector& e : effectors_) {
-    const std::size_t n = e.columns.size();
-    for (std::size_t i = 0; i < n; ++i) {
-      if (!At(frozen_, e.columns[i])) continue;
-      for (int r = 0; r < e.rows; ++r) e.block[i * static_cast<std::size_t>(e.rows) + static_cast<std::size_t>(r)] = 0.0;
-    }
-  }
+  ZeroHeldColumns();
   return true;
 }
 

@@ -20,8 +20,13 @@ Solver::Solver(IkClipJob& job, std::vector<int> ids, int* iterations)
   ls_ = options_.orientation_scale > 0 ? options_.orientation_scale : 0.1 * size_;
   mu_ = options_.regularization;
   tolerance_ = options_.tolerance;
+  priorities_ = options_.priorities && options_.method == IkMethod::kDls;
+  pin_tolerance_ = priorities_ ? std::min(tolerance_, 1e-7 * size_) : tolerance_;
+  bool pinned = false;
+  for (int id : ids_) pinned = pinned || At(job.effectors, id).pin;
+  balance_ = priorities_ && options_.balance && pinned;
 
-  std::vector<char> need(static_cast<std::size_t>(bones_), 0);
+  std::vector<char> need(static_cast<std::size_t>(bones_), balance_ ? 1 : 0);  // balance weighs every bone
   for (int id : ids_) {
     for (int b = At(job.effectors, id).bone; b >= 0; b = rig_.parent(b)) At(need, b) = 1;
   }
@@ -35,7 +40,9 @@ Solver::Solver(IkClipJob& job, std::vector<int> ids, int* iterations)
     At(moves, b) = At(joint_of_, b) >= 0 || (p >= 0 ? At(moves, p) : b == 0 && translate_);
     (At(moves, b) ? moving_ : fixed_).push_back(b);
   }
+  stage_ = stages_ - 1;
   PlanEffectors();
+  PlanBalance();
   PlanCcd();
 
   input_ = MakePose();
@@ -57,6 +64,19 @@ Solver::Solver(IkClipJob& job, std::vector<int> ids, int* iterations)
   for (auto* v : {&axes_, &bend_world_, &bend_, &weight_}) v->assign(joints_.size(), Eigen::Matrix3d::Zero());
   met_.assign(static_cast<std::size_t>(effector_count_), 0);
   frozen_.assign(cols, 0);
+  staged_out_.assign(cols, 0);
+  fk_.moment.assign(static_cast<std::size_t>(bones_), Vec3::Zero());
+  trial_fk_.moment = fk_.moment;
+  level_rows_.assign(rows, 0);
+  pin_row_.assign(rows, 0);
+  for (const Effector& e : effectors_) {
+    for (int k = 0; k < e.rows; ++k) pin_row_[static_cast<std::size_t>(e.row + k)] = e.pin ? 1 : 0;
+  }
+  held_rows_.assign(rows, 0);
+  level_a_.assign(rows * rows, 0.0);
+  level_x_.assign(rows * rows, 0.0);
+  level_t_.assign(rows * rows, 0.0);
+  level_r_.assign(2 * rows, 0.0);
   const auto points = static_cast<std::size_t>(3 + effector_count_);
   ccd_points_.assign(points, Vec3::Zero());
   ccd_targets_.assign(points, Vec3::Zero());
@@ -72,18 +92,23 @@ void Solver::PlanJoints() {
   const bool root_needed = !needed_.empty() && needed_.front() == 0;
   translate_ = options_.root_translation && root_needed && !limits_of(0).excluded;
   if (translate_) {
-    for (int k = 0; k < 3; ++k) columns_.push_back({Kind::kTranslate, -1, k, 1.0, 1.0 / (ls_ * ls_)});
+    for (int k = 0; k < 3; ++k) {
+      columns_.push_back({Kind::kTranslate, -1, k, 1.0, 1.0 / (ls_ * ls_), std::max(0, limits_of(0).stage)});
+    }
   }
   for (int b : needed_) {
     const IkJoint limits = limits_of(b);
     if (limits.excluded || (b == 0 && !options_.root_rotation)) continue;
     Joint j;
     j.bone = b;
+    j.stage = std::max(0, limits.stage);
+    stages_ = std::max(stages_, j.stage + 1);
     j.first_column = static_cast<int>(columns_.size());
     for (int k = 0; k < 3; ++k) {
       const bool locked = limits.locked[static_cast<std::size_t>(k)];
-      j.lo[k] = locked ? 0.0 : limits.min[k];
-      j.hi[k] = locked ? 0.0 : limits.max[k];
+      j.lo[k] = j.base_lo[k] = locked ? 0.0 : limits.min[k];
+      j.hi[k] = j.base_hi[k] = locked ? 0.0 : limits.max[k];
+      j.soft[static_cast<std::size_t>(k)] = limits.soft[static_cast<std::size_t>(k)] && !locked;
       // Swing components and the twist angle never leave [-pi, pi].
       if (j.lo[k] > -kPi || j.hi[k] < kPi) j.limited = true;
       j.free[static_cast<std::size_t>(k)] = !locked;
@@ -91,14 +116,14 @@ void Solver::PlanJoints() {
       const auto slot = static_cast<std::size_t>(j.axis_count++);
       j.axes[slot] = k;
       j.axis_scale[slot] = 1.0 - limits.stiffness[k];
-      columns_.push_back({Kind::kRotate, static_cast<int>(joints_.size()), k, j.axis_scale[slot]});
+      columns_.push_back({Kind::kRotate, static_cast<int>(joints_.size()), k, j.axis_scale[slot], 1.0, j.stage});
     }
     if (limits.stretch > 0.0) {
       j.stretch = limits.stretch;
       j.min_scale = limits.min_scale;
       j.max_scale = limits.max_scale;
       j.stretch_column = static_cast<int>(columns_.size());
-      columns_.push_back({Kind::kStretch, static_cast<int>(joints_.size()), 1, limits.stretch});
+      columns_.push_back({Kind::kStretch, static_cast<int>(joints_.size()), 1, limits.stretch, 1.0, j.stage});
     }
     At(joint_of_, b) = static_cast<int>(joints_.size());
     joints_.push_back(j);
@@ -116,7 +141,8 @@ void Solver::PlanEffectors() {
     e.position = in.position;
     e.orientation = in.orientation;
     e.pin = in.pin;
-    e.sqrt_weight = std::sqrt(in.weight);
+    e.sqrt_weight = std::sqrt(in.weight) * (priorities_ && in.pin ? kPinScale : 1.0);
+    e.level = in.pin ? 1 : 3;
     e.row = rows_;
     e.rows = (in.position ? 3 : 0) + (in.orientation ? 3 : 0);
     rows_ += e.rows;
@@ -158,6 +184,60 @@ void Solver::PlanEffectors() {
       a.prefix.push_back(static_cast<int>(c));
     }
   }
+}
+
+// The centre of mass's rows: every column, one segment per joint; the
+// bones' masses and their subtrees'; the support's bones; the horizontal axes.
+void Solver::PlanBalance() {
+  if (!balance_) return;
+  mass_.assign(static_cast<std::size_t>(bones_), 0.0);
+  subtree_mass_.assign(static_cast<std::size_t>(bones_), 0.0);
+  for (int b = 0; b < bones_; ++b) {
+    const double given = job_.joints.empty() ? -1.0 : At(job_.joints, b).mass;
+    At(mass_, b) = given >= 0.0 ? given : rig_.length(b);
+  }
+  for (int b = bones_ - 1; b >= 0; --b) {
+    At(subtree_mass_, b) += At(mass_, b);
+    if (rig_.parent(b) >= 0) At(subtree_mass_, rig_.parent(b)) += At(subtree_mass_, b);
+  }
+  for (int b = 0; b < bones_; ++b) {
+    if (rig_.parent(b) < 0) total_mass_ += At(subtree_mass_, b);
+  }
+  if (!(total_mass_ > 0.0)) {
+    balance_ = false;
+    return;
+  }
+  up_ = options_.up.normalized();
+  side_ = up_.unitOrthogonal();
+  ahead_ = up_.cross(side_);
+  margin_ = options_.balance_margin > 0.0 ? options_.balance_margin : 0.005 * size_;
+  for (int b = 0; b < bones_; ++b) {
+    for (const Effector& e : effectors_) {
+      if (e.pin && rig_.IsAncestor(e.bone, b)) {
+        support_bones_.push_back(b);
+        break;
+      }
+    }
+  }
+  support_.assign(2 * support_bones_.size() + 1, Eigen::Vector2d::Zero());
+  inner_.assign(2 * support_bones_.size() + 1, Eigen::Vector2d::Zero());
+  com_.bone = -1;
+  com_.level = 2;
+  com_.row = rows_;
+  com_.rows = 3;
+  com_.sqrt_weight = kBalanceScale;
+  rows_ += 3;
+  for (int c = 0; c < cols_; ++c) {
+    const Column& column = columns_[static_cast<std::size_t>(c)];
+    if (column.kind != Kind::kRotate || column.axis == At(joints_, column.joint).axes[0]) {
+      const int jo = column.kind == Kind::kRotate ? column.joint : -1;
+      com_.segments.push_back({c, jo >= 0 ? At(joints_, jo).axis_count : 1, jo});
+    }
+    com_.columns.push_back(c);
+    com_.levers.push_back(0.0);
+  }
+  com_.block.assign(3 * static_cast<std::size_t>(cols_), 0.0);
+  com_.wblock = com_.block;
 }
 
 void Solver::PlanCcd() {

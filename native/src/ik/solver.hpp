@@ -53,6 +53,12 @@ constexpr double kStationary = 1e-9;
 // The transpose and the pseudo-inverse (without the curvature term, which lets
 // DLS settle at once) creep by small fractions: only a standstill ends them.
 constexpr double kCreeping = 1e-13;
+// With priorities, the levels' rows are scaled so that the merit a step must
+// lower ranks them as the priorities do (a pin's error costs a million times a
+// target's, the balance's ten thousand times), and so that the effector-space
+// damping, the same for every level, is negligible for pins and balance.
+constexpr double kPinScale = 10;
+constexpr double kBalanceScale = 1e2;
 
 template <class T>
 T& At(std::vector<T>& v, int i) {
@@ -196,6 +202,7 @@ class Solver {
     // How DLS's damping and regulariser weigh a unit of it: 1, or 1 / ls^2
     // for the root's translation (a move of ls counts as a turn of a radian).
     double metric = 1.0;
+    int stage = 0;  // recruitment stage (IkJoint::stage)
   };
   // A solved bone.
   struct Joint {
@@ -210,6 +217,10 @@ class Solver {
     double min_scale = 1.0, max_scale = 1.0;
     bool limited = false;
     Vec3 lo = Vec3::Constant(-kInf), hi = Vec3::Constant(kInf);
+    // The limits as given; lo and hi widen to the frame's input on soft axes.
+    Vec3 base_lo = Vec3::Constant(-kInf), base_hi = Vec3::Constant(kInf);
+    std::array<bool, 3> soft{{false, false, false}};
+    int stage = 0;
   };
   // One joint of an effector's CCD chain. A body link turns the rest of the
   // body about the joint instead of the bone (the chain runs through the
@@ -226,9 +237,10 @@ class Solver {
     int start = 0, count = 1, joint = -1;
   };
   struct Effector {
-    int bone = -1;
+    int bone = -1;  // -1: the centre of mass (balance)
     int row = 0, rows = 0;
     bool position = true, orientation = false, pin = false;
+    int level = 3;  // 1 pins, 2 balance, 3 targets
     double sqrt_weight = 1.0;
     std::vector<int> columns;    // its path's columns, root first
     std::vector<double> levers;  // per column (stretch columns)
@@ -248,10 +260,16 @@ class Solver {
     std::vector<Quat> global;
     std::vector<Vec3> head;
     std::vector<Vec3> tip;  // per effector
+    // Balance: per bone, mass times position summed over its subtree; the
+    // centre of mass.
+    std::vector<Vec3> moment;
+    Vec3 com = Vec3::Zero();
   };
   struct Cost {
     double task = 0.0;   // weighted squared residuals
-    double worst = 0.0;  // largest effector error, armature units
+    double worst = 0.0;  // largest error of a target or the balance, armature units
+    double pins = 0.0;   // largest pin error
+    double pin_task = 0.0;  // with priorities, the pins' weighted squared residuals (not in task)
   };
 
   void PlanJoints();
@@ -283,10 +301,28 @@ class Solver {
   bool Kick(double mu, Cost& cost);
   void FindBounds();
   bool Freeze(const double* u);
+  void ZeroHeldColumns();  // held columns (frozen_) drop out of every block
   Vec3 BestRotation(int count, const Vec3& pivot) const;
 
   void StartFrame(Eigen::Index f);
-  int SolveJacobian();
+  int SolveJacobian(int budget);  // at most budget iterations
+  // Runs SolveJacobian stage by stage (recruitment) until the targets are met.
+  int SolveStaged();
+  bool Unmet(const Cost& cost) const { return cost.worst > tolerance_ || cost.pins > pin_tolerance_; }
+  // Strict priorities: y such that u = u0 + W A^T y meets the levels in
+  // order, from s_ = A W A^T and the right-hand side in y_ (e - A u0).
+  bool SolveLevels();
+  // With priorities, after the loop: Gauss-Newton steps on the pins alone
+  // until they are met to pin_tolerance_ (curvature leaves them a little off).
+  int PolishPins(Cost& cost, int budget);
+  bool pins_only_ = false;      // SolveLevels stops after level 1
+  std::vector<char> pin_row_;   // per row: a pin's
+  // Balance: the support polygon of the frame (StartFrame), and where the
+  // centre of mass should go (false: it is inside, `margin_` from the edges).
+  void FindSupport();
+  bool BalanceTarget(const Vec3& com, Vec3& target) const;
+  void BuildBalance(const Fk& fk);  // the centre of mass's block (BuildJacobian)
+  void PlanBalance();
   int SolveCcd();
   void CcdPass(int e);
   void FinishFrame(Eigen::Index f, int iterations);
@@ -299,6 +335,23 @@ class Solver {
   int bones_ = 0, effector_count_ = 0;
   double size_ = 1.0, lambda_ = 0.0, mu_ = 0.0, ls_ = 0.0, tolerance_ = 0.0;
   bool translate_ = false;  // bone 0's head is an unknown
+  bool priorities_ = false;  // DLS with strict priority levels
+  bool balance_ = false;     // the centre of mass is a level-2 task
+  double pin_tolerance_ = 0.0;
+  int stages_ = 1, stage_ = 0;  // recruitment stages, and the one being solved
+  Effector com_;                // balance's rows (bone -1), every column
+  std::vector<double> mass_;    // per bone (balance)
+  double total_mass_ = 0.0;
+  std::vector<double> subtree_mass_;
+  Vec3 up_ = Vec3::UnitZ(), side_ = Vec3::UnitX(), ahead_ = Vec3::UnitY();  // up, and two horizontal axes
+  double margin_ = 0.0;
+  int hull_count_ = 0, inner_count_ = 0;
+  std::vector<int> support_bones_;          // pinned bones and their descendants
+  std::vector<Eigen::Vector2d> support_;    // scratch: the support points, then their hull
+  std::vector<Eigen::Vector2d> inner_;      // the hull moved in by margin_ (one point when too thin)
+  // Levels' scratch (SolveLevels).
+  std::vector<int> level_rows_, held_rows_;
+  std::vector<double> level_a_, level_x_, level_t_, level_r_;
   bool body_ = false;       // CCD may carry the body through the root
 
   std::vector<int> needed_;    // bones FK visits: the effectors' ancestors, parents first
@@ -334,6 +387,7 @@ class Solver {
   // that the step would push past. Per column, and each limited joint's
   // coordinates (swing x, twist, swing z) at the iteration's start.
   std::vector<char> frozen_;
+  std::vector<char> staged_out_;  // per column: held this stage (recruitment)
   std::vector<Vec3> coordinates_;
   std::vector<char> met_, kick_;
   // CCD's points: the effector's own (up to three), then the pins a body link carries.

@@ -1,0 +1,98 @@
+// Strict priorities (Baerlocher and Boulic 2004) in effector space, and recruitment by stages.
+#include "solver.hpp"
+
+namespace motionkit::ik_internal {
+
+// Levels in order (1 pins, 2 balance while it is violated, 3 targets), each
+// solved, damped, in the null space of the levels above: with A the rows
+// already met and R the level's, P = W - W A^T (A W A^T)^-1 A W projects onto
+// what leaves A where it is, and the level's increment P J_R^T z is, in the
+// rows' coordinates y (u = u0 + W J^T y), z on R and -S_AA^-1 S_AR z on A,
+// with (S_RR - S_RA S_AA^-1 S_AR + I) z = r_R, S = J W J^T. So the system
+// stays as small as the effectors' rows, and the posture prior (u0) lies
+// below every level: whatever it moves, the levels undo first.
+bool Solver::SolveLevels() {
+  const int m = rows_;
+  const auto at = [m](int i, int j) { return static_cast<std::size_t>(i * m + j); };
+  double* r = level_r_.data();
+  double* t = level_r_.data() + m;
+  std::copy(y_.begin(), y_.end(), t);
+  std::fill(y_.begin(), y_.end(), 0.0);
+  bool violated = false;
+  for (int k = 0; balance_ && k < 3; ++k) violated = violated || At(e_, com_.row + k) != 0.0;
+  int held = 0;
+  for (int level = 1; level <= 3; ++level) {
+    int count = 0;
+    for (const Effector& e : effectors_) {
+      if (e.level != level) continue;
+      for (int k = 0; k < e.rows; ++k) At(level_rows_, count++) = e.row + k;
+    }
+    if (level == 2 && violated) {
+      for (int k = 0; k < 3; ++k) At(level_rows_, count++) = com_.row + k;
+    }
+    if (count == 0) continue;
+    if (pins_only_ && level > 1) break;
+    for (int i = 0; i < count; ++i) {
+      const int row = At(level_rows_, i);
+      double v = t[row];
+      for (int a = 0; a < held; ++a) v -= s_[at(row, At(held_rows_, a))] * At(y_, At(held_rows_, a));
+      r[i] = v;
+    }
+    double* tt = level_t_.data();
+    for (int i = 0; i < count; ++i) {
+      for (int j = 0; j < count; ++j) tt[i * count + j] = s_[at(At(level_rows_, i), At(level_rows_, j))];
+    }
+    double* x = level_x_.data();  // count columns of held rows: S_AA^-1 S_AR
+    if (held > 0) {
+      double* saa = level_a_.data();
+      double largest = 0.0;
+      for (int a = 0; a < held; ++a) {
+        for (int b = 0; b < held; ++b) saa[a * held + b] = s_[at(At(held_rows_, a), At(held_rows_, b))];
+        largest = std::max(largest, saa[a * held + a]);
+      }
+      for (int a = 0; a < held; ++a) saa[a * held + a] += 1e-12 * largest + 1e-300;
+      if (!Cholesky(saa, held)) return false;
+      for (int j = 0; j < count; ++j) {
+        double* col = x + j * held;
+        for (int a = 0; a < held; ++a) col[a] = s_[at(At(held_rows_, a), At(level_rows_, j))];
+        CholeskySolve(saa, held, col);
+      }
+      for (int i = 0; i < count; ++i) {
+        for (int j = i; j < count; ++j) {
+          double v = 0.0;
+          for (int a = 0; a < held; ++a) v += s_[at(At(level_rows_, i), At(held_rows_, a))] * x[j * held + a];
+          tt[i * count + j] -= v;
+          if (j != i) tt[j * count + i] = tt[i * count + j];
+        }
+      }
+    }
+    for (int i = 0; i < count; ++i) tt[i * count + i] += 1.0;
+    if (!Cholesky(tt, count)) return false;
+    CholeskySolve(tt, count, r);
+    for (int i = 0; i < count; ++i) At(y_, At(level_rows_, i)) += r[i];
+    for (int a = 0; a < held; ++a) {
+      double v = 0.0;
+      for (int j = 0; j < count; ++j) v += x[j * held + a] * r[j];
+      At(y_, At(held_rows_, a)) -= v;
+    }
+    for (int i = 0; i < count; ++i) At(held_rows_, held++) = At(level_rows_, i);
+  }
+  return true;
+}
+
+// Recruitment: the joints of stage 0 first; while a target (or the balance)
+// stays unmet, the next stage's joints join, from where the input has them,
+// so that a reachable target never moves the later stages.
+int Solver::SolveStaged() {
+  int iterations = 0;
+  for (stage_ = 0; stage_ < stages_; ++stage_) {
+    iterations += SolveJacobian(options_.max_iterations - iterations);
+    Forward(current_, fk_);
+    const Cost cost = Evaluate(fk_, e_.data());
+    if (cost.worst <= tolerance_) break;
+  }
+  stage_ = stages_ - 1;
+  return iterations;
+}
+
+}  // namespace motionkit::ik_internal
