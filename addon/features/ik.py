@@ -17,7 +17,7 @@ import bpy
 import numpy as np
 
 from ..blender import animdata, pose_channels
-from ..core import native_state, rotation_channels
+from ..core import bone_mapping, ik_defaults, native_state, rotation_channels
 
 METHODS = (
     ("dls", "Damped LS", "Damped least squares: robust near singular poses; regularised towards the previous "
@@ -171,12 +171,15 @@ class Plan:
     root_locations: np.ndarray  # (frames, 3)
     moved: np.ndarray           # (B,) bool: bones whose rotation the solve changed
     result: Result
+    joints: dict | None = None  # the per-bone settings the solver took (natural defaults merged), over bones
+    balance: bool = False       # the centre of mass was kept over the pinned feet
 
 
 def plan(obj, effectors, frame_range=None, method: str = "dls", *, root_translation: bool = True,
          root_rotation: bool = True, max_iterations: int = 64, tolerance: float | None = None,
          damping: float = 0.0, regularization: float = 1e-4, use_limits: bool = True,
-         reference: str = "previous", alongside=None) -> Plan:
+         reference: str = "previous", priorities: bool = True, natural="auto", balance=None,
+         defaults=None, alongside=None) -> Plan:
     """Solve without touching the file (see solve). alongside: a callable run on this thread while the
     native solve runs on another (Blender's data may only be touched from this one)."""
     native = native_state.native()
@@ -202,7 +205,14 @@ def plan(obj, effectors, frame_range=None, method: str = "dls", *, root_translat
     rest = np.empty(6 * len(all_bones), dtype=np.float32)  # every head, then every tail
     obj.data.bones.foreach_get("head_local", rest[:3 * len(all_bones)])
     obj.data.bones.foreach_get("tail_local", rest[3 * len(all_bones):])
+    natural_joints = _natural(obj, all_names, rest, natural, defaults)
+    if balance is None:  # on when a humanoid's feet are pinned
+        balance = natural_joints is not None and any(
+            e.pin and natural_joints.part[all_names.index(e.bone)] in ("foot", "shin") for e in effectors)
+    balance = bool(balance) and priorities and method == "dls" and any(e.pin for e in effectors)
     body = _body_root(obj, all_bones, all_names, part, rest)
+    if balance:  # the centre of mass weighs every bone of the body
+        part = sorted(set(part) | {i for i, b in enumerate(all_bones) if _is_below(b, all_bones[body])})
     above = [all_bones[i] for i in part if i < body and all_bones[i] in pose_channels.ancestors(all_bones[body])]
     if above:  # a floor root over the hips: solve the hips' subtree in its parent's posed frame
         part = [i for i in part if i >= body and _is_below(all_bones[i], all_bones[body])]
@@ -229,8 +239,13 @@ def plan(obj, effectors, frame_range=None, method: str = "dls", *, root_translat
         positions, orientations = _into_parent_frame(obj, above, frames, action if frame_range is not None else None,
                                                      positions, orientations)
     options = joint_limits(obj, bones) if use_limits else {}
+    if natural_joints is not None:
+        options = _with_defaults(options, natural_joints, [all_names.index(n) for n in names], len(names))
     if any(e.chain_count > 0 for e in effectors):
         options["excluded"] = _outside_chains(bones, names, effectors)
+    up = np.linalg.inv(np.array(obj.matrix_world)[:3, :3]) @ np.array([0.0, 0.0, 1.0])
+    if above:  # into the hips' parent's frame (its turn about up, a floor root's facing, keeps up)
+        up = rotation_channels.rotate(rotation_channels.conjugate(_parent_rest(obj, above)), up)
 
     def run():
         with native_state.blender_frames(frames):
@@ -242,7 +257,8 @@ def plan(obj, effectors, frame_range=None, method: str = "dls", *, root_translat
                 method=method, max_iterations=max_iterations,
                 tolerance=float(tolerance if tolerance is not None else 1e-5 * height),
                 damping=damping, regularization=regularization, reference=reference,
-                root_translation=root_translation, root_rotation=root_rotation, size=size, **options)
+                root_translation=root_translation, root_rotation=root_rotation, size=size,
+                priorities=priorities, balance=balance, up=up / np.linalg.norm(up), **options)
 
     if alongside is None:
         solved = run()
@@ -267,7 +283,8 @@ def plan(obj, effectors, frame_range=None, method: str = "dls", *, root_translat
     if root_translation:
         moved[0] = True
     result = Result(frames, solved.errors, solved.iterations, [names[i] for i in np.flatnonzero(moved)])
-    return Plan(obj, bones, frames, rotations, solved.root_locations, moved, result)
+    return Plan(obj, bones, frames, rotations, solved.root_locations, moved, result,
+                options if natural_joints is not None or balance else None, balance)
 
 
 def _ancestors(bones, names, starts) -> set:
@@ -286,23 +303,91 @@ def _is_below(bone, top) -> bool:
     return bone == top or top in pose_channels.ancestors(bone)
 
 
-_FLOOR_ROOTED: dict = {}  # rest signature -> the hips' name under a floor root, or None
+_LABELS: dict = {}  # rest signature -> the bone map's labels
+
+
+def _labels(obj, all_names, rest) -> bone_mapping.Body:
+    """MotionKit's bone map of the armature. Classifying takes milliseconds on a large rig: the answer
+    is kept per rest pose, so that the live re-solve does not pay it on every update."""
+    key = (tuple(all_names), rest.tobytes())
+    if key not in _LABELS:
+        if len(_LABELS) > 64:
+            _LABELS.clear()
+        _LABELS[key] = bone_mapping.classify(pose_channels.mapping_rig(obj))
+    return _LABELS[key]
 
 
 def _floor_rooted_hips(obj, all_names, rest) -> str | None:
-    """The hips' name when the top bone is a game rig's floor root (MotionKit's bone map), else None.
-    Classifying takes milliseconds on a large rig: the answer is kept per rest pose, so that the live
-    re-solve does not pay it on every update."""
-    key = (tuple(all_names), rest.tobytes())
-    if key not in _FLOOR_ROOTED:
-        from . import retargeting
-        from ..core import bone_mapping
-        labels = bone_mapping.classify(retargeting.mapping_rig(obj))
-        found = labels.root is not None and labels.root == all_names[0] and labels.hips in all_names
-        if len(_FLOOR_ROOTED) > 64:
-            _FLOOR_ROOTED.clear()
-        _FLOOR_ROOTED[key] = labels.hips if found else None
-    return _FLOOR_ROOTED[key]
+    """The hips' name when the top bone is a game rig's floor root (MotionKit's bone map), else None."""
+    labels = _labels(obj, all_names, rest)
+    found = labels.root is not None and labels.root == all_names[0] and labels.hips in all_names
+    return labels.hips if found else None
+
+
+def natural_defaults(obj, settings=None):
+    """The natural defaults MotionKit would use on this armature (core.ik_defaults.Joints, over its bones
+    in depth-first order), or None when the bone map does not recognise a humanoid. settings: a
+    core.ik_defaults.NaturalDefaults or a dict of its fields, to see what edited settings give."""
+    all_names = [b.name for b in pose_channels.depth_first(obj.data)]
+    rest = np.empty(6 * len(all_names), dtype=np.float32)
+    obj.data.bones.foreach_get("head_local", rest[:3 * len(all_names)])
+    obj.data.bones.foreach_get("tail_local", rest[3 * len(all_names):])
+    return _natural(obj, all_names, rest, "auto", settings)
+
+
+def _natural(obj, all_names, rest, natural, settings):
+    """The natural defaults for a humanoid (natural "auto" or True), or None."""
+    if natural not in ("auto", True, False):
+        raise ValueError(f"natural must be 'auto', True or False, not {natural!r}")
+    if natural is False:
+        return None
+    labels = _labels(obj, all_names, rest)
+    if not ik_defaults.is_humanoid(labels):
+        if natural is True:
+            raise ValueError(f"'{obj.name}' is not recognised as a humanoid (hips, spine, arms and legs): "
+                             "natural defaults need one")
+        return None
+    if isinstance(settings, dict):
+        settings = ik_defaults.NaturalDefaults.from_dict(settings)
+    quats = pose_channels.rest_quaternions(obj.data)
+    axes = np.stack([_axes(quats[name]) for name in all_names])
+    root = _floor_rooted_hips(obj, all_names, rest) or labels.hips
+    return ik_defaults.natural_joints(pose_channels.mapping_rig(obj), labels, axes, settings, body_root=root)
+
+
+def _axes(q) -> np.ndarray:
+    """The rotation matrix (columns: X, Y, Z) of a w x y z quaternion."""
+    return rotation_channels.rotate(q / np.linalg.norm(q), np.eye(3)).T
+
+
+def _with_defaults(options, joints, index, count) -> dict:
+    """The solver's per-bone arrays with the natural defaults where the rig sets nothing of its own
+    (no IK limit, lock or stiffness on that bone); stages and masses from the defaults."""
+    out = dict(options)
+    own_limits = np.zeros(count, dtype=bool)
+    if "limit_min" in options:
+        own_limits = (np.isfinite(options["limit_min"]).any(axis=1) | np.isfinite(options["limit_max"]).any(axis=1)
+                      | options["locked"].any(axis=1))
+    lo, hi = joints.limit_min[index], joints.limit_max[index]
+    out["limit_min"] = np.where(own_limits[:, None], options.get("limit_min", lo), lo)
+    out["limit_max"] = np.where(own_limits[:, None], options.get("limit_max", hi), hi)
+    out["soft"] = np.where(own_limits[:, None], False, joints.soft[index])
+    stiffness = joints.stiffness[index]
+    if "stiffness" in options:
+        own = options["stiffness"].any(axis=1)
+        stiffness = np.where(own[:, None], options["stiffness"], stiffness)
+    out["stiffness"] = np.ascontiguousarray(stiffness)
+    out["stage"] = np.ascontiguousarray(joints.stage[index])
+    out["mass"] = np.ascontiguousarray(joints.mass[index])
+    for key in ("limit_min", "limit_max", "soft"):
+        out[key] = np.ascontiguousarray(out[key])
+    return out
+
+
+def _parent_rest(obj, above) -> np.ndarray:
+    """The rest orientation of the hips' parent (the last of `above`), w x y z."""
+    q = pose_channels.rest_quaternions(obj.data)[above[-1].name]
+    return q / np.linalg.norm(q)
 
 
 def _body_root(obj, all_bones, all_names, part, rest) -> int:

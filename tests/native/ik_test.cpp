@@ -1047,15 +1047,142 @@ TEST(IkRobustness, RandomProblemsNeverGoNonFiniteOrLeaveTheirLimits) {
   std::printf("[ IK robust] %ld frames in %d jobs, %.1f s; %ld not within their tolerance (unreachable or cut short)\n",
               solves, jobs, seconds, nonconverged);
 }
-}  // namespace
-}  // namespace motionkit
-
 namespace motionkit {
 namespace {
 
 // The bindings default to every core (threads=0 in _native's signatures; tests/python/test_native_stub.py
 // checks that side): the C++ jobs take the same default.
 TEST(IkOptions, DefaultThreadCountIsEveryCoreAsInPython) { EXPECT_EQ(IkOptions{}.threads, 0); }
+
+}  // namespace
+}  // namespace motionkit
+
+namespace balance_test {
+
+// The centre of mass of a posed rig, each bone's mass (its length) at its midpoint.
+Vec3 CentreOfMass(const RigModel& rig, const Posed& p) {
+  Vec3 sum = Vec3::Zero();
+  double mass = 0.0;
+  for (int b = 0; b < rig.size(); ++b) {
+    const auto i = static_cast<std::size_t>(b);
+    sum += rig.length(b) * 0.5 * (p.head[i] + p.tail[i]);
+    mass += rig.length(b);
+  }
+  return sum / mass;
+}
+
+// How far the ground projection of `point` lies inside the convex hull of `points` (negative: outside).
+double InsideHull(std::vector<Eigen::Vector2d> pts, const Eigen::Vector2d& point) {
+  std::sort(pts.begin(), pts.end(), [](const auto& a, const auto& b) { return a.x() < b.x() || (a.x() == b.x() && a.y() < b.y()); });
+  const auto cross = [](const auto& o, const auto& a, const auto& b) {
+    return (a.x() - o.x()) * (b.y() - o.y()) - (a.y() - o.y()) * (b.x() - o.x());
+  };
+  std::vector<Eigen::Vector2d> hull;
+  for (int pass = 0; pass < 2; ++pass) {
+    const std::size_t start = hull.size();
+    for (const auto& q : pts) {
+      while (hull.size() >= start + 2 && cross(hull[hull.size() - 2], hull.back(), q) <= 0) hull.pop_back();
+      hull.push_back(q);
+    }
+    hull.pop_back();
+    std::reverse(pts.begin(), pts.end());
+  }
+  double inside = std::numeric_limits<double>::infinity();
+  for (std::size_t i = 0; i < hull.size(); ++i) {
+    const Eigen::Vector2d d = hull[(i + 1) % hull.size()] - hull[i];
+    inside = std::min(inside, Eigen::Vector2d(-d.y(), d.x()).normalized().dot(point - hull[i]));
+  }
+  return inside;
+}
+
+}  // namespace balance_test
+
+TEST(IkBalance, CentreOfMassRowsMatchFiniteDifferences) {
+  const FullBody body;
+  const RigModel& rig = body.rig;
+  const int foot_l = rig.Find("foot_l"), foot_r = rig.Find("foot_r");
+  Problem p(rig, 1, {Effector("hand_l", body.hand_l), Effector("foot_l", foot_l, true), Effector("foot_r", foot_r, true)});
+  std::mt19937 rng(3);
+  RandomPose(p.input_rotations, 0, rig.size(), rng, 0.3);
+  p.options.root_translation = true;
+  p.options.root_rotation = true;
+  p.options.balance = true;
+  const RowMatrixXd j = p.Job().Jacobian(0);
+  ASSERT_EQ(j.rows(), 9 + 3);
+  // Columns: the root's translation, then each bone on an effector's path, its three axes.
+  std::vector<std::pair<int, int>> cols;
+  for (int k = 0; k < 3; ++k) cols.push_back({-1, k});
+  for (int b = 0; b < rig.size(); ++b) {
+    if (!(rig.IsAncestor(b, body.hand_l) || rig.IsAncestor(b, foot_l) || rig.IsAncestor(b, foot_r))) continue;
+    for (int k = 0; k < 3; ++k) cols.push_back({b, k});
+  }
+  ASSERT_EQ(j.cols(), static_cast<Eigen::Index>(cols.size()));
+  const double h = 1e-6;
+  for (std::size_t c = 0; c < cols.size(); ++c) {
+    const auto moved = [&](double step) {
+      RowMatrixXd rot = p.input_rotations;
+      Vec3 loc = p.input_locations.row(0).transpose();
+      if (cols[c].first < 0) {
+        loc += rig.relative(0).conjugate() * (step * Vec3::Unit(cols[c].second));
+      } else {
+        const Quat q = QuatAt(rot, 0, cols[c].first);
+        SetQuat(rot, 0, cols[c].first, Quat(Eigen::AngleAxisd(step, Vec3::Unit(cols[c].second))) * q);
+      }
+      return balance_test::CentreOfMass(rig, Fk(rig, rot, 0, loc));
+    };
+    Vec3 v = (moved(h) - moved(-h)) / (2 * h);
+    v.z() = 0.0;  // only the ground projection counts
+    EXPECT_LT((j.col(static_cast<Eigen::Index>(c)).segment<3>(9) / 100.0 - v).norm(), 1e-7) << "column " << c;
+  }
+}
+
+// Both hands pulled far forward, both feet pinned: without balance the body
+// topples towards the targets; with it, the centre of mass stays over the
+// feet, the pins hold to 1e-6 and the hands still get as near as they can.
+TEST(IkBalance, HoldsTheCentreOfMassOverThePinnedFeet) {
+  const FullBody body;
+  const RigModel& rig = body.rig;
+  const int foot_l = rig.Find("foot_l"), foot_r = rig.Find("foot_r");
+  const int frames = 20;
+  Problem p(rig, frames, {Effector("hand_l", body.hand_l), Effector("hand_r", body.hand_r),
+                          Effector("foot_l", foot_l, true), Effector("foot_r", foot_r, true)});
+  const Posed rest = p.Input(0);
+  for (int f = 0; f < frames; ++f) {
+    const Vec3 ahead(0.0, -0.6 - 0.05 * f, 0.2);
+    p.SetTarget(f, 0, rest.tail[static_cast<std::size_t>(body.hand_l)] + ahead);
+    p.SetTarget(f, 1, rest.tail[static_cast<std::size_t>(body.hand_r)] + ahead);
+  }
+  p.options.root_translation = true;
+  p.options.root_rotation = true;
+  std::vector<Eigen::Vector2d> support;
+  for (int b : {foot_l, foot_r, rig.Find("toe_l"), rig.Find("toe_r")}) {
+    for (const Vec3& v : {rest.head[static_cast<std::size_t>(b)], rest.tail[static_cast<std::size_t>(b)]}) {
+      support.emplace_back(v.x(), v.y());
+    }
+  }
+  const double input_inside = balance_test::InsideHull(support, balance_test::CentreOfMass(rig, rest).head<2>());
+  ASSERT_GT(input_inside, 0.0);
+  for (const bool balance : {false, true}) {
+    p.options.balance = balance;
+    p.Run();
+    double least = std::numeric_limits<double>::infinity(), pins = 0.0;
+    for (int f = 0; f < frames; ++f) {
+      const Posed out = p.Output(f);
+      least = std::min(least, balance_test::InsideHull(support, balance_test::CentreOfMass(rig, out).head<2>()));
+      for (int b : {foot_l, foot_r}) {
+        pins = std::max(pins, (out.tail[static_cast<std::size_t>(b)] - rest.tail[static_cast<std::size_t>(b)]).norm());
+      }
+    }
+    std::printf("[ IK balance] %s: centre of mass at least %.4f inside the feet (input %.4f), pins within %.1e\n",
+                balance ? "on" : "off", least, input_inside, pins);
+    EXPECT_LT(pins, 1e-6);
+    if (balance) {
+      EXPECT_GT(least, 0.0);
+    } else {
+      EXPECT_LT(least, 0.0);  // the test asks something of the balance
+    }
+  }
+}
 
 }  // namespace
 }  // namespace motionkit

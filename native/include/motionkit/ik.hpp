@@ -163,8 +163,9 @@ struct IkClipJob {
   // cold start sees it), rows per effector (position, then orientation, each
   // times sqrt(weight); orientation rows also times ls), columns the root
   // translation (3, identity), then per solved bone in bone order its
-  // free axes (X, Y, Z; times 1 - stiffness) and its stretch column. Throws
-  // like Run().
+  // free axes (X, Y, Z; times 1 - stiffness) and its stretch column. With
+  // priorities, pins' rows are times 10; with balance, three more rows: the
+  // centre of mass's ground projection, times 100. Throws like Run().
   RowMatrixXd Jacobian(Eigen::Index frame) const;
 };
 

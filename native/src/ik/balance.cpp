@@ -22,9 +22,12 @@ Vec2 ClosestOnSegment(const Vec2& p, const Vec2& a, const Vec2& b) {
 }  // namespace
 
 // The convex hull of the support points (Andrew's monotone chain, counter-
-// clockwise), then the hull moved in by the margin: each edge's line moved
-// inwards, consecutive lines meeting at the new corners. A hull too thin for
-// the margin keeps one point, its centroid.
+// clockwise), then the hull moved in by the frame's margin: each edge's line
+// moved inwards, consecutive lines meeting at the new corners. A hull too thin
+// for the margin keeps one point, its centroid. The frame's margin is the
+// margin, or less when the input's centre of mass (fk_ holds the input pose)
+// is nearer the edge or outside: the solve never leaves the body less balanced
+// than the input has it.
 void Solver::FindSupport() {
   std::size_t n = 0;
   for (int b : support_bones_) {
@@ -46,38 +49,65 @@ void Solver::FindSupport() {
   }
   if (k > 1) --k;  // the last point repeats the first
   hull_count_ = static_cast<int>(k);
+  frame_margin_ = std::min(margin_, InsideDistance(Vec2(side_.dot(fk_.com), ahead_.dot(fk_.com))));
   if (k < 3) {  // a point or a segment: no room for a margin
     for (std::size_t i = 0; i < k; ++i) inner_[i] = support_[i];
     inner_count_ = hull_count_;
     return;
   }
-  const auto normal = [&](std::size_t i) {  // the inward normal of edge i (counter-clockwise: to its left)
-    const Vec2 d = support_[(i + 1) % k] - support_[i];
-    return Vec2(-d.y(), d.x()).normalized();
-  };
-  bool fits = true;
-  for (std::size_t i = 0; i < k && fits; ++i) {
-    const std::size_t prev = (i + k - 1) % k;
-    const Vec2 n0 = normal(prev), n1 = normal(i);
-    const double c0 = n0.dot(support_[prev]) + margin_, c1 = n1.dot(support_[i]) + margin_;
-    const double det = n0.x() * n1.y() - n0.y() * n1.x();
-    if (std::abs(det) < 1e-12) {
-      fits = false;
-      break;
-    }
-    inner_[i] = Vec2((c0 * n1.y() - c1 * n0.y()) / det, (n0.x() * c1 - n1.x() * c0) / det);
-    for (std::size_t j = 0; j < k; ++j) {
-      if (normal(j).dot(inner_[i] - support_[j]) < margin_ - 1e-9 * size_) fits = false;
-    }
+  // The region {inside distance >= margin}: a box around the hull, clipped
+  // by each edge's line moved in by the margin (out, when it is negative).
+  // Clipping takes short and nearly parallel edges as they come, where
+  // intersecting neighbouring lines would not.
+  const double margin = frame_margin_;
+  Vec2 lo = support_[0], hi = support_[0];
+  for (std::size_t i = 1; i < k; ++i) {
+    lo = lo.cwiseMin(support_[i]);
+    hi = hi.cwiseMax(support_[i]);
   }
-  if (fits) {
-    inner_count_ = hull_count_;
+  const double pad = std::abs(margin) + size_;
+  std::size_t count = 4;
+  inner_[0] = Vec2(lo.x() - pad, lo.y() - pad);
+  inner_[1] = Vec2(hi.x() + pad, lo.y() - pad);
+  inner_[2] = Vec2(hi.x() + pad, hi.y() + pad);
+  inner_[3] = Vec2(lo.x() - pad, hi.y() + pad);
+  for (std::size_t e = 0; e < k && count > 0; ++e) {
+    const Vec2 d = support_[(e + 1) % k] - support_[e];
+    const Vec2 inward = Vec2(-d.y(), d.x()).normalized();
+    const double c = inward.dot(support_[e]) + margin;  // keep inward.x >= c
+    std::size_t out = 0;
+    for (std::size_t i = 0; i < count; ++i) {
+      const Vec2& a = inner_[i];
+      const Vec2& b = inner_[(i + 1) % count];
+      const double da = inward.dot(a) - c, db = inward.dot(b) - c;
+      if (da >= 0.0) clip_[out++] = a;
+      if ((da >= 0.0) != (db >= 0.0)) clip_[out++] = a + (b - a) * (da / (da - db));
+    }
+    count = out;
+    std::swap(inner_, clip_);
+  }
+  if (count >= 3) {
+    inner_count_ = static_cast<int>(count);
     return;
   }
+  // Thinner than twice the margin: the centroid, as near the middle as there is.
   Vec2 centre = Vec2::Zero();
   for (std::size_t i = 0; i < k; ++i) centre += support_[i];
   inner_[0] = centre / static_cast<double>(k);
   inner_count_ = 1;
+  frame_margin_ = 0.0;
+}
+
+double Solver::InsideDistance(const Vec2& p) const {
+  const auto k = static_cast<std::size_t>(hull_count_);
+  if (k == 0) return -kInf;
+  if (k < 3) return -(p - (k == 1 ? support_[0] : ClosestOnSegment(p, support_[0], support_[1]))).norm();
+  double inside = kInf;
+  for (std::size_t i = 0; i < k; ++i) {
+    const Vec2 d = support_[(i + 1) % k] - support_[i];
+    inside = std::min(inside, Vec2(-d.y(), d.x()).normalized().dot(p - support_[i]));
+  }
+  return inside;
 }
 
 bool Solver::BalanceTarget(const Vec3& com, Vec3& target) const {
@@ -97,8 +127,11 @@ bool Solver::BalanceTarget(const Vec3& com, Vec3& target) const {
         best = q;
       }
     }
-  } else if (count == 2) {
-    best = ClosestOnSegment(p, inner_[0], inner_[1]);
+  } else {  // a point or a segment: within the frame's distance of it (if the input stands off it)
+    best = count == 2 ? ClosestOnSegment(p, inner_[0], inner_[1]) : inner_[0];
+    const double allowed = std::max(0.0, -frame_margin_), off = (p - best).norm();
+    if (off <= allowed + 1e-12 * size_) return false;
+    best += (p - best) * (allowed / off);
   }
   if ((best - p).norm() <= 1e-12 * size_) return false;
   target = com + side_ * (best.x() - p.x()) + ahead_ * (best.y() - p.y());
@@ -108,12 +141,16 @@ bool Solver::BalanceTarget(const Vec3& com, Vec3& target) const {
 // A turn about axis a at a joint moves the centre of mass by a x (c - head)
 // times the share of the mass below the joint (c its subtree's centre); the
 // root's translation moves it one to one. Only the horizontal part counts.
+// With recruitment stages, only the root's translation.
 void Solver::BuildBalance(const Fk& fk) {
   const double sw = com_.sqrt_weight;
   for (int c = 0; c < cols_; ++c) {
     const Column& column = columns_[static_cast<std::size_t>(c)];
     Vec3 d = Vec3::Zero();
-    if (column.kind == Kind::kTranslate) {
+    if (stages_ > 1 && column.kind != Kind::kTranslate) {
+      // With recruitment, the hips' shift keeps the balance (the limbs and the spine serve the targets;
+      // what they do to the centre of mass the next iteration's residual sees, and the hips answer).
+    } else if (column.kind == Kind::kTranslate) {
       d[column.axis] = 1.0;
     } else if (column.kind == Kind::kRotate) {
       const int b = At(joints_, column.joint).bone;

@@ -87,11 +87,7 @@ int Solver::SolveJacobian(int budget) {
   Cost cost = Evaluate(fk_, e_.data());
   const IkMethod method = options_.method;
   const bool dls = method == IkMethod::kDls, damped = method != IkMethod::kTranspose;
-  // With priorities a few iterations are kept back for the pins' polish.
-  bool pinned = false;
-  for (const Effector& e : effectors_) pinned = pinned || e.pin;
-  const int reserve = priorities_ && pinned ? std::min(8, budget / 4) : 0;
-  const int limit = budget - reserve;
+  const int limit = budget;
   int it = 0, kicks = 0;
   double damp2 = 0.0, nu = 2.0;  // the damping term (lambda^2, or the pseudo-inverse's eps) and its growth
   bend_weight_ = 0.0;
@@ -199,7 +195,7 @@ int Solver::SolveJacobian(int budget) {
       // the next step's level 1 and the polish bring them back).
       bool better = next_merit < merit;
       if (priorities_) {
-        const double slack = std::max(pin_tolerance_, 1e-2 * size_);
+        const double slack = std::max(pin_tolerance_, 1e-3 * size_);
         pins_first = cost.pins > slack;
         better = pins_first ? next.pins < cost.pins : next.pins <= slack && next_merit < merit;
       }
@@ -237,6 +233,7 @@ int Solver::SolveJacobian(int budget) {
       std::swap(fk_, trial_fk_);
       std::swap(e_, r_);
       cost = next;
+      if (priorities_ && cost.pins <= pin_tolerance_) Keep(current_);
       if (mu > 0.0) {
         std::swap(rho_, trial_rho_);
         regulariser = trial_regulariser;
@@ -274,7 +271,6 @@ int Solver::SolveJacobian(int budget) {
     }
     break;
   }
-  if (priorities_ && cost.pins > pin_tolerance_) it += PolishPins(cost, budget - it);
   return it;
 }
 
@@ -282,21 +278,34 @@ int Solver::PolishPins(Cost& cost, int budget) {
   int it = 0;
   pins_only_ = true;
   bend_weight_ = 0.0;
+  // Gauss-Newton on the pins, the damping raised tenfold while a step fails
+  // (a straight leg is a singular chain: the plain step overshoots).
+  double damp2 = lambda_ * lambda_;
+  bool fresh = false;
   while (cost.pins > pin_tolerance_ && it < budget) {
     ++it;
-    BuildJacobian(fk_);
-    FindBounds();
-    bool ok = Direction(lambda_ * lambda_, 0.0);
-    while (ok && Freeze(u_.data())) ok = Direction(lambda_ * lambda_, 0.0);
+    if (!fresh) {
+      BuildJacobian(fk_);
+      FindBounds();
+      fresh = true;
+    }
+    bool ok = Direction(damp2, 0.0);
+    while (ok && Freeze(u_.data())) ok = Direction(damp2, 0.0);
     if (!ok) break;
     Apply(current_, u_.data(), trial_);
     Forward(trial_, trial_fk_);
     const Cost next = Evaluate(trial_fk_, r_.data());
-    if (!(next.pins < cost.pins)) break;
+    if (!(next.pins < cost.pins)) {
+      damp2 *= 10.0;
+      if (damp2 > 1e12 * lambda_ * lambda_) break;
+      continue;
+    }
     std::swap(current_, trial_);
     std::swap(fk_, trial_fk_);
     std::swap(e_, r_);
     cost = next;
+    fresh = false;
+    damp2 = std::max(lambda_ * lambda_, damp2 / 10.0);
   }
   pins_only_ = false;
   return it;

@@ -49,36 +49,45 @@ void Solver::StartFrame(Eigen::Index f) {
       At(target_orientation_, e) = Quat(q[0], q[1], q[2], q[3]).normalized();
     }
   }
+  // solution_ and earlier_ hold the last two frames' corrections: each
+  // joint's solved basis times its input's inverse (the scale and the root's
+  // move as they are). A frame starts from the last correction on top of its
+  // own input, so that an animated input plays on under the IK (a walking
+  // leg that no target needs follows its walk) instead of being dragged from
+  // the last frame's pose; with the previous frame as reference, the posture
+  // prior pulls towards that too.
   const bool warm = options_.warm_start && have_solution_;
   for (int b : needed_) {
     At(current_.basis, b) = At(input_.basis, b);
     At(current_.scale, b) = 1.0;
   }
-  current_.root = warm && translate_ ? solution_.root : input_.root;
+  current_.root = warm && translate_ ? Vec3(input_.root + solution_.root) : input_.root;
   const bool previous = options_.reference == IkReference::kPrevious && have_solution_;
-  reference_.root = previous ? solution_.root : input_.root;
+  reference_.root = previous ? Vec3(input_.root + solution_.root) : input_.root;
   for (const Joint& j : joints_) {
+    const Quat& in = At(input_.basis, j.bone);
     if (warm) {
-      At(current_.basis, j.bone) = At(solution_.basis, j.bone);
+      At(current_.basis, j.bone) = (At(solution_.basis, j.bone) * in).normalized();
       At(current_.scale, j.bone) = At(solution_.scale, j.bone);
     }
     ClampJoint(j, current_);
-    At(reference_.basis, j.bone) = previous ? At(solution_.basis, j.bone) : At(input_.basis, j.bone);
+    At(reference_.basis, j.bone) = previous ? (At(solution_.basis, j.bone) * in).normalized() : in;
     At(reference_.scale, j.bone) = previous ? At(solution_.scale, j.bone) : 1.0;
   }
   trial_ = current_;
   // Targets that move smoothly move the solution smoothly: carried on as the
-  // last two frames' solutions went, the start is often close enough for one
-  // step to meet the tolerance (from the last solution alone, two). Kept
-  // only when it starts nearer the targets.
+  // last two frames' corrections went, the start is often close enough for
+  // one step to meet the tolerance (from the last correction alone, two).
+  // Kept only when it starts nearer the targets.
   if (warm && have_earlier_ && !joints_.empty()) {
     for (const Joint& j : joints_) {
       const Quat& last = At(solution_.basis, j.bone);
-      At(trial_.basis, j.bone) = (last * (At(earlier_.basis, j.bone).conjugate() * last)).normalized();
+      At(trial_.basis, j.bone) =
+          (last * (At(earlier_.basis, j.bone).conjugate() * last) * At(input_.basis, j.bone)).normalized();
       At(trial_.scale, j.bone) = 2.0 * At(solution_.scale, j.bone) - At(earlier_.scale, j.bone);
       ClampJoint(j, trial_);
     }
-    if (translate_) trial_.root = 2.0 * solution_.root - earlier_.root;
+    if (translate_) trial_.root = input_.root + 2.0 * solution_.root - earlier_.root;
     Forward(current_, fk_);
     Forward(trial_, trial_fk_);
     const Cost extrapolated = Evaluate(trial_fk_, r_.data()), last = Evaluate(fk_, e_.data());
@@ -139,9 +148,9 @@ void Solver::FinishFrame(Eigen::Index f, int iterations) {
     At(earlier_.scale, j.bone) = At(solution_.scale, j.bone);
   }
   have_earlier_ = have_solution_;
-  solution_.root = current_.root;
+  solution_.root = current_.root - input_.root;
   for (const Joint& j : joints_) {
-    At(solution_.basis, j.bone) = At(current_.basis, j.bone);
+    At(solution_.basis, j.bone) = (At(current_.basis, j.bone) * At(input_.basis, j.bone).conjugate()).normalized();
     At(solution_.scale, j.bone) = At(current_.scale, j.bone);
   }
   have_solution_ = true;
@@ -177,6 +186,9 @@ RowMatrixXd Solver::Jacobian(Eigen::Index f) {
         j(e.row + r, e.columns[i]) = e.block[i * static_cast<std::size_t>(e.rows) + static_cast<std::size_t>(r)];
       }
     }
+  }
+  for (int c = 0; balance_ && c < cols_; ++c) {
+    for (int r = 0; r < 3; ++r) j(com_.row + r, c) = com_.block[static_cast<std::size_t>(3 * c + r)];
   }
   return j;
 }

@@ -241,7 +241,7 @@ bool Solver::Direction(double lambda2, double mu) {
             m(k, l) = bend ? bend_weight_ * bend_[jo](k, l) : 0.0;
           }
           const double d = j.axis_scale[static_cast<std::size_t>(k)];
-          m(k, k) += lambda2 + mu * d * d;
+          m(k, k) += (lambda2 + mu * d * d) * StageCost(j.stage);
         }
         weight_[jo] = m.inverse();
         for (int k = 0; k < j.axis_count; ++k) {

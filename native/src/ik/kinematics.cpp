@@ -97,13 +97,15 @@ Solver::Cost Solver::Evaluate(const Fk& fk, double* residual) const {
     // Zero rows while the centre of mass is inside: the level is then left out.
     Eigen::Map<Vec3> out(residual + com_.row);
     Vec3 target;
+    out.setZero();
     if (BalanceTarget(fk.com, target)) {
       const Vec3 d = target - fk.com;
-      out = com_.sqrt_weight * d;
-      cost.task += com_.sqrt_weight * com_.sqrt_weight * d.squaredNorm();
-      cost.worst = std::max(cost.worst, d.norm());
-    } else {
-      out.setZero();
+      cost.balance = d.norm();
+      if (BalanceEnforced()) {
+        out = com_.sqrt_weight * d;
+        cost.task += com_.sqrt_weight * com_.sqrt_weight * d.squaredNorm();
+        cost.worst = std::max(cost.worst, cost.balance);
+      }
     }
   }
   if (!std::isfinite(cost.task)) cost.worst = kInf;
@@ -117,7 +119,7 @@ double Solver::Regulariser(const Pose& pose, double* rho) const {
   if (translate_) {
     const Vec3 d = pose.root - reference_.root;
     for (int k = 0; k < 3; ++k) rho[k] = d[k];
-    sum += d.squaredNorm() / (ls_ * ls_);
+    sum += d.squaredNorm() * columns_[0].metric;
   }
   for (const Joint& j : joints_) {
     if (j.axis_count > 0) {
@@ -125,13 +127,13 @@ double Solver::Regulariser(const Pose& pose, double* rho) const {
       for (int k = 0; k < j.axis_count; ++k) {
         const double v = d[j.axes[static_cast<std::size_t>(k)]];
         rho[j.first_column + k] = v;
-        sum += v * v;
+        sum += StageCost(j.stage) * v * v;
       }
     }
     if (j.stretch_column >= 0) {
       const double d = At(pose.scale, j.bone) - At(reference_.scale, j.bone);
       rho[j.stretch_column] = d;
-      sum += d * d;
+      sum += StageCost(j.stage) * d * d;
     }
   }
   return sum;
@@ -139,15 +141,17 @@ double Solver::Regulariser(const Pose& pose, double* rho) const {
 
 double Solver::RegulariserCost(const Pose& pose) const {
   double sum = 0.0;
-  if (translate_) sum += (pose.root - reference_.root).squaredNorm() / (ls_ * ls_);
+  if (translate_) sum += (pose.root - reference_.root).squaredNorm() * columns_[0].metric;
   for (const Joint& j : joints_) {
     if (j.axis_count > 0) {
       const Vec3 d = RotationVector(At(pose.basis, j.bone) * At(reference_.basis, j.bone).conjugate());
-      for (int k = 0; k < j.axis_count; ++k) sum += d[j.axes[static_cast<std::size_t>(k)]] * d[j.axes[static_cast<std::size_t>(k)]];
+      for (int k = 0; k < j.axis_count; ++k) {
+        sum += StageCost(j.stage) * d[j.axes[static_cast<std::size_t>(k)]] * d[j.axes[static_cast<std::size_t>(k)]];
+      }
     }
     if (j.stretch_column >= 0) {
       const double d = At(pose.scale, j.bone) - At(reference_.scale, j.bone);
-      sum += d * d;
+      sum += StageCost(j.stage) * d * d;
     }
   }
   return sum;

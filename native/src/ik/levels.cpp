@@ -83,16 +83,53 @@ bool Solver::SolveLevels() {
 // Recruitment: the joints of stage 0 first; while a target (or the balance)
 // stays unmet, the next stage's joints join, from where the input has them,
 // so that a reachable target never moves the later stages.
+//
+// Each stage has max_iterations, less a few kept back (with priorities and
+// pins) for the pins' polish at the end: without stages, a frame never takes
+// more than max_iterations.
 int Solver::SolveStaged() {
-  int iterations = 0;
+  kept_ = false;
+  {
+    Forward(current_, fk_);
+    if (priorities_ && Evaluate(fk_, e_.data()).pins <= pin_tolerance_) Keep(current_);
+  }
+  bool pinned = false;
+  for (const Effector& e : effectors_) pinned = pinned || e.pin;
+  const int reserve = priorities_ && pinned ? std::min(16, options_.max_iterations / 4) : 0;
+  int iterations = 0, last = 0;
   for (stage_ = 0; stage_ < stages_; ++stage_) {
-    iterations += SolveJacobian(options_.max_iterations - iterations);
+    last = SolveJacobian(options_.max_iterations - reserve);
+    iterations += last;
     Forward(current_, fk_);
     const Cost cost = Evaluate(fk_, e_.data());
-    if (cost.worst <= tolerance_) break;
+    if (cost.worst <= tolerance_ && cost.balance <= tolerance_) break;
+  }
+  stage_ = std::min(stage_, stages_ - 1);  // the stage that ended it: its holds and balance for the polish
+  Cost cost = Evaluate(fk_, e_.data());
+  if (priorities_ && cost.pins > pin_tolerance_) iterations += PolishPins(cost, options_.max_iterations - last);
+  if (priorities_ && cost.pins > pin_tolerance_) {
+    // Pins come first: back to the last iterate that met them, or to the
+    // frame's input, which meets them by definition.
+    const Pose& back = kept_ ? backup_ : input_;
+    current_.root = back.root;
+    for (const Joint& j : joints_) {
+      At(current_.basis, j.bone) = At(back.basis, j.bone);
+      At(current_.scale, j.bone) = At(back.scale, j.bone);
+    }
+    Forward(current_, fk_);
   }
   stage_ = stages_ - 1;
+  kept_ = false;
   return iterations;
+}
+
+void Solver::Keep(const Pose& pose) {
+  backup_.root = pose.root;
+  for (const Joint& j : joints_) {
+    At(backup_.basis, j.bone) = At(pose.basis, j.bone);
+    At(backup_.scale, j.bone) = At(pose.scale, j.bone);
+  }
+  kept_ = true;
 }
 
 }  // namespace motionkit::ik_internal

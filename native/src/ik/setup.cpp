@@ -93,12 +93,18 @@ void Solver::PlanJoints() {
   translate_ = options_.root_translation && root_needed && !limits_of(0).excluded;
   if (translate_) {
     for (int k = 0; k < 3; ++k) {
-      columns_.push_back({Kind::kTranslate, -1, k, 1.0, 1.0 / (ls_ * ls_), std::max(0, limits_of(0).stage)});
+      const int stage = std::max(0, limits_of(0).stage);
+      columns_.push_back({Kind::kTranslate, -1, k, 1.0, StageCost(stage) / (ls_ * ls_), stage});
     }
+  }
+  // Only the effectors' paths are solved (balance places every bone, but moves none off them).
+  std::vector<char> on_path(static_cast<std::size_t>(bones_), 0);
+  for (int id : ids_) {
+    for (int b = At(job_.effectors, id).bone; b >= 0; b = rig_.parent(b)) At(on_path, b) = 1;
   }
   for (int b : needed_) {
     const IkJoint limits = limits_of(b);
-    if (limits.excluded || (b == 0 && !options_.root_rotation)) continue;
+    if (!At(on_path, b) || limits.excluded || (b == 0 && !options_.root_rotation)) continue;
     Joint j;
     j.bone = b;
     j.stage = std::max(0, limits.stage);
@@ -116,14 +122,16 @@ void Solver::PlanJoints() {
       const auto slot = static_cast<std::size_t>(j.axis_count++);
       j.axes[slot] = k;
       j.axis_scale[slot] = 1.0 - limits.stiffness[k];
-      columns_.push_back({Kind::kRotate, static_cast<int>(joints_.size()), k, j.axis_scale[slot], 1.0, j.stage});
+      columns_.push_back({Kind::kRotate, static_cast<int>(joints_.size()), k, j.axis_scale[slot], StageCost(j.stage),
+                          j.stage});
     }
     if (limits.stretch > 0.0) {
       j.stretch = limits.stretch;
       j.min_scale = limits.min_scale;
       j.max_scale = limits.max_scale;
       j.stretch_column = static_cast<int>(columns_.size());
-      columns_.push_back({Kind::kStretch, static_cast<int>(joints_.size()), 1, limits.stretch, 1.0, j.stage});
+      columns_.push_back({Kind::kStretch, static_cast<int>(joints_.size()), 1, limits.stretch, StageCost(j.stage),
+                          j.stage});
     }
     At(joint_of_, b) = static_cast<int>(joints_.size());
     joints_.push_back(j);
@@ -220,7 +228,9 @@ void Solver::PlanBalance() {
     }
   }
   support_.assign(2 * support_bones_.size() + 1, Eigen::Vector2d::Zero());
-  inner_.assign(2 * support_bones_.size() + 1, Eigen::Vector2d::Zero());
+  // Clipping a convex polygon by a line adds at most one corner: the box's 4, then one per hull edge.
+  inner_.assign(2 * support_bones_.size() + 8, Eigen::Vector2d::Zero());
+  clip_ = inner_;
   com_.bone = -1;
   com_.level = 2;
   com_.row = rows_;

@@ -59,6 +59,10 @@ constexpr double kCreeping = 1e-13;
 // damping, the same for every level, is negligible for pins and balance.
 constexpr double kPinScale = 10;
 constexpr double kBalanceScale = 1e2;
+// Recruitment inside a stage: once the hips are free (to keep the balance,
+// say), a step still prefers the joints of earlier stages, each stage's
+// unknowns costing ten times the last's in the damping and the posture prior.
+inline double StageCost(int stage) { return std::pow(10.0, stage); }
 
 template <class T>
 T& At(std::vector<T>& v, int i) {
@@ -270,6 +274,7 @@ class Solver {
     double worst = 0.0;  // largest error of a target or the balance, armature units
     double pins = 0.0;   // largest pin error
     double pin_task = 0.0;  // with priorities, the pins' weighted squared residuals (not in task)
+    double balance = 0.0;   // how far the centre of mass is from where it may be (enforced or not)
   };
 
   void PlanJoints();
@@ -315,11 +320,18 @@ class Solver {
   // With priorities, after the loop: Gauss-Newton steps on the pins alone
   // until they are met to pin_tolerance_ (curvature leaves them a little off).
   int PolishPins(Cost& cost, int budget);
+  // The last iterate that met the pins (backup_), for when the polish cannot (a limit in the way).
+  void Keep(const Pose& pose);
+  bool kept_ = false;
   bool pins_only_ = false;      // SolveLevels stops after level 1
   std::vector<char> pin_row_;   // per row: a pin's
   // Balance: the support polygon of the frame (StartFrame), and where the
   // centre of mass should go (false: it is inside, `margin_` from the edges).
   void FindSupport();
+  double InsideDistance(const Eigen::Vector2d& p) const;  // from the hull's edges (negative: outside)
+  // Balance is a level only on the last stage: the limbs and the spine never move to hold it (a hand
+  // target would be traded for it); when they leave it unmet, the next stage (the hips) takes over.
+  bool BalanceEnforced() const { return balance_ && stage_ == stages_ - 1; }
   bool BalanceTarget(const Vec3& com, Vec3& target) const;
   void BuildBalance(const Fk& fk);  // the centre of mass's block (BuildJacobian)
   void PlanBalance();
@@ -345,10 +357,12 @@ class Solver {
   std::vector<double> subtree_mass_;
   Vec3 up_ = Vec3::UnitZ(), side_ = Vec3::UnitX(), ahead_ = Vec3::UnitY();  // up, and two horizontal axes
   double margin_ = 0.0;
+  double frame_margin_ = 0.0;  // this frame's: never more than the input's own (negative: outside)
   int hull_count_ = 0, inner_count_ = 0;
   std::vector<int> support_bones_;          // pinned bones and their descendants
   std::vector<Eigen::Vector2d> support_;    // scratch: the support points, then their hull
-  std::vector<Eigen::Vector2d> inner_;      // the hull moved in by margin_ (one point when too thin)
+  std::vector<Eigen::Vector2d> inner_;      // the hull moved in by the frame's margin (one point when too thin)
+  std::vector<Eigen::Vector2d> clip_;       // scratch for clipping it
   // Levels' scratch (SolveLevels).
   std::vector<int> level_rows_, held_rows_;
   std::vector<double> level_a_, level_x_, level_t_, level_r_;
