@@ -178,7 +178,7 @@ class Plan:
 def plan(obj, effectors, frame_range=None, method: str = "dls", *, root_translation: bool = True,
          root_rotation: bool = True, max_iterations: int = 64, tolerance: float | None = None,
          damping: float = 0.0, regularization: float = 1e-4, use_limits: bool = True,
-         reference: str = "previous", priorities: bool = True, natural="auto", balance=None,
+         reference: str | None = None, priorities: bool = True, natural="auto", balance=None,
          defaults=None, alongside=None) -> Plan:
     """Solve without touching the file (see solve). alongside: a callable run on this thread while the
     native solve runs on another (Blender's data may only be touched from this one)."""
@@ -206,6 +206,8 @@ def plan(obj, effectors, frame_range=None, method: str = "dls", *, root_translat
     obj.data.bones.foreach_get("head_local", rest[:3 * len(all_bones)])
     obj.data.bones.foreach_get("tail_local", rest[3 * len(all_bones):])
     natural_joints = _natural(obj, all_names, rest, natural, defaults)
+    if reference is None:  # a humanoid's posture prior: its own input pose (else the previous frame's solution)
+        reference = "input" if natural_joints is not None else "previous"
     if balance is None:  # on when a humanoid's feet are pinned
         balance = natural_joints is not None and any(
             e.pin and natural_joints.part[all_names.index(e.bone)] in ("foot", "shin") for e in effectors)

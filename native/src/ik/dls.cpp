@@ -89,6 +89,7 @@ int Solver::SolveJacobian(int budget) {
   const bool dls = method == IkMethod::kDls, damped = method != IkMethod::kTranspose;
   const int limit = budget;
   int it = 0, kicks = 0;
+  bool progressed = false;
   double damp2 = 0.0, nu = 2.0;  // the damping term (lambda^2, or the pseudo-inverse's eps) and its growth
   bend_weight_ = 0.0;
   // The regulariser's residual and cost at current_, kept from the accepted
@@ -157,10 +158,7 @@ int Solver::SolveJacobian(int budget) {
       if (damped) {
         MultiplyA(u_.data(), h_.data());
         double model = 0.0;
-        for (int i = 0; i < rows_; ++i) {
-          if (priorities_ && At(pin_row_, i)) continue;  // the pins are judged apart
-          model += (At(e_, i) - At(h_, i)) * (At(e_, i) - At(h_, i));
-        }
+        for (int i = 0; i < rows_; ++i) model += (At(e_, i) - At(h_, i)) * (At(e_, i) - At(h_, i));
         if (mu > 0.0) {
           for (int j = 0; j < cols_; ++j) {
             const Column& c = columns_[static_cast<std::size_t>(j)];
@@ -183,6 +181,13 @@ int Solver::SolveJacobian(int budget) {
       Apply(current_, u_.data(), trial_);
       Forward(trial_, trial_fk_);
       next = Evaluate(trial_fk_, r_.data());
+      // A second-order correction: the step's curvature took the pins off;
+      // one or two steps on the pins alone put them back before it is judged.
+      if (priorities_ && next.pins > pin_tolerance_ && Restore(next)) {
+        BuildJacobian(fk_);  // the blocks are the trial's now: back to this iterate's
+        FindBounds();
+        bend_ready_ = false;
+      }
       if (mu > 0.0) trial_regulariser = Regulariser(trial_, trial_rho_.data());
       next_merit = next.task + (mu > 0.0 ? mu * trial_regulariser : 0.0);
       if (!std::isfinite(next_merit)) {
@@ -190,9 +195,10 @@ int Solver::SolveJacobian(int budget) {
         break;
       }
       // With priorities the pins come first: while they are off by more than
-      // the budget a step must bring them closer; within it, it must keep them
-      // there and lower the rest (curvature takes a step's pins a little off;
-      // the next step's level 1 and the polish bring them back).
+      // the slack a step must bring them closer; within it, it must keep them
+      // there and lower the merit, in which a pin's error weighs a hundred
+      // times a target's (curvature takes a step's pins a little off; the next
+      // step's level 1 and the polish bring them back).
       bool better = next_merit < merit;
       if (priorities_) {
         const double slack = std::max(pin_tolerance_, 1e-3 * size_);
@@ -234,16 +240,20 @@ int Solver::SolveJacobian(int budget) {
       std::swap(e_, r_);
       cost = next;
       if (priorities_ && cost.pins <= pin_tolerance_) Keep(current_);
+      if (merit - next_merit > (dls ? kStationary : kCreeping) * merit) progressed = true;
       if (mu > 0.0) {
         std::swap(rho_, trial_rho_);
         regulariser = trial_regulariser;
       }
       have_rho = mu > 0.0;
       // A minimum that does not meet the targets: the cost no longer falls.
-      if (!pins_first && merit - next_merit <= (dls ? kStationary : kCreeping) * merit) {
+      const double still = dls ? (priorities_ && progressed ? kSettled : kStationary) : kCreeping;
+      if (!pins_first && merit - next_merit <= still * merit) {
         // With priorities a singular chain (a straight arm asked to fold)
-        // stands still instead of failing its steps: bend it as a stall would.
-        if (priorities_ && kicks < 2 && it < limit && cost.worst > tolerance_) {
+        // stands still from the start instead of failing its steps: bend it as
+        // a stall would. (Standing still after progress is an unreachable
+        // target's end: bending then would only take the arm off its line.)
+        if (priorities_ && !progressed && kicks < 2 && it < limit && cost.worst > tolerance_) {
           ++it;
           ++kicks;
           if (Kick(mu, cost)) {
@@ -272,6 +282,39 @@ int Solver::SolveJacobian(int budget) {
     break;
   }
   return it;
+}
+
+bool Solver::Restore(Cost& next) {
+  bool touched = false;
+  pins_only_ = true;
+  std::swap(e_, r_);  // Direction works from e_: the trial's residual
+  for (int pass = 0; pass < 2 && next.pins > pin_tolerance_; ++pass) {
+    touched = true;
+    BuildJacobian(trial_fk_);
+    std::fill(frozen_.begin(), frozen_.end(), 0);
+    for (std::size_t jo = 0; jo < joints_.size(); ++jo) {
+      if (joints_[jo].limited) coordinates_[jo] = IkSwingTwist(At(trial_.basis, joints_[jo].bone));
+    }
+    for (int c = 0; stages_ > 1 && c < cols_; ++c) At(frozen_, c) = columns_[static_cast<std::size_t>(c)].stage > stage_;
+    ZeroHeldColumns();
+    const double saved = bend_weight_;
+    bend_weight_ = 0.0;
+    bool ok = Direction(lambda_ * lambda_, 0.0);
+    while (ok && Freeze(u_.data())) ok = Direction(lambda_ * lambda_, 0.0);
+    bend_weight_ = saved;
+    if (!ok) break;
+    Apply(trial_, u_.data(), best_);
+    Forward(best_, fk_scratch_);
+    const Cost fixed = Evaluate(fk_scratch_, h_scratch_.data());
+    if (!(fixed.pins < next.pins)) break;
+    std::swap(trial_, best_);
+    std::swap(trial_fk_, fk_scratch_);
+    std::copy(h_scratch_.begin(), h_scratch_.end(), e_.begin());
+    next = fixed;
+  }
+  std::swap(e_, r_);
+  pins_only_ = false;
+  return touched;
 }
 
 int Solver::PolishPins(Cost& cost, int budget) {

@@ -91,16 +91,20 @@ void Solver::StartFrame(Eigen::Index f) {
     Forward(current_, fk_);
     Forward(trial_, trial_fk_);
     const Cost extrapolated = Evaluate(trial_fk_, r_.data()), last = Evaluate(fk_, e_.data());
-    if (extrapolated.task + extrapolated.pin_task < last.task + last.pin_task) {
+    if (extrapolated.task < last.task) {
       std::swap(current_, trial_);
     }
     trial_ = current_;
   }
-  // Recruitment: the later stages start from the input (the first stage holds them there).
+  // Recruitment: the later stages start from the input (the first stage
+  // holds them there), and so do the pinned chains, whose last correction
+  // went with the hips' (the input meets the pins by definition).
   if (stages_ > 1 && options_.method != IkMethod::kCcd) {
     if (translate_ && columns_[0].stage > 0) current_.root = input_.root;
     for (const Joint& j : joints_) {
-      if (j.stage == 0) continue;
+      bool pinned = false;
+      for (const Effector& e : effectors_) pinned = pinned || (e.pin && rig_.IsAncestor(j.bone, e.bone));
+      if (j.stage == 0 && !pinned) continue;
       At(current_.basis, j.bone) = At(input_.basis, j.bone);
       At(current_.scale, j.bone) = 1.0;
       ClampJoint(j, current_);

@@ -90,7 +90,7 @@ Solver::Cost Solver::Evaluate(const Fk& fk, double* residual) const {
       out = (ef.sqrt_weight * ls_) * w;
     }
     const double weighted = ef.sqrt_weight * ef.sqrt_weight;
-    (ef.pin && priorities_ ? cost.pin_task : cost.task) += weighted * (position * position + orientation * orientation);
+    cost.task += weighted * (position * position + orientation * orientation);
     (ef.pin ? cost.pins : cost.worst) = std::max({ef.pin ? cost.pins : cost.worst, position, orientation});
   }
   if (balance_) {

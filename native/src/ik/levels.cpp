@@ -18,8 +18,11 @@ bool Solver::SolveLevels() {
   double* t = level_r_.data() + m;
   std::copy(y_.begin(), y_.end(), t);
   std::fill(y_.begin(), y_.end(), 0.0);
-  bool violated = false;
-  for (int k = 0; balance_ && k < 3; ++k) violated = violated || At(e_, com_.row + k) != 0.0;
+  // Once the balance has been a level this frame it stays one (holding the
+  // centre of mass where it is when inside): an inequality that comes and
+  // goes from one step to the next makes the steps chatter.
+  for (int k = 0; balance_ && k < 3; ++k) balance_active_ = balance_active_ || At(e_, com_.row + k) != 0.0;
+  const bool violated = balance_active_ && BalanceEnforced();
   int held = 0;
   for (int level = 1; level <= 3; ++level) {
     int count = 0;
@@ -89,6 +92,7 @@ bool Solver::SolveLevels() {
 // more than max_iterations.
 int Solver::SolveStaged() {
   kept_ = false;
+  balance_active_ = false;
   {
     Forward(current_, fk_);
     if (priorities_ && Evaluate(fk_, e_.data()).pins <= pin_tolerance_) Keep(current_);

@@ -66,12 +66,10 @@ Solver::Solver(IkClipJob& job, std::vector<int> ids, int* iterations)
   frozen_.assign(cols, 0);
   staged_out_.assign(cols, 0);
   fk_.moment.assign(static_cast<std::size_t>(bones_), Vec3::Zero());
+  fk_scratch_ = MakeFk();
+  h_scratch_.assign(rows, 0.0);
   trial_fk_.moment = fk_.moment;
   level_rows_.assign(rows, 0);
-  pin_row_.assign(rows, 0);
-  for (const Effector& e : effectors_) {
-    for (int k = 0; k < e.rows; ++k) pin_row_[static_cast<std::size_t>(e.row + k)] = e.pin ? 1 : 0;
-  }
   held_rows_.assign(rows, 0);
   level_a_.assign(rows * rows, 0.0);
   level_x_.assign(rows * rows, 0.0);

@@ -53,6 +53,10 @@ constexpr double kStationary = 1e-9;
 // The transpose and the pseudo-inverse (without the curvature term, which lets
 // DLS settle at once) creep by small fractions: only a standstill ends them.
 constexpr double kCreeping = 1e-13;
+// With priorities the posture prior keeps its weight while a target is out of
+// reach, and the two settle by ever smaller steps: once a step has gained
+// ground, one that lowers the cost by less than this fraction ends the stage.
+constexpr double kSettled = 1e-5;
 // With priorities, the levels' rows are scaled so that the merit a step must
 // lower ranks them as the priorities do (a pin's error costs a million times a
 // target's, the balance's ten thousand times), and so that the effector-space
@@ -273,7 +277,6 @@ class Solver {
     double task = 0.0;   // weighted squared residuals
     double worst = 0.0;  // largest error of a target or the balance, armature units
     double pins = 0.0;   // largest pin error
-    double pin_task = 0.0;  // with priorities, the pins' weighted squared residuals (not in task)
     double balance = 0.0;   // how far the centre of mass is from where it may be (enforced or not)
   };
 
@@ -323,8 +326,13 @@ class Solver {
   // The last iterate that met the pins (backup_), for when the polish cannot (a limit in the way).
   void Keep(const Pose& pose);
   bool kept_ = false;
+  // The second-order correction of a trial step (trial_, its residual in r_,
+  // its cost): pins-only steps; true if it rebuilt the Jacobian.
+  bool Restore(Cost& next);
+  Fk fk_scratch_;
+  std::vector<double> h_scratch_;
+  bool balance_active_ = false;  // the balance has been a level on this frame (SolveLevels)
   bool pins_only_ = false;      // SolveLevels stops after level 1
-  std::vector<char> pin_row_;   // per row: a pin's
   // Balance: the support polygon of the frame (StartFrame), and where the
   // centre of mass should go (false: it is inside, `margin_` from the edges).
   void FindSupport();
