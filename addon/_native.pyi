@@ -201,6 +201,9 @@ def ik_solve(
     excluded: npt.NDArray[np.bool_] | None = None,
     stretch: npt.NDArray[np.float64] | None = None,
     scale_range: npt.NDArray[np.float64] | None = None,
+    soft: npt.NDArray[np.bool_] | None = None,
+    stage: npt.NDArray[np.int32] | None = None,
+    mass: npt.NDArray[np.float64] | None = None,
     method: Literal["dls", "pinv", "transpose", "ccd"] = "dls",
     max_iterations: int = 64,
     tolerance: float = 1e-5,
@@ -214,6 +217,10 @@ def ik_solve(
     warm_start: bool = True,
     threads: int = 0,
     size: float = 0.0,
+    priorities: bool = True,
+    balance: bool = False,
+    up: npt.NDArray[np.float64] = ...,
+    balance_margin: float = 0.0,
 ) -> IkResult:
     """Whole-clip full-body IK; see native/include/motionkit/ik.hpp. Bones the solver does not move keep their input."""
 

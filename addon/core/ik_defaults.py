@@ -53,7 +53,7 @@ class NaturalDefaults:
     knee_bend: float = 150.0
     elbow_bend: float = 150.0
     forearm_twist: float = 90.0
-    upper_arm_twist: float = 90.0
+    upper_arm_twist: float = 45.0
     wrist_flexion: float = 70.0   # each way
     wrist_side: float = 25.0
     ankle_range: float = 40.0
@@ -183,9 +183,9 @@ def natural_joints(rig: bone_mapping.Rig, body: bone_mapping.Body, rest_axes: np
         elif p == "thigh" and is_label:
             bend(b, forward, rad(s.hip_flexion), rad(s.hip_extension), rad(s.hip_side), rad(s.hip_twist))
         elif p == "shin" and is_label:
-            bend(b, -forward, rad(s.knee_bend), 0.0, 0.0, rad(5.0))
+            bend(b, -forward, rad(s.knee_bend), 0.0, rad(5.0), rad(10.0))
         elif p == "forearm" and is_label:
-            bend(b, forward, rad(s.elbow_bend), 0.0, 0.0, rad(s.forearm_twist))
+            bend(b, forward, rad(s.elbow_bend), 0.0, rad(5.0), rad(s.forearm_twist))
         elif p == "upper_arm" and is_label:
             lo[b, 1], hi[b, 1] = -rad(s.upper_arm_twist), rad(s.upper_arm_twist)
             soft[b, 1] = True

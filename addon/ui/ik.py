@@ -40,8 +40,10 @@ class MOTIONKIT_PG_ik(bpy.types.PropertyGroup):
     max_iterations: IntProperty(name="Iterations", default=64, min=1, max=10000)
     damping: FloatProperty(name="Damping", default=0.0, min=0.0, max=1e3, precision=4,
                            description="Lambda of damped least squares; 0 picks one from the rig's size")
-    regularization: FloatProperty(name="Smoothing", default=1e-4, min=0.0, max=1e3, precision=5,
-                                  description="Regularisation: the pull towards the previous frame's pose")
+    regularization: FloatProperty(name="Smoothing", default=0.0, min=0.0, max=1e3, precision=5,
+                                  description="The posture prior: the pull towards the input pose (natural "
+                                              "defaults) or the previous frame's; 0 picks 0.03 for a humanoid, "
+                                              "else 0.0001")
     root_translation: BoolProperty(name="Move", default=True, description="The root's location is solved")
     root_rotation: BoolProperty(name="Rotate", default=True, description="The root's rotation is solved")
     use_limits: BoolProperty(name="Limits", default=True,

@@ -84,8 +84,8 @@ bool Solver::SolveLevels() {
 }
 
 // Recruitment: the joints of stage 0 first; while a target (or the balance)
-// stays unmet, the next stage's joints join, from where the input has them,
-// so that a reachable target never moves the later stages.
+// stays unmet, the later stages' joints join, from where the input has them,
+// so that a reachable target never moves them.
 //
 // Each stage has max_iterations, less a few kept back (with priorities and
 // pins) for the pins' polish at the end: without stages, a frame never takes
@@ -101,7 +101,11 @@ int Solver::SolveStaged() {
   for (const Effector& e : effectors_) pinned = pinned || e.pin;
   const int reserve = priorities_ && pinned ? std::min(16, options_.max_iterations / 4) : 0;
   int iterations = 0, last = 0;
-  for (stage_ = 0; stage_ < stages_; ++stage_) {
+  // The first stage alone, then (if a target or the balance is left unmet)
+  // every stage at once: within it each later stage's unknowns cost ten times
+  // the last's (StageCost), so the spine still gives before the hips, without
+  // a solve per stage and a jump from one to the next.
+  for (stage_ = 0; stage_ < stages_; stage_ = stage_ == 0 ? stages_ - 1 : stages_) {
     last = SolveJacobian(options_.max_iterations - reserve);
     iterations += last;
     Forward(current_, fk_);
