@@ -53,7 +53,7 @@ class NaturalDefaults:
     knee_bend: float = 150.0
     elbow_bend: float = 150.0
     forearm_twist: float = 90.0
-    upper_arm_twist: float = 45.0
+    upper_arm_twist: float = 90.0
     wrist_flexion: float = 70.0   # each way
     wrist_side: float = 25.0
     ankle_range: float = 40.0

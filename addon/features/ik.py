@@ -332,15 +332,24 @@ def _floor_rooted_hips(obj, all_names, rest) -> str | None:
     return labels.hips if found else None
 
 
-def natural_defaults(obj, settings=None):
-    """The natural defaults MotionKit would use on this armature (core.ik_defaults.Joints, over its bones
-    in depth-first order), or None when the bone map does not recognise a humanoid. settings: a
-    core.ik_defaults.NaturalDefaults or a dict of its fields, to see what edited settings give."""
+def _rest_of(obj) -> tuple[list, np.ndarray]:
     all_names = [b.name for b in pose_channels.depth_first(obj.data)]
     rest = np.empty(6 * len(all_names), dtype=np.float32)
     obj.data.bones.foreach_get("head_local", rest[:3 * len(all_names)])
     obj.data.bones.foreach_get("tail_local", rest[3 * len(all_names):])
-    return _natural(obj, all_names, rest, "auto", settings)
+    return all_names, rest
+
+
+def natural_defaults(obj, settings=None):
+    """The natural defaults MotionKit would use on this armature (core.ik_defaults.Joints, over its bones
+    in depth-first order), or None when the bone map does not recognise a humanoid. settings: a
+    core.ik_defaults.NaturalDefaults or a dict of its fields, to see what edited settings give."""
+    return _natural(obj, *_rest_of(obj), "auto", settings)
+
+
+def is_humanoid(obj) -> bool:
+    """Whether the bone map recognises a humanoid (the natural defaults apply); cached per rest pose."""
+    return ik_defaults.is_humanoid(_labels(obj, *_rest_of(obj)))
 
 
 def _natural(obj, all_names, rest, natural, settings):

@@ -5,7 +5,7 @@ from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProp
                        PointerProperty, StringProperty)
 
 from . import common
-from ..core import display_names
+from ..core import display_names, ik_defaults
 from ..features import ik, ik_live
 
 
@@ -33,8 +33,51 @@ class MOTIONKIT_PG_ik_effector(bpy.types.PropertyGroup):
                            self.use_orientation, name=f"effector on '{self.bone}'", chain_count=self.chain_count)
 
 
+# The natural defaults' settings (core.ik_defaults.NaturalDefaults), one property each: (label, unit).
+_DEFAULT_LABELS = {
+    "spine_stiffness": ("Spine", ""), "clavicle_stiffness": ("Clavicles", ""), "hips_stiffness": ("Hips", ""),
+    "spine_flexion": ("Bend Forward", "deg"), "spine_extension": ("Bend Back", "deg"),
+    "spine_side": ("Bend Sideways", "deg"), "spine_twist": ("Twist", "deg"),
+    "clavicle_range": ("Clavicle", "deg"), "hip_flexion": ("Hip Forward", "deg"), "hip_extension": ("Hip Back", "deg"),
+    "hip_side": ("Hip Sideways", "deg"), "hip_twist": ("Hip Twist", "deg"), "knee_bend": ("Knee Bend", "deg"),
+    "elbow_bend": ("Elbow Bend", "deg"), "forearm_twist": ("Forearm Twist", "deg"),
+    "upper_arm_twist": ("Upper Arm Twist", "deg"), "wrist_flexion": ("Wrist Bend", "deg"),
+    "wrist_side": ("Wrist Sideways", "deg"), "ankle_range": ("Ankle", "deg"),
+}
+
+
+def _default_property(name, value):
+    label, unit = _DEFAULT_LABELS[name]
+    if unit:
+        return FloatProperty(name=label, default=value, min=0.0, max=180.0, precision=0,
+                             description=f"Natural defaults: {label.lower()}, degrees")
+    return FloatProperty(name=label, default=value, min=0.0, max=0.99, precision=2,
+                         description=f"Natural defaults: the {label.lower()}' stiffness (0 free, towards 1 stiff)")
+
+
+class MOTIONKIT_PG_ik_defaults(bpy.types.PropertyGroup):
+    """The natural defaults' editable settings (core.ik_defaults.NaturalDefaults)."""
+    __annotations__ = {name: _default_property(name, value)
+                       for name, value in ik_defaults.NaturalDefaults().to_dict().items()}
+
+    def values(self) -> dict:
+        return {name: getattr(self, name) for name in ik_defaults.NaturalDefaults().to_dict()}
+
+
 class MOTIONKIT_PG_ik(bpy.types.PropertyGroup):
     effectors: CollectionProperty(type=MOTIONKIT_PG_ik_effector)
+    natural: EnumProperty(
+        name="Natural Defaults", default="AUTO",
+        items=(("AUTO", "Auto", "On for a humanoid the bone map recognises"), ("ON", "On", "Humanoids only"),
+               ("OFF", "Off", "Every joint free, as the rig sets it")),
+        description="Distal joints first (arm, then spine, then hips), human joint ranges and stiffness "
+                    "where the rig sets none, masses for the balance")
+    balance: EnumProperty(
+        name="Balance", default="AUTO",
+        items=(("AUTO", "Auto", "On when a humanoid's feet are pinned"), ("ON", "On", "Whenever a bone is pinned"),
+               ("OFF", "Off", "No balance")),
+        description="Keep the centre of mass over the pinned feet (the hips move to hold it)")
+    defaults: PointerProperty(type=MOTIONKIT_PG_ik_defaults)
     active_effector: IntProperty(name="Active Effector")
     method: EnumProperty(name="Method", items=ik.METHODS, default="dls")
     max_iterations: IntProperty(name="Iterations", default=64, min=1, max=10000)
@@ -62,7 +105,10 @@ class MOTIONKIT_PG_ik(bpy.types.PropertyGroup):
     def options(self) -> dict:
         return {"root_translation": self.root_translation, "root_rotation": self.root_rotation,
                 "max_iterations": self.max_iterations, "damping": self.damping,
-                "regularization": self.regularization, "use_limits": self.use_limits}
+                "regularization": self.regularization, "use_limits": self.use_limits,
+                "natural": {"AUTO": "auto", "ON": True, "OFF": False}[self.natural],
+                "balance": {"AUTO": None, "ON": True, "OFF": False}[self.balance],
+                "defaults": self.defaults.values()}
 
 
 def _armature(context):
@@ -218,6 +264,36 @@ class MOTIONKIT_PT_ik_solver(_IkPanel, bpy.types.Panel):
         col.prop(settings, "use_limits")
 
 
+class MOTIONKIT_PT_ik_natural(_IkPanel, bpy.types.Panel):
+    """Natural defaults and balance: what they are on this rig, and their settings."""
+    bl_label = "Natural Defaults"
+    bl_idname = "MOTIONKIT_PT_ik_natural"
+    bl_parent_id = "MOTIONKIT_PT_ik"
+    bl_options = {'DEFAULT_CLOSED'}
+
+    def draw(self, context):
+        obj = _armature(context)
+        settings = obj.motionkit_ik
+        layout = common.split_layout(self.layout)
+        layout.prop(settings, "natural")
+        layout.prop(settings, "balance")
+        humanoid = ik.is_humanoid(obj)
+        layout.label(text="Humanoid: defaults apply" if humanoid else "Not a humanoid: no defaults",
+                     icon='ARMATURE_DATA' if humanoid else 'INFO')
+        d = settings.defaults
+        active = humanoid and settings.natural != "OFF"
+        for heading, names in (("Stiffness", ("spine_stiffness", "clavicle_stiffness", "hips_stiffness")),
+                               ("Spine", ("spine_flexion", "spine_extension", "spine_side", "spine_twist")),
+                               ("Arms", ("clavicle_range", "upper_arm_twist", "elbow_bend", "forearm_twist",
+                                         "wrist_flexion", "wrist_side")),
+                               ("Legs", ("hip_flexion", "hip_extension", "hip_side", "hip_twist", "knee_bend",
+                                         "ankle_range"))):
+            col = layout.column(align=True, heading=heading)
+            col.active = active
+            for name in names:
+                col.prop(d, name)
+
+
 class MOTIONKIT_PT_ik_bake(_IkPanel, bpy.types.Panel):
     bl_label = "Bake"
     bl_idname = "MOTIONKIT_PT_ik_bake"
@@ -241,8 +317,9 @@ EFFECTORS = common.editable_list(common.EditableList(
     "ik_effectors", "effector", lambda context: obj.motionkit_ik if (obj := _armature(context)) else None,
     "effectors", "active_effector", "Select an armature", _add_on_active_bone))
 
-classes = (MOTIONKIT_PG_ik_effector, MOTIONKIT_PG_ik, MOTIONKIT_OT_ik_solve, MOTIONKIT_OT_ik_bake,
-           MOTIONKIT_UL_ik_effectors, MOTIONKIT_PT_ik, MOTIONKIT_PT_ik_solver, MOTIONKIT_PT_ik_bake)
+classes = (MOTIONKIT_PG_ik_effector, MOTIONKIT_PG_ik_defaults, MOTIONKIT_PG_ik, MOTIONKIT_OT_ik_solve,
+           MOTIONKIT_OT_ik_bake, MOTIONKIT_UL_ik_effectors, MOTIONKIT_PT_ik, MOTIONKIT_PT_ik_solver,
+           MOTIONKIT_PT_ik_natural, MOTIONKIT_PT_ik_bake)
 
 
 def register_properties():

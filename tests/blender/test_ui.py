@@ -111,7 +111,7 @@ SIDEBAR_LABELS = (
     # Full-body IK, Solver, Bake
     "Full-body IK", "Effectors (mixamorig:*)", "Selected Effector", "Position", "Orientation", "Weight", "Chain",
     "Solve", "Solver", "Method", "Damped LS", "Iterations", "Damping", "Smoothing", "Move", "Rotate", "Limits",
-    "Scene Range", "New Action", "Bake",
+    "Scene Range", "New Action", "Bake", "Natural Defaults",
 )
 
 

@@ -63,13 +63,14 @@ bool Solver::Kick(double mu, Cost& cost) {
   }
   if (!(largest > 0.0) || !std::isfinite(largest)) return false;
   const double angle = std::min(0.05, options_.max_step);
-  const double merit = cost.task + (mu > 0.0 ? mu * RegulariserCost(current_) : 0.0);
+  const double prior = separate_prior_ ? 0.0 : mu;  // a prior of its own steers but is not judged
+  const double merit = cost.task + (prior > 0.0 ? prior * RegulariserCost(current_) : 0.0);
   for (const double sign : {1.0, -1.0}) {
     for (int j = 0; j < cols_; ++j) At(u_, j) = sign * angle / largest * At(u0_, j);
     Apply(current_, u_.data(), trial_);
     Forward(trial_, trial_fk_);
     const Cost next = Evaluate(trial_fk_, r_.data());
-    const double next_merit = next.task + (mu > 0.0 ? mu * RegulariserCost(trial_) : 0.0);
+    const double next_merit = next.task + (prior > 0.0 ? prior * RegulariserCost(trial_) : 0.0);
     if (std::isfinite(next_merit) && next_merit < merit) {
       std::swap(current_, trial_);
       std::swap(fk_, trial_fk_);
@@ -105,7 +106,11 @@ int Solver::SolveJacobian(int budget) {
       regulariser = Regulariser(current_, rho_.data());
       have_rho = true;
     }
-    const double merit = cost.task + (mu > 0.0 ? mu * regulariser : 0.0);
+    // With natural defaults the prior is the lowest level: it steers the
+    // steps (u0) but a step is judged by the levels above it alone, so that it
+    // never trades a target's millimetres for its own comfort.
+    const double judged = separate_prior_ ? 0.0 : mu;
+    const double merit = cost.task + (judged > 0.0 ? judged * regulariser : 0.0);
     BuildJacobian(fk_);
     double floor2 = lambda_ * lambda_;
     if (method == IkMethod::kPseudoInverse) {  // eps ~ 1e-12 of the system's scale
@@ -159,7 +164,7 @@ int Solver::SolveJacobian(int budget) {
         MultiplyA(u_.data(), h_.data());
         double model = 0.0;
         for (int i = 0; i < rows_; ++i) model += (At(e_, i) - At(h_, i)) * (At(e_, i) - At(h_, i));
-        if (mu > 0.0) {
+        if (judged > 0.0) {
           for (int j = 0; j < cols_; ++j) {
             const Column& c = columns_[static_cast<std::size_t>(j)];
             const double v = At(rho_, j) + c.scale * At(u_, j);
@@ -189,7 +194,7 @@ int Solver::SolveJacobian(int budget) {
         bend_ready_ = false;
       }
       if (mu > 0.0) trial_regulariser = Regulariser(trial_, trial_rho_.data());
-      next_merit = next.task + (mu > 0.0 ? mu * trial_regulariser : 0.0);
+      next_merit = next.task + (judged > 0.0 ? judged * trial_regulariser : 0.0);
       if (!std::isfinite(next_merit)) {
         broken = true;
         break;
@@ -239,7 +244,8 @@ int Solver::SolveJacobian(int budget) {
       std::swap(fk_, trial_fk_);
       std::swap(e_, r_);
       cost = next;
-      if (priorities_ && cost.pins <= pin_tolerance_) Keep(current_);
+      // A fallback must meet the pins and leave the balance as it may be.
+      if (priorities_ && cost.pins <= pin_tolerance_ && cost.balance <= tolerance_) Keep(current_);
       if (merit - next_merit > (dls ? kStationary : kCreeping) * merit) progressed = true;
       if (mu > 0.0) {
         std::swap(rho_, trial_rho_);
@@ -247,7 +253,7 @@ int Solver::SolveJacobian(int budget) {
       }
       have_rho = mu > 0.0;
       // A minimum that does not meet the targets: the cost no longer falls.
-      const double still = dls ? (priorities_ && progressed ? kSettled : kStationary) : kCreeping;
+      const double still = dls ? (stages_ > 1 && progressed && have_solution_ ? kSettled : kStationary) : kCreeping;
       if (!pins_first && merit - next_merit <= still * merit) {
         // With priorities a singular chain (a straight arm asked to fold)
         // stands still from the start instead of failing its steps: bend it as

@@ -225,7 +225,11 @@ bool Solver::Direction(double lambda2, double mu) {
         const Column& c = columns_[static_cast<std::size_t>(j)];
         const double d = c.scale;
         const bool held = At(frozen_, j);
-        At(w_, j) = held ? 0.0 : 1.0 / ((lambda2 + mu * d * d) * c.metric);
+        // With natural defaults the prior is a level of its own (u0, which
+        // the levels above undo where it would move them), not extra damping
+        // of the targets' steps: W keeps lambda alone.
+        const double prior = separate_prior_ ? 0.0 : mu;
+        At(w_, j) = held ? 0.0 : 1.0 / ((lambda2 + prior * d * d) * c.metric);
         At(g_, j) = mu > 0.0 && !held ? -mu * d * c.metric * At(rho_, j) : 0.0;  // b
       }
       // Without the curvature M is diagonal, and W is w_ (a held column's 0).
@@ -241,7 +245,7 @@ bool Solver::Direction(double lambda2, double mu) {
             m(k, l) = bend ? bend_weight_ * bend_[jo](k, l) : 0.0;
           }
           const double d = j.axis_scale[static_cast<std::size_t>(k)];
-          m(k, k) += (lambda2 + mu * d * d) * StageCost(j.stage);
+          m(k, k) += (lambda2 + (separate_prior_ ? 0.0 : mu) * d * d) * StageCost(j.stage);
         }
         weight_[jo] = m.inverse();
         for (int k = 0; k < j.axis_count; ++k) {
@@ -250,7 +254,19 @@ bool Solver::Direction(double lambda2, double mu) {
           weight_[jo].col(k).setZero();
         }
       }
-      MultiplyW(g_.data(), u0_.data());  // u0 = W b
+      if (separate_prior_) {
+        // The prior's own step: the share mu d^2 / (lambda^2 + mu d^2) of the
+        // way back, at most kPriorGain of it an iteration (a whole return at
+        // once is a large move that the levels above undo only to first order).
+        for (int j = 0; j < cols_; ++j) {
+          const Column& c = columns_[static_cast<std::size_t>(j)];
+          const double d = c.scale;
+          const double gain = std::min(kPriorGain, mu * d * d / (lambda2 + mu * d * d));
+          At(u0_, j) = mu > 0.0 && !At(frozen_, j) && d > 0.0 ? -gain * At(rho_, j) / d : 0.0;
+        }
+      } else {
+        MultiplyW(g_.data(), u0_.data());  // u0 = W b
+      }
       MultiplyA(u0_.data(), h_.data());
       for (int i = 0; i < rows_; ++i) At(y_, i) = At(e_, i) - At(h_, i);
       for (std::size_t ei = 0; ei <= effectors_.size(); ++ei) {

@@ -95,7 +95,8 @@ int Solver::SolveStaged() {
   balance_active_ = false;
   {
     Forward(current_, fk_);
-    if (priorities_ && Evaluate(fk_, e_.data()).pins <= pin_tolerance_) Keep(current_);
+    const Cost start = Evaluate(fk_, e_.data());
+    if (priorities_ && start.pins <= pin_tolerance_ && start.balance <= tolerance_) Keep(current_);
   }
   bool pinned = false;
   for (const Effector& e : effectors_) pinned = pinned || e.pin;
@@ -105,7 +106,7 @@ int Solver::SolveStaged() {
   // every stage at once: within it each later stage's unknowns cost ten times
   // the last's (StageCost), so the spine still gives before the hips, without
   // a solve per stage and a jump from one to the next.
-  for (stage_ = 0; stage_ < stages_; stage_ = stage_ == 0 ? stages_ - 1 : stages_) {
+  for (stage_ = 0; stage_ < stages_; stage_ = stage_ == 0 && stages_ > 1 ? stages_ - 1 : stages_) {
     last = SolveJacobian(options_.max_iterations - reserve);
     iterations += last;
     Forward(current_, fk_);

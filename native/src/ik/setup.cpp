@@ -41,6 +41,7 @@ Solver::Solver(IkClipJob& job, std::vector<int> ids, int* iterations)
     (At(moves, b) ? moving_ : fixed_).push_back(b);
   }
   stage_ = stages_ - 1;
+  separate_prior_ = priorities_ && stages_ > 1;
   PlanEffectors();
   PlanBalance();
   PlanCcd();

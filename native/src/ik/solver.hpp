@@ -53,10 +53,12 @@ constexpr double kStationary = 1e-9;
 // The transpose and the pseudo-inverse (without the curvature term, which lets
 // DLS settle at once) creep by small fractions: only a standstill ends them.
 constexpr double kCreeping = 1e-13;
-// With priorities the posture prior keeps its weight while a target is out of
-// reach, and the two settle by ever smaller steps: once a step has gained
-// ground, one that lowers the cost by less than this fraction ends the stage.
+// With recruitment stages an unreachable target is approached by ever
+// smaller steps: on a warm-started frame, once a step has gained ground, one
+// that lowers the cost by less than this fraction ends the stage (a cold
+// start, which has further to go, keeps kStationary).
 constexpr double kSettled = 1e-5;
+constexpr double kPriorGain = 0.2;
 // With priorities, the levels' rows are scaled so that the merit a step must
 // lower ranks them as the priorities do (a pin's error costs a million times a
 // target's, the balance's ten thousand times), and so that the effector-space
@@ -356,6 +358,9 @@ class Solver {
   double size_ = 1.0, lambda_ = 0.0, mu_ = 0.0, ls_ = 0.0, tolerance_ = 0.0;
   bool translate_ = false;  // bone 0's head is an unknown
   bool priorities_ = false;  // DLS with strict priority levels
+  // The posture prior as a level of its own (priorities and recruitment
+  // stages, as natural defaults set them), rather than DLS's regulariser.
+  bool separate_prior_ = false;
   bool balance_ = false;     // the centre of mass is a level-2 task
   double pin_tolerance_ = 0.0;
   int stages_ = 1, stage_ = 0;  // recruitment stages, and the one being solved
