@@ -38,7 +38,8 @@ test: deps deps-4.3 deps-5.2 build-3.4 build-4.3 build-5.2 test-native test-pyth
 test-demo:
 	scratch=$$(mktemp -d) && trap 'rm -rf "$$scratch"' EXIT && \
 	tools/with_blender.sh 3.4 $(BLENDER_ARGS) --python demo/demo.py -- --zip $(ZIP_3.4) --out "$$scratch" && \
-	test -s "$$scratch/demo.png" && test -s "$$scratch/demo.blend" && test -s "$$scratch/contacts.png"
+	test -s "$$scratch/demo.png" && test -s "$$scratch/demo.blend" && test -s "$$scratch/contacts.png" && \
+	test -s "$$scratch/ik_reach.png"
 
 deps:
 	tools/install_deps.sh

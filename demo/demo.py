@@ -30,6 +30,7 @@ import rigify_rig  # noqa: E402
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import contacts_plot  # noqa: E402
+import ik_reach  # noqa: E402
 import interpolant_plot  # noqa: E402
 
 SHOW_FRAME = 22  # mid-stride: left leg forward, right arm forward
@@ -358,7 +359,11 @@ def main() -> None:
     bpy.ops.wm.save_as_mainfile(filepath=blend)
     png = os.path.join(out, "demo.png")
     render(scene, png, args.samples)
-    print(f"demo: wrote {blend} and {png} in {time.perf_counter() - start:.1f} s")
+    # Last, as it replaces the scene's characters (demo.blend is saved): the same reach before and after
+    # the IK's priorities and natural defaults, side by side.
+    reach = os.path.join(out, "ik_reach.png")
+    ik_reach.figure(motionkit, add_label, render, reach, args.samples)
+    print(f"demo: wrote {blend}, {png} and {reach} in {time.perf_counter() - start:.1f} s")
 
 
 if __name__ == "__main__":

@@ -75,7 +75,7 @@ def figure(motionkit, add_label, render, path: str, samples: int) -> None:
     for obj in list(bpy.data.objects):
         if obj.type not in ('LIGHT',) and obj.name != "Ground":
             bpy.data.objects.remove(obj)
-    before, old = _reacher(motionkit, -1.1, (0.55, 0.55, 0.55, 1.0), natural=False, priorities=False,
+    before, old = _reacher(motionkit, -1.1, (0.85, 0.1, 0.1, 1.0), natural=False, priorities=False,
                            balance=False, reference="previous", regularization=1e-4)
     after, new = _reacher(motionkit, 1.1, (0.85, 0.1, 0.1, 1.0))
     cam = bpy.data.cameras.new("SideCamera")
@@ -86,8 +86,8 @@ def figure(motionkit, add_label, render, path: str, samples: int) -> None:
     scene.collection.objects.link(camera)
     scene.camera = camera
     scene.frame_set(FRAME)
-    add_label("before: pins weighted,\nevery joint alike", (0.0, -1.1, 0.05), camera, size=0.11)
-    add_label("after: priorities, natural\ndefaults, balance", (0.0, 1.1, 0.05), camera, size=0.11)
+    add_label("before: pins weighted,\nevery joint alike", (0.0, -1.1, 2.55), camera, size=0.11)
+    add_label("after: priorities, natural\ndefaults, balance", (0.0, 1.1, 2.55), camera, size=0.11)
     i = FRAME - 1
     print(f"demo: ik_reach frame {FRAME}: before, feet off by {1000 * old.errors[i, :2].max():.2f} mm, hand "
           f"{1000 * old.errors[i, 2]:.0f} mm short; after, feet off by {1000 * new.errors[i, :2].max():.4f} mm, "
