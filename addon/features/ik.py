@@ -210,10 +210,14 @@ def plan(obj, effectors, frame_range=None, method: str = "dls", *, root_translat
     obj.data.bones.foreach_get("head_local", rest[:3 * len(all_bones)])
     obj.data.bones.foreach_get("tail_local", rest[3 * len(all_bones):])
     natural_joints = _natural(obj, all_names, rest, natural, defaults)
-    if reference is None:  # a humanoid's posture prior: its own input pose (else the previous frame's solution)
-        reference = "input" if natural_joints is not None else "previous"
-    if not regularization:  # 0 or None: the default; a humanoid's prior holds what no target needs (a twist)
-        regularization = NATURAL_REGULARIZATION if natural_joints is not None else 1e-4
+    # A humanoid solved whole (recruitment stages; no chain_count) has its posture prior towards its own
+    # input pose, strong enough to hold what no target needs (a twist); otherwise the previous frame's
+    # solution, and DLS's light regulariser.
+    whole_body = natural_joints is not None and not any(e.chain_count > 0 for e in effectors)
+    if reference is None:
+        reference = "input" if whole_body else "previous"
+    if not regularization:  # 0 or None: the default
+        regularization = NATURAL_REGULARIZATION if whole_body else 1e-4
     if balance is None:  # on when a humanoid's feet are pinned
         balance = natural_joints is not None and any(
             e.pin and natural_joints.part[all_names.index(e.bone)] in ("foot", "shin") for e in effectors)
