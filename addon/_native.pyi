@@ -219,7 +219,7 @@ def ik_solve(
     size: float = 0.0,
     priorities: bool = True,
     balance: bool = False,
-    up: npt.NDArray[np.float64] = ...,
+    up: tuple[float, float, float] = (0.0, 0.0, 1.0),
     balance_margin: float = 0.0,
 ) -> IkResult:
     """Whole-clip full-body IK; see native/include/motionkit/ik.hpp. Bones the solver does not move keep their input."""

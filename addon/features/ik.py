@@ -9,6 +9,7 @@ the file changes.
 """
 from __future__ import annotations
 
+import copy
 import threading
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
@@ -270,7 +271,8 @@ def plan(obj, effectors, frame_range=None, method: str = "dls", *, root_translat
                 tolerance=float(tolerance if tolerance is not None else 1e-5 * height),
                 damping=damping, regularization=regularization, reference=reference,
                 root_translation=root_translation, root_rotation=root_rotation, size=size,
-                priorities=priorities, balance=balance, up=up / np.linalg.norm(up), **options)
+                priorities=priorities, balance=balance, up=tuple(float(v) for v in up / np.linalg.norm(up)),
+                **options)
 
     if alongside is None:
         solved = run()
@@ -316,6 +318,7 @@ def _is_below(bone, top) -> bool:
 
 
 _LABELS: dict = {}  # rest signature -> the bone map's labels
+_NATURAL: dict = {}  # rest signature and settings -> the natural defaults (core.ik_defaults.Joints)
 
 
 def _labels(obj, all_names, rest) -> bone_mapping.Body:
@@ -348,7 +351,8 @@ def natural_defaults(obj, settings=None):
     """The natural defaults MotionKit would use on this armature (core.ik_defaults.Joints, over its bones
     in depth-first order), or None when the bone map does not recognise a humanoid. settings: a
     core.ik_defaults.NaturalDefaults or a dict of its fields, to see what edited settings give."""
-    return _natural(obj, *_rest_of(obj), "auto", settings)
+    joints = _natural(obj, *_rest_of(obj), "auto", settings)
+    return None if joints is None else copy.deepcopy(joints)  # the cache's own stays as it is
 
 
 def is_humanoid(obj) -> bool:
@@ -370,10 +374,21 @@ def _natural(obj, all_names, rest, natural, settings):
         return None
     if isinstance(settings, dict):
         settings = ik_defaults.NaturalDefaults.from_dict(settings)
-    quats = pose_channels.rest_quaternions(obj.data)
-    axes = np.stack([_axes(quats[name]) for name in all_names])
-    root = _floor_rooted_hips(obj, all_names, rest) or labels.hips
-    return ik_defaults.natural_joints(pose_channels.mapping_rig(obj), labels, axes, settings, body_root=root)
+    # Kept per rest pose (heads, tails and each bone's rest frame, so its roll) and settings: the live
+    # re-solve runs this on every update.
+    frames = np.empty(16 * len(all_names), dtype=np.float32)
+    obj.data.bones.foreach_get("matrix_local", frames)
+    key = (tuple(all_names), rest.tobytes(), frames.tobytes(),
+           tuple(sorted((settings or ik_defaults.NaturalDefaults()).to_dict().items())))
+    if key not in _NATURAL:
+        if len(_NATURAL) > 64:
+            _NATURAL.clear()
+        quats = pose_channels.rest_quaternions(obj.data)
+        axes = np.stack([_axes(quats[name]) for name in all_names])
+        root = _floor_rooted_hips(obj, all_names, rest) or labels.hips
+        _NATURAL[key] = ik_defaults.natural_joints(pose_channels.mapping_rig(obj), labels, axes, settings,
+                                                   body_root=root)
+    return _NATURAL[key]
 
 
 def _axes(q) -> np.ndarray:

@@ -4,6 +4,7 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <array>
 #include <optional>
 #include <string>
 #include <vector>
@@ -47,7 +48,7 @@ IkArrays IkSolve(const RigModel& rig, const ConstMatrixView& input_rotations, co
                  const std::string& method, int max_iterations, double tolerance, double max_step, double damping,
                  double regularization, const std::string& reference, double orientation_scale,
                  bool root_translation, bool root_rotation, bool warm_start, int threads, double size,
-                 bool priorities, bool balance, const Eigen::Vector3d& up, double balance_margin) {
+                 bool priorities, bool balance, const std::array<double, 3>& up, double balance_margin) {
   const auto parsed = ParseIkMethod(method);
   if (!parsed) throw Error("ik_solve: unknown method '" + method + "'; expected ccd, transpose, pinv or dls");
   if (reference != "previous" && reference != "input") {
@@ -122,7 +123,7 @@ IkArrays IkSolve(const RigModel& rig, const ConstMatrixView& input_rotations, co
   job.options.size = size;
   job.options.priorities = priorities;
   job.options.balance = balance;
-  job.options.up = up;
+  job.options.up = Eigen::Vector3d(up[0], up[1], up[2]);
   job.options.balance_margin = balance_margin;
   ValidateAndRun(job);
   return IkArrays{rotations, root_locations, scales, errors, iterations};
@@ -174,7 +175,7 @@ void BindIk(py::module_& m) {
         "tolerance"_a = 1e-5, "max_step"_a = 0.3, "damping"_a = 0.0, "regularization"_a = 1e-4,
         "reference"_a = "previous", "orientation_scale"_a = 0.0, "root_translation"_a = false,
         "root_rotation"_a = false, "warm_start"_a = true, "threads"_a = 0, "size"_a = 0.0, "priorities"_a = true,
-        "balance"_a = false, "up"_a = Eigen::Vector3d(0.0, 0.0, 1.0), "balance_margin"_a = 0.0,
+        "balance"_a = false, "up"_a = std::array<double, 3>{{0.0, 0.0, 1.0}}, "balance_margin"_a = 0.0,
         R"pbdoc(
         Full-body inverse kinematics on a whole clip.
 
