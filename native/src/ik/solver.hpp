@@ -60,9 +60,11 @@ constexpr double kCreeping = 1e-13;
 constexpr double kSettled = 1e-5;
 constexpr double kPriorGain = 0.2;
 // With priorities, the levels' rows are scaled so that the merit a step must
-// lower ranks them as the priorities do (a pin's error costs a million times a
-// target's, the balance's ten thousand times), and so that the effector-space
-// damping, the same for every level, is negligible for pins and balance.
+// lower ranks them as the priorities do (a pin's error costs a hundred times a
+// target's, the balance's ten thousand times: much more for the pins and the
+// steps' curvature, which takes them a little off, would stall the solve; the
+// second-order correction and the polish hold them instead), and so that the
+// effector-space damping, the same for every level, is small for both.
 constexpr double kPinScale = 10;
 constexpr double kBalanceScale = 1e2;
 // Recruitment inside a stage: once the hips are free (to keep the balance,
