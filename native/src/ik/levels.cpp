@@ -117,13 +117,19 @@ int Solver::SolveStaged() {
   Cost cost = Evaluate(fk_, e_.data());
   if (priorities_ && cost.pins > pin_tolerance_) iterations += PolishPins(cost, options_.max_iterations - last);
   if (priorities_ && cost.pins > pin_tolerance_) {
-    // Pins come first: back to the last iterate that met them, or to the
-    // frame's input, which meets them by definition.
-    const Pose& back = kept_ ? backup_ : input_;
-    current_.root = back.root;
-    for (const Joint& j : joints_) {
-      At(current_.basis, j.bone) = At(back.basis, j.bone);
-      At(current_.scale, j.bone) = At(back.scale, j.bone);
+    // Pins come first: back to the last iterate that met them, or else to
+    // the frame's input (which meets them by definition) brought into the
+    // limits, if that holds them better than where the solve ended (limits
+    // are never broken: a pin a limit forbids is met as nearly as it allows).
+    trial_ = kept_ ? backup_ : input_;
+    for (const Joint& j : joints_) ClampJoint(j, trial_);
+    Forward(trial_, trial_fk_);
+    if (kept_ || Evaluate(trial_fk_, r_.data()).pins < cost.pins) {
+      current_.root = trial_.root;
+      for (const Joint& j : joints_) {
+        At(current_.basis, j.bone) = At(trial_.basis, j.bone);
+        At(current_.scale, j.bone) = At(trial_.scale, j.bone);
+      }
     }
     Forward(current_, fk_);
   }
