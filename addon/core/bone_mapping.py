@@ -544,7 +544,7 @@ def _names_only_body(shape: _Shape) -> Body:
         if shape.ignored[bone] or not info.keys:
             continue
         key = info.keys[0]
-        if key == "hips" and body.hips is not None and _is_ancestor(shape.rig.parents, names.index(body.hips), bone):
+        if key == "hips" and body.hips is not None and is_ancestor(shape.rig.parents, names.index(body.hips), bone):
             body.hips = names[bone]  # joint_Root above Hips: the lower one is the body's
         elif key in ("hips", "head") and getattr(body, key) is None:
             setattr(body, key, names[bone])
@@ -685,7 +685,8 @@ def classify(rig: Rig, *, presets: bool = True) -> Body:
     return body
 
 
-def _is_ancestor(parents, ancestor: int, bone: int) -> bool:
+def is_ancestor(parents, ancestor: int, bone: int) -> bool:
+    """Whether ancestor lies above bone (strictly) in a parents list."""
     while bone >= 0:
         bone = parents[bone]
         if bone == ancestor:

@@ -197,18 +197,10 @@ def natural_joints(rig: bone_mapping.Rig, body: bone_mapping.Body, rest_axes: np
     stage[root] = 2
     stiffness[root] = s.hips_stiffness
     for b in range(count):  # above the body root (a floor root): never moved first
-        if b != root and _is_ancestor(rig.parents, b, root):
+        if b != root and bone_mapping.is_ancestor(rig.parents, b, root):
             stage[b] = 2
     return Joints(part, stage, np.minimum(stiffness, 0.99), lo, hi, soft, masses(rig, part, sides_of(rig, body)),
                   forward)
-
-
-def _is_ancestor(parents, ancestor: int, bone: int) -> bool:
-    while bone >= 0:
-        bone = parents[bone]
-        if bone == ancestor:
-            return True
-    return False
 
 
 def masses(rig: bone_mapping.Rig, part: list, side: list) -> np.ndarray:

@@ -207,9 +207,7 @@ def plan(obj, effectors, frame_range=None, method: str = "dls", *, root_translat
     # it reads), sized as the whole rig so that it is solved as the whole would
     # be; the other bones are neither read, solved nor keyed.
     part = sorted(_ancestors(all_bones, all_names, [e.bone for e in effectors]) | {0})
-    rest = np.empty(6 * len(all_bones), dtype=np.float32)  # every head, then every tail
-    obj.data.bones.foreach_get("head_local", rest[:3 * len(all_bones)])
-    obj.data.bones.foreach_get("tail_local", rest[3 * len(all_bones):])
+    _, rest = _rest_of(obj)  # every head, then every tail
     natural_joints = _natural(obj, all_names, rest, natural, defaults)
     # A humanoid solved whole (recruitment stages; no chain_count) has its posture prior towards its own
     # input pose, strong enough to hold what no target needs (a twist); otherwise the previous frame's
@@ -340,6 +338,7 @@ def _floor_rooted_hips(obj, all_names, rest) -> str | None:
 
 
 def _rest_of(obj) -> tuple[list, np.ndarray]:
+    """The bones' names (depth first) and every head, then every tail, at rest (float32, bulk)."""
     all_names = [b.name for b in pose_channels.depth_first(obj.data)]
     rest = np.empty(6 * len(all_names), dtype=np.float32)
     obj.data.bones.foreach_get("head_local", rest[:3 * len(all_names)])

@@ -92,6 +92,17 @@ int Solver::SolveJacobian(int budget) {
   int it = 0, kicks = 0;
   bool progressed = false;
   double damp2 = 0.0, nu = 2.0;  // the damping term (lambda^2, or the pseudo-inverse's eps) and its growth
+  // Out of a standstill that is no solution: bend (Kick), at most twice a frame; true if it did.
+  const auto kick = [&](double mu) {
+    if (kicks >= 2 || it >= limit) return false;
+    ++it;
+    ++kicks;
+    if (!Kick(mu, cost)) return false;
+    damp2 = 0.0;
+    nu = 2.0;
+    bend_weight_ = 0.0;
+    return true;
+  };
   bend_weight_ = 0.0;
   // The regulariser's residual and cost at current_, kept from the accepted
   // trial that produced it.
@@ -259,31 +270,17 @@ int Solver::SolveJacobian(int budget) {
         // stands still from the start instead of failing its steps: bend it as
         // a stall would. (Standing still after progress is an unreachable
         // target's end: bending then would only take the arm off its line.)
-        if (priorities_ && !progressed && kicks < 2 && it < limit && cost.worst > tolerance_) {
-          ++it;
-          ++kicks;
-          if (Kick(mu, cost)) {
-            have_rho = false;
-            damp2 = 0.0;
-            nu = 2.0;
-            bend_weight_ = 0.0;
-            continue;
-          }
+        if (priorities_ && !progressed && cost.worst > tolerance_ && kick(mu)) {
+          have_rho = false;
+          continue;
         }
         break;
       }
       continue;
     }
-    if (stalled && kicks < 2 && it < limit) {
-      ++it;
-      ++kicks;
-      if (Kick(mu, cost)) {
-        have_rho = false;
-        damp2 = 0.0;
-        nu = 2.0;
-        bend_weight_ = 0.0;
-        continue;
-      }
+    if (stalled && kick(mu)) {
+      have_rho = false;
+      continue;
     }
     break;
   }
@@ -297,12 +294,7 @@ bool Solver::Restore(Cost& next) {
   for (int pass = 0; pass < 2 && next.pins > pin_tolerance_; ++pass) {
     touched = true;
     BuildJacobian(trial_fk_);
-    std::fill(frozen_.begin(), frozen_.end(), 0);
-    for (std::size_t jo = 0; jo < joints_.size(); ++jo) {
-      if (joints_[jo].limited) coordinates_[jo] = IkSwingTwist(At(trial_.basis, joints_[jo].bone));
-    }
-    for (int c = 0; stages_ > 1 && c < cols_; ++c) At(frozen_, c) = columns_[static_cast<std::size_t>(c)].stage > stage_;
-    ZeroHeldColumns();
+    FindBounds(trial_);
     const double saved = bend_weight_;
     bend_weight_ = 0.0;
     bool ok = Direction(lambda_ * lambda_, 0.0);

@@ -21,9 +21,7 @@ void Solver::StartFrame(Eigen::Index f) {
     At(trial_fk_.head, b) = At(fk_.head, b);
   }
   // Pins hold where this frame's input pose has them.
-  bool pins = false;
-  for (const Effector& e : effectors_) pins = pins || e.pin;
-  if (pins) Forward(input_, fk_);
+  if (pinned_) Forward(input_, fk_);
   if (balance_) FindSupport();
   // Soft limits take in this frame's input.
   for (Joint& j : joints_) {
@@ -102,9 +100,7 @@ void Solver::StartFrame(Eigen::Index f) {
   if (stages_ > 1 && options_.method != IkMethod::kCcd) {
     if (translate_ && columns_[0].stage > 0) current_.root = input_.root;
     for (const Joint& j : joints_) {
-      bool pinned = false;
-      for (const Effector& e : effectors_) pinned = pinned || (e.pin && rig_.IsAncestor(j.bone, e.bone));
-      if (j.stage == 0 && !pinned) continue;
+      if (j.stage == 0 && !j.pinned_chain) continue;
       At(current_.basis, j.bone) = At(input_.basis, j.bone);
       At(current_.scale, j.bone) = 1.0;
       ClampJoint(j, current_);

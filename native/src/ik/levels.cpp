@@ -98,9 +98,7 @@ int Solver::SolveStaged() {
     const Cost start = Evaluate(fk_, e_.data());
     if (priorities_ && start.pins <= pin_tolerance_ && start.balance <= tolerance_) Keep(current_);
   }
-  bool pinned = false;
-  for (const Effector& e : effectors_) pinned = pinned || e.pin;
-  const int reserve = priorities_ && pinned ? std::min(16, options_.max_iterations / 4) : 0;
+  const int reserve = priorities_ && pinned_ ? std::min(16, options_.max_iterations / 4) : 0;
   int iterations = 0, last = 0;
   // The first stage alone, then (if a target or the balance is left unmet)
   // every stage at once: within it each later stage's unknowns cost ten times

@@ -45,10 +45,11 @@ void Solver::ClampJoint(const Joint& j, Pose& pose) const {
 
 // Where each limited joint stands in its limits' coordinates, at the
 // iteration's start; nothing is held yet.
-void Solver::FindBounds() {
+void Solver::FindBounds(const Pose& pose) {
+  bounds_ = &pose;
   std::fill(frozen_.begin(), frozen_.end(), 0);
   for (std::size_t jo = 0; jo < joints_.size(); ++jo) {
-    if (joints_[jo].limited) coordinates_[jo] = IkSwingTwist(At(current_.basis, joints_[jo].bone));
+    if (joints_[jo].limited) coordinates_[jo] = IkSwingTwist(At(pose.basis, joints_[jo].bone));
   }
   if (stages_ < 2) return;
   // Recruitment: the later stages' columns are held (and drop out of A).
@@ -87,7 +88,7 @@ bool Solver::Freeze(const double* u) {
   for (std::size_t jo = 0; jo < joints_.size(); ++jo) {
     const Joint& j = joints_[jo];
     if (j.stretch_column >= 0) {
-      const double s = At(current_.scale, j.bone), du = u[j.stretch_column];
+      const double s = At(bounds_->scale, j.bone), du = u[j.stretch_column];
       if ((du > 0.0 && s >= j.max_scale) || (du < 0.0 && s <= j.min_scale)) hold(j.stretch_column);
     }
     if (!j.limited) continue;

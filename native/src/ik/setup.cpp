@@ -22,9 +22,8 @@ Solver::Solver(IkClipJob& job, std::vector<int> ids, int* iterations)
   tolerance_ = options_.tolerance;
   priorities_ = options_.priorities && options_.method == IkMethod::kDls;
   pin_tolerance_ = priorities_ ? std::min(tolerance_, 1e-7 * size_) : tolerance_;
-  bool pinned = false;
-  for (int id : ids_) pinned = pinned || At(job.effectors, id).pin;
-  balance_ = priorities_ && options_.balance && pinned;
+  for (int id : ids_) pinned_ = pinned_ || At(job.effectors, id).pin;
+  balance_ = priorities_ && options_.balance && pinned_;
 
   std::vector<char> need(static_cast<std::size_t>(bones_), balance_ ? 1 : 0);  // balance weighs every bone
   for (int id : ids_) {
@@ -42,6 +41,12 @@ Solver::Solver(IkClipJob& job, std::vector<int> ids, int* iterations)
   }
   stage_ = stages_ - 1;
   separate_prior_ = priorities_ && stages_ > 1;
+  for (Joint& j : joints_) {
+    for (int id : ids_) {
+      const IkEffector& e = At(job.effectors, id);
+      j.pinned_chain = j.pinned_chain || (e.pin && rig_.IsAncestor(j.bone, e.bone));
+    }
+  }
   PlanEffectors();
   PlanBalance();
   PlanCcd();

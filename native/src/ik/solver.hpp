@@ -233,6 +233,7 @@ class Solver {
     Vec3 base_lo = Vec3::Constant(-kInf), base_hi = Vec3::Constant(kInf);
     std::array<bool, 3> soft{{false, false, false}};
     int stage = 0;
+    bool pinned_chain = false;  // a pin hangs below it
   };
   // One joint of an effector's CCD chain. A body link turns the rest of the
   // body about the joint instead of the bone (the chain runs through the
@@ -311,7 +312,8 @@ class Solver {
   void ClampStep(double* u) const;
   void Apply(const Pose& from, const double* u, Pose& to) const;
   bool Kick(double mu, Cost& cost);
-  void FindBounds();
+  void FindBounds() { FindBounds(current_); }
+  void FindBounds(const Pose& pose);  // where the step starts: its limits' coordinates and held columns
   bool Freeze(const double* u);
   void ZeroHeldColumns();  // held columns (frozen_) drop out of every block
   Vec3 BestRotation(int count, const Vec3& pivot) const;
@@ -330,6 +332,7 @@ class Solver {
   // The last iterate that met the pins (backup_), for when the polish cannot (a limit in the way).
   void Keep(const Pose& pose);
   bool kept_ = false;
+  const Pose* bounds_ = nullptr;  // the pose FindBounds measured (Freeze's scales)
   // The second-order correction of a trial step (trial_, its residual in r_,
   // its cost): pins-only steps; true if it rebuilt the Jacobian.
   bool Restore(Cost& next);
@@ -364,6 +367,7 @@ class Solver {
   // stages, as natural defaults set them), rather than DLS's regulariser.
   bool separate_prior_ = false;
   bool balance_ = false;     // the centre of mass is a level-2 task
+  bool pinned_ = false;      // some effector is a pin
   double pin_tolerance_ = 0.0;
   int stages_ = 1, stage_ = 0;  // recruitment stages, and the one being solved
   Effector com_;                // balance's rows (bone -1), every column
