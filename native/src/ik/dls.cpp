@@ -210,18 +210,8 @@ int Solver::SolveJacobian(int budget) {
         broken = true;
         break;
       }
-      // With priorities the pins come first: while they are off by more than
-      // the slack a step must bring them closer; within it, it must keep them
-      // there and lower the merit, in which a pin's error weighs a hundred
-      // times a target's (curvature takes a step's pins a little off; the next
-      // step's level 1 and the polish bring them back).
-      bool better = next_merit < merit;
-      if (priorities_) {
-        const double slack = std::max(pin_tolerance_, 1e-3 * size_);
-        pins_first = cost.pins > slack;
-        better = pins_first ? next.pins < cost.pins : next.pins <= slack && next_merit < merit;
-      }
-      if (better) {
+      pins_first = priorities_ && cost.pins > PinSlack();
+      if (Better(cost.pins, next.pins, merit, next_merit)) {
         accepted = true;
         if (damped && !pins_first) {  // Nielsen's update
           const double gain = predicted > 0.0 ? (merit - next_merit) / predicted : 1.0;
@@ -287,11 +277,11 @@ int Solver::SolveJacobian(int budget) {
   return it;
 }
 
-bool Solver::Restore(Cost& next) {
+bool Solver::Restore(Cost& next, bool pins_only) {
   bool touched = false;
-  pins_only_ = true;
+  pins_only_ = pins_only;
   std::swap(e_, r_);  // Direction works from e_: the trial's residual
-  for (int pass = 0; pass < 2 && next.pins > pin_tolerance_; ++pass) {
+  for (int pass = 0; pass < 2 && (next.pins > pin_tolerance_ || !pins_only); ++pass) {
     touched = true;
     BuildJacobian(trial_fk_);
     FindBounds(trial_);
@@ -304,7 +294,7 @@ bool Solver::Restore(Cost& next) {
     Apply(trial_, u_.data(), best_);
     Forward(best_, fk_scratch_);
     const Cost fixed = Evaluate(fk_scratch_, h_scratch_.data());
-    if (!(fixed.pins < next.pins)) break;
+    if (!(pins_only ? fixed.pins < next.pins : Drift(h_scratch_.data()) < Drift(e_.data()))) break;
     std::swap(trial_, best_);
     std::swap(trial_fk_, fk_scratch_);
     std::copy(h_scratch_.begin(), h_scratch_.end(), e_.begin());
@@ -313,6 +303,15 @@ bool Solver::Restore(Cost& next) {
   std::swap(e_, r_);
   pins_only_ = false;
   return touched;
+}
+
+double Solver::Drift(const double* residual) const {
+  double sum = 0.0;
+  for (int i = 0; i < rows_; ++i) {
+    const double d = residual[i] - (holding_ ? At(hold_, i) : 0.0);
+    sum += d * d;
+  }
+  return sum;
 }
 
 int Solver::PolishPins(Cost& cost, int budget) {
@@ -349,6 +348,69 @@ int Solver::PolishPins(Cost& cost, int budget) {
     damp2 = std::max(lambda_ * lambda_, damp2 / 10.0);
   }
   pins_only_ = false;
+  return it;
+}
+
+// The loop ends when the levels above stand still (met, or as near as an
+// unreachable target gets), wherever the prior's capped steps had got to: in
+// the null space the levels leave (an out-of-reach straight arm's roll about
+// its line, an elbow's swivel) that is a matter of how many steps a frame
+// took, and it jumps from one frame to the next. Here the prior goes on as
+// the lowest level: its Newton step in its own metric, projected by the levels
+// above, each of which holds its residual where it is (an unreachable target
+// is not reached for again), then put back onto what they hold by steps on
+// them alone. A step is kept when it lowers the prior and costs the levels
+// nothing that shows: a target a tenth of the tolerance or a thousandth of its
+// shortfall, the balance nothing beyond the tolerance, the pins what the
+// polish puts back.
+int Solver::SettlePosture(Cost& cost, int budget) {
+  if (!separate_prior_ || !(mu_ > 0.0)) return 0;
+  const double worst = std::max(cost.worst, tolerance_) + std::max(0.1 * tolerance_, 1e-3 * cost.worst);
+  const double balance = std::max(cost.balance, tolerance_);
+  const double pins = std::max(cost.pins, 1e-5 * size_);
+  double prior = Regulariser(current_, rho_.data());
+  std::copy(e_.begin(), e_.end(), hold_.begin());
+  holding_ = true;
+  double gain = 1.0;
+  int it = 0;
+  bool fresh = false;
+  bend_weight_ = 0.0;
+  while (it < budget && prior > 1e-16) {
+    ++it;
+    if (!fresh) {
+      BuildJacobian(fk_);
+      FindBounds();
+      fresh = true;
+    }
+    settle_gain_ = gain;
+    bool ok = Direction(lambda_ * lambda_, mu_);
+    while (ok && Freeze(u_.data())) ok = Direction(lambda_ * lambda_, mu_);
+    settle_gain_ = 0.0;
+    if (!ok) break;
+    ClampStep(u_.data());
+    Apply(current_, u_.data(), trial_);
+    Forward(trial_, trial_fk_);
+    Cost next = Evaluate(trial_fk_, r_.data());
+    Restore(next, false);  // back onto what the levels hold (the step is theirs only to first order)
+    fresh = false;
+    const double next_prior = Regulariser(trial_, trial_rho_.data());
+    if (std::isfinite(next_prior) && next_prior < prior && next.worst <= worst && next.pins <= pins &&
+        next.balance <= balance) {
+      std::swap(current_, trial_);
+      std::swap(fk_, trial_fk_);
+      std::swap(e_, r_);
+      std::swap(rho_, trial_rho_);
+      cost = next;
+      const double gained = prior - next_prior;
+      prior = next_prior;
+      gain = std::min(1.0, 2.0 * gain);
+      if (gained <= 1e-3 * (prior + gained)) break;
+    } else {
+      gain *= 0.25;
+      if (gain < 1e-3) break;
+    }
+  }
+  holding_ = false;
   return it;
 }
 

@@ -1,4 +1,7 @@
+#include <cstdlib>
 // A frame's start and finish (inputs in, outputs and errors out), and running a range of frames.
+#include <cmath>
+
 #include "solver.hpp"
 
 namespace motionkit::ik_internal {
@@ -156,6 +159,42 @@ void Solver::FinishFrame(Eigen::Index f, int iterations) {
   have_solution_ = true;
 }
 
+// Damped Gauss-Newton steps on the levels (the prior is left to the settling
+// after), the pins first as in SolveJacobian, the damping raised only when a
+// step fails: from a start close to the answer, a few steps whose result
+// depends smoothly on where they start (no curvature term, no kick, no
+// stationarity test).
+int Solver::SolveNear(int budget) {
+  int it = 0;
+  Forward(current_, fk_);
+  Cost cost = Evaluate(fk_, e_.data());
+  bend_weight_ = 0.0;
+  double damp2 = lambda_ * lambda_;
+  while (it < budget && Unmet(cost)) {
+    ++it;
+    BuildJacobian(fk_);
+    FindBounds();
+    bool ok = Direction(damp2, 0.0);
+    while (ok && Freeze(u_.data())) ok = Direction(damp2, 0.0);
+    if (!ok) break;
+    ClampStep(u_.data());
+    Apply(current_, u_.data(), trial_);
+    Forward(trial_, trial_fk_);
+    Cost next = Evaluate(trial_fk_, r_.data());
+    if (priorities_ && next.pins > pin_tolerance_) Restore(next);
+    if (!Better(cost.pins, next.pins, cost.task, next.task)) {
+      damp2 *= 10.0;
+      if (damp2 > 1e8 * lambda_ * lambda_) break;
+      continue;
+    }
+    std::swap(current_, trial_);
+    std::swap(fk_, trial_fk_);
+    std::swap(e_, r_);
+    cost = next;
+  }
+  return it;
+}
+
 std::vector<int> Solver::Bones() const {
   std::vector<int> bones;
   bones.reserve(joints_.size());
@@ -165,10 +204,122 @@ std::vector<int> Solver::Bones() const {
 
 void Solver::Run(Eigen::Index first, Eigen::Index last) {
   first_ = first;
+  const bool smooth = separate_prior_ && options_.warm_start && last - first >= 3;
+  if (smooth) {
+    const auto n = static_cast<std::size_t>(last - first), joints = joints_.size();
+    corrections_.assign(n * joints, Quat::Identity());
+    correction_scales_.assign(n * joints, 1.0);
+    root_shifts_.assign(n, Vec3::Zero());
+    shortfalls_.assign(n * static_cast<std::size_t>(effector_count_), Vec3::Zero());
+    end_stages_.assign(n, 0);
+  }
   for (Eigen::Index f = first; f < last; ++f) {
     StartFrame(f);
     const int iterations = options_.method == IkMethod::kCcd ? SolveCcd() : SolveStaged();
+    if (smooth) Record(f - first);
     FinishFrame(f, iterations);
+  }
+  if (smooth) Smooth(first, last);
+}
+
+void Solver::Record(Eigen::Index i) {
+  const auto at = static_cast<std::size_t>(i);
+  for (std::size_t jo = 0; jo < joints_.size(); ++jo) {
+    const int b = joints_[jo].bone;
+    Quat c = (At(current_.basis, b) * At(input_.basis, b).conjugate()).normalized();
+    corrections_[at * joints_.size() + jo] = c;
+    correction_scales_[at * joints_.size() + jo] = At(current_.scale, b);
+  }
+  root_shifts_[at] = current_.root - input_.root;
+  for (int e = 0; e < effector_count_; ++e) {
+    const Effector& ef = At(effectors_, e);
+    Vec3 d = Vec3::Zero();
+    if (ef.position && !ef.pin) d = At(fk_.tip, e) - At(target_position_, e);
+    shortfalls_[at * static_cast<std::size_t>(effector_count_) + static_cast<std::size_t>(e)] = d;
+  }
+  end_stages_[at] = ended_stage_;
+}
+
+// A recruitment that comes and goes, or a search that ends a little
+// differently from one frame to the next, leaves the first pass with poses
+// that pop (an out-of-reach straight arm's roll about its line, a spine that
+// joins on one frame and not the next). Each frame is solved again from the
+// first pass's corrections low-passed over time (zero phase, Gaussian, sigma
+// kSmoothSigma frames; rotations averaged in the tangent space at the frame's
+// own), with that pose as the posture prior's reference, towards its targets
+// moved by the low-passed shortfall (an unreachable target is asked for what
+// the frames around it reached, a reachable one exactly; a single frame that
+// fell short counts as met). From there a few steps meet the levels again
+// (pins, balance, targets), the posture settles towards the smoothed pose,
+// and should the pins not be met, the first pass's pose is the fallback (it
+// met them).
+void Solver::Smooth(Eigen::Index first, Eigen::Index last) {
+  const Eigen::Index n = last - first;
+  const auto radius = static_cast<Eigen::Index>(std::ceil(3.0 * kSmoothSigma));
+  const std::size_t joints = joints_.size(), effectors = static_cast<std::size_t>(effector_count_);
+  have_solution_ = false;
+  have_earlier_ = false;
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const Eigen::Index f = first + i;
+    const auto own = static_cast<std::size_t>(i);
+    StartFrame(f);
+    double total = 0.0;
+    int stage = 0;
+    Vec3 root = Vec3::Zero();
+    for (std::size_t jo = 0; jo < joints; ++jo) {
+      rotation_sum_[jo].setZero();
+      scale_sum_[jo] = 0.0;
+    }
+    for (std::size_t e = 0; e < effectors; ++e) shift_sum_[e].setZero();
+    for (Eigen::Index k = std::max<Eigen::Index>(0, i - radius); k <= std::min(n - 1, i + radius); ++k) {
+      const double x = static_cast<double>(k - i) / kSmoothSigma, w = std::exp(-0.5 * x * x);
+      const auto at = static_cast<std::size_t>(k);
+      total += w;
+      root += w * root_shifts_[at];
+      stage = std::max(stage, end_stages_[at]);
+      for (std::size_t jo = 0; jo < joints; ++jo) {
+        rotation_sum_[jo] += w * RotationVector(corrections_[own * joints + jo].conjugate() * corrections_[at * joints + jo]);
+        scale_sum_[jo] += w * correction_scales_[at * joints + jo];
+      }
+      for (std::size_t e = 0; e < effectors; ++e) {
+        // A frame that alone fell short (the frames on both sides met the
+        // target) fell short by chance: it counts as met.
+        const auto missed = [&](Eigen::Index m) {
+          return m >= 0 && m < n && shortfalls_[static_cast<std::size_t>(m) * effectors + e].norm() > tolerance_;
+        };
+        if (missed(k) && (missed(k - 1) || missed(k + 1))) shift_sum_[e] += w * shortfalls_[at * effectors + e];
+      }
+    }
+    for (std::size_t jo = 0; jo < joints; ++jo) {
+      const Joint& j = joints_[jo];
+      const Quat& in = At(input_.basis, j.bone);
+      At(trial_.basis, j.bone) = (corrections_[own * joints + jo] * in).normalized();
+      At(trial_.scale, j.bone) = correction_scales_[own * joints + jo];
+      At(current_.basis, j.bone) =
+          (corrections_[own * joints + jo] * FromRotationVector(rotation_sum_[jo] / total) * in).normalized();
+      At(current_.scale, j.bone) = scale_sum_[jo] / total;
+      ClampJoint(j, current_);
+      At(reference_.basis, j.bone) = At(current_.basis, j.bone);
+      At(reference_.scale, j.bone) = At(current_.scale, j.bone);
+    }
+    trial_.root = input_.root + root_shifts_[own];
+    if (translate_) current_.root = input_.root + root / total;
+    reference_.root = current_.root;
+    for (std::size_t e = 0; e < effectors; ++e) {
+      const Effector& ef = effectors_[e];
+      aside_[e] = target_position_[e];
+      if (ef.position && !ef.pin) target_position_[e] += shift_sum_[e] / total;
+    }
+    Begin();
+    if (!kept_) Keep(trial_);
+    trial_ = current_;
+    stage_ = stage;
+    const int iterations = SolveNear(kSmoothIterations);
+    settle_always_ = true;
+    const int more = Conclude(options_.max_iterations);
+    settle_always_ = false;
+      for (std::size_t e = 0; e < effectors; ++e) target_position_[e] = aside_[e];
+    FinishFrame(f, iterations_[f] + iterations + more);
   }
 }
 

@@ -229,7 +229,12 @@ bool Solver::Direction(double lambda2, double mu) {
         // the levels above undo where it would move them), not extra damping
         // of the targets' steps: W keeps lambda alone.
         const double prior = separate_prior_ ? 0.0 : mu;
-        At(w_, j) = held ? 0.0 : 1.0 / ((lambda2 + prior * d * d) * c.metric);
+        // Settling, W is the prior's own metric (d^2 G)^-1: the levels then
+        // take back the W-orthogonal part of the prior's Newton step, and what
+        // is left is the prior's step on the levels' null space (in any other
+        // metric it need not even lower the prior).
+        const double settle = settle_gain_ > 0.0 ? d * d : 1.0;
+        At(w_, j) = held || !(settle > 0.0) ? 0.0 : 1.0 / ((lambda2 + prior * d * d) * settle * c.metric);
         At(g_, j) = mu > 0.0 && !held ? -mu * d * c.metric * At(rho_, j) : 0.0;  // b
       }
       // Without the curvature M is diagonal, and W is w_ (a held column's 0).
@@ -261,14 +266,14 @@ bool Solver::Direction(double lambda2, double mu) {
         for (int j = 0; j < cols_; ++j) {
           const Column& c = columns_[static_cast<std::size_t>(j)];
           const double d = c.scale;
-          const double gain = std::min(kPriorGain, mu * d * d / (lambda2 + mu * d * d));
+          const double gain = settle_gain_ > 0.0 ? settle_gain_ : std::min(kPriorGain, mu * d * d / (lambda2 + mu * d * d));
           At(u0_, j) = mu > 0.0 && !At(frozen_, j) && d > 0.0 ? -gain * At(rho_, j) / d : 0.0;
         }
       } else {
         MultiplyW(g_.data(), u0_.data());  // u0 = W b
       }
       MultiplyA(u0_.data(), h_.data());
-      for (int i = 0; i < rows_; ++i) At(y_, i) = At(e_, i) - At(h_, i);
+      for (int i = 0; i < rows_; ++i) At(y_, i) = At(e_, i) - (holding_ ? At(hold_, i) : 0.0) - At(h_, i);
       for (std::size_t ei = 0; ei <= effectors_.size(); ++ei) {
         if (ei == effectors_.size() && !balance_) break;
         Effector& e = ei < effectors_.size() ? effectors_[ei] : com_;

@@ -91,13 +91,7 @@ bool Solver::SolveLevels() {
 // pins) for the pins' polish at the end: without stages, a frame never takes
 // more than max_iterations.
 int Solver::SolveStaged() {
-  kept_ = false;
-  balance_active_ = false;
-  {
-    Forward(current_, fk_);
-    const Cost start = Evaluate(fk_, e_.data());
-    if (priorities_ && start.pins <= pin_tolerance_ && start.balance <= tolerance_) Keep(current_);
-  }
+  Begin();
   const int reserve = priorities_ && pinned_ ? std::min(16, options_.max_iterations / 4) : 0;
   int iterations = 0, last = 0;
   // The first stage alone, then (if a target or the balance is left unmet)
@@ -105,6 +99,7 @@ int Solver::SolveStaged() {
   // the last's (StageCost), so the spine still gives before the hips, without
   // a solve per stage and a jump from one to the next.
   for (stage_ = 0; stage_ < stages_; stage_ = stage_ == 0 && stages_ > 1 ? stages_ - 1 : stages_) {
+    if (stage_ > 0) StartLaterStages();
     last = SolveJacobian(options_.max_iterations - reserve);
     iterations += last;
     Forward(current_, fk_);
@@ -112,8 +107,27 @@ int Solver::SolveStaged() {
     if (cost.worst <= tolerance_ && cost.balance <= tolerance_) break;
   }
   stage_ = std::min(stage_, stages_ - 1);  // the stage that ended it: its holds and balance for the polish
+  ended_stage_ = stage_;
+  return iterations + Conclude(options_.max_iterations - last);
+}
+
+void Solver::Begin() {
+  kept_ = false;
+  balance_active_ = false;
+  Forward(current_, fk_);
+  const Cost start = Evaluate(fk_, e_.data());
+  if (priorities_ && start.pins <= pin_tolerance_ && start.balance <= tolerance_) Keep(current_);
+}
+
+int Solver::Conclude(int budget) {
   Cost cost = Evaluate(fk_, e_.data());
-  if (priorities_ && cost.pins > pin_tolerance_) iterations += PolishPins(cost, options_.max_iterations - last);
+  // The posture settles once later stages have joined (their null space is
+  // the large one), and always in the clip's second pass. Within the limbs'
+  // reach the first pass leaves it to the warm start: settled arms carried
+  // on to the next frames stalled short of targets the arm alone reaches
+  // (walk60's lab clip: six frames missed by 1 to 3 cm).
+  int iterations = stage_ > 0 || settle_always_ ? SettlePosture(cost, options_.max_iterations / 2) : 0;
+  if (priorities_ && cost.pins > pin_tolerance_) iterations += PolishPins(cost, budget);
   if (priorities_ && cost.pins > pin_tolerance_) {
     // Pins come first: back to the last iterate that met them, or else to
     // the frame's input (which meets them by definition) brought into the
@@ -134,6 +148,32 @@ int Solver::SolveStaged() {
   stage_ = stages_ - 1;
   kept_ = false;
   return iterations;
+}
+
+// The later stages join where the last frame's solve had them (its
+// corrections on this frame's input), not from the input: a target out of
+// the limbs' reach on frame after frame is then met by a spine and hips that
+// go on from where they were, rather than found again from the input each
+// frame (a search that ends a little differently each time: popping). The
+// pinned chains come along, their corrections having gone with the hips'.
+void Solver::StartLaterStages() {
+  if (!(options_.warm_start && have_solution_)) return;
+  trial_ = current_;
+  if (translate_ && columns_[0].stage > 0) trial_.root = input_.root + solution_.root;
+  for (const Joint& j : joints_) {
+    if (j.stage == 0 && !j.pinned_chain) continue;
+    At(trial_.basis, j.bone) = (At(solution_.basis, j.bone) * At(input_.basis, j.bone)).normalized();
+    At(trial_.scale, j.bone) = At(solution_.scale, j.bone);
+    ClampJoint(j, trial_);
+  }
+  Forward(trial_, trial_fk_);
+  Forward(current_, fk_);
+  const Cost carried = Evaluate(trial_fk_, r_.data()), here = Evaluate(fk_, e_.data());
+  if (carried.pins <= std::max(here.pins, 1e-3 * size_)) {
+    std::swap(current_, trial_);
+    std::swap(fk_, trial_fk_);
+    std::swap(e_, r_);
+  }
 }
 
 void Solver::Keep(const Pose& pose) {

@@ -64,7 +64,7 @@ Solver::Solver(IkClipJob& job, std::vector<int> ids, int* iterations)
   target_position_.assign(static_cast<std::size_t>(effector_count_), Vec3::Zero());
   target_orientation_.assign(static_cast<std::size_t>(effector_count_), Quat::Identity());
   const auto rows = static_cast<std::size_t>(rows_), cols = static_cast<std::size_t>(cols_);
-  for (std::vector<double>* v : {&e_, &r_, &y_, &h_}) v->assign(rows, 0.0);
+  for (std::vector<double>* v : {&e_, &r_, &y_, &h_, &hold_}) v->assign(rows, 0.0);
   s_.assign(rows * rows, 0.0);
   for (std::vector<double>* v : {&u_, &u0_, &g_, &w_, &rho_, &trial_rho_}) v->assign(cols, 0.0);
   for (auto* v : {&axes_, &bend_world_, &bend_, &weight_}) v->assign(joints_.size(), Eigen::Matrix3d::Zero());
@@ -75,6 +75,10 @@ Solver::Solver(IkClipJob& job, std::vector<int> ids, int* iterations)
   fk_scratch_ = MakeFk();
   h_scratch_.assign(rows, 0.0);
   trial_fk_.moment = fk_.moment;
+  rotation_sum_.assign(joints_.size(), Vec3::Zero());
+  scale_sum_.assign(joints_.size(), 0.0);
+  shift_sum_.assign(static_cast<std::size_t>(effector_count_), Vec3::Zero());
+  aside_.assign(static_cast<std::size_t>(effector_count_), Vec3::Zero());
   level_rows_.assign(rows, 0);
   held_rows_.assign(rows, 0);
   level_a_.assign(rows * rows, 0.0);

@@ -58,6 +58,10 @@ constexpr double kCreeping = 1e-13;
 // that lowers the cost by less than this fraction ends the stage (a cold
 // start, which has further to go, keeps kStationary).
 constexpr double kSettled = 1e-5;
+// The clip's second pass low-passes the first's corrections with a Gaussian
+// of this many frames (see Smooth): a pop spread over about five frames.
+constexpr double kSmoothSigma = 2.0;
+constexpr int kSmoothIterations = 8;  // the second pass's steps a frame, before its settling and polish
 constexpr double kPriorGain = 0.2;
 // With priorities, the levels' rows are scaled so that the merit a step must
 // lower ranks them as the priorities do (a pin's error costs a hundred times a
@@ -322,6 +326,33 @@ class Solver {
   int SolveJacobian(int budget);  // at most budget iterations
   // Runs SolveJacobian stage by stage (recruitment) until the targets are met.
   int SolveStaged();
+  void StartLaterStages();  // the later stages from the last frame's corrections
+  void Begin();             // a frame's solve starts: no fallback yet, the balance not yet a level
+  int Conclude(int budget);  // and ends: the prior settled, the pins polished (or the fallback)
+  int ended_stage_ = 0;      // the stage that ended the last SolveStaged
+  // The clip's second pass (natural defaults, warm-started runs): the first
+  // pass's corrections, root shifts and shortfalls low-passed over time, and
+  // every frame solved again from (and towards) the smoothed pose.
+  void Record(Eigen::Index i);
+  int SolveNear(int budget);
+  bool settle_always_ = false;  // Conclude settles the posture whatever the stage (the second pass)
+  void Smooth(Eigen::Index first, Eigen::Index last);
+  std::vector<Quat> corrections_;
+  std::vector<Vec3> root_shifts_, shortfalls_;
+  std::vector<double> correction_scales_;
+  std::vector<int> end_stages_;
+  std::vector<Vec3> rotation_sum_, shift_sum_, aside_;  // Smooth's scratch, per joint and per effector
+  std::vector<double> scale_sum_;
+  // Whether a step is kept. With priorities the pins come first: while they
+  // are off by more than the slack a step must bring them closer; within it,
+  // it must keep them there and lower the merit, in which a pin's error weighs
+  // a hundred times a target's (curvature takes a step's pins a little off;
+  // the next step's level 1 and the polish bring them back).
+  double PinSlack() const { return std::max(pin_tolerance_, 1e-3 * size_); }
+  bool Better(double pins, double next_pins, double merit, double next_merit) const {
+    if (!priorities_) return next_merit < merit;
+    return pins > PinSlack() ? next_pins < pins : next_pins <= PinSlack() && next_merit < merit;
+  }
   bool Unmet(const Cost& cost) const { return cost.worst > tolerance_ || cost.pins > pin_tolerance_; }
   // Strict priorities: y such that u = u0 + W A^T y meets the levels in
   // order, from s_ = A W A^T and the right-hand side in y_ (e - A u0).
@@ -329,13 +360,23 @@ class Solver {
   // With priorities, after the loop: Gauss-Newton steps on the pins alone
   // until they are met to pin_tolerance_ (curvature leaves them a little off).
   int PolishPins(Cost& cost, int budget);
+  // With the prior as a level of its own, after the loop: steps on the prior
+  // alone, in the null space of the levels above, until it stops falling.
+  int SettlePosture(Cost& cost, int budget);
+  double settle_gain_ = 0.0;  // while settling: the prior's share of the way back a step (else kPriorGain's rule)
+  // While settling, every level holds its residual where the settling found
+  // it (an unreachable target's too), rather than reaching further.
+  bool holding_ = false;
+  std::vector<double> hold_;
+  double Drift(const double* residual) const;  // squared distance of a residual from what is held
   // The last iterate that met the pins (backup_), for when the polish cannot (a limit in the way).
   void Keep(const Pose& pose);
   bool kept_ = false;
   const Pose* bounds_ = nullptr;  // the pose FindBounds measured (Freeze's scales)
   // The second-order correction of a trial step (trial_, its residual in r_,
-  // its cost): pins-only steps; true if it rebuilt the Jacobian.
-  bool Restore(Cost& next);
+  // its cost): pins-only steps (else steps on every level, the prior left
+  // out); true if it rebuilt the Jacobian.
+  bool Restore(Cost& next, bool pins_only = true);
   Fk fk_scratch_;
   std::vector<double> h_scratch_;
   bool balance_active_ = false;  // the balance has been a level on this frame (SolveLevels)
