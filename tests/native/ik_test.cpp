@@ -1184,5 +1184,82 @@ TEST(IkBalance, HoldsTheCentreOfMassOverThePinnedFeet) {
   }
 }
 
+// A humanoid's natural defaults as the add-on sets them (limbs first, the spine
+// at stage 1, the hips at stage 2, soft ranges, the prior a level of its own
+// towards the input), toes pinned, balance on, and a hand target sweeping from
+// 70 % of the arm's reach to 140 % and back: the clip's second pass runs. Every
+// frame keeps its pins and limits, no joint's turn from one frame to the next
+// changes by more than 8 degrees between frames (the input stands still), and
+// the frames well within reach meet the target.
+TEST(IkNatural, ASweepInAndOutOfReachKeepsItsPinsAndDoesNotPop) {
+  const FullBody body;
+  const RigModel& rig = body.rig;
+  const int frames = 40;
+  Problem p(rig, frames, {Effector("hand_l", body.hand_l), Effector("toe_l", body.toe_l, true),
+                          Effector("toe_r", body.toe_r, true)});
+  p.joints.assign(static_cast<std::size_t>(rig.size()), IkJoint{});
+  for (int b = 0; b < rig.size(); ++b) {
+    IkJoint& j = p.joints[static_cast<std::size_t>(b)];
+    const std::string& n = rig.name(b);
+    j.soft = {{true, true, true}};
+    if (b == 0) {
+      j.stage = 2;
+      j.stiffness = Vec3::Constant(0.6);
+    } else if (n.rfind("spine", 0) == 0) {
+      j.stage = 1;
+      j.stiffness = Vec3::Constant(0.3);
+      j.min = Vec3(-0.15, -0.2, -0.15);
+      j.max = Vec3(0.35, 0.2, 0.15);
+    } else if (n.rfind("forearm", 0) == 0 || n.rfind("shin", 0) == 0) {
+      j.min = Vec3(0.0, -0.2, -0.1);
+      j.max = Vec3(2.6, 0.2, 0.1);
+    }
+  }
+  p.options.method = IkMethod::kDls;
+  p.options.root_translation = true;
+  p.options.root_rotation = true;
+  p.options.tolerance = 1e-5 * body.Height();
+  p.options.balance = true;
+  p.options.regularization = 1e-2;
+  p.options.reference = IkReference::kInput;
+  const Posed rest = p.Input(0);
+  const int shoulder = rig.Find("upper_arm_l");
+  const Vec3 from = rest.head[static_cast<std::size_t>(shoulder)];
+  double reach = 0.0;
+  for (const char* n : {"upper_arm_l", "forearm_l", "hand_l"}) reach += rig.length(rig.Find(n));
+  const Vec3 direction = Vec3(0.3, -0.7, 0.6).normalized();
+  std::vector<double> scale(frames);
+  for (int f = 0; f < frames; ++f) {
+    scale[static_cast<std::size_t>(f)] = 0.7 + 0.7 * std::sin(kPi * f / (frames - 1));
+    p.SetTarget(f, 0, from + scale[static_cast<std::size_t>(f)] * reach * direction);
+  }
+  p.Run();
+  double pins = 0.0, met = 0.0, worst = 0.0;
+  std::vector<double> last_turn(static_cast<std::size_t>(rig.size()), -1.0);
+  for (int f = 0; f < frames; ++f) {
+    ASSERT_TRUE(p.rotations.row(f).allFinite() && p.root_locations.row(f).allFinite()) << "frame " << f;
+    const Posed out = p.Output(f);
+    for (int b : {body.toe_l, body.toe_r}) {
+      pins = std::max(pins, (out.tail[static_cast<std::size_t>(b)] - rest.tail[static_cast<std::size_t>(b)]).norm());
+    }
+    if (scale[static_cast<std::size_t>(f)] <= 0.8) met = std::max(met, p.errors(f, 0));
+    if (f == 0) continue;
+    for (int b = 0; b < rig.size(); ++b) {
+      const Quat q0(p.rotations(f - 1, 4 * b), p.rotations(f - 1, 4 * b + 1), p.rotations(f - 1, 4 * b + 2),
+                    p.rotations(f - 1, 4 * b + 3));
+      const Quat q1(p.rotations(f, 4 * b), p.rotations(f, 4 * b + 1), p.rotations(f, 4 * b + 2), p.rotations(f, 4 * b + 3));
+      const double turn = q0.angularDistance(q1);
+      double& last = last_turn[static_cast<std::size_t>(b)];
+      if (last >= 0.0) worst = std::max(worst, std::abs(turn - last));
+      last = turn;
+    }
+  }
+  std::printf("[ IK natural] sweep: pins within %.1e, hand %.1e off where within 80 %% of the reach, "
+              "largest change of a turn between frames %.2f deg\n", pins, met, worst * 180.0 / kPi);
+  EXPECT_LT(pins, 1e-6 * body.Height());
+  EXPECT_LT(met, 1e-4 * body.Height());
+  EXPECT_LT(worst, 8.0 * kPi / 180.0);
+}
+
 }  // namespace
 }  // namespace motionkit
