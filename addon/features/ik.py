@@ -550,7 +550,13 @@ def solve(armature, effectors, frame_range=None, method: str = "dls", *, new_act
     options: root_translation, root_rotation (default True: the hips may
     move), max_iterations, tolerance (default 1e-5 of the rig's size),
     damping, regularization, use_limits (the bones' IK limits, default True),
-    reference ("previous" or "input"). A ValueError changes nothing.
+    reference ("previous" or "input"), priorities (default True), natural
+    ("auto", True or False: a humanoid's natural defaults), balance (None:
+    on when a humanoid's feet are pinned), defaults (the natural defaults'
+    settings). With natural defaults a frame range is solved twice: the
+    second pass starts every frame from the first's corrections low-passed
+    over time, so that a target passing in and out of reach does not pop
+    (docs/ik.md). A ValueError changes nothing.
     """
     if frame_range is None:
         plan_ = plan(armature, effectors, frame_range, method, **options)
