@@ -274,43 +274,16 @@ void SolveClip(benchmark::State& state, motionkit::IkMethod method) {
 
 void BM_IkDls(benchmark::State& state) { SolveClip(state, motionkit::IkMethod::kDls); }
 
-// The same clip as a humanoid's natural defaults set it (addon/core/ik_defaults.py): the limbs first,
-// the spine (stage 1, stiffness 0.3) and the hips (stage 2) only while a hand is out of their reach, soft
-// ranges on the spine, knees and elbows, and balance over the pinned toes (masses: the bones' lengths).
+// The same clip as a humanoid's natural defaults set it (test_rigs::NaturalJoints): the limbs first,
+// the spine and the hips only while a hand is out of their reach, and balance over the pinned toes
+// (masses: the bones' lengths).
 struct NaturalClip : Clip {
-  NaturalClip() {
-    joints.assign(static_cast<std::size_t>(rig.size()), motionkit::IkJoint{});
-    for (int b = 0; b < rig.size(); ++b) {
-      motionkit::IkJoint& j = joints[static_cast<std::size_t>(b)];
-      const std::string& n = rig.name(b);
-      j.soft = {{true, true, true}};
-      if (b == 0) {
-        j.stage = 2;
-        j.stiffness = Vec3::Constant(0.6);
-      } else if (n.rfind("spine", 0) == 0) {
-        j.stage = 1;
-        j.stiffness = Vec3::Constant(0.3);
-        j.min = Vec3(-0.15, -0.2, -0.15);
-        j.max = Vec3(0.35, 0.2, 0.15);
-      } else if (n.rfind("shin", 0) == 0 || n.rfind("forearm", 0) == 0) {
-        j.min = Vec3(0.0, -0.2, -0.1);
-        j.max = Vec3(2.6, 0.2, 0.1);
-      }
-    }
-  }
+  NaturalClip() { joints = motionkit::test_rigs::NaturalJoints(rig); }
 };
 
 void BM_IkDlsNatural(benchmark::State& state) {
   static const NaturalClip clip;
-  motionkit::IkOptions options;
-  options.method = motionkit::IkMethod::kDls;
-  options.root_translation = true;
-  options.root_rotation = true;
-  options.tolerance = 1e-5 * kHeight;
-  options.balance = true;
-  options.regularization = 1e-2;
-  options.reference = motionkit::IkReference::kInput;
-  SolveClip(state, clip, options);
+  SolveClip(state, clip, motionkit::test_rigs::NaturalOptions(kHeight));
 }
 BENCHMARK(BM_IkDlsNatural)->Unit(benchmark::kMillisecond);
 void BM_IkCcd(benchmark::State& state) { SolveClip(state, motionkit::IkMethod::kCcd); }

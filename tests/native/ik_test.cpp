@@ -20,6 +20,8 @@ namespace {
 
 using test_rigs::BoneSpec;
 using test_rigs::MakeRig;
+using test_rigs::NaturalJoints;
+using test_rigs::NaturalOptions;
 
 constexpr double kPi = 3.14159265358979323846;
 using Vec3 = Eigen::Vector3d;
@@ -1197,31 +1199,8 @@ TEST(IkNatural, ASweepInAndOutOfReachKeepsItsPinsAndDoesNotPop) {
   const int frames = 40;
   Problem p(rig, frames, {Effector("hand_l", body.hand_l), Effector("toe_l", body.toe_l, true),
                           Effector("toe_r", body.toe_r, true)});
-  p.joints.assign(static_cast<std::size_t>(rig.size()), IkJoint{});
-  for (int b = 0; b < rig.size(); ++b) {
-    IkJoint& j = p.joints[static_cast<std::size_t>(b)];
-    const std::string& n = rig.name(b);
-    j.soft = {{true, true, true}};
-    if (b == 0) {
-      j.stage = 2;
-      j.stiffness = Vec3::Constant(0.6);
-    } else if (n.rfind("spine", 0) == 0) {
-      j.stage = 1;
-      j.stiffness = Vec3::Constant(0.3);
-      j.min = Vec3(-0.15, -0.2, -0.15);
-      j.max = Vec3(0.35, 0.2, 0.15);
-    } else if (n.rfind("forearm", 0) == 0 || n.rfind("shin", 0) == 0) {
-      j.min = Vec3(0.0, -0.2, -0.1);
-      j.max = Vec3(2.6, 0.2, 0.1);
-    }
-  }
-  p.options.method = IkMethod::kDls;
-  p.options.root_translation = true;
-  p.options.root_rotation = true;
-  p.options.tolerance = 1e-5 * body.Height();
-  p.options.balance = true;
-  p.options.regularization = 1e-2;
-  p.options.reference = IkReference::kInput;
+  p.joints = NaturalJoints(rig);
+  p.options = NaturalOptions(body.Height());
   const Posed rest = p.Input(0);
   const int shoulder = rig.Find("upper_arm_l");
   const Vec3 from = rest.head[static_cast<std::size_t>(shoulder)];

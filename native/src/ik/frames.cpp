@@ -315,9 +315,7 @@ void Solver::Smooth(Eigen::Index first, Eigen::Index last) {
     trial_ = current_;
     stage_ = stage;
     const int iterations = SolveNear(kSmoothIterations);
-    settle_always_ = true;
-    const int more = Conclude(options_.max_iterations);
-    settle_always_ = false;
+    const int more = Conclude(options_.max_iterations, true);
       for (std::size_t e = 0; e < effectors; ++e) target_position_[e] = aside_[e];
     FinishFrame(f, iterations_[f] + iterations + more);
   }

@@ -108,7 +108,7 @@ int Solver::SolveStaged() {
   }
   stage_ = std::min(stage_, stages_ - 1);  // the stage that ended it: its holds and balance for the polish
   ended_stage_ = stage_;
-  return iterations + Conclude(options_.max_iterations - last);
+  return iterations + Conclude(options_.max_iterations - last, stage_ > 0);
 }
 
 void Solver::Begin() {
@@ -119,14 +119,9 @@ void Solver::Begin() {
   if (priorities_ && start.pins <= pin_tolerance_ && start.balance <= tolerance_) Keep(current_);
 }
 
-int Solver::Conclude(int budget) {
+int Solver::Conclude(int budget, bool settle) {
   Cost cost = Evaluate(fk_, e_.data());
-  // The posture settles once later stages have joined (their null space is
-  // the large one), and always in the clip's second pass. Within the limbs'
-  // reach the first pass leaves it to the warm start: settled arms carried
-  // on to the next frames stalled short of targets the arm alone reaches
-  // (walk60's lab clip: six frames missed by 1 to 3 cm).
-  int iterations = stage_ > 0 || settle_always_ ? SettlePosture(cost, options_.max_iterations / 2) : 0;
+  int iterations = settle ? SettlePosture(cost, options_.max_iterations / 2) : 0;
   if (priorities_ && cost.pins > pin_tolerance_) iterations += PolishPins(cost, budget);
   if (priorities_ && cost.pins > pin_tolerance_) {
     // Pins come first: back to the last iterate that met them, or else to
@@ -169,7 +164,7 @@ void Solver::StartLaterStages() {
   Forward(trial_, trial_fk_);
   Forward(current_, fk_);
   const Cost carried = Evaluate(trial_fk_, r_.data()), here = Evaluate(fk_, e_.data());
-  if (carried.pins <= std::max(here.pins, 1e-3 * size_)) {
+  if (carried.pins <= std::max(here.pins, PinSlack())) {
     std::swap(current_, trial_);
     std::swap(fk_, trial_fk_);
     std::swap(e_, r_);

@@ -328,14 +328,19 @@ class Solver {
   int SolveStaged();
   void StartLaterStages();  // the later stages from the last frame's corrections
   void Begin();             // a frame's solve starts: no fallback yet, the balance not yet a level
-  int Conclude(int budget);  // and ends: the prior settled, the pins polished (or the fallback)
+  // And ends: the posture settled (if `settle`), the pins polished (or the
+  // fallback). The first pass settles once later stages have joined (their
+  // null space is the large one), the second always. Within the limbs' reach
+  // the first pass leaves the posture to the warm start: settled arms carried
+  // on to the next frames stalled short of targets the arm alone reaches
+  // (walk60's lab clip: six frames missed by 1 to 3 cm).
+  int Conclude(int budget, bool settle);
   int ended_stage_ = 0;      // the stage that ended the last SolveStaged
   // The clip's second pass (natural defaults, warm-started runs): the first
   // pass's corrections, root shifts and shortfalls low-passed over time, and
   // every frame solved again from (and towards) the smoothed pose.
   void Record(Eigen::Index i);
   int SolveNear(int budget);
-  bool settle_always_ = false;  // Conclude settles the posture whatever the stage (the second pass)
   void Smooth(Eigen::Index first, Eigen::Index last);
   std::vector<Quat> corrections_;
   std::vector<Vec3> root_shifts_, shortfalls_;
