@@ -216,8 +216,8 @@ void Solver::Run(Eigen::Index first, Eigen::Index last) {
   for (Eigen::Index f = first; f < last; ++f) {
     StartFrame(f);
     const int iterations = options_.method == IkMethod::kCcd ? SolveCcd() : SolveStaged();
-    if (smooth) Record(f - first);
     FinishFrame(f, iterations);
+    if (smooth) Record(f - first);  // after FinishFrame: what it kept (a non-finite pose it puts back to the start)
   }
   if (smooth) Smooth(first, last);
 }
@@ -226,8 +226,7 @@ void Solver::Record(Eigen::Index i) {
   const auto at = static_cast<std::size_t>(i);
   for (std::size_t jo = 0; jo < joints_.size(); ++jo) {
     const int b = joints_[jo].bone;
-    Quat c = (At(current_.basis, b) * At(input_.basis, b).conjugate()).normalized();
-    corrections_[at * joints_.size() + jo] = c;
+    corrections_[at * joints_.size() + jo] = (At(current_.basis, b) * At(input_.basis, b).conjugate()).normalized();
     correction_scales_[at * joints_.size() + jo] = At(current_.scale, b);
   }
   root_shifts_[at] = current_.root - input_.root;
