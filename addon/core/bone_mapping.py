@@ -1,10 +1,10 @@
 """Which bone of one armature corresponds to which bone of another (rest pose only, no bpy).
 
-classify() labels a humanoid's hips, spine, neck, head and limb bones; auto_map()
-joins two such labellings into the (source bone, target bone) pairs the
+classify() labels a humanoid's hips, spine, neck, head, limb and finger bones;
+auto_map() joins two such labellings into the (source bone, target bone) pairs the
 retarget engine drives. Three sources of evidence, in this order:
 
-1. a shipped scheme preset (addon/presets/*.json) whose bone names all exist;
+1. a shipped scheme preset (addon/core/presets/*.json) whose bone names all exist;
 2. bone names: namespaces and DEF-/ORG- stripped, the side read from markers
    (.L, _r, Left, lHip, LHipJoint...), body-part words with synonyms;
 3. the skeleton's shape: the hips are where one subtree goes up and two go
@@ -14,6 +14,23 @@ retarget engine drives. Three sources of evidence, in this order:
 Names are trusted only where they agree with the shape (the bone lies in the
 limb chain the shape found); elsewhere the shape decides. Body.how records
 which evidence produced each label.
+
+Fingers and twist bones are labelled last, by name alone (their names make
+them helpers, which the shape rules ignore):
+
+- Body.fingers: the phalanges of each finger, root to tip, found in the
+  subtree of each labelled hand (Mixamo's LeftHandIndex1-3, Rigify's
+  f_index.01.L and its DEF- copy, Unreal's index_01_l, Character Creator's
+  CC_Base_L_Index1, Daz's lIndex1, Biped's Finger1/Finger11, CMU's LThumb...).
+  End bones (Mixamo's LeftHandIndex4, Biped's Finger1Nub) are left out.
+- Body.metacarpals: a separate bone between the hand and a finger (Unreal's
+  index_metacarpal_l, Rigify's palm.01.L).
+- Body.twists: twist bones (upperarm_twist_01_l) hanging from a labelled upper
+  arm, forearm, thigh or shin.
+
+auto_map() pairs fingers chain to chain (first and last bones when their
+lengths differ) and metacarpals where both rigs have them; twist bones are
+never paired (the retarget gives them a share of their limb's twist).
 
 Blender conventions throughout: Z is up, a character usually faces -Y and its
 left is +X, but the facing is measured from the feet, not assumed.
@@ -38,6 +55,10 @@ LIMB_KEYS = tuple(f"{key}.{side}" for side in SIDES for key in ARM_KEYS + LEG_KE
 # lengths can place the thigh after it, but it is never reported or mapped.
 ARM_SLOTS = ARM_KEYS
 LEG_SLOTS = ("connector",) + LEG_KEYS
+FINGERS = ("thumb", "index", "middle", "ring", "pinky")
+FINGER_KEYS = tuple(f"{finger}.{side}" for side in SIDES for finger in FINGERS)
+# The limb bones twist bones hang from (the retarget gives them a share of that bone's twist).
+TWIST_LIMB_KEYS = tuple(f"{key}.{side}" for side in SIDES for key in ("upper_arm", "forearm", "thigh", "shin"))
 
 MAP_FORMAT = "motionkit-bone-map"
 SCHEME_FORMAT = "motionkit-bone-scheme"
@@ -99,6 +120,14 @@ class Body:
     limbs: dict[str, str] = field(default_factory=dict)  # "thigh.L" -> bone name; missing ones absent
     how: dict[str, str] = field(default_factory=dict)    # key -> "preset:<scheme>", "name" or "structure"
     root: str | None = None  # a bone above the hips (a game rig's floor root: Unreal's root, a dataset's Root)
+    # "index.L" -> the finger's phalanges, root to tip (end bones such as Mixamo's ...Index4 left out);
+    # fingers a hand lacks are absent. Body.how has the same keys.
+    fingers: dict[str, list[str]] = field(default_factory=dict)
+    # "index.L" -> a metacarpal bone between the hand and that finger (Unreal's index_metacarpal_l,
+    # Rigify's palm.01.L), where the rig has one. Body.how keys: "index_metacarpal.L".
+    metacarpals: dict[str, str] = field(default_factory=dict)
+    # twist bone name -> the limb key ("forearm.L") of the labelled bone it hangs from; never mapped.
+    twists: dict[str, str] = field(default_factory=dict)
 
 
 # ---------------------------------------------------------------------------
@@ -143,7 +172,8 @@ _HELPER_WORDS = {
 # Fingers, face and flesh bones come in pairs: these words are helpers only on a
 # sided name, so that an unsided "spineMiddle" or "Ring" stays what it is.
 _SIDED_HELPER_WORDS = {
-    "thumb", "index", "middle", "ring", "pinky", "pinkie", "little", "finger", "fingers", "f", "palm",
+    "thumb", "index", "middle", "mid", "ring", "pinky", "pinkie", "little", "finger", "fingers", "f", "palm",
+    "carpal", "forefinger", "pointer",
     "heel", "breast", "bust", "pec", "pectoral", "eye", "eyes", "eyelid", "lid", "brow", "eyebrow", "ear",
     "cheek", "temple", "inner", "outer",
 }
@@ -193,9 +223,9 @@ def _name_side(base: str) -> str | None:
     return found.pop() if len(found) == 1 else None
 
 
-def _words(base: str) -> list[str]:
-    """Lower-case words of a name, side markers and numbers dropped."""
-    words = []
+def _tokens(base: str) -> list[str]:
+    """Lower-case words and numbers of a name, in order, side markers kept as words of their own."""
+    tokens = []
     for part in re.split(r"[^A-Za-z0-9]+", base):
         for word in _CAMEL.findall(part):
             word = word.lower()
@@ -204,9 +234,14 @@ def _words(base: str) -> list[str]:
                     word = word[len(side):]
                 if word != side and word.endswith(side):
                     word = word[:-len(side)]
-            if word and not word.isdigit() and word not in ("l", "r", "left", "right"):
-                words.append(word)
-    return words
+            if word:
+                tokens.append(word)
+    return tokens
+
+
+def _words(base: str) -> list[str]:
+    """Lower-case words of a name, side markers and numbers dropped."""
+    return [t for t in _tokens(base) if not t.isdigit() and t not in ("l", "r", "left", "right")]
 
 
 def _last_term(words: list[str]) -> str | None:
@@ -239,6 +274,75 @@ def name_info(name: str) -> NameInfo:
         return NameInfo(side, _LIMB_TERMS[term], False)
     # A sided trunk word (pelvis.L, spine_04_l): a flesh or helper bone.
     return NameInfo(side, (), term in ("pelvis", "root"))
+
+
+# Finger names. These words make a bone a helper in name_info, so the shape
+# rules ignore the fingers; the fingers are read apart, under each labelled hand.
+_FINGER_WORDS = {
+    "thumb": "thumb", "index": "index", "fore": "index", "pointer": "index", "middle": "middle",
+    "mid": "middle", "ring": "ring", "pinky": "pinky", "pinkie": "pinky", "little": "pinky",
+}
+_PALM_FINGERS = {1: "index", 2: "middle", 3: "ring", 4: "pinky"}  # Rigify's palm.01.L .. palm.04.L
+_SEGMENT_WORDS = {"proximal": 1, "intermediate": 2, "medial": 2, "distal": 3}  # Unity/VRM, Rokoko
+_END_WORDS = {"end", "nub", "tip", "site"}
+_SIDE_WORDS = ("l", "r", "left", "right")
+# A finger-named bone with one of these words is a control or a mechanism, not
+# a phalanx: Rigify's thumb.01_master.L and MCH-..., ik, fk, twist and the like.
+_NOT_FINGER_WORDS = (_HELPER_WORDS - {"metacarpal", "end", "nub"}) | {
+    "master", "mch", "fk", "tweak", "drv", "ctrl", "control", "mstr", "bend"}
+# 3ds Max Biped's Finger0 (thumb), Finger01, Finger02 (its 2nd and 3rd segments),
+# Finger1 (index)...; Rokoko's Finger2Proximal. Which finger N is is read per hand.
+_NUMBERED_FINGER = re.compile(r"finger(\d)(\d?)(?!\d)", re.IGNORECASE)
+
+
+@dataclass(frozen=True)
+class _FingerName:
+    """What a bone name says about a finger bone."""
+    finger: str | None   # "thumb" ... "pinky"; None for a numbered finger (FingerN)
+    number: int | None   # the N of FingerN
+    segment: int | None  # the phalanx's place from the hand (1 for the first), where the name tells it
+    metacarpal: bool
+    end: bool            # an end/nub/tip word: such a leaf is an end bone, not a phalanx
+    family: str          # "DEF", "ORG" or "": Rigify's deform, original and control bones of one name
+
+
+def _named_finger(tokens: list[str]) -> tuple[str | None, int | None]:
+    """The finger a name's words name, and the number right after that word (Thumb4, thumb.01.L, thumb_01_l)."""
+    for i, token in enumerate(tokens):
+        word = token[:-len("finger")] if token.endswith("finger") and token != "finger" else token  # forefinger
+        if word in _FINGER_WORDS and tokens[i + 1:i + 2] != ["arm"]:  # not the fore of ForeArm
+            rest = [t for t in tokens[i + 1:] if t != "finger" and t not in _SIDE_WORDS]
+            return _FINGER_WORDS[word], (int(rest[0]) if rest and rest[0].isdigit() else None)
+    return None, None
+
+
+@functools.lru_cache(maxsize=4096)
+def _finger_name(name: str) -> _FingerName | None:
+    """What a name says about a finger bone or metacarpal; None when it names neither."""
+    base = _strip(name)
+    tokens = _tokens(base)
+    words = set(tokens)
+    if words & _NOT_FINGER_WORDS:
+        return None
+    finger, segment = _named_finger(tokens)
+    number = None
+    in_hand = any(tokens[i:i + 2] == ["in", "hand"] for i in range(len(tokens)))  # Perception Neuron
+    metacarpal = bool(words & {"metacarpal", "palm"}) or in_hand
+    if finger is None and "palm" in words:
+        digits = [int(t) for t in tokens if t.isdigit()]
+        finger, segment = _PALM_FINGERS.get(digits[0] if digits else 0), None
+    elif finger is None:
+        match = _NUMBERED_FINGER.search(base)
+        if match is None:
+            return None
+        number = int(match.group(1))
+        segment = int(match.group(2)) + 1 if match.group(2) else None
+    if finger is None and number is None:
+        return None
+    segment = next((_SEGMENT_WORDS[t] for t in tokens if t in _SEGMENT_WORDS), segment)
+    family = _RIG_PREFIX.match(_NAMESPACE.sub("", name))
+    return _FingerName(finger, number, segment, metacarpal, bool(words & _END_WORDS),
+                       family.group(1).upper() if family else "")
 
 
 # ---------------------------------------------------------------------------
@@ -559,6 +663,125 @@ def _names_only_body(shape: _Shape) -> Body:
 
 
 # ---------------------------------------------------------------------------
+# Fingers and twist bones, found by name below the labelled limbs
+
+def _children(parents) -> list[list[int]]:
+    children = [[] for _ in parents]
+    for i, parent in enumerate(parents):
+        if parent >= 0:
+            children[parent].append(i)
+    return children
+
+
+def _depths_below(children, bone: int) -> dict[int, int]:
+    """Each bone under bone (not bone itself) and how many bones down it is."""
+    depth, stack = {}, [(c, 1) for c in children[bone]]
+    while stack:
+        b, d = stack.pop()
+        depth[b] = d
+        stack.extend((c, d + 1) for c in children[b])
+    return depth
+
+
+def _label_fingers_and_twists(body: Body, rig: Rig) -> None:
+    children = _children(rig.parents)
+    _label_fingers(body, rig, children)
+    _label_twists(body, rig, children)
+
+
+def _label_fingers(body: Body, rig: Rig, children) -> None:
+    """Phalanges and metacarpals, by their names, in the subtree of each labelled hand.
+
+    The side is the hand's. In a consistent rig the fingers' names say the
+    same; where they do not (hands labelled by position in a mirrored rig),
+    keeping each hand's fingers with it keeps them moving with that hand.
+    """
+    for side in SIDES:
+        hand = body.limbs.get(f"hand.{side}")
+        if hand is None:
+            continue
+        digits = _hand_digits(rig, children, rig.names.index(hand))
+        for finger in FINGERS:
+            key = f"{finger}.{side}"
+            if digits.get((finger, False)):
+                body.fingers[key] = [rig.names[b] for b in digits[finger, False]]
+                body.how[key] = "name"
+            if digits.get((finger, True)):
+                body.metacarpals[key] = rig.names[digits[finger, True][0]]
+                body.how[f"{finger}_metacarpal.{side}"] = "name"
+
+
+def _ends_only_below(rig: Rig, children, bone: int) -> bool:
+    """Whether nothing but end leaves (named end, nub, tip or site) hangs below bone."""
+    for child in children[bone]:
+        read = _finger_name(rig.names[child])
+        if children[child] or not (_END_WORDS & set(_words(_strip(rig.names[child])))
+                                   or (read is not None and read.end)):
+            return False
+    return True
+
+
+def _hand_digits(rig: Rig, children, hand: int) -> dict[tuple[str, bool], list[int]]:
+    """(finger, is metacarpal) -> its bones under hand, root to tip, end bones left out."""
+    depth = _depths_below(children, hand)
+    read = {}
+    for bone in depth:
+        found = _finger_name(rig.names[bone])
+        # An end bone is a leaf past the 3rd segment (Mixamo's ...Index4) or one named end, nub or tip; a
+        # leaf exporters added below it (FBX's ..._end) does not make it a phalanx.
+        if found is None or (_ends_only_below(rig, children, bone) and (found.end or (found.segment or 0) > 3)):
+            continue
+        read[bone] = found
+    # FingerN counts from 0 (Biped's Finger0 is the thumb) where there is a Finger0 or a
+    # thumb named apart; otherwise from 1 (Rokoko's Finger1 is the thumb).
+    offset = 0 if any(r.number == 0 or r.finger == "thumb" for r in read.values()) else 1
+    groups = {}
+    for bone, found in read.items():
+        finger = found.finger
+        if finger is None and 0 <= found.number - offset < len(FINGERS):
+            finger = FINGERS[found.number - offset]
+        if finger is not None:
+            groups.setdefault((finger, found.metacarpal), []).append(bone)
+    hand_family = _RIG_PREFIX.match(_NAMESPACE.sub("", rig.names[hand]))
+    hand_family = hand_family.group(1).upper() if hand_family else ""
+    return {key: _digit_chain(rig, depth, read, bones, hand_family) for key, bones in groups.items()}
+
+
+def _digit_chain(rig: Rig, depth, read, bones: list[int], hand_family: str) -> list[int]:
+    """One finger's bones root to tip, each below the one before.
+
+    A generated Rigify rig has a finger thrice (DEF-thumb.01.L, ORG-thumb.01.L
+    and the control thumb.01.L): the copies of the hand's own family win, then
+    the deform bones, the controls, the originals.
+    """
+    def rank(bone):
+        family = read[bone].family
+        return family != hand_family, ("DEF", "", "ORG").index(family)
+
+    best = min(rank(b) for b in bones)
+    chain = []
+    for bone in sorted((b for b in bones if rank(b) == best), key=lambda b: (depth[b], read[b].segment or 0, b)):
+        if not chain or is_ancestor(rig.parents, chain[-1], bone):
+            chain.append(bone)
+    return chain
+
+
+def _is_twist(name: str) -> bool:
+    return any("twist" in word for word in _words(_strip(name)))
+
+
+def _label_twists(body: Body, rig: Rig, children) -> None:
+    """Twist bones hanging from a labelled upper arm, forearm, thigh or shin, with only twist bones below them."""
+    limb_of = {body.limbs[key]: key for key in TWIST_LIMB_KEYS if key in body.limbs}
+    for bone, name in enumerate(rig.names):
+        parent = rig.parents[bone]
+        if parent < 0 or rig.names[parent] not in limb_of or not _is_twist(name):
+            continue
+        if all(_is_twist(rig.names[b]) for b in _depths_below(children, bone)):
+            body.twists[name] = limb_of[rig.names[parent]]
+
+
+# ---------------------------------------------------------------------------
 # Presets
 
 def _read_json(path, what):
@@ -668,20 +891,24 @@ def _body_from_scheme(rig: Rig, scheme_id: str) -> Body:
 # Classifying and mapping
 
 def classify(rig: Rig, *, presets: bool = True) -> Body:
-    """Labels the rig's hips, spine, neck, head and limb bones.
+    """Labels the rig's hips, spine, neck, head and limb bones, then the fingers and twist bones.
 
     presets=False skips the scheme presets and goes by names and shape alone.
+    Fingers and twist bones are found by name below the labelled hands and
+    limbs, whichever way those were found.
     """
     if presets:
         scheme_id = detect_scheme(rig)
         if scheme_id is not None:
             body = _body_from_scheme(rig, scheme_id)
             _label_floor_root(body, rig)
+            _label_fingers_and_twists(body, rig)
             return body
     shape = _Shape(rig)
     hips = _find_hips(shape)
     body = _names_only_body(shape) if hips is None else _structural_body(shape, hips)
     _label_floor_root(body, rig)
+    _label_fingers_and_twists(body, rig)
     return body
 
 
@@ -722,6 +949,21 @@ def _chain_pairs(source: list[str], target: list[str], neck: bool) -> list[tuple
     return [(source[0], target[0]), (source[-1], target[-1])]
 
 
+def _finger_pairs(source: list[str], target: list[str]) -> list[tuple[str, str]]:
+    """Bone by bone when the fingers have as many phalanges, else first with first and last with last.
+
+    The retarget interpolates the bones between; a finger of one bone is the
+    whole finger, whose turn belongs to the other's first phalanx.
+    """
+    if not source or not target:
+        return []
+    if len(source) == len(target):
+        return list(zip(source, target))
+    if len(source) == 1 or len(target) == 1:
+        return [(source[0], target[0])]
+    return [(source[0], target[0]), (source[-1], target[-1])]
+
+
 def _join(source: Body, target: Body, target_rig: Rig) -> list[tuple[str, str]]:
     pairs = []
     if source.root and target.root:
@@ -733,6 +975,10 @@ def _join(source: Body, target: Body, target_rig: Rig) -> list[tuple[str, str]]:
     if source.head and target.head:
         pairs.append((source.head, target.head))
     pairs += [(source.limbs[k], target.limbs[k]) for k in LIMB_KEYS if k in source.limbs and k in target.limbs]
+    for key in FINGER_KEYS:  # twist bones are never paired: the retarget shares the limb's twist out to them
+        pairs += _finger_pairs(source.fingers.get(key, []), target.fingers.get(key, []))
+        if key in source.metacarpals and key in target.metacarpals:
+            pairs.append((source.metacarpals[key], target.metacarpals[key]))
     rank = {target_rig.names[b]: i for i, b in enumerate(_depth_first(target_rig.parents))}
     seen, unique = set(), []
     for pair in sorted(pairs, key=lambda p: rank[p[1]]):
@@ -754,6 +1000,7 @@ def map_from_presets(source: Rig, source_scheme: str, target: Rig, target_scheme
         body = _body_from_scheme(rig, scheme_id)
         if not body.how:
             raise ValueError(f"the rig has none of the bones of scheme {scheme_id!r}")
+        _label_fingers_and_twists(body, rig)
         bodies.append(body)
     return _join(bodies[0], bodies[1], target)
 
