@@ -149,6 +149,11 @@ def retarget(
     vertical_offset: float = 0.0,
     root_motion: Literal["scaled", "in_place", "offset", "none"] = "scaled",
     ground_bones: list[int] = ...,
+    up: npt.ArrayLike = ...,
+    source_floor: float = 0.0,
+    target_floor: float = 0.0,
+    source_aims: npt.NDArray[np.float64] | None = None,
+    target_aims: npt.NDArray[np.float64] | None = None,
 ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
 
 # Full-body inverse kinematics (native/python/bind_ik.cpp).

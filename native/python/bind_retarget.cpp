@@ -6,6 +6,7 @@
 #include <pybind11/stl.h>
 
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -36,7 +37,9 @@ py::tuple Retarget(const RigModel& source, const RigModel& target, const ConstMa
                    const ConstMatrixView& source_match, const PointArg& source_match_root,
                    const ConstMatrixView& target_match_basis, const PointArg& target_match_location,
                    int source_root, int target_root, const QuaternionArg& space, double scale, double unit_scale,
-                   double vertical_offset, const std::string& root_motion, const std::vector<int>& ground_bones) {
+                   double vertical_offset, const std::string& root_motion, const std::vector<int>& ground_bones,
+                   const PointArg& up, double source_floor, double target_floor,
+                   const std::optional<RowMatrixXd>& source_aims, const std::optional<RowMatrixXd>& target_aims) {
   const auto motion = ParseRootMotion(root_motion);
   if (!motion) throw Error("unknown root motion '" + root_motion + "'; expected scaled, in_place, offset or none");
   const Eigen::Index frames = source_rotations.rows(), bones = target.size();
@@ -57,6 +60,11 @@ py::tuple Retarget(const RigModel& source, const RigModel& target, const ConstMa
   job.options.vertical_offset = vertical_offset;
   job.options.space = ToQuaternion(space);
   job.options.ground_bones = ground_bones;
+  job.options.up = up;
+  job.options.source_floor = source_floor;
+  job.options.target_floor = target_floor;
+  if (source_aims) job.source_aims = *source_aims;
+  if (target_aims) job.target_aims = *target_aims;
   ValidateAndRun(job);
   return py::make_tuple(rotations, root_locations);
 }
@@ -69,6 +77,8 @@ void BindRetarget(py::module_& m) {
         "source_match_root"_a, "target_match_basis"_a.noconvert(), "target_match_location"_a,
         "source_root"_a, "target_root"_a, "space"_a = Eigen::Vector4d(1, 0, 0, 0), "scale"_a = 1.0,
         "unit_scale"_a = 1.0, "vertical_offset"_a = 0.0, "root_motion"_a = "scaled", "ground_bones"_a = std::vector<int>{},
+        "up"_a = Eigen::Vector3d(0, 0, 1), "source_floor"_a = 0.0, "target_floor"_a = 0.0,
+        "source_aims"_a = py::none(), "target_aims"_a = py::none(),
         R"pbdoc(
         Retarget a whole clip from the source rig to the target rig.
 
@@ -83,9 +93,14 @@ void BindRetarget(py::module_& m) {
         scale: target leg length / source leg length; unit_scale: target
         armature units per source one. root_motion: "scaled", "in_place",
         "offset" or "none" (retarget.hpp says what each does with the root's
-        horizontal motion and its height above armature Z = 0);
-        vertical_offset: added to the height in "offset". ground_bones: target bones that touch Z = 0 on the
-        first frame.
+        motion across up and its height above the floor); vertical_offset:
+        added to the height in "offset". ground_bones: target bones that
+        touch the target's floor on the first frame. up: the target
+        armature's up (unit); source_floor: the source floor's height along
+        up (source units, after space); target_floor: the target's, in its
+        armature units. source_aims (a, 3), target_aims (b, 3): where each
+        bone points in its own frame, for rigs whose bone axes do not run
+        along their limbs (default: every bone's Y axis).
 
         Returns (rotations (frames, 4b) pose quaternions per target bone,
         continuous per bone; root_locations (frames, 3), the target root's

@@ -79,12 +79,19 @@ class Plan {
   Eigen::Vector3d SourceDirection(int from, int to, double alpha) const {
     const Eigen::Quaterniond qa = source_match_inverse(from).conjugate();
     const Eigen::Quaterniond qb = source_match_inverse(to).conjugate();
-    return job_.options.space * (qa.slerp(alpha, qb) * kBoneAxis);
+    const Eigen::Vector3d aim = ((1.0 - alpha) * Aim(job_.source_aims, from) + alpha * Aim(job_.source_aims, to));
+    return job_.options.space * (qa.slerp(alpha, qb) * aim.normalized());
+  }
+
+  // Where a bone points in its own frame: its Y axis unless the caller says otherwise.
+  static Eigen::Vector3d Aim(const RowMatrixXd& aims, int bone) {
+    if (aims.rows() == 0) return kBoneAxis;
+    return aims.row(bone).transpose().normalized();
   }
 
   // S_b M_b: the target's match orientation turned the shortest way onto the source's direction.
   Eigen::Quaterniond Align(int b, const Eigen::Vector3d& direction) const {
-    const Eigen::Vector3d own = match(b) * kBoneAxis;
+    const Eigen::Vector3d own = match(b) * Aim(job_.target_aims, b);
     return (Eigen::Quaterniond::FromTwoVectors(own, direction) * match(b)).normalized();
   }
 
@@ -175,6 +182,12 @@ Status RetargetJob::Validate() const {
         options.unit_scale > 0 && std::isfinite(options.vertical_offset))) {
     return Status::Fail("retarget: scale and unit_scale must be positive, vertical_offset finite");
   }
+  if (!options.up.allFinite() || std::abs(options.up.norm() - 1.0) > 1e-6) {
+    return Status::Fail("retarget: up must be a unit vector");
+  }
+  if (!(std::isfinite(options.source_floor) && std::isfinite(options.target_floor))) {
+    return Status::Fail("retarget: the floors' heights must be finite");
+  }
   if (!options.space.coeffs().allFinite() || std::abs(options.space.norm() - 1.0) > 1e-6) {
     return Status::Fail("retarget: the space rotation must be a unit quaternion");
   }
@@ -186,6 +199,20 @@ Status RetargetJob::Validate() const {
   }
   for (int g : options.ground_bones) {
     if (g < 0 || g >= nt) return Status::Fail("retarget: ground bone index out of range");
+  }
+  for (const bool is_source : {true, false}) {
+    const RowMatrixXd& aims = is_source ? source_aims : target_aims;
+    const RigModel& rig = is_source ? source : target;
+    const std::string side = is_source ? "source" : "target";
+    if (aims.rows() == 0) continue;
+    if (aims.rows() != rig.size() || aims.cols() != 3) {
+      return Status::Fail("retarget: " + side + " aims must be one row of 3 numbers per bone");
+    }
+    for (int b = 0; b < rig.size(); ++b) {
+      if (!aims.row(b).allFinite() || aims.row(b).norm() < 1e-12) {
+        return Status::Fail("retarget: the " + side + " aim of bone " + Bone(rig, b) + " is not a direction");
+      }
+    }
   }
   int mapped = 0;
   for (int b = 0; b < nt; ++b) {
@@ -306,30 +333,34 @@ void RetargetJob::Run() {
       return;
     }
     // The root's head: horizontally the match pose's, moved as the source
-    // root moved; vertically at the source root's height.
+    // root moved; along up at the source root's height above its floor.
+    const Eigen::Vector3d& up = options.up;
     Eigen::Vector3d moved = Eigen::Vector3d::Zero();
     double height = 0.0;
     if (source_root >= 0) {
-      moved = space * (source_root_heads.row(f).transpose() - source_match_root);
-      height = (space * source_root_heads.row(f).transpose()).z();
+      const Eigen::Vector3d head = source_root_heads.row(f).transpose();
+      moved = space * (head - source_match_root);
+      height = (space * head).dot(up) - options.source_floor;
     }
+    const Eigen::Vector3d across = moved - moved.dot(up) * up;
     Eigen::Vector3d wanted = target_match_root;
+    double wanted_height = wanted.dot(up);
     switch (options.root_motion) {
       case RootMotion::kScaled:
-        wanted << wanted.x() + options.scale * moved.x(), wanted.y() + options.scale * moved.y(),
-            options.scale * height;
+        wanted += options.scale * across;
+        wanted_height = options.target_floor + options.scale * height;
         break;
       case RootMotion::kInPlace:
-        wanted.z() = options.scale * height;
+        wanted_height = options.target_floor + options.scale * height;
         break;
       case RootMotion::kOffset:
-        wanted << wanted.x() + options.scale * moved.x(), wanted.y() + options.scale * moved.y(),
-            options.unit_scale * height + options.vertical_offset;
+        wanted += options.scale * across;
+        wanted_height = options.target_floor + options.unit_scale * height + options.vertical_offset;
         break;
       case RootMotion::kNone:
         break;
     }
-    wanted.z() += lift;
+    wanted += (wanted_height + lift - wanted.dot(up)) * up;
     const int p = target.parent(target_root);
     // head = anchor + frame * location, from the root's parent (posed this frame).
     Eigen::Vector3d parent_head = Eigen::Vector3d::Zero();
@@ -356,9 +387,9 @@ void RetargetJob::Run() {
     for (int g : options.ground_bones) {
       const Eigen::Vector3d head = heads[static_cast<std::size_t>(g)];
       const Eigen::Vector3d tail = head + globals[static_cast<std::size_t>(g)] * (target.length(g) * kBoneAxis);
-      lowest = std::min({lowest, head.z(), tail.z()});
+      lowest = std::min({lowest, head.dot(options.up), tail.dot(options.up)});
     }
-    lift = -lowest;
+    lift = options.target_floor - lowest;
   }
   for (Eigen::Index f = 0; f < frames; ++f) solve_frame(f, lift);
 }

@@ -9,7 +9,9 @@
 // docs/retargeting.md's Q^B = Q^A (Q^{A->B})^T with Q^{A->B} = M_b^-1 S_b^-1 M_a
 // read in each rig's own bone frames. So b points where a points on every
 // frame whatever the rest poses (T, A, anything) and bone rolls, and turns
-// about itself as a does. Locals come back as G_p^-1 G_b against each bone's
+// about itself as a does. "Points" is along each bone's aim: its Y axis, or
+// the direction the caller gives (source_aims, target_aims) where a rig's
+// bone axes do not run along its limbs. Locals come back as G_p^-1 G_b against each bone's
 // rest (Blender's pose basis).
 //
 // Chains of different lengths: target bones left out of the map that lie
@@ -18,19 +20,22 @@
 // source chain between a0 and a, so the chain bends as the source's does and
 // ends as a. Other unmapped bones keep the match pose's local rotation.
 //
-// Root motion: the target root's head moves horizontally as the source
-// root moved from its match pose, and stands at the source root's height
-// above the floor (armature Z = 0 on both sides: a capture's floor, a rig's
-// ground), both carried by R and scaled by `scale`, the ratio of the rigs' leg
-// lengths (hip heights, in their own armature units):
+// Root motion: the target root's head moves across `up` (the target
+// armature's up direction) as the source root moved from its match pose, and
+// stands at the source root's height above the source's floor, both carried
+// by R and scaled by `scale`, the ratio of the rigs' leg lengths (in their own
+// armature units). Each rig's floor is its own (its rest soles, or where the
+// caller says): heights are measured along up from `source_floor` (source
+// units, after R) and put above `target_floor`:
 //   kScaled   horizontal and height scaled;
 //   kInPlace  height scaled; the horizontal stays at the match pose;
 //   kOffset   horizontal scaled, height unscaled (`unit_scale` converts
 //             source armature units to target ones) plus `vertical_offset`
 //             (the caller passes the difference in hip heights);
 //   kNone     the root stays at the match pose.
-// With ground_bones, the root is moved vertically on every frame so that the
-// lowest of those bones' heads and tails touches Z = 0 on the first frame.
+// With ground_bones, the root is moved along up on every frame so that the
+// lowest of those bones' heads and tails touches the target's floor on the
+// first frame.
 #pragma once
 
 #include <optional>
@@ -55,6 +60,9 @@ struct RetargetOptions {
   double unit_scale = 1.0;  // target armature units per source armature unit
   double vertical_offset = 0.0;  // kOffset: added to the root's unscaled height
   Eigen::Quaterniond space = Eigen::Quaterniond::Identity();  // source armature -> target armature
+  Eigen::Vector3d up = Eigen::Vector3d::UnitZ();  // the target armature's up (unit)
+  double source_floor = 0.0;  // the source floor's height along up, source units carried by space
+  double target_floor = 0.0;  // the target floor's height along up, target armature units
   std::vector<int> ground_bones;  // target bones that touch the floor on the first frame
 };
 
@@ -93,6 +101,10 @@ struct RetargetJob {
   Eigen::Vector3d source_match_root = Eigen::Vector3d::Zero();
   Eigen::Vector3d target_match_location = Eigen::Vector3d::Zero();
   std::vector<int> bone_map;
+  // Optional, bones x 3 (or no rows: every bone's Y axis): where each bone points in its own frame, for
+  // rigs whose bone axes do not run along their limbs (an FBX import without automatic bone orientation).
+  RowMatrixXd source_aims;
+  RowMatrixXd target_aims;
   int source_root = -1;
   int target_root = -1;
   RetargetOptions options;
