@@ -11,7 +11,7 @@ import bpy
 import numpy as np
 
 from . import animdata
-from ..core import bone_mapping, native_state, rotation_channels
+from ..core import bone_axes, bone_mapping, native_state, rotation_channels
 
 
 def depth_first(armature) -> list:
@@ -94,6 +94,17 @@ def rotation_keyer(obj, names):
         return list(channels), values
 
     return keys
+
+
+def bone_aims(armature, bones) -> tuple[np.ndarray, np.ndarray] | None:
+    """Where each of bones (parents first) points in its own rest frame, (bones, 3), and how far, for an
+    armature whose bones' Y axes do not run along their limbs; None for one whose do (core.bone_axes)."""
+    index = {b.name: i for i, b in enumerate(bones)}
+    rest = rest_quaternions(armature)
+    return bone_axes.aims(np.array([b.head_local for b in bones], dtype=np.float64),
+                          np.array([b.tail_local for b in bones], dtype=np.float64),
+                          [index[b.parent.name] if b.parent is not None and b.parent.name in index else -1
+                           for b in bones], np.array([rest[b.name] for b in bones]))
 
 
 def rest_quaternions(armature) -> dict[str, np.ndarray]:

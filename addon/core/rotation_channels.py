@@ -172,3 +172,24 @@ def y_axes(q) -> np.ndarray:
     """The Y axes (..., 3) of unit quaternions (..., 4): where Blender bones point."""
     w, x, y, z = np.moveaxis(np.asarray(q, dtype=np.float64), -1, 0)
     return np.stack([2 * (x * y - w * z), 1 - 2 * (x * x + z * z), 2 * (y * z + w * x)], axis=-1)
+
+
+def twist_angles(q, axis) -> np.ndarray:
+    """The turn (...) of rotations q (..., 4) about a unit axis (3,): the twist of a swing-twist split,
+    in (-pi, pi]."""
+    q = np.asarray(q, dtype=np.float64)
+    along = q[..., 1:] @ np.asarray(axis, dtype=np.float64)
+    angle = 2.0 * np.arctan2(along, q[..., 0])
+    return (angle + np.pi) % (2 * np.pi) - np.pi
+
+
+def between(a, b) -> np.ndarray:
+    """The shortest rotation (w x y z) that turns direction a (3,) onto direction b (3,)."""
+    a = np.asarray(a, dtype=np.float64) / np.linalg.norm(a)
+    b = np.asarray(b, dtype=np.float64) / np.linalg.norm(b)
+    w = 1.0 + float(a @ b)
+    if w < 1e-12:  # opposite: half a turn about any axis across a
+        axis = np.cross(a, [1.0, 0.0, 0.0] if abs(a[0]) < 0.9 else [0.0, 1.0, 0.0])
+        return np.concatenate([[0.0], axis / np.linalg.norm(axis)])
+    q = np.concatenate([[w], np.cross(a, b)])
+    return q / np.linalg.norm(q)

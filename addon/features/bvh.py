@@ -23,6 +23,9 @@ from ..core import bone_mapping, frame_rates, native_state, rotation_channels
 
 ROTATION_MODES = ('QUATERNION', 'NATIVE', 'XYZ', 'XZY', 'YXZ', 'YZX', 'ZXY', 'ZYX')
 FRAME_RATE = "motionkit_frame_rate"  # an action's custom property: its keys' frames per second
+# An armature's custom property: its floor's height along its Z (a capture's floor is its origin's level,
+# wherever its rest pose stands: a root OFFSET of zero hangs the rest pose below it). Retargeting reads it.
+FLOOR = "motionkit_floor"
 
 
 def frame_rate(action) -> float:
@@ -102,6 +105,7 @@ def _edit_mode(obj):
 def _build_armature(name: str, skeleton, heads, tails, collection):
     names, parents, end_sites = skeleton.names, skeleton.parents, skeleton.end_sites
     armature = bpy.data.armatures.new(name)
+    armature[FLOOR] = 0.0
     obj = bpy.data.objects.new(name, armature)
     collection.objects.link(obj)
     previous = _edit_mode(obj)

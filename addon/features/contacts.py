@@ -299,13 +299,26 @@ class _LegRig:
     rig: object
     lengths: np.ndarray
     world: np.ndarray
+    aims: np.ndarray | None = None  # (B, 3) where each bone points in its own frame (None: along its Y)
 
     @classmethod
     def read(cls, obj, bones, legs, whole: bool = False) -> "_LegRig":
         # Only the legs and the bones above them place the feet: posed alone (the rest is never read).
         sub = sorted(set(b for chain in legs for b in chain).union(*(_above(bones, chain[0]) for chain in legs)))
         rig = None if whole else pose_channels.native_rig(obj.data, [bones[b] for b in sub])[0]
-        return cls(legs, sub, rig, np.array([b.length for b in bones]), np.array(obj.matrix_world))
+        lengths, aims = np.array([b.length for b in bones]), None
+        # A rig whose bones do not run along their Y axes (an FBX import): each leg bone's point is the next
+        # joint, not its tail (core.bone_axes).
+        found = pose_channels.bone_aims(obj.data, bones)
+        if found is not None:
+            aims, lengths = found
+        return cls(legs, sub, rig, lengths, np.array(obj.matrix_world), aims)
+
+    def aim_rotations(self, bones) -> np.ndarray:
+        """(len(bones), 4) per bone the rotation that turns its Y axis onto where it points."""
+        if self.aims is None:
+            return np.tile([1.0, 0.0, 0.0, 0.0], (len(bones), 1))
+        return np.array([rotation_channels.between([0.0, 1.0, 0.0], self.aims[b]) for b in bones])
 
 
 def _pose_points(leg_rig: _LegRig, rotations, locations, posed=None):
@@ -323,7 +336,9 @@ def _pose_points(leg_rig: _LegRig, rotations, locations, posed=None):
     else:
         pose = _Posed(posed[0], posed[1], range(len(leg_rig.lengths)), rotations)
     lengths, world, legs = leg_rig.lengths, leg_rig.world, leg_rig.legs
-    points = np.stack([pose.head(b) + lengths[b] * rotation_channels.y_axes(pose.orient(b))
+    aims = leg_rig.aims
+    points = np.stack([pose.head(b) + lengths[b] * (rotation_channels.y_axes(pose.orient(b)) if aims is None else
+                                                    _rotate(pose.orient(b), aims[b]))
                        for _, shin, foot in legs for b in (shin, foot)], axis=1)
     world_points = points @ world[:3, :3].T + world[:3, 3]
     scale = float(np.cbrt(abs(np.linalg.det(world[:3, :3]))))
@@ -342,13 +357,14 @@ def foot_points(obj, bones, rig, rotations, locations, feet, posed=None) -> tupl
 
 
 def find_contacts(obj, bones, rig, rotations, locations, feet, settings: ContactSettings | None = None,
-                  fps: float | None = None, posed=None) -> np.ndarray:
+                  fps: float | None = None, posed=None, floor: float = 0.0) -> np.ndarray:
     """Contacts (F, 4) bool (POINTS order) of a pose sequence (for example the retarget's source, whose
-    contacts the target then keeps); fps default the scene's; posed: its armature pose, if at hand."""
+    contacts the target then keeps); fps default the scene's; posed: its armature pose, if at hand; floor:
+    the floor's world Z."""
     if fps is None:
         fps = bvh.frame_rate(None)  # the scene's
     points, leg_length = foot_points(obj, bones, rig, rotations, locations, feet, posed)
-    return detect_contacts(points, fps, leg_length, 0.0, settings)
+    return detect_contacts(points, fps, leg_length, floor, settings)
 
 
 def _blender_frame(frames, f) -> str:
@@ -367,7 +383,8 @@ def cleanup(obj, bones, rig, frames, rotations, locations, feet, contacts=None,
 
 def staged_cleanup(obj, bones, rig, frames, rotations, locations, feet, contacts=None,
                    settings: ContactSettings | None = None, *, hips: str | None = None, fps: float | None = None,
-                   in_place: bool = False, threads: int = 0):
+                   in_place: bool = False, threads: int = 0, follow_heights=None,
+                   hips_move: bool = True):
     """cleanup in stages, so that its native solve and what follows can run beside other work: everything
     that reads Blender data (and the checks of the arguments) happens here, and the result is
     (prepare, finish). prepare() computes the targets and limits (numpy) and returns solve; solve() calls
@@ -377,7 +394,8 @@ def staged_cleanup(obj, bones, rig, frames, rotations, locations, feet, contacts
     bone and frame. threads: the solve's (0: every core; the same numbers whatever the count).
     """
     steps = _cleanup_steps(obj, bones, rig, frames, rotations, locations, feet, contacts, settings, hips=hips,
-                           fps=fps, in_place=in_place, threads=threads)
+                           fps=fps, in_place=in_place, threads=threads, follow_heights=follow_heights,
+                           hips_move=hips_move)
     next(steps)  # Blender's data read, the arguments checked
 
     def prepare():
@@ -393,9 +411,30 @@ def staged_cleanup(obj, bones, rig, frames, rotations, locations, feet, contacts
     return prepare, finish
 
 
+def _keep_feet_rigid(targets, points, rise) -> None:
+    """Moves one point of each foot across the floor (its height kept) so that its target lies as far from
+    the other's as the foot's two points lie apart: heights that follow the pose must not ask a rigid foot
+    for more than it can give. The point that rises more above its plant moves (a heel coming off the
+    ground turns about the ball, a toe about the heel). targets, points: (F, 4, 3) world, POINTS order;
+    rise (F, 4): how far each target was raised above its plant; targets changed in place."""
+    for a, b in _RIGID:
+        moving = np.where(rise[:, a] > rise[:, b], a, b)
+        still = a + b - moving
+        frames = np.arange(len(targets))
+        length = np.linalg.norm(points[:, b] - points[:, a], axis=1)
+        pivot, free = targets[frames, still], targets[frames, moving]
+        across = free[:, :2] - pivot[:, :2]
+        norm = np.linalg.norm(across, axis=1)
+        reach = np.sqrt(np.maximum(length ** 2 - (free[:, 2] - pivot[:, 2]) ** 2, 0.0))
+        ok = norm > 1e-9 * np.maximum(length, 1e-12)
+        free[ok, :2] = pivot[ok, :2] + across[ok] * (reach[ok] / norm[ok])[:, None]
+        targets[frames, moving] = free
+
+
 def _cleanup_steps(obj, bones, rig, frames, rotations, locations, feet, contacts=None,
                    settings: ContactSettings | None = None, *, hips: str | None = None, fps: float | None = None,
-                   in_place: bool = False, threads: int = 0):
+                   in_place: bool = False, threads: int = 0, follow_heights=None,
+                   hips_move: bool = True):
     """The cleanup as a generator: yields its solve, is sent the solve's result, returns cleanup's result.
 
     obj: the armature object (its matrix_world places the floor; Z up).
@@ -406,7 +445,11 @@ def _cleanup_steps(obj, bones, rig, frames, rotations, locations, feet, contacts
     contacts: (F, 4) bool in POINTS order, or None to detect them on this pose sequence.
     hips: the bone whose location channel carries the body (default: the thighs' common parent).
     fps: for detection and blend lengths (default the scene's).
-    Only the thighs', shins' and feet's rotations and the hips' location change. in_place: write them into
+    follow_heights: (F, 2) per leg, world Z; None holds each plant at its own height. Given, a planted
+    point holds only across the floor (where sliding shows) and on every frame its height follows the
+    pose's own raised by its leg's follow_heights (the retarget's floor: heels and toes lift where the
+    source's do, no foot sinks below the floor). Only the thighs', shins' and feet's rotations and the
+    hips' location change (hips_move=False: the hips stay). in_place: write them into
     rotations and locations themselves (float64, C-contiguous) and return those, rather than copies.
     Raises ValueError naming the foot, bone and Blender frame.
     """
@@ -490,11 +533,22 @@ def _cleanup_steps(obj, bones, rig, frames, rotations, locations, feet, contacts
         source = "given"
     with native_state.blender_frames(frames):
         targets_world, _ = plant_targets(native, world_points, contacts, settings.blend_frames(fps), _RIGID)
+    if follow_heights is not None:
+        lift = np.asarray(follow_heights, dtype=np.float64)[:, [0, 0, 1, 1]]  # per point, POINTS order
+        held = targets_world[..., 2].copy()
+        targets_world[..., 2] = world_points[..., 2] + lift
+        _keep_feet_rigid(targets_world, world_points, targets_world[..., 2] - held)
     inverse = np.linalg.inv(leg_rig.world)
     targets = targets_world @ inverse[:3, :3].T + inverse[:3, 3]
 
     rest_q /= np.linalg.norm(rest_q, axis=1, keepdims=True)
     basis = pose.basis.reshape(count, -1, 4)[:, [pose.columns[b] for b in part]]  # a copy: fancy indexing
+    # The solve's leg bones run along where they point (their tails the next joints): rest A, basis
+    # A^-1 basis A, undone after the solve. The hips keep their own frame.
+    aim = leg_rig.aim_rotations(part)
+    aim[0] = [1.0, 0.0, 0.0, 0.0]
+    rest_q = _mul(rest_q, aim)
+    basis = _mul(_mul(_conj(aim)[None], basis), aim[None])
     # Hips: basis = rest^-1 * posed orientation, location so that rest head + rest * location = head.
     hip_orient = pose.orient(hip) / np.linalg.norm(pose.orient(hip), axis=1, keepdims=True)
     basis[:, 0] = _mul(_conj(rest_q[0]), hip_orient)
@@ -506,7 +560,7 @@ def _cleanup_steps(obj, bones, rig, frames, rotations, locations, feet, contacts
         foot_dir = points[:, 2 * SIDES.index(foot.side) + 1] - points[:, 2 * SIDES.index(foot.side)]
         k = local[shin]
         angles = _swing_twist(basis[:, k])
-        roll, how = _knee_roll(angles, pose.orient(shin), foot_dir)
+        roll, how = _knee_roll(angles, _mul(pose.orient(shin), aim[k]), foot_dir)
         report.knee_axes[foot.side] = how
         rolls[shin] = roll
         knee_angles[shin] = _rolled(angles, roll)
@@ -534,7 +588,7 @@ def _cleanup_steps(obj, bones, rig, frames, rotations, locations, feet, contacts
     options = dict(limit_min=limit_min, limit_max=limit_max, excluded=excluded,
                    **{"method": "dls", "max_iterations": 64, "tolerance": 1e-5 * size, "reference": "input",
                       **_SOLVE_OPTIONS},
-                   root_translation=True, root_rotation=False, warm_start=False, size=size, threads=threads)
+                   root_translation=hips_move, root_rotation=False, warm_start=False, size=size, threads=threads)
 
     def solve():
         solve_started = time.perf_counter()
@@ -555,6 +609,7 @@ def _cleanup_steps(obj, bones, rig, frames, rotations, locations, feet, contacts
     for shin, roll in rolls.items():
         k = local[shin]
         solved_basis[:, k] = _mul(_mul(_about_y(roll), solved_basis[:, k]), _about_y(-roll))
+    solved_basis = _mul(_mul(aim[None], solved_basis), _conj(aim)[None])
     q = solved_basis[:, [local[b] for b in changed]]  # (F, legs' bones, 4), a copy
     q /= np.linalg.norm(q, axis=2, keepdims=True)
     # Keep each bone's hemisphere as the input had it, so that quaternion curves do not flip.

@@ -17,18 +17,29 @@ import bpy
 import numpy as np
 
 from . import bvh, contacts, control_rigs, resampling
-from ..blender import animdata, pose_channels
+from ..blender import animdata, imports, pose_channels
 from ..core import bone_mapping, native_state, root_motion, rotation_channels
+from ..core.floor import clip_floor, feet_lifts, hips_lift, sole_height
 from ..core.foot_contacts import ContactSettings
 from ..core.root_motion import FLOOR_ROOTS
 
-# What a BVH file's helper armature (the source retarget() imports) becomes once the retarget is done.
-BVH_SOURCES = (
+# What a file's imported armature (the source retarget() imports) becomes once the retarget is done.
+IMPORTED_SOURCES = (
     ("keep", "Keep", "Leave the imported armature in the scene, scaled as asked"),
-    ("hide", "Hide", "Keep the imported armature, hidden in the viewport and in renders"),
-    ("remove", "Remove", "Remove the imported armature and its action once the target is keyed"),
+    ("hide", "Hide", "Keep the imported armature (and anything imported with it), hidden in the viewport and "
+                     "in renders"),
+    ("remove", "Remove", "Remove what was imported, its action included, once the target is keyed"),
 )
+BVH_SOURCES = IMPORTED_SOURCES  # the older name
 
+FLOOR_FITS = (
+    ("legs", "Hips and Legs",
+     "The hips' height and, where the rigs' legs differ, the legs put each foot where the source's stands above "
+     "its floor (scaled), never into the ground"),
+    ("hips", "Hips",
+     "Only the hips' height: the legs point exactly as the source's, a foot may stand a little off the floor"),
+    ("off", "Off", "The hips at the source's height above its floor, scaled; nothing else"),
+)
 ROOT_MOTIONS = (
     ("scaled", "Scaled", "Translation scaled by the ratio of leg lengths"),
     ("in_place", "In place", "Keep only the vertical motion (scaled)"),
@@ -143,21 +154,85 @@ def _world_rotation_scale(obj) -> tuple[np.ndarray, float]:
     return np.array(rotation, dtype=np.float64), sigma
 
 
-def _facing(space, source_pose: _Pose, target_pose: _Pose, pairs_idx, source_root, target_root) -> np.ndarray:
-    """The quarter turns about the target's Z that best lay the source's mapped joints over the target's.
+def _facing(space, source_pose: _Pose, target_pose: _Pose, pairs_idx, source_root, target_root, up) -> np.ndarray:
+    """The quarter turns about the target's up that best lay the source's mapped joints over the target's.
 
-    A least-squares fit (2-D Kabsch) of the joints' horizontal offsets from the
-    roots, rounded to a multiple of 90 degrees, so that a character facing +Y
-    retargets onto one facing -Y walking forwards, not backwards.
+    A least-squares fit (2-D Kabsch) of the joints' offsets from the roots
+    across up, rounded to a multiple of 90 degrees, so that a character facing
+    +Y retargets onto one facing -Y walking forwards, not backwards.
     """
     src = rotation_channels.rotate(space, source_pose.heads[[a for a, _ in pairs_idx]] - source_pose.heads[source_root])
     tgt = target_pose.heads[[b for _, b in pairs_idx]] - target_pose.heads[target_root]
+    across = np.cross(up, [1.0, 0.0, 0.0] if abs(up[0]) < 0.9 else [0.0, 1.0, 0.0])
+    across /= np.linalg.norm(across)
+    basis = np.stack([across, np.cross(up, across)])  # two axes across up, turning about up
+    src, tgt = src @ basis.T, tgt @ basis.T
     cross = np.sum(src[:, 0] * tgt[:, 1] - src[:, 1] * tgt[:, 0])
     dot = np.sum(src[:, 0] * tgt[:, 0] + src[:, 1] * tgt[:, 1])
     angle = np.arctan2(cross, dot) if abs(cross) + abs(dot) > 0 else 0.0
     # Rigs face along their axes; a fit's few degrees of asymmetry are not a turn.
     angle = np.pi / 2 * np.round(angle / (np.pi / 2))
-    return np.array([np.cos(angle / 2), 0.0, 0.0, np.sin(angle / 2)])
+    return np.concatenate([[np.cos(angle / 2)], np.sin(angle / 2) * np.asarray(up, dtype=np.float64)])
+
+
+def _faces_nowhere(pose: _Pose, bones) -> bool:
+    """Whether a match pose is a zero pose (nearly every bone along one axis): it shows no facing."""
+    axes = rotation_channels.y_axes(pose.rotations[list(bones)])
+    _, vectors = np.linalg.eigh(axes.T @ axes)
+    along = np.abs(axes @ vectors[:, -1]) > np.cos(np.radians(10.0))
+    return bool(np.mean(along) >= 0.9)
+
+
+def _forward(left, right, up) -> np.ndarray:
+    """Where a body faces, across up, from its left and right hip joints (..., 3): left x up."""
+    forward = np.cross(left - right, up)
+    return forward - (forward @ up)[..., None] * up
+
+
+def _turn_to(direction, onto, up) -> np.ndarray:
+    """The quarter turns about up (a quaternion) that best carry one direction across up onto another."""
+    angle = np.arctan2(np.cross(direction, onto) @ up, direction @ onto)
+    angle = np.pi / 2 * np.round(angle / (np.pi / 2))
+    return np.concatenate([[np.cos(angle / 2)], np.sin(angle / 2) * np.asarray(up, dtype=np.float64)])
+
+
+def _mid_thighs(side: _Side, body, rotations, heads) -> tuple | None:
+    """The middle of the left and right thighs (..., 3) in a pose (rotations (..., 4B), heads (..., 3B)), or
+    None without two labelled thighs: across the body, whatever the arms do."""
+    found = [body.limbs.get(f"thigh.{s}") for s in bone_mapping.SIDES]
+    if not all(name in side for name in found):
+        return None
+    out = []
+    for name in found:
+        b = side.index(name)
+        axis = rotation_channels.y_axes(rotations[..., 4 * b:4 * b + 4])
+        out.append(heads[..., 3 * b:3 * b + 3] + 0.5 * side.bones[b].length * axis)
+    return tuple(out)
+
+
+def _facing_turn(space, source, target, up) -> np.ndarray | None:
+    """The quarter turns about up that carry the way the source's body faces onto the way the target's match
+    pose faces, from their hips' left-right line (the thighs): the source's match pose's, or, for a match
+    pose that shows no facing (a zero pose, the thighs on one line), the clip's mean. None without thighs.
+    source: (side, body, match pose, pose's zero-ness, clip rotations, clip heads); target: (side, body,
+    match pose)."""
+    src, src_body, source_pose, faces_nowhere, clip_rotations, clip_heads = source
+    tgt, tgt_body, target_pose = target
+    onto = _mid_thighs(tgt, tgt_body, target_pose.rotations.reshape(-1), target_pose.heads.reshape(-1))
+    match = _mid_thighs(src, src_body, source_pose.rotations.reshape(-1), source_pose.heads.reshape(-1))
+    if onto is None or match is None:
+        return None
+    turn = lambda points: rotation_channels.rotate(space, np.asarray(points))  # noqa: E731
+    direction = _forward(turn(match[0]), turn(match[1]), up)
+    if faces_nowhere or np.linalg.norm(direction) < 1e-3 * max(np.ptp(target_pose.heads, axis=0).max(), 1e-9):
+        if not len(clip_heads):
+            return None
+        left, right = _mid_thighs(src, src_body, clip_rotations, clip_heads)
+        faces = _forward(turn(left), turn(right), up)
+        mean = (faces / np.maximum(np.linalg.norm(faces, axis=1, keepdims=True), 1e-30)).mean(axis=0)
+        # A clip that turns all the way round has no mean facing: its first frame's then.
+        direction = mean if np.linalg.norm(mean) > 0.3 else faces[0]
+    return _turn_to(direction, _forward(onto[0], onto[1], up), up)
 
 
 def _hip_height(pose: _Pose, root: int, up: np.ndarray) -> float:
@@ -179,14 +254,14 @@ def _legs(side: _Side, body: bone_mapping.Body) -> list:
     return legs
 
 
-def _leg_length(side: _Side, body, pose: _Pose, up, hips: int, heads_over_clip=None) -> float:
+def _leg_length(side: _Side, body, pose: _Pose, up, hips: int, heads_over_clip=None, floor: float = 0.0) -> float:
     """The rig's leg length in its own armature units.
 
     The hips' height above the soles measured along the legs: the hips' head
     above the hip joints, then thigh + shin + the ankle's height above the
     sole (the legs' mean), so that the same skeleton in any rest pose measures the same;
     the hips' height above the lowest point only for a rig without labelled legs.
-    heads_over_clip (frames, 3B): the rig's motion, for a zero pose's feet.
+    heads_over_clip (frames, 3B): the rig's motion, for a zero pose's feet above the floor's height.
     """
     legs = _legs(side, body)
     if not legs:
@@ -196,10 +271,65 @@ def _leg_length(side: _Side, body, pose: _Pose, up, hips: int, heads_over_clip=N
     for leg in legs:
         lowest = None
         if heads_over_clip is not None and leg.foot >= 0:
-            lowest = float(np.min(heads_over_clip[:, 3 * leg.foot:3 * leg.foot + 3] @ up))
+            lowest = float(np.min(heads_over_clip[:, 3 * leg.foot:3 * leg.foot + 3] @ up)) - floor
             lowest = lowest if lowest > 0 else None
         lengths.append(root_motion.leg_length(leg, pose.heads, tails, lowest))
     return root_motion.hips_drop(pose.heads[hips], legs, pose.heads, tails) + float(np.mean(lengths))
+
+
+def _bone_aims(side: _Side) -> np.ndarray | None:
+    """core.bone_axes.aims of the side's rest pose: None where every bone runs along its Y axis."""
+    found = pose_channels.bone_aims(side.obj.data, side.bones)
+    return None if found is None else found[0]
+
+
+def _armature_up(obj) -> np.ndarray:
+    """World up (Z) in obj's armature space: an FBX import turned 90 degrees about X has it along Y."""
+    rotation, _ = _world_rotation_scale(obj)
+    return rotation_channels.rotate(rotation_channels.conjugate(rotation), np.array([[0.0, 0.0, 1.0]]))[0]
+
+
+def _world_height_to_armature(obj, height: float) -> float:
+    """A world Z height as a height along up in obj's armature space (its units)."""
+    _, sigma = _world_rotation_scale(obj)
+    return (float(height) - float(np.array(obj.matrix_world)[2, 3])) / sigma
+
+
+def _armature_height_to_world(obj, height: float) -> float:
+    _, sigma = _world_rotation_scale(obj)
+    return float(np.array(obj.matrix_world)[2, 3]) + sigma * float(height)
+
+
+def _sole_points(side: _Side, body, heads, tails) -> np.ndarray | None:
+    """The heads and tails of both feet's bones (and everything below them) in a pose, or None without feet."""
+    below = [b for leg in _legs(side, body) for b in leg.below_ankle]
+    return np.vstack([heads[below], tails[below]]) if below else None
+
+
+def _floor_height(side: _Side, body, up, given=None, heads_over_clip=None) -> float:
+    """The rig's floor along up in its armature space: given (a world Z height) if set, else the floor its
+    importer recorded (bvh.FLOOR), else its rest soles; a source clip (heads_over_clip) whose feet never
+    come down to its rest soles walks on the floor core.floor.clip_floor finds."""
+    if given is not None:
+        return _world_height_to_armature(side.obj, given)
+    recorded = side.obj.data.get(bvh.FLOOR) if hasattr(side.obj.data, "get") else None  # as its importer knew it
+    if isinstance(recorded, (int, float)) and np.isfinite(recorded):
+        return float(recorded)
+    heads = np.array([b.head_local for b in side.bones], dtype=np.float64)
+    tails = np.array([b.tail_local for b in side.bones], dtype=np.float64)
+    soles = _sole_points(side, body, heads, tails)
+    if soles is None:
+        return 0.0  # no feet: the armature's origin, as a capture's floor
+    rest = sole_height(soles, up)
+    if heads_over_clip is None:
+        return rest
+    feet = [leg.foot for leg in _legs(side, body) if leg.foot >= 0]
+    if not feet:
+        return rest
+    lowest = np.min(np.stack([heads_over_clip[:, 3 * f:3 * f + 3] @ up for f in feet], axis=1), axis=1)
+    legs = [np.linalg.norm(heads[leg.shin] - heads[leg.thigh]) + np.linalg.norm(tails[leg.shin] - heads[leg.shin])
+            for leg in _legs(side, body)]
+    return clip_floor(rest, lowest, float(np.mean(legs)))
 
 
 def _top(side: _Side, bone: int) -> int:
@@ -301,6 +431,7 @@ def plan(source, target, bone_map=None, frame_range=None, root: str = "scaled", 
          match_frame: float | None = None, target_match: str = 'REST', ground: bool = False,
          align_facing: bool = True, floor_root: str = "auto", root_smoothing: float = 0.25,
          plant_feet: bool = True, contact_settings: ContactSettings | None = None,
+         source_floor: float | None = None, target_floor: float | None = None, floor_fit: str = "legs",
          defer_solve: bool = False) -> Plan:
     """Compute the retargeted keys without touching the file (see retarget). defer_solve: leave the feet's
     IK solve pending for apply(), which runs it beside writing the other bones' keys (Plan.resolve runs it
@@ -309,6 +440,8 @@ def plan(source, target, bone_map=None, frame_range=None, root: str = "scaled", 
     src, tgt = _side(source, "source"), _side(target, "target")
     if src.obj == tgt.obj:
         raise ValueError(f"the source and the target are the same armature '{src.obj.name}' (a cycle)")
+    if floor_fit not in [f[0] for f in FLOOR_FITS]:
+        raise ValueError(f"unknown floor_fit {floor_fit!r}; expected one of {[f[0] for f in FLOOR_FITS]}")
     if root not in [r[0] for r in ROOT_MOTIONS]:
         raise ValueError(f"unknown root motion {root!r}; expected one of {[r[0] for r in ROOT_MOTIONS]}")
     if floor_root not in [r[0] for r in FLOOR_ROOTS]:
@@ -355,27 +488,34 @@ def plan(source, target, bone_map=None, frame_range=None, root: str = "scaled", 
     tgt_body = bone_mapping.classify(mapping_rig(tgt.obj))
     # The hips are the body's root for proportions and height; a game rig's floor root above them is
     # carried apart (floor_root=), never mapped like a body bone.
-    target_root, target_floor = _body_roots(tgt, tgt_body, {b for _, b in pairs_idx}, tgt_depth)
+    target_root, target_floor_bone = _body_roots(tgt, tgt_body, {b for _, b in pairs_idx}, tgt_depth)
     if target_root is None:
         raise ValueError(f"the bone map drives only the floor root of '{tgt.obj.name}'; map its hips too")
     source_root = int(bone_map_idx[target_root])
-    source_floor = _top(src, source_root)
-    source_floor = source_floor if source_floor != source_root else None
+    source_floor_bone = _top(src, source_root)
+    source_floor_bone = source_floor_bone if source_floor_bone != source_root else None
     if src_body.root is not None and src.names[source_root] == src_body.root:
         raise ValueError(f"the bone map pairs the source's floor root '{src_body.root}' with the target's hips "
                          f"'{tgt.names[target_root]}'; map the source's hips '{src_body.hips}' to it instead")
-    if target_floor is not None:
-        bone_map_idx[target_floor] = -1
-    pairs_idx = [(a, b) for a, b in pairs_idx if b != target_floor]
+    if target_floor_bone is not None:
+        bone_map_idx[target_floor_bone] = -1
+    pairs_idx = [(a, b) for a, b in pairs_idx if b != target_floor_bone]
 
     source_world, source_scale = _world_rotation_scale(src.obj)
     target_world, target_scale = _world_rotation_scale(tgt.obj)
     space = rotation_channels.multiply(rotation_channels.conjugate(target_world), source_world)
+    up = _armature_up(tgt.obj)  # Blender's up in the target's armature space
     if align_facing:
-        space = rotation_channels.multiply(_facing(space, source_pose, target_pose, pairs_idx, source_root, target_root), space)
-    up = np.array([0.0, 0.0, 1.0])
+        turn = _facing_turn(space, (src, src_body, source_pose, _faces_nowhere(source_pose, [a for a, _ in pairs_idx]),
+                                    source_rotations, source_heads), (tgt, tgt_body, target_pose), up)
+        if turn is None:
+            turn = _facing(space, source_pose, target_pose, pairs_idx, source_root, target_root, up)
+        space = rotation_channels.multiply(turn, space)
     source_up = rotation_channels.rotate(rotation_channels.conjugate(space), up[None, :])[0]
-    source_height = _leg_length(src, src_body, source_pose, source_up, source_root, source_heads)
+    source_floor_height = _floor_height(src, src_body, source_up, source_floor, source_heads)
+    target_floor_height = _floor_height(tgt, tgt_body, up, target_floor)
+    source_height = _leg_length(src, src_body, source_pose, source_up, source_root, source_heads,
+                                floor=source_floor_height)
     # The target's own action (whatever is assigned now) never sets its proportions: a zero pose's feet
     # take a tenth of thigh + shin there (root_motion.leg_length).
     target_height = _leg_length(tgt, tgt_body, target_pose, up, target_root)
@@ -384,7 +524,7 @@ def plan(source, target, bone_map=None, frame_range=None, root: str = "scaled", 
     scale = target_height / source_height
     # The source's contacts need only the source's pose: found here while the native retarget runs beside
     # (it releases the GIL).
-    feet = (_feet(src, src_body), _feet(tgt, tgt_body)) if plant_feet else (None, None)
+    feet = (_feet(src, src_body), _feet(tgt, tgt_body))
     with ThreadPoolExecutor(max_workers=1) as beside:
         retargeted = beside.submit(
             native.retarget, src.rig, tgt.rig, source_rotations,
@@ -394,32 +534,51 @@ def plan(source, target, bone_map=None, frame_range=None, root: str = "scaled", 
             source_root=source_root, target_root=target_root, space=space, scale=scale,
             unit_scale=source_scale / target_scale,
             vertical_offset=target_height - source_scale / target_scale * source_height, root_motion=root,
-            ground_bones=list(range(len(tgt.bones))) if ground else [])
+            ground_bones=list(range(len(tgt.bones))) if ground else [], up=up,
+            source_floor=source_floor_height, target_floor=target_floor_height,
+            source_aims=_bone_aims(src), target_aims=_bone_aims(tgt))
         found = None if None in feet else contacts.find_contacts(
             src.obj, src.bones, src.rig, source_basis, source_locations, feet[0], contact_settings,
-            fps=bvh.frame_rate(action), posed=(source_rotations, source_heads))
+            fps=bvh.frame_rate(action), posed=(source_rotations, source_heads),
+            floor=_armature_height_to_world(src.obj, source_floor_height))
         with native_state.blender_frames(frames):
             rotations, root_locations = retargeted.result()
+    _share_twist(tgt, tgt_body, rotations, {b for _, b in pairs_idx})
     locations = np.zeros((rotations.shape[0], 3 * len(tgt.bones)))
     locations[:, 3 * target_root:3 * target_root + 3] = root_locations
     located = [target_root]
-    mode = floor_root if floor_root != "auto" else ("copy" if source_floor is not None else "still")
-    if target_floor is not None and mode in ("copy", "extract"):
-        if mode == "copy" and source_floor is None:
+    mode = floor_root if floor_root != "auto" else ("copy" if source_floor_bone is not None else "still")
+    if target_floor_bone is not None and mode in ("copy", "extract"):
+        if mode == "copy" and source_floor_bone is None:
             mode = "still"  # nothing to copy: the hips carry the motion
         else:
-            source_motion = (source_rotations[:, 4 * source_floor:4 * source_floor + 4],
-                             source_heads[:, 3 * source_floor:3 * source_floor + 3],
-                             source_pose.rotations[source_floor], source_pose.heads[source_floor]) \
-                if source_floor is not None else None
-            _move_floor_root(native, tgt, target_pose, rotations, locations, target_floor, target_root, mode,
+            source_motion = (source_rotations[:, 4 * source_floor_bone:4 * source_floor_bone + 4],
+                             source_heads[:, 3 * source_floor_bone:3 * source_floor_bone + 3],
+                             source_pose.rotations[source_floor_bone], source_pose.heads[source_floor_bone]) \
+                if source_floor_bone is not None else None
+            _move_floor_root(native, tgt, target_pose, rotations, locations, target_floor_bone, target_root, mode,
                              source_motion, space, scale, root, root_smoothing * bvh.frame_rate(action))
-            located.append(target_floor)
+            located.append(target_floor_bone)
 
+    feet_lift = None
+    if found is not None and root != "none" and floor_fit != "off":
+        height_scale = source_scale / target_scale if root == "offset" else scale
+        feet_lift = target_scale * _stand_on_floor(
+            native, (src, src_body, source_rotations, source_heads, source_up, source_floor_height),
+            (tgt, tgt_body, up, target_floor_height), rotations, locations, target_root, found, height_scale,
+            target_height, bvh.frame_rate(action))
     planted = pending = None
-    if found is not None:
-        planted = _plant_feet(tgt, feet[1], found, frames, rotations, locations, target_root, contact_settings,
-                              bvh.frame_rate(action), beside=defer_solve)
+    # The legs' solve plants the feet, and puts right what the hips' lift leaves (feet the legs' proportions
+    # keep off the floor); without planting it runs only where that is more than a twentieth of a percent of
+    # the leg, so that a retarget between alike legs keeps every bone's direction exactly.
+    if floor_fit != "legs":
+        feet_lift = None
+    legs_solve = found is not None and (plant_feet or (
+        feet_lift is not None and np.abs(feet_lift).max(initial=0.0) > 5e-4 * target_scale * target_height))
+    if legs_solve:
+        planted = _plant_feet(tgt, feet[1], found if plant_feet else np.zeros_like(found), frames, rotations,
+                              locations, target_root, contact_settings, bvh.frame_rate(action), beside=defer_solve,
+                              heights=feet_lift, hips_move=plant_feet)
     if planted is not None:
         keyed = {tgt.index(b) for f in planted[2] for b in (f.thigh, f.shin, f.foot)} | {target_root}
         keyer = pose_channels.rotation_keyer(tgt.obj, [tgt.names[b] for b in sorted(keyed)])
@@ -434,9 +593,10 @@ def plan(source, target, bone_map=None, frame_range=None, root: str = "scaled", 
                                      keyed=keyed, placeholders=True)
     plan_ = Plan(tgt.obj, frames, *moving, src.obj.name, pairs, *still, leg_ratio=scale,
                  hips=(src.names[source_root], tgt.names[target_root]),
-                 floor_roots=(src.names[source_floor] if source_floor is not None else None,
-                              tgt.names[target_floor] if target_floor is not None else None), floor_root=mode,
-                 feet=planted[2] if planted else None, contacts=planted[3] if planted else None,
+                 floor_roots=(src.names[source_floor_bone] if source_floor_bone is not None else None,
+                              tgt.names[target_floor_bone] if target_floor_bone is not None else None), floor_root=mode,
+                 feet=planted[2] if planted and plant_feet else None,
+                 contacts=planted[3] if planted and plant_feet else None,
                  frame_rate=bvh.frame_rate(action))
     plan_.pending = pending
     plan_.pose = (rotations, locations)
@@ -445,6 +605,85 @@ def plan(source, target, bone_map=None, frame_range=None, root: str = "scaled", 
     if not (np.all(np.isfinite(plan_.values)) and np.all(np.isfinite(plan_.still_values))):
         raise ValueError("the retargeted motion is not finite; check the rigs' rest poses")
     return plan_  # a pending feet's solve is checked when it completes (contacts.cleanup and write_keys)
+
+
+def _foot_heights(side: _Side, body, rotations, heads, up) -> np.ndarray:
+    """(frames, legs) the lowest of each foot's ankle (its head) and ball (the toe's head, else the foot's tail)
+    along up."""
+    out = []
+    for leg, s in zip(_legs(side, body), bone_mapping.SIDES):
+        ankle = heads[:, 3 * leg.foot:3 * leg.foot + 3]
+        toe = body.limbs.get(f"toe.{s}")
+        # The toe's head is the ball wherever the rig has one (the foot's tail need not lie there).
+        ball = heads[:, 3 * side.index(toe):3 * side.index(toe) + 3] if toe in side else ankle + \
+            side.bones[leg.foot].length * rotation_channels.y_axes(rotations[:, 4 * leg.foot:4 * leg.foot + 4])
+        out.append(np.minimum(ankle @ up, ball @ up))
+    return np.stack(out, axis=1)
+
+
+def _stand_on_floor(native, source, target, rotations, locations, hips: int, contacts_, height_scale,
+                    leg_length: float, fps: float) -> np.ndarray:
+    """Raises or lowers the target's hips on every frame so that each foot standing in the source stands as
+    high above the target's floor as the source's does above its own, scaled (core.floor.hips_lift).
+
+    source: (side, body, armature rotations, heads, up, floor height); target: (side, body, up, floor
+    height); contacts_: (frames, 4) the source's contacts (contacts.POINTS); leg_length: the target's (its
+    armature units); fps: the clip's frames per second. Writes the hips' location
+    channel in place; returns how far each foot is still to rise (frames, legs), core.floor.feet_lifts."""
+    src, src_body, source_rotations, source_heads, source_up, source_floor = source
+    tgt, tgt_body, up, target_floor = target
+    wanted = target_floor + height_scale * (
+        _foot_heights(src, src_body, source_rotations, source_heads, source_up) - source_floor)
+    posed_rotations, posed_heads = native.armature_pose(tgt.rig, rotations, locations)
+    heights = _foot_heights(tgt, tgt_body, posed_rotations, posed_heads, up)
+    stance = contacts_[:, 0::2] | contacts_[:, 1::2]  # per leg: its ankle or its ball stands
+    # The hips' height eases at most half a leg a second where a second foot comes down (core.floor).
+    lift = hips_lift(wanted, heights, stance, slope=0.5 * leg_length / fps)
+    # The location channel moves the head in the bone's posed frame less its own rotation.
+    orient = posed_rotations[:, 4 * hips:4 * hips + 4]
+    basis = rotations[:, 4 * hips:4 * hips + 4]
+    frame = rotation_channels.multiply(orient, rotation_channels.conjugate(basis / np.linalg.norm(basis, axis=1,
+                                                                                                    keepdims=True)))
+    locations[:, 3 * hips:3 * hips + 3] += rotation_channels.rotate_each(rotation_channels.conjugate(frame),
+                                                                           lift[:, None] * up)
+    return feet_lifts(wanted, heights + lift[:, None], stance, target_floor, blend_frames=0.1 * fps)
+
+
+# Each twist bone's limb and the bone below the joint whose twist it takes (docs/retargeting.md, Twist bones).
+_TWIST_BELOW = {"upper_arm": "forearm", "forearm": "hand", "thigh": "shin", "shin": "foot"}
+
+
+def _share_twist(tgt: _Side, body, rotations, mapped) -> None:
+    """Gives each leaf twist bone beside a limb (bone_mapping's Body.twists) its share of the limb's twist
+    about the limb's axis, by where it lies along the limb: on an upper limb (upper arm, thigh), whose
+    twist turns at the joint above it, the bone counters the limb's own twist fully at the joint and not at
+    all at the far end; on a lower limb (forearm, shin), whose twist runs along it to the hand or foot, it
+    takes none of the hand's or foot's twist at the near end and all of it at the far end. Writes the twist
+    bones' basis rotations in place; mapped twist bones keep what the map gave them."""
+    rest = pose_channels.rest_quaternions(tgt.obj.data)
+    for name, limb_key in body.twists.items():
+        limb_name, (part, side) = body.limbs.get(limb_key), limb_key.split(".")
+        if name not in tgt or limb_name not in tgt or tgt.index(name) in mapped:
+            continue
+        twist, limb = tgt.index(name), tgt.index(limb_name)
+        bone, limb_bone = tgt.bones[twist], tgt.bones[limb]
+        axis = limb_bone.tail_local - limb_bone.head_local
+        along = float(np.clip(np.dot(bone.head_local - limb_bone.head_local, axis) / max(axis.length ** 2, 1e-30),
+                              0.0, 1.0))
+        if part in ("upper_arm", "thigh"):
+            angle = -(1.0 - along) * rotation_channels.twist_angles(rotations[:, 4 * limb:4 * limb + 4], [0, 1, 0])
+        else:
+            below = body.limbs.get(f"{_TWIST_BELOW[part]}.{side}")
+            if below not in tgt:
+                continue
+            b = tgt.index(below)
+            angle = along * rotation_channels.twist_angles(rotations[:, 4 * b:4 * b + 4], [0, 1, 0])
+        # The limb's axis (its Y) in the twist bone's own rest frame.
+        local_axis = rotation_channels.rotate(
+            rotation_channels.multiply(rotation_channels.conjugate(rest[name]), rest[limb_name]),
+            np.array([0.0, 1.0, 0.0]))
+        rotations[:, 4 * twist:4 * twist + 4] = np.concatenate(
+            [np.cos(angle / 2)[:, None], np.sin(angle / 2)[:, None] * local_axis], axis=1)
 
 
 def _feet(side: _Side, body) -> list | None:
@@ -456,13 +695,16 @@ def _feet(side: _Side, body) -> list | None:
 
 
 def _plant_feet(tgt: _Side, tgt_feet, found, frames, rotations, locations, target_root, settings, fps,
-                beside: bool = False):
+                beside: bool = False, heights=None, hips_move: bool = True):
     """The source's contacts (found) to be held by the target's feet (contacts.staged_cleanup, which writes
-    the solved legs into rotations and locations): (prepare, finish, target feet, contacts)."""
+    the solved legs into rotations and locations): (prepare, finish, target feet, contacts). heights: (frames,
+    legs) world lifts of the standing feet (the floor's), or None to hold the plants' own heights; hips_move:
+    the hips' translation is solved for too (planting), else only the legs move."""
     # Beside the rest of the retarget (beside=True), which keeps one core busy, the solve takes the others.
     prepare, finish = contacts.staged_cleanup(tgt.obj, tgt.bones, tgt.rig, frames, rotations, locations, tgt_feet,
                                               found, settings, hips=tgt.names[target_root], fps=fps, in_place=True,
-                                              threads=max(1, (os.cpu_count() or 1) - 1) if beside else 0)
+                                              threads=max(1, (os.cpu_count() or 1) - 1) if beside else 0,
+                                              follow_heights=heights, hips_move=hips_move)
     return prepare, finish, tgt_feet, found
 
 
@@ -588,18 +830,21 @@ def retarget(source, target, bone_map=None, frame_range=None, root: str = "scale
              source_match: str = 'REST', match_frame: float | None = None, target_match: str = 'REST',
              ground: bool = False, align_facing: bool = True, floor_root: str = "auto",
              root_smoothing: float = 0.25, plant_feet: bool = True, contact_settings: ContactSettings | None = None,
+             source_floor: float | None = None, target_floor: float | None = None, floor_fit: str = "legs",
              action_name: str | None = None, overwrite: bool = False, bvh_scale: float | str = "auto",
-             bvh_source: str = "keep", controls: str = "auto", limbs: dict | None = None, control_map=None,
-             keys: str = "every", reduce: bool = False, progress=None):
+             imported_source: str | None = None, bvh_source: str | None = None, controls: str = "auto",
+             limbs: dict | None = None, control_map=None, keys: str = "every", reduce: bool = False, progress=None):
     """Retarget the source's action onto the target; returns the target's new action.
 
-    source: an armature object with an action, or a BVH file path (imported
-    first with motionkit.bvh.load). For a file, bvh_scale sizes the imported
-    armature: "auto" stands it as tall as the target (a centimetre file would
-    otherwise stand 100 times too tall), or a number multiplies the file's
-    distances; the retarget itself does not depend on it (the motion is scaled
-    by the legs' ratio). bvh_source: "keep", "hide" or "remove" the imported
-    armature afterwards (BVH_SOURCES).
+    source: an armature object with an action, or a file path: BVH (imported
+    with motionkit.bvh.load), FBX, glTF or GLB (Blender's own importers; the
+    file's animated armature is the source). For a BVH file, bvh_scale sizes
+    the imported armature: "auto" stands it as tall as the target (a
+    centimetre file would otherwise stand 100 times too tall), or a number
+    multiplies the file's distances; the retarget itself does not depend on it
+    (the motion is scaled by the legs' ratio). imported_source: "keep",
+    "hide" or "remove" what was imported afterwards (IMPORTED_SOURCES;
+    bvh_source is its older name).
     controls: on a control rig (Rigify's, recognised from its bones, or one
     control_map describes: a motionkit-control-rig JSON file, a parsed map or a
     preset id) "auto" keys its controls with legs in IK and arms in FK, "fk"
@@ -616,7 +861,11 @@ def retarget(source, target, bone_map=None, frame_range=None, root: str = "scale
     or 'CURRENT': the poses in which the two rigs stand alike. ground: move the
     root so that the target's lowest point touches its floor (armature Z = 0) on
     the first frame. align_facing: turn the motion so that each rig walks the
-    way it faces. floor_root: what a target's bone on the floor above the
+    way it faces. source_floor, target_floor: the floors' world Z heights
+    (default: each rig's rest soles; see core/floor.py). floor_fit: how the
+    feet are put on the target's floor where the source's stand on its own
+    (FLOOR_FITS): "legs" (hips and legs), "hips" (the legs keep the source's
+    directions exactly) or "off". floor_root: what a target's bone on the floor above the
     hips (Unreal's root) does, "auto", "still", "copy" or "extract"
     (FLOOR_ROOTS); root_smoothing: seconds of Gaussian smoothing for
     "extract". plant_feet: feet that stand still in the source stay planted on
@@ -628,22 +877,17 @@ def retarget(source, target, bone_map=None, frame_range=None, root: str = "scale
     replace the target's own action's curves instead. A ValueError leaves the
     file as it was (a BVH source is removed again).
     """
+    imported_source = _imported_source_option(imported_source, bvh_source)
     imported = None
-    if bvh_source not in [b[0] for b in BVH_SOURCES]:
-        raise ValueError(f"unknown bvh_source {bvh_source!r}; expected one of {[b[0] for b in BVH_SOURCES]}")
     if isinstance(source, (str, os.PathLike)):
-        if not (bvh_scale == "auto" or (isinstance(bvh_scale, (int, float)) and np.isfinite(bvh_scale)
-                                        and bvh_scale > 0)):
-            raise ValueError(f"bvh_scale must be 'auto' or a positive number, not {bvh_scale!r}")
-        imported, _ = bvh.load(os.fspath(source), scale=1.0 if bvh_scale == "auto" else float(bvh_scale))
-        source = imported
+        imported = _import_source(source, target, bvh_scale)
+        source = imported.obj
     try:
-        if imported is not None and bvh_scale == "auto":
-            _stand_as_tall_as(imported, target)
         options = dict(bone_map=bone_map, frame_range=frame_range, root=root, source_match=source_match,
                        match_frame=match_frame, target_match=target_match, ground=ground,
                        align_facing=align_facing, floor_root=floor_root, root_smoothing=root_smoothing,
-                       plant_feet=plant_feet, contact_settings=contact_settings)
+                       plant_feet=plant_feet, contact_settings=contact_settings, source_floor=source_floor,
+                       target_floor=target_floor, floor_fit=floor_fit)
         action = _retarget_controls(source, target, controls, limbs, control_map, keys, reduce, action_name,
                                     overwrite, progress, options)
         if action is None:
@@ -655,14 +899,63 @@ def retarget(source, target, bone_map=None, frame_range=None, root: str = "scale
                 resampling.reduce_keys(target)
     except BaseException:
         if imported is not None:
-            remove_armature(imported)
+            imported.remove()
         raise
-    if imported is not None and bvh_source == "remove":
-        remove_armature(imported)
-    elif imported is not None and bvh_source == "hide":
-        imported.hide_set(True)
-        imported.hide_render = True
+    if imported is not None:
+        imported.finish(imported_source)
     return action
+
+
+def _imported_source_option(imported_source, bvh_source) -> str:
+    if imported_source is not None and bvh_source is not None and imported_source != bvh_source:
+        raise ValueError("imported_source and its older name bvh_source say different things; give one")
+    chosen = imported_source or bvh_source or "keep"
+    if chosen not in [b[0] for b in IMPORTED_SOURCES]:
+        raise ValueError(f"unknown imported_source (bvh_source) {chosen!r}; expected one of {[b[0] for b in IMPORTED_SOURCES]}")
+    return chosen
+
+
+@dataclass
+class _Imported:
+    """A source armature retarget() imported from a file, and what the import added."""
+    obj: bpy.types.Object
+    added: dict | None = None  # Blender's importers: everything they added (imports.remove)
+
+    def remove(self) -> None:
+        if self.added is None:
+            remove_armature(self.obj)
+        else:
+            imports.remove(self.added)
+
+    def finish(self, what: str) -> None:
+        """What becomes of the import once the target is keyed: IMPORTED_SOURCES."""
+        if what == "remove":
+            self.remove()
+            return
+        if what == "hide":
+            shown = [self.obj] + ([o for o in self.added["objects"] if o != self.obj] if self.added else [])
+            for obj in shown:
+                obj.hide_set(True)
+                obj.hide_render = True
+
+
+def _import_source(path, target, bvh_scale) -> _Imported:
+    """A file path's armature: BVH through MotionKit's reader, FBX and glTF through Blender's importers."""
+    path = os.fspath(path)
+    if os.path.splitext(path)[1].lower() in imports.FORMATS:
+        obj, added = imports.import_animated_armature(path)
+        return _Imported(obj, added)
+    if not (bvh_scale == "auto" or (isinstance(bvh_scale, (int, float)) and np.isfinite(bvh_scale)
+                                    and bvh_scale > 0)):
+        raise ValueError(f"bvh_scale must be 'auto' or a positive number, not {bvh_scale!r}")
+    obj, _ = bvh.load(path, scale=1.0 if bvh_scale == "auto" else float(bvh_scale))
+    if bvh_scale == "auto":
+        try:
+            _stand_as_tall_as(obj, target)
+        except BaseException:
+            remove_armature(obj)
+            raise
+    return _Imported(obj)
 
 
 def _retarget_controls(source, target, controls, limbs, control_map, keys, reduce, action_name, overwrite,

@@ -29,16 +29,18 @@ class MOTIONKIT_PG_bone_pair(bpy.types.PropertyGroup):
 class MOTIONKIT_PG_retarget(bpy.types.PropertyGroup):
     source_kind: EnumProperty(name="Source", items=[
         ('ARMATURE', "Armature", "An animated armature in this file"),
-        ('BVH', "BVH File", "A BVH file, imported as the source armature when retargeting")], default='ARMATURE')
+        ('BVH', "File", "A BVH, FBX, GLB or glTF file, imported as the source armature when retargeting (FBX and "
+                        "glTF through Blender's own importers)")], default='ARMATURE')
     source: PointerProperty(name="Source", type=bpy.types.Object, poll=_is_armature,
                             description="The animated armature whose motion is retargeted")
-    bvh_path: StringProperty(name="File", subtype='FILE_PATH', description="The BVH file to retarget")
+    bvh_path: StringProperty(name="File", subtype='FILE_PATH',
+                             description="The BVH, FBX, GLB or glTF file to retarget")
     bvh_auto_scale: BoolProperty(name="Auto Scale", default=True,
                                  description="Stand the imported armature as tall as the target (a centimetre "
                                              "file would otherwise stand 100 times too tall)")
     bvh_scale: FloatProperty(name="Scale", default=1.0, min=1e-6, max=1e6,
                              description="Multiply the file's distances by this")
-    bvh_source: EnumProperty(name="Imported", items=retargeting.BVH_SOURCES, default="hide",
+    bvh_source: EnumProperty(name="Imported", items=retargeting.IMPORTED_SOURCES, default="hide",
                              description="What the imported armature becomes once the target is keyed")
     target: PointerProperty(name="Target", type=bpy.types.Object, poll=_is_armature,
                             description="The armature that receives the motion as a new action")
@@ -61,6 +63,9 @@ class MOTIONKIT_PG_retarget(bpy.types.PropertyGroup):
     ground: BoolProperty(name="On the Floor",
                          description="Move the root so that the target's lowest point touches the floor "
                                      "on the first frame")
+    floor_fit: EnumProperty(name="Stand", items=retargeting.FLOOR_FITS, default="legs",
+                            description="How the target's feet are put on its own floor (its rest soles) where "
+                                        "the source's stand on theirs")
     align_facing: BoolProperty(name="Align Facing", default=True,
                                description="Turn the motion by quarter turns so that each rig walks the way "
                                            "it faces")
@@ -152,7 +157,7 @@ class MOTIONKIT_OT_retarget(bpy.types.Operator):
         frame_range = (settings.frame_start, settings.frame_end) if settings.use_frame_range else None
 
         bvh_options = ({"bvh_scale": "auto" if settings.bvh_auto_scale else settings.bvh_scale,
-                        "bvh_source": settings.bvh_source} if settings.source_kind == 'BVH' else {})
+                        "imported_source": settings.bvh_source} if settings.source_kind == 'BVH' else {})
 
         controls = {"controls": settings.controls, "keys": settings.keys, "reduce": settings.reduce,
                     "control_map": bpy.path.abspath(settings.control_map) if settings.control_map else None}
@@ -166,7 +171,7 @@ class MOTIONKIT_OT_retarget(bpy.types.Operator):
                 source_match=settings.source_match, match_frame=settings.match_frame,
                 target_match=settings.target_match, ground=settings.ground, align_facing=settings.align_facing,
                 floor_root=settings.floor_root, root_smoothing=settings.root_smoothing,
-                plant_feet=settings.plant_feet, contact_settings=contact_ui.settings(settings.contacts),
+                floor_fit=settings.floor_fit, plant_feet=settings.plant_feet, contact_settings=contact_ui.settings(settings.contacts),
                 overwrite=settings.overwrite, progress=progress, **controls, **bvh_options)
             timing = scene_timing.from_clip(context.scene, action) if settings.scene_from_clip else None
             return action, timing
@@ -390,6 +395,7 @@ class MOTIONKIT_PT_retarget_options(common.SidebarPanel, bpy.types.Panel):
             col.prop(settings, "root_smoothing")
         col = layout.column(heading="Feet")
         col.prop(settings, "ground")
+        col.prop(settings, "floor_fit")
         col = layout.column(heading="Motion")
         col.prop(settings, "align_facing")
         common.draw_frame_range(layout, settings, "use_frame_range", "Source")

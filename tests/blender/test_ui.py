@@ -102,7 +102,7 @@ SIDEBAR_LABELS = (
     # MotionKit
     "Motion Capture (BVH)", "Import", "Export", "Keys", "Resample", "Reduce", "Fix Foot Sliding",
     # Retarget, Bone Map, Options, Plant Feet
-    "Armature", "BVH File", "Source", "Target", "Retarget", "Bone Map", "Load", "Save", "Auto-map", "Schemes",
+    "Armature", "File", "Source", "Target", "Retarget", "Bone Map", "Load", "Save", "Auto-map", "Schemes",
     "Source Bone", "Target Bone", "Options", "Match Poses", "Rest pose", "Root Motion", "Scaled", "Floor Root",
     "On the Floor", "Align Facing", "Frame Range", "From Clip", "Overwrite", "Plant Feet", "Height In",
     "Height Out", "Speed In", "Speed Out", "Shortest", "Blend", "Keyed as 0/1 curves",

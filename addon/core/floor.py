@@ -1,0 +1,113 @@
+"""Each rig's floor, and the body's height over it so that retargeted feet stand on it (numpy, no bpy).
+
+A rig's floor is its own: where its rest pose's soles stand (the lowest
+point of its feet along its up), never armature Z = 0, so an armature whose
+origin sits at the hips, or an FBX import scaled 0.01 and turned 90 degrees,
+has the same floor as one whose origin is on the ground. A capture whose rest
+pose does not stand on its floor (a BVH file whose root OFFSET is zero hangs
+its rest pose below the ground the clip walks on) takes the floor the clip's
+feet come down to instead.
+
+Heights are along a unit `up` in the rig's armature space and in its units.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+
+# A rest pose whose soles lie farther than this (in leg lengths) from where the clip's feet come down does
+# not stand on the clip's floor.
+_HANGING_REST = 0.25
+# The clip's floor: the lowest foot point's low percentile over the clip (a few stray frames aside).
+_FLOOR_PERCENTILE = 2.0
+
+
+def sole_height(points, up) -> float:
+    """The floor of a pose: the lowest of its foot points (n, 3) along up."""
+    points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    if not len(points):
+        raise ValueError("no foot points to find the floor from")
+    return float(np.min(points @ up))
+
+
+def clip_floor(rest_floor: float, lowest, leg_length: float) -> float:
+    """The floor a source clip walks on: its rest pose's soles when the clip's feet come down to them;
+    otherwise (a rest pose hanging below the ground, or a zero pose) the armature origin's level when the
+    feet come down to that (a capture's floor), else the lowest the feet reach.
+
+    lowest: (frames,) the lowest foot point's height on each frame.
+    """
+    lowest = np.asarray(lowest, dtype=np.float64)
+    if not len(lowest):
+        return rest_floor
+    reached = float(np.percentile(lowest, _FLOOR_PERCENTILE))
+    near = _HANGING_REST * leg_length
+    if abs(reached - rest_floor) <= near:
+        return rest_floor
+    return 0.0 if abs(reached) <= near else reached
+
+
+def _through_stance(values, stance) -> np.ndarray:
+    """values (frames,) on the stance frames, run linearly between them (held before and after)."""
+    frames = len(values)
+    if not frames or not stance.any():
+        return np.zeros(frames)
+    return np.interp(np.arange(frames), np.flatnonzero(stance), values[stance])
+
+
+def _below_with_bounded_slope(values, slope: float) -> np.ndarray:
+    """The highest curve at or below values (frames,) that changes by at most slope from frame to frame."""
+    t = slope * np.arange(len(values))
+    forward = np.minimum.accumulate(values - t) + t
+    backward = np.minimum.accumulate((values + t)[::-1])[::-1] - t
+    return np.minimum(forward, backward)
+
+
+def hips_lift(wanted, heights, stance, slope: float) -> np.ndarray:
+    """How far to raise the hips on each frame (frames,) so that the feet stand where they should.
+
+    wanted, heights: (frames, feet) each foot's lowest point, where it should
+    be and where it is; stance: (frames, feet) bool, the foot stands on that
+    frame (the source's contacts). On stance frames the lift brings the
+    standing foot that must come down most exactly there, so that the others
+    only have to rise (a knee bends; none has to stretch); between stances it
+    runs linearly (held before the first and after the last), so a jump keeps
+    its height. Where that would step (a second foot coming down lower), the
+    lift eases down beforehand and up afterwards at most slope a frame, never
+    above the step: the legs then only rise the rest of the way.
+    """
+    wanted, heights = np.asarray(wanted, dtype=np.float64), np.asarray(heights, dtype=np.float64)
+    stance = np.asarray(stance, dtype=bool)
+    if not len(heights):
+        return np.zeros(0)
+    gap = np.where(stance, wanted - heights, np.inf).min(axis=1)
+    return _below_with_bounded_slope(_through_stance(gap, stance.any(axis=1)), slope)
+
+
+def _near_stance(stance, blend_frames: float) -> np.ndarray:
+    """(frames,) 1 on stance frames, easing to 0 (smoothstep) over blend_frames frames either side."""
+    frames = len(stance)
+    on = np.flatnonzero(stance)
+    if not len(on):
+        return np.zeros(frames)
+    index = np.arange(frames)
+    after = np.clip(np.searchsorted(on, index), 0, len(on) - 1)
+    before = np.clip(after - 1, 0, len(on) - 1)
+    distance = np.minimum(np.abs(on[after] - index), np.abs(on[before] - index))
+    x = np.clip(1.0 - distance / max(blend_frames, 1e-9), 0.0, 1.0)
+    return x * x * (3.0 - 2.0 * x)
+
+
+def feet_lifts(wanted, heights, stance, floor: float, blend_frames: float) -> np.ndarray:
+    """(frames, feet) how far each foot is still to rise once the hips are lifted (heights include that):
+    on its stance frames what it lacks (two feet standing at once where the rigs' legs differ), eased in
+    and out over blend_frames either side so that nothing pops; and on any frame at least enough that it
+    sinks no deeper below the floor than it should (wanted: the source's own depth below its floor,
+    scaled; a capture's toes may dip a little), so the retarget never pushes a foot into the ground."""
+    wanted, heights = np.asarray(wanted, dtype=np.float64), np.asarray(heights, dtype=np.float64)
+    stance = np.asarray(stance, dtype=bool)
+    if not len(heights):
+        return np.zeros_like(heights)
+    lacking = np.stack([_through_stance(wanted[:, k] - heights[:, k], stance[:, k])
+                        * _near_stance(stance[:, k], blend_frames) for k in range(heights.shape[1])], axis=1)
+    return np.maximum(lacking, np.minimum(wanted, floor) - heights)
