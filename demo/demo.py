@@ -30,6 +30,7 @@ import rigify_rig  # noqa: E402
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import contacts_plot  # noqa: E402
+import feet_fingers  # noqa: E402
 import ik_reach  # noqa: E402
 import interpolant_plot  # noqa: E402
 
@@ -363,6 +364,13 @@ def main() -> None:
     # the IK's priorities and natural defaults, side by side.
     reach = os.path.join(out, "ik_reach.png")
     ik_reach.figure(motionkit, add_label, render, reach, args.samples)
+    # Real Mixamo files (Blender's FBX importer): feet on the floor and fists, before and after.
+    fbx = os.path.join(os.path.dirname(ROOT), "shared", "data", "fbx")
+    if os.path.isfile(mocap) and os.path.isfile(os.path.join(fbx, "ybot.fbx")):
+        feet_fingers.figure(motionkit, mocap, fbx, os.path.join(out, "feet_fingers.png"))
+        print(f"demo: wrote {os.path.join(out, 'feet_fingers.png')}")
+    else:
+        print(f"demo: {fbx} is absent, so feet_fingers.png is left out")
     print(f"demo: wrote {blend}, {png} and {reach} in {time.perf_counter() - start:.1f} s")
 
 
