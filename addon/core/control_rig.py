@@ -427,8 +427,9 @@ class Relation:
     def depends_on(self) -> set:
         return {n for n in (self.rotation_of, self.location_of) if n is not None}
 
-    def evaluate(self, frames_of, count: int) -> np.ndarray:
-        """(count, 4, 4) matrices, given frames_of(name) -> (count, 4, 4) of the known bones."""
+    def evaluate(self, frames_of, count: int, locals_of=None) -> np.ndarray:
+        """(count, 4, 4) matrices, given frames_of(name) -> (count, 4, 4) of the known bones (locals_of, the
+        controls' bases, is for a Mechanism's sake)."""
         out = np.zeros((count, 4, 4))
         out[:, 3, 3] = 1.0
         rot = np.eye(3)[None] if self.rotation_of is None else frames_of(self.rotation_of)[:, :3, :3]
@@ -485,6 +486,172 @@ def fit_relation(bone: np.ndarray, candidates: dict, size: float) -> tuple[Relat
             if np.max(_angle(offsets, offsets[:1])) < ANGLE_TOLERANCE:
                 rotation = (name, offsets[0])
     return Relation(rotation[0], rotation[1], location[0], location[1]), ""
+
+
+# ---------------------------------------------------------------------------
+# A control's parent, modelled where no single known bone carries it
+
+STEPS = ("stretch_to", "copy_local_rotation", "copy_scale")
+VOLUMES = ("VOLUME_XZX", "VOLUME_X", "VOLUME_Z", "NO_VOLUME")
+
+
+@dataclass(frozen=True)
+class Step:
+    """One constraint of a mechanism bone, as Blender evaluates it (in pose space, in the stack's order; influence
+    blends the result with the matrix before it, rotations along the shortest arc, the rest linearly):
+    "stretch_to": its Y axis swung the shortest way onto the target's point (point: that far along the target's
+    Y), scaled along Y by the distance over rest_length and across by the volume mode; "copy_local_rotation":
+    its rotation in its own local space replaced by a control's basis rotation (Copy Rotation, local to local,
+    Replace, every axis); "copy_scale": its axes scaled to the target's (world to world)."""
+    kind: str
+    target: str
+    influence: float = 1.0
+    point: float = 0.0
+    rest_length: float = 1.0
+    volume: str = "VOLUME_XZX"
+    bulge: float = 1.0
+
+
+@dataclass(frozen=True)
+class Mechanism:
+    """How a bone moves that no single known bone carries (Rigify's neck: MCH-STR-neck hangs from the neck
+    control and stretches to the head; MCH-spine.005, the middle tweak's parent, rides on it and takes half
+    the head's own rotation): its parent's frame (None: the armature; a known bone's name; a Relation or
+    another Mechanism), its rest offset (inverse(parent's rest) @ its rest), the parent's scale inherited or
+    not (inherit_scale "NONE": the parent's axes normalised for its rotation, the full parent for its head),
+    then its constraints' steps. features/control_rigs.py builds one from the rig's parents and constraints
+    and keeps it only if it reproduces Blender's own evaluation of the calibration poses."""
+    bone: str
+    parent: object
+    rest_offset: np.ndarray  # (4, 4)
+    inherit_scale: bool
+    steps: tuple = ()
+
+    rigid = False
+
+    def depends_on(self) -> set:
+        out = {s.target for s in self.steps}
+        if isinstance(self.parent, str):
+            out.add(self.parent)
+        elif self.parent is not None:
+            out |= self.parent.depends_on()
+        return out
+
+    def evaluate(self, frames_of, count: int, locals_of=None) -> np.ndarray:
+        """(count, 4, 4) pose matrices (scaled where Blender scales the bone), given frames_of(name) -> (count,
+        4, 4) of the known bones and locals_of(name) -> (count, 4, 4), the bases of the controls whose local
+        rotation a step copies."""
+        if self.parent is None:
+            parent = np.repeat(np.eye(4)[None], count, axis=0)
+        elif isinstance(self.parent, str):
+            parent = np.asarray(frames_of(self.parent), dtype=np.float64)
+        else:
+            parent = self.parent.evaluate(frames_of, count, locals_of)
+        start = parent @ self.rest_offset
+        if not self.inherit_scale:
+            head = start[:, :3, 3].copy()
+            start = _orthonormal(parent) @ self.rest_offset
+            start[:, :3, 3] = head
+        m = start
+        for step in self.steps:
+            if step.kind == "stretch_to":
+                after = _stretch_to(m, frames_of(step.target) @ np.array([0.0, step.point, 0.0, 1.0]), step)
+            elif step.kind == "copy_local_rotation":
+                # Local space is the frame the bone has with an identity basis (start): Replace keeps the
+                # owner's local location and scale and takes the control's basis rotation.
+                local = np.linalg.inv(start) @ m
+                turn = np.asarray(locals_of(step.target), dtype=np.float64)[:, :3, :3]
+                turn = turn / np.linalg.norm(turn, axis=1, keepdims=True)
+                after = m.copy()
+                after[:, :3, :3] = start[:, :3, :3] @ turn * np.linalg.norm(local[:, :3, :3], axis=1)[:, None, :]
+            elif step.kind == "copy_scale":
+                target = np.linalg.norm(np.asarray(frames_of(step.target))[:, :3, :3], axis=1)
+                after = m.copy()
+                after[:, :3, :3] = m[:, :3, :3] / np.linalg.norm(m[:, :3, :3], axis=1)[:, None, :] * target[:, None, :]
+            else:
+                raise ValueError(f"unknown mechanism step {step.kind!r}")
+            m = interpolate(m, after, step.influence)
+        return m
+
+
+def _orthonormal(m) -> np.ndarray:
+    """(n, 4, 4) with the rotation parts' axes made orthonormal keeping Y's direction (Blender's
+    orthogonalize_m4_stable on axis Y), translations kept."""
+    out = np.array(m, dtype=np.float64)
+    y = out[:, :3, 1] / np.linalg.norm(out[:, :3, 1], axis=1, keepdims=True)
+    x = out[:, :3, 0] - np.sum(out[:, :3, 0] * y, axis=1, keepdims=True) * y
+    x /= np.linalg.norm(x, axis=1, keepdims=True)
+    out[:, :3, 0], out[:, :3, 1], out[:, :3, 2] = x, y, np.cross(x, y)
+    return out
+
+
+def swing(a, b) -> np.ndarray:
+    """(n, 3, 3) rotations turning the unit vectors a (n, 3) onto b (n, 3) the shortest way."""
+    v = np.cross(a, b)
+    c = np.sum(a * b, axis=1)
+    k = np.zeros((len(v), 3, 3))
+    k[:, 0, 1], k[:, 0, 2], k[:, 1, 2] = -v[:, 2], v[:, 1], -v[:, 0]
+    k -= np.transpose(k, (0, 2, 1))
+    return np.eye(3)[None] + k + k @ k / np.maximum(1.0 + c, 1e-12)[:, None, None]
+
+
+def _stretch_to(m, point, step: Step) -> np.ndarray:
+    """Blender's Stretch To (Swing Y) on pose matrices m (n, 4, 4) toward points (n, 4)."""
+    size = np.linalg.norm(m[:, :3, :3], axis=1)
+    axes = m[:, :3, :3] / size[:, None, :]
+    vec = point[:, :3] - m[:, :3, 3]
+    length = np.linalg.norm(vec, axis=1)
+    dist = length / size[:, 1]
+    bulge = (step.rest_length / dist) ** step.bulge
+    across = {"VOLUME_XZX": (np.sqrt(bulge), np.sqrt(bulge)), "VOLUME_X": (bulge, np.ones_like(bulge)),
+              "VOLUME_Z": (np.ones_like(bulge), bulge), "NO_VOLUME": (np.ones_like(bulge),) * 2}[step.volume]
+    scale = size * np.stack([across[0], dist / step.rest_length, across[1]], axis=1)
+    out = m.copy()
+    out[:, :3, :3] = swing(axes[:, :, 1], vec / length[:, None]) @ axes * scale[:, None, :]
+    return out
+
+
+def _polar(m):
+    """Polar decompositions m = u @ p of (n, 3, 3): u a rotation, p symmetric (the scale in u's axes)."""
+    w, s, vt = np.linalg.svd(m)
+    return w @ vt, np.transpose(vt, (0, 2, 1)) @ (s[:, :, None] * vt)
+
+
+def interpolate(a, b, t: float) -> np.ndarray:
+    """Blender's blend of two matrices (n, 4, 4) by t (a constraint's influence): the polar decompositions'
+    rotations along the shortest arc, their scales and the translations linearly."""
+    if t >= 1.0:
+        return np.array(b, dtype=np.float64)
+    if t <= 0.0:
+        return np.array(a, dtype=np.float64)
+    ua, pa = _polar(np.asarray(a)[:, :3, :3])
+    ub, pb = _polar(np.asarray(b)[:, :3, :3])
+    qa, qb = quaternions(ua), quaternions(ub)
+    qb = np.where(np.sum(qa * qb, axis=1, keepdims=True) < 0, -qb, qb)
+    theta = np.arccos(np.clip(np.sum(qa * qb, axis=1), -1.0, 1.0))[:, None]
+    sin = np.sin(theta)
+    small = sin < 1e-9
+    wa = np.where(small, 1.0 - t, np.sin((1.0 - t) * theta) / np.where(small, 1.0, sin))
+    wb = np.where(small, t, np.sin(t * theta) / np.where(small, 1.0, sin))
+    out = np.array(a, dtype=np.float64)
+    out[:, :3, :3] = matrices(wa * qa + wb * qb, np.zeros((len(qa), 3)))[:, :3, :3] @ ((1.0 - t) * pa + t * pb)
+    out[:, :3, 3] = (1.0 - t) * np.asarray(a)[:, :3, 3] + t * np.asarray(b)[:, :3, 3]
+    return out
+
+
+def check_mechanism(mechanism: Mechanism, measured: np.ndarray, frames_of, locals_of, size: float) -> str:
+    """"" when the mechanism reproduces the measured matrices (samples, 4, 4) within the relations' tolerances
+    (rotation, head, axis lengths), else how far it is off."""
+    measured = np.asarray(measured, dtype=np.float64)
+    model = mechanism.evaluate(frames_of, measured.shape[0], locals_of)
+    axes = lambda m: m[:, :3, :3] / np.linalg.norm(m[:, :3, :3], axis=1, keepdims=True)  # noqa: E731
+    angle = float(np.max(_angle(axes(model), axes(measured))))
+    drift = float(np.max(np.linalg.norm(model[:, :3, 3] - measured[:, :3, 3], axis=1)))
+    scale = float(np.max(np.abs(np.linalg.norm(model[:, :3, :3], axis=1) - np.linalg.norm(measured[:, :3, :3], axis=1))))
+    if angle < ANGLE_TOLERANCE and drift < DISTANCE_TOLERANCE * size and scale < 1e-3:
+        return ""
+    return (f"modelled from its parents and constraints it is off by {np.degrees(angle):.3f} deg, "
+            f"{drift / size:.1e} of the rig's size and {scale:.1e} in scale")
 
 
 def order(relations: dict, known: set) -> list[str]:

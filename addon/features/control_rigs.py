@@ -8,8 +8,12 @@ deform bone it drives; IK limbs get their effector from the limb's end bone and
 a pole in the plane of the limb. How each control's parent moves (Rigify puts
 mechanism bones with constraints between controls) is measured once per
 retarget: the rig is posed in a few random poses and evaluated by Blender
-(core/control_rig.fit_relation), never frame by frame. The limb's other mode is
-keyed too, so that flipping the IK/FK switch in the rig's own UI keeps the pose.
+(core/control_rig.fit_relation), never frame by frame; a parent that no single
+known bone carries (Rigify's middle neck tweak hangs from a bone stretched to the
+head) is modelled from its own parents and constraints (core/control_rig.Mechanism)
+and kept only if the model reproduces Blender's evaluation of those poses. The
+limb's other mode is keyed too, so that flipping the IK/FK switch in the rig's own
+UI keeps the pose.
 """
 from __future__ import annotations
 
@@ -236,11 +240,73 @@ def _layout(rig_map: ControlRigMap, modes: dict, posed: set) -> _Layout:
     return out
 
 
+_MODELLED = {'STRETCH_TO', 'COPY_ROTATION', 'COPY_SCALE'}
+
+
+def _steps(obj, pose_bone) -> tuple:
+    """(steps, why): the bone's constraints as control_rig.Step, in order (muted ones and those at no
+    influence left out), or why one cannot be modelled. pose_bone: the evaluated rig's (driven influences)."""
+    steps = []
+    for con in pose_bone.constraints:
+        if con.mute or con.influence <= 0.0:
+            continue
+        here = f"'{pose_bone.name}' has a {con.type.replace('_', ' ').title()} constraint '{con.name}'"
+        if con.type not in _MODELLED or getattr(con, "target", None) is None or \
+                con.target.name != obj.name or not con.subtarget:
+            return (), f"{here} that MotionKit does not model"
+        if con.type == 'STRETCH_TO':
+            if con.keep_axis != 'SWING_Y' or con.use_bulge_min or con.use_bulge_max or con.use_bbone_shape or \
+                    con.rest_length <= 0.0 or con.volume not in control_rig.VOLUMES:
+                return (), f"{here} with settings MotionKit does not model (it models Swing Y, no bulge limits)"
+            length = obj.data.bones[con.subtarget].length
+            steps.append(control_rig.Step("stretch_to", con.subtarget, con.influence, con.head_tail * length,
+                                          con.rest_length, con.volume, con.bulge))
+        elif con.type == 'COPY_ROTATION':
+            if (con.owner_space, con.target_space) != ('LOCAL', 'LOCAL') or con.mix_mode != 'REPLACE' or \
+                    not (con.use_x and con.use_y and con.use_z) or con.invert_x or con.invert_y or con.invert_z:
+                return (), f"{here} that is not local to local, Replace, on every axis"
+            steps.append(control_rig.Step("copy_local_rotation", con.subtarget, con.influence))
+        else:
+            if (con.owner_space, con.target_space) != ('WORLD', 'WORLD') or con.use_offset or con.use_add or \
+                    con.use_make_uniform or con.power != 1.0 or not (con.use_x and con.use_y and con.use_z):
+                return (), f"{here} that is not world to world, on every axis, without offset"
+            steps.append(control_rig.Step("copy_scale", con.subtarget, con.influence))
+    return tuple(steps), ""
+
+
+def _mechanism(obj, name, known, controls, steps_of, stack, size, depth=0):
+    """(control_rig.Mechanism or None, why) for the bone name from its parent (a known bone, one a Relation
+    fits, or a mechanism again, a few levels up) and its constraints (steps_of: name -> (steps, why))."""
+    bone = obj.data.bones[name]
+    if depth > 3:
+        return None, f"'{name}' hangs from too many mechanism bones"
+    if not bone.use_inherit_rotation or bone.inherit_scale not in ('FULL', 'NONE') or not bone.use_local_location:
+        return None, f"'{name}' inherits its parent's transform in a way MotionKit does not model"
+    steps, why = steps_of.get(name, ((), ""))
+    if why:
+        return None, why
+    for step in steps:
+        if step.target not in (controls if step.kind == "copy_local_rotation" else known):
+            return None, f"'{name}' follows '{step.target}', which this retarget does not key or pose"
+    rest = np.array(bone.matrix_local, dtype=np.float64)
+    parent, node = bone.parent, None
+    if parent is not None:
+        rest = np.linalg.inv(np.array(parent.matrix_local, dtype=np.float64)) @ rest
+        node = parent.name
+        if parent.name not in known:
+            node, _ = control_rig.fit_relation(stack(parent.name), {k: stack(k) for k in known}, size)
+            if node is None:
+                node, why = _mechanism(obj, parent.name, known, controls, steps_of, stack, size, depth + 1)
+                if node is None:
+                    return None, why
+    return control_rig.Mechanism(name, node, rest, bone.inherit_scale == 'FULL', steps), ""
+
+
 def _calibrate(obj, rig_map, layout: _Layout, deform: list, size: float) -> dict:
-    """Each keyed control's parent's Relation, measured in Blender's own evaluation of the rig posed at rest
-    and in a few random poses (with the layout's properties), and the evaluated rest pose ({bone: (4, 4)}:
-    a deform bone copying a control that is rolled against it stands rolled there); the rig's pose and
-    properties are put back."""
+    """Each keyed control's parent's Relation (or Mechanism), measured in Blender's own evaluation of the rig
+    posed at rest and in a few random poses (with the layout's properties), and the evaluated rest pose
+    ({bone: (4, 4)}: a deform bone copying a control that is rolled against it stands rolled there); the rig's
+    pose and properties are put back."""
     if obj.name not in bpy.context.view_layer.objects:
         raise ValueError(f"'{obj.name}' is not in the view layer, so Blender does not evaluate it: include its "
                          "collection and retarget again")
@@ -253,6 +319,9 @@ def _calibrate(obj, rig_map, layout: _Layout, deform: list, size: float) -> dict
     saved_props = [(b, p, _property(obj, b, p)) for b, p, _ in layout.settings]
     rng = np.random.default_rng(_SEED)
     samples = []
+    bases = {name: [] for name in moving}  # each moving control's basis in each pose
+    above = {p.name for name in moving for p in pose[name].parent_recursive}  # where a mechanism may be
+    steps_of = {}
     # The random poses reach beyond the limbs: a limb's no-stretch setting would clamp its IK target there
     # (a Limit Distance in Rigify) and hide how the target follows its control when in reach; calibration
     # stretches.
@@ -281,6 +350,11 @@ def _calibrate(obj, rig_map, layout: _Layout, deform: list, size: float) -> dict
                 pose[name].matrix_basis = m
             bpy.context.view_layer.update()
             samples.append(_pose_matrices(obj))
+            for name in moving:
+                bases[name].append(np.array(pose[name].matrix_basis, dtype=np.float64))
+            if s == 0:  # the constraints as evaluated with the layout's properties (their drivers)
+                evaluated = obj.evaluated_get(bpy.context.evaluated_depsgraph_get()).pose.bones
+                steps_of = {n: _steps(obj, evaluated[n]) for n in above}
     finally:
         if playing is not None:
             animdata.assign(obj, playing)
@@ -301,6 +375,15 @@ def _calibrate(obj, rig_map, layout: _Layout, deform: list, size: float) -> dict
             continue
         others = {k: v for k, v in candidates.items() if k != name}
         relation, why = control_rig.fit_relation(stack(parent.name), others, size)
+        if relation is None and "scaled" not in why:
+            # No single bone carries the parent: its own parents and constraints may (checked on the poses).
+            relation, modelled = _mechanism(obj, parent.name, set(others), set(moving) - {name}, steps_of,
+                                            stack, size)
+            if relation is not None:
+                modelled = control_rig.check_mechanism(relation, stack(parent.name), stack,
+                                                       lambda n: np.array(bases[n]), size)
+                relation = None if modelled else relation
+            why += f"; {modelled}" if modelled else ""
         if relation is None:
             raise ValueError(f"'{obj.name}': the control '{name}' hangs from '{parent.name}', and {why}; "
                              "set the rig's follow/parent switches to a plain value (0 or 1) and retarget again")
@@ -421,7 +504,7 @@ def _solve(target, rig_map, layout, relations, standing, deform_world, size) -> 
         if relation is None:
             frame, offset = np.repeat(np.eye(4)[None], frames_n, axis=0), rest[name]
         else:
-            frame = relation.evaluate(lambda n: worlds[n], frames_n)
+            frame = relation.evaluate(lambda n: worlds[n], frames_n, lambda n: bases[n])
             offset = np.linalg.inv(rest[target.pose.bones[name].parent.name]) @ rest[name]
         if name in layout.poles:
             world = _pole_world(layout.poles[name], deform_world, standing, name, frame @ offset)

@@ -82,6 +82,16 @@ class _Side:
         return name in self._index
 
 
+def _check_editable(obj) -> None:
+    """A target linked from another file without a library override cannot take keys: say so (its pose and
+    action live on the object, so an overridden object whose armature stays linked takes them)."""
+    library = getattr(obj, "library", None)
+    if library is not None:
+        raise ValueError(f"the target '{obj.name}' is linked from the library '{library.filepath}' and cannot be "
+                         f"keyed here; make a library override (Object > Library Override > Make) and "
+                         f"retarget onto that")
+
+
 def _side(obj, role: str) -> _Side:
     if obj is None:
         raise ValueError(f"no {role} armature given")
@@ -438,6 +448,8 @@ def plan(source, target, bone_map=None, frame_range=None, root: str = "scaled", 
     at once); the contacts, feet and every other bone's values are final either way."""
     native = native_state.native()
     src, tgt = _side(source, "source"), _side(target, "target")
+    if isinstance(tgt.obj, bpy.types.Object):
+        _check_editable(tgt.obj)
     if src.obj == tgt.obj:
         raise ValueError(f"the source and the target are the same armature '{src.obj.name}' (a cycle)")
     if floor_fit not in [f[0] for f in FLOOR_FITS]:
@@ -878,6 +890,8 @@ def retarget(source, target, bone_map=None, frame_range=None, root: str = "scale
     file as it was (a BVH source is removed again).
     """
     imported_source = _imported_source_option(imported_source, bvh_source)
+    if target is not None and getattr(target, "type", None) == 'ARMATURE':
+        _check_editable(target)
     imported = None
     if isinstance(source, (str, os.PathLike)):
         imported = _import_source(source, target, bvh_scale)

@@ -476,3 +476,24 @@ def test_twist_bones_share_their_limbs_twist(mk, walk60):
           f"{math.degrees(turned):.1f} deg)")
     assert turned > math.radians(2)
     assert worst < math.radians(0.1)
+
+
+def test_a_linked_rig_is_refused_with_what_to_do_and_an_override_works(mk, walk60, tmp_path):
+    """A target linked from another .blend without a library override: a ValueError that says it is linked
+    and how to make it editable, nothing changed; once overridden it takes the retarget."""
+    rig = generate.build_armature(characters.MIXAMO_T)
+    library = str(tmp_path / "rig.blend")
+    bpy.data.libraries.write(library, {rig, rig.data})
+    bpy.data.objects.remove(rig)
+    with bpy.data.libraries.load(library, link=True) as (data_from, data_to):
+        data_to.objects = [n for n in data_from.objects if n == "MixamoT"]
+    linked = data_to.objects[0]
+    bpy.context.scene.collection.objects.link(linked)
+    source, _ = mk.bvh.load(walk60)
+    actions = set(bpy.data.actions)
+    with pytest.raises(ValueError, match=r"linked from the library .*library override"):
+        mk.retarget(source, linked, plant_feet=False)
+    assert set(bpy.data.actions) == actions and linked.animation_data is None
+    overridden = linked.override_create(remap_local_usages=True)
+    action = mk.retarget(source, overridden, plant_feet=False)
+    assert overridden.animation_data.action == action
