@@ -29,8 +29,8 @@ def aims(heads, tails, parents, rest) -> tuple[np.ndarray, np.ndarray] | None:
 
     A bone points at the head of the child that continues it (its parent's line carried on most
     straightly; for a root, the child with the most bones below). A bone whose Y axis lies more than 30
-    degrees from every child's head is given that aim; on a rig where most bones are so, every bone is, a
-    leaf pointing on from its parent's head.
+    degrees from every child's head is given that aim; on a rig where most bones are so, every bone is, and
+    a leaf whose Y axis turns more than 45 degrees off its parent's line points on along that line.
     """
     heads, tails = np.asarray(heads, dtype=np.float64), np.asarray(tails, dtype=np.float64)
     count = len(heads)
@@ -59,8 +59,8 @@ def aims(heads, tails, parents, rest) -> tuple[np.ndarray, np.ndarray] | None:
                        if incoming is not None else below[c])
             direction = heads[pick] - heads[i]
             reach[i] = np.linalg.norm(direction)
-        elif incoming is not None:
-            direction = incoming
+        elif incoming is not None and float(_unit(tails[i] - heads[i]) @ incoming) < np.cos(np.radians(45.0)):
+            direction = incoming  # a leaf whose tail turns far off its parent's line points nowhere known
         else:
             continue
         out[i] = rotate(conjugate(np.asarray(rest[i], dtype=np.float64)), _unit(direction))
