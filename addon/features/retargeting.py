@@ -480,7 +480,7 @@ def plan(source, target, bone_map=None, frame_range=None, root: str = "scaled", 
                                                                      src.rig, src.bones)
         source_pose = _Pose(match_rot.reshape(-1, 4), match_heads.reshape(-1, 3), _lengths(src))
     else:
-        source_pose = _Pose(np.array([pose_channels.rest_quaternions(src.obj.data)[n] for n in src.names]),
+        source_pose = _Pose(_rest_rotations(src),
                             np.array([b.head_local for b in src.bones], dtype=np.float64), _lengths(src))
     if target_match == 'CURRENT':
         target_basis, target_locations = pose_channels.current_pose(tgt.obj, tgt.bones)
@@ -536,7 +536,9 @@ def plan(source, target, bone_map=None, frame_range=None, root: str = "scaled", 
     scale = target_height / source_height
     # The source's contacts need only the source's pose: found here while the native retarget runs beside
     # (it releases the GIL).
-    feet = (_feet(src, src_body), _feet(tgt, tgt_body))
+    # The source's contacts are needed to plant feet or to put them on the floor.
+    wants_feet = plant_feet or (floor_fit != "off" and root != "none")
+    feet = (_feet(src, src_body), _feet(tgt, tgt_body)) if wants_feet else (None, None)
     with ThreadPoolExecutor(max_workers=1) as beside:
         retargeted = beside.submit(
             native.retarget, src.rig, tgt.rig, source_rotations,
@@ -619,18 +621,37 @@ def plan(source, target, bone_map=None, frame_range=None, root: str = "scaled", 
     return plan_  # a pending feet's solve is checked when it completes (contacts.cleanup and write_keys)
 
 
-def _foot_heights(side: _Side, body, rotations, heads, up) -> np.ndarray:
+def _foot_heights(side: _Side, body, rotations, heads, up, column=None) -> np.ndarray:
     """(frames, legs) the lowest of each foot's ankle (its head) and ball (the toe's head, else the foot's tail)
-    along up."""
+    along up. column: bone index -> its column in rotations and heads (default: the same)."""
+    column = column or (lambda b: b)
     out = []
     for leg, s in zip(_legs(side, body), bone_mapping.SIDES):
-        ankle = heads[:, 3 * leg.foot:3 * leg.foot + 3]
+        foot = column(leg.foot)
+        ankle = heads[:, 3 * foot:3 * foot + 3]
         toe = body.limbs.get(f"toe.{s}")
         # The toe's head is the ball wherever the rig has one (the foot's tail need not lie there).
-        ball = heads[:, 3 * side.index(toe):3 * side.index(toe) + 3] if toe in side else ankle + \
-            side.bones[leg.foot].length * rotation_channels.y_axes(rotations[:, 4 * leg.foot:4 * leg.foot + 4])
+        ball = heads[:, 3 * column(side.index(toe)):3 * column(side.index(toe)) + 3] if toe in side else ankle + \
+            side.bones[leg.foot].length * rotation_channels.y_axes(rotations[:, 4 * foot:4 * foot + 4])
         out.append(np.minimum(ankle @ up, ball @ up))
     return np.stack(out, axis=1)
+
+
+def _pose_legs(native, side: _Side, body, rotations, locations, hips: int):
+    """The armature pose of the legs, the hips and the bones above them only (the rest place no foot):
+    (rotations, heads) of those bones and their column by bone index."""
+    legs = [b for leg, s in zip(_legs(side, body), bone_mapping.SIDES)
+            for b in (leg.thigh, leg.shin, leg.foot) + ((side.index(body.limbs[f"toe.{s}"]),)
+                                                          if body.limbs.get(f"toe.{s}") in side else ())]
+    sub = sorted(set(legs + [hips]).union(*(
+        (side.index(a.name) for a in pose_channels.ancestors(side.bones[b])) for b in legs + [hips])))
+    rig, _ = pose_channels.native_rig(side.obj.data, [side.bones[b] for b in sub])
+    where = {b: i for i, b in enumerate(sub)}
+    columns4 = (4 * np.array(sub)[:, None] + np.arange(4)).ravel()
+    columns3 = (3 * np.array(sub)[:, None] + np.arange(3)).ravel()
+    posed = native.armature_pose(rig, np.ascontiguousarray(rotations[:, columns4]),
+                                 np.ascontiguousarray(locations[:, columns3]))
+    return posed[0], posed[1], where.__getitem__
 
 
 def _stand_on_floor(native, source, target, rotations, locations, hips: int, contacts_, height_scale,
@@ -646,13 +667,13 @@ def _stand_on_floor(native, source, target, rotations, locations, hips: int, con
     tgt, tgt_body, up, target_floor = target
     wanted = target_floor + height_scale * (
         _foot_heights(src, src_body, source_rotations, source_heads, source_up) - source_floor)
-    posed_rotations, posed_heads = native.armature_pose(tgt.rig, rotations, locations)
-    heights = _foot_heights(tgt, tgt_body, posed_rotations, posed_heads, up)
+    posed_rotations, posed_heads, column = _pose_legs(native, tgt, tgt_body, rotations, locations, hips)
+    heights = _foot_heights(tgt, tgt_body, posed_rotations, posed_heads, up, column)
     stance = contacts_[:, 0::2] | contacts_[:, 1::2]  # per leg: its ankle or its ball stands
     # The hips' height eases at most half a leg a second where a second foot comes down (core.floor).
     lift = hips_lift(wanted, heights, stance, slope=0.5 * leg_length / fps)
     # The location channel moves the head in the bone's posed frame less its own rotation.
-    orient = posed_rotations[:, 4 * hips:4 * hips + 4]
+    orient = posed_rotations[:, 4 * column(hips):4 * column(hips) + 4]
     basis = rotations[:, 4 * hips:4 * hips + 4]
     frame = rotation_channels.multiply(orient, rotation_channels.conjugate(basis / np.linalg.norm(basis, axis=1,
                                                                                                     keepdims=True)))
@@ -727,6 +748,11 @@ def _depths(side: _Side) -> list[int]:
     return depth
 
 
+def _rest_rotations(side: _Side) -> np.ndarray:
+    rest = pose_channels.rest_quaternions(side.obj.data)
+    return np.array([rest[n] for n in side.names])
+
+
 def _move_floor_root(native, tgt: _Side, target_pose: _Pose, rotations, locations, floor, hips, mode,
                      source_motion, space, scale, root, sigma_frames) -> None:
     """Gives the target's floor root its motion (copy or extract) and re-expresses the hips under it so that
@@ -743,7 +769,7 @@ def _move_floor_root(native, tgt: _Side, target_pose: _Pose, rotations, location
                                        vertical=root != "none")
     parent = lambda b: tgt.index(tgt.bones[b].parent.name) if tgt.bones[b].parent else -1  # noqa: E731
     rest = root_motion.FloorRootRest(floor, parent(floor), hips, parent(hips),
-                                     np.array([pose_channels.rest_quaternions(tgt.obj.data)[n] for n in tgt.names]),
+                                     _rest_rotations(tgt),
                                      np.array([b.head_local for b in tgt.bones], dtype=np.float64))
     root_parent = parent(floor)
     parent_pose = None if root_parent < 0 else (block(posed_rotations, root_parent, 4),
