@@ -185,6 +185,27 @@ def _facing(space, source_pose: _Pose, target_pose: _Pose, pairs_idx, source_roo
     return np.concatenate([[np.cos(angle / 2)], np.sin(angle / 2) * np.asarray(up, dtype=np.float64)])
 
 
+def _placement(source, target, pairs_idx, align_facing: bool):
+    """(space, up, source_up): the rotation from source to target armature space (the objects' world
+    rotations, and with align_facing the quarter turns about up that face the motion the target's way),
+    Blender's up in the target's armature space, and in the source's. source: (side, body, match pose,
+    clip rotations, clip heads, root); target: (side, body, match pose, root)."""
+    src, src_body, source_pose, clip_rotations, clip_heads, source_root = source
+    tgt, tgt_body, target_pose, target_root = target
+    source_world, _ = _world_rotation_scale(src.obj)
+    target_world, _ = _world_rotation_scale(tgt.obj)
+    space = rotation_channels.multiply(rotation_channels.conjugate(target_world), source_world)
+    up = _armature_up(tgt.obj)
+    if align_facing:
+        zero_pose = _faces_nowhere(source_pose, [a for a, _ in pairs_idx])
+        turn = _facing_turn(space, (src, src_body, source_pose, zero_pose, clip_rotations, clip_heads),
+                            (tgt, tgt_body, target_pose), up)
+        if turn is None:
+            turn = _facing(space, source_pose, target_pose, pairs_idx, source_root, target_root, up)
+        space = rotation_channels.multiply(turn, space)
+    return space, up, rotation_channels.rotate(rotation_channels.conjugate(space), up[None, :])[0]
+
+
 def _faces_nowhere(pose: _Pose, bones) -> bool:
     """Whether a match pose is a zero pose (nearly every bone along one axis): it shows no facing."""
     axes = rotation_channels.y_axes(pose.rotations[list(bones)])
@@ -513,17 +534,10 @@ def plan(source, target, bone_map=None, frame_range=None, root: str = "scaled", 
         bone_map_idx[target_floor_bone] = -1
     pairs_idx = [(a, b) for a, b in pairs_idx if b != target_floor_bone]
 
-    source_world, source_scale = _world_rotation_scale(src.obj)
-    target_world, target_scale = _world_rotation_scale(tgt.obj)
-    space = rotation_channels.multiply(rotation_channels.conjugate(target_world), source_world)
-    up = _armature_up(tgt.obj)  # Blender's up in the target's armature space
-    if align_facing:
-        turn = _facing_turn(space, (src, src_body, source_pose, _faces_nowhere(source_pose, [a for a, _ in pairs_idx]),
-                                    source_rotations, source_heads), (tgt, tgt_body, target_pose), up)
-        if turn is None:
-            turn = _facing(space, source_pose, target_pose, pairs_idx, source_root, target_root, up)
-        space = rotation_channels.multiply(turn, space)
-    source_up = rotation_channels.rotate(rotation_channels.conjugate(space), up[None, :])[0]
+    _, source_scale = _world_rotation_scale(src.obj)
+    _, target_scale = _world_rotation_scale(tgt.obj)
+    space, up, source_up = _placement((src, src_body, source_pose, source_rotations, source_heads, source_root),
+                                      (tgt, tgt_body, target_pose, target_root), pairs_idx, align_facing)
     source_floor_height = _floor_height(src, src_body, source_up, source_floor, source_heads)
     target_floor_height = _floor_height(tgt, tgt_body, up, target_floor)
     source_height = _leg_length(src, src_body, source_pose, source_up, source_root, source_heads,
@@ -534,9 +548,8 @@ def plan(source, target, bone_map=None, frame_range=None, root: str = "scaled", 
     if not (source_height > 1e-9 and target_height > 1e-9):
         raise ValueError("the root stands at the lowest point of a rig: no leg length to scale the motion by")
     scale = target_height / source_height
-    # The source's contacts need only the source's pose: found here while the native retarget runs beside
-    # (it releases the GIL).
-    # The source's contacts are needed to plant feet or to put them on the floor.
+    # The source's contacts, needed to plant feet or to put them on the floor, need only the source's pose:
+    # found here while the native retarget runs beside (it releases the GIL).
     wants_feet = plant_feet or (floor_fit != "off" and root != "none")
     feet = (_feet(src, src_body), _feet(tgt, tgt_body)) if wants_feet else (None, None)
     with ThreadPoolExecutor(max_workers=1) as beside:
