@@ -503,3 +503,27 @@ def test_a_linked_rig_is_refused_with_what_to_do_and_an_override_works(mk, walk6
     overridden = linked.override_create(remap_local_usages=True)
     action = mk.retarget(source, overridden, plant_feet=False)
     assert overridden.animation_data.action == action
+
+
+def test_rigify_finger_controls_are_keyed_and_its_fingers_close_the_fist(mk, fbx_dir):
+    """The punch (FBX) onto a rig Rigify generates: its finger FK controls are keyed (no master or curl
+    control), and after Blender evaluates the rig every DEF phalanx points within 1 degree of the source's
+    (joint to joint) on every frame."""
+    import rigify_rig
+    rig = rigify_rig.generate()[0]
+    before = set(bpy.data.objects)
+    action = mk.retarget(os.path.join(fbx_dir, "ybot@punch.fbx"), rig, imported_source="keep")
+    source = next(o for o in bpy.data.objects if o not in before and o.type == 'ARMATURE')
+    skeleton = mk.control_rigs.DeformSkeleton(rig, mk.control_rigs.find_map(rig))
+    pairs = [(a, b) for a, b in mk.retargeting.auto_map(source, skeleton) if "Hand" in a and not a.endswith("Hand")]
+    assert len(pairs) == 30 and all(b.startswith("DEF-") for _, b in pairs)
+    keyed = {fc.data_path.split('"')[1] for fc in mk.animdata.fcurves(action, rig)
+             if fc.data_path.startswith("pose.bones")}
+    assert {"thumb.01.L", "f_index.02.R", "f_pinky.03.L"} <= keyed
+    assert not [k for k in keyed if "master" in k or k.startswith(("DEF-", "MCH-", "ORG-"))]
+    frames = frames_of(action)
+    src_y = limb_directions(source, [a for a, _ in pairs], frames)
+    tgt_y, _ = world_axes(rig, [b for _, b in pairs], frames)
+    worst = angles_deg(src_y, tgt_y).max()
+    print(f"\nRigify fingers from the punch: worst {worst:.4f} deg")
+    assert worst < 1.0
