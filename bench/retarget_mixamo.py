@@ -85,7 +85,8 @@ def main() -> None:
             motionkit.retarget(source, target, bone_map=pairs, plant_feet=False, **options)
         seconds = harness.timed(run, args.repeat, before=lambda: retarget_bench.clear_action(target))
         results[label] = harness.median(seconds)
-        print(f"MotionKit {label}: {results[label]:.3f} s, {1e6 * results[label] / frames:.1f} us a frame")
+        print(f"MotionKit {label}: {results[label]:.3f} s, {1e6 * results[label] / frames:.1f} us a frame "
+              f"(fastest of {len(seconds)}: {1e6 * min(seconds) / frames:.1f} us)")
     retarget_bench.clear_action(target)
     setup, bake, _ = retarget_bench.run_constraint_way(source, target, pairs, min(args.bake_frames, frames), False)
     scaled = setup + bake * frames / min(args.bake_frames, frames)
