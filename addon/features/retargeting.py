@@ -461,7 +461,7 @@ class Plan:
 def plan(source, target, bone_map=None, frame_range=None, root: str = "scaled", *, source_match: str = 'REST',
          match_frame: float | None = None, target_match: str = 'REST', ground: bool = False,
          align_facing: bool = True, floor_root: str = "auto", root_smoothing: float = 0.25,
-         plant_feet: bool = True, contact_settings: ContactSettings | None = None,
+         plant_feet: bool | None = None, contact_settings: ContactSettings | None = None,
          source_floor: float | None = None, target_floor: float | None = None, floor_fit: str = "legs",
          defer_solve: bool = False) -> Plan:
     """Compute the retargeted keys without touching the file (see retarget). defer_solve: leave the feet's
@@ -548,6 +548,7 @@ def plan(source, target, bone_map=None, frame_range=None, root: str = "scaled", 
     if not (source_height > 1e-9 and target_height > 1e-9):
         raise ValueError("the root stands at the lowest point of a rig: no leg length to scale the motion by")
     scale = target_height / source_height
+    plant_feet = _planting(plant_feet, (src, src_body), (tgt, tgt_body))
     # The source's contacts, needed to plant feet or to put them on the floor, need only the source's pose:
     # found here while the native retarget runs beside (it releases the GIL).
     wants_feet = plant_feet or (floor_fit != "off" and root != "none")
@@ -732,6 +733,22 @@ def _share_twist(tgt: _Side, body, rotations, mapped) -> None:
             [np.cos(angle / 2)[:, None], np.sin(angle / 2)[:, None] * local_axis], axis=1)
 
 
+def _planting(plant_feet, source, target) -> bool:
+    """Whether to plant feet: plant_feet None plants where both rigs have two labelled legs; True requires
+    them (a ValueError names the rig and what it lacks); False never."""
+    if plant_feet is not None and not plant_feet:
+        return False
+    for (side, body), role in ((source, "source"), (target, "target")):
+        try:
+            contacts.feet_of(body, side.obj.name)
+        except ValueError as error:
+            if plant_feet:
+                raise ValueError(f"plant_feet: the {role} has no feet to plant ({error}); retarget with "
+                                 f"plant_feet=False, or map its legs") from None
+            return False
+    return True
+
+
 def _feet(side: _Side, body) -> list | None:
     """Both legs' contacts.Foot from the labels, or None when a leg is not labelled (no feet to plant)."""
     try:
@@ -880,7 +897,8 @@ def _write_unsolved(target, action, plan_: Plan) -> None:
 def retarget(source, target, bone_map=None, frame_range=None, root: str = "scaled", *,
              source_match: str = 'REST', match_frame: float | None = None, target_match: str = 'REST',
              ground: bool = False, align_facing: bool = True, floor_root: str = "auto",
-             root_smoothing: float = 0.25, plant_feet: bool = True, contact_settings: ContactSettings | None = None,
+             root_smoothing: float = 0.25, plant_feet: bool | None = None,
+             contact_settings: ContactSettings | None = None,
              source_floor: float | None = None, target_floor: float | None = None, floor_fit: str = "legs",
              action_name: str | None = None, overwrite: bool = False, bvh_scale: float | str = "auto",
              imported_source: str | None = None, bvh_source: str | None = None, controls: str = "auto",
@@ -922,7 +940,9 @@ def retarget(source, target, bone_map=None, frame_range=None, root: str = "scale
     "extract". plant_feet: feet that stand still in the source stay planted on
     the target (contacts detected on the source, stored on the new action as
     0/1 curves, held by full-body IK; contact_settings tunes the detection,
-    foot_contacts.ContactSettings); skipped for rigs without two labelled legs. The hips are the body's root on both sides and the translation
+    foot_contacts.ContactSettings); None (the default) plants where both rigs
+    have two labelled legs, True requires them (a ValueError names the rig and
+    what it lacks), False never. The hips are the body's root on both sides and the translation
     is scaled by the ratio of leg lengths measured along the legs. The new action is assigned to the target (its previous
     action keeps a fake user rather than being lost); with overwrite the keys
     replace the target's own action's curves instead. A ValueError leaves the

@@ -171,7 +171,8 @@ class MOTIONKIT_OT_retarget(bpy.types.Operator):
                 source_match=settings.source_match, match_frame=settings.match_frame,
                 target_match=settings.target_match, ground=settings.ground, align_facing=settings.align_facing,
                 floor_root=settings.floor_root, root_smoothing=settings.root_smoothing,
-                floor_fit=settings.floor_fit, plant_feet=settings.plant_feet, contact_settings=contact_ui.settings(settings.contacts),
+                floor_fit=settings.floor_fit, plant_feet=None if settings.plant_feet else False,
+                contact_settings=contact_ui.settings(settings.contacts),
                 overwrite=settings.overwrite, progress=progress, **controls, **bvh_options)
             timing = scene_timing.from_clip(context.scene, action) if settings.scene_from_clip else None
             return action, timing

@@ -527,3 +527,24 @@ def test_rigify_finger_controls_are_keyed_and_its_fingers_close_the_fist(mk, fbx
     worst = angles_deg(src_y, tgt_y).max()
     print(f"\nRigify fingers from the punch: worst {worst:.4f} deg")
     assert worst < 1.0
+
+
+def test_planting_feet_on_a_target_without_feet_says_so(mk, walk60):
+    """A target without feet (legs that end at the knee's shin, as a character in a long robe): asking for
+    planted feet is a ValueError that names the target and what it lacks, with nothing changed; the defaults
+    retarget it without planting."""
+    target = generate.build_armature(characters.MIXAMO_T)
+    bpy.context.view_layer.objects.active = target
+    bpy.ops.object.mode_set(mode='EDIT')
+    for bone in list(target.data.edit_bones):
+        if "Foot" in bone.name or "Toe" in bone.name:
+            target.data.edit_bones.remove(bone)
+    bpy.ops.object.mode_set(mode='OBJECT')
+    source, _ = mk.bvh.load(walk60)
+    actions = sorted(a.name for a in bpy.data.actions)
+    with pytest.raises(ValueError, match=r"plant_feet: the target has no feet to plant \(foot L: 'MixamoT' has no "
+                                         r"foot bone"):
+        mk.retarget(source, target, plant_feet=True)
+    assert sorted(a.name for a in bpy.data.actions) == actions and target.animation_data is None
+    action = mk.retarget(source, target)
+    assert target.animation_data.action == action
