@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .rotation_channels import about, conjugate, multiply, rotate_each as rotate, sign_continuous
+from .rotation_channels import about, conjugate, multiply, rotate_each as rotate, sign_continuous, twist_angles
 
 FLOOR_ROOTS = (
     ("auto", "Auto", "Copy the source's floor root if it has one, else keep the target's still"),
@@ -40,8 +40,7 @@ def about_z(angles) -> np.ndarray:
 
 def heading(q) -> np.ndarray:
     """The turn about Z of rotations q (n, 4) (the twist of a swing-twist split), continuous over rows."""
-    q = np.asarray(q, dtype=np.float64)
-    return np.unwrap(2.0 * np.arctan2(q[:, 3], q[:, 0]))
+    return np.unwrap(twist_angles(q, [0.0, 0.0, 1.0]))
 
 
 def smooth(x, sigma_frames: float) -> np.ndarray:
