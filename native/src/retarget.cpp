@@ -20,7 +20,7 @@ struct Drive {
   int from = -1;     // source bone (kMapped), or the chain's upper source bone (kChain)
   int to = -1;       // kChain: the lower source bone
   double alpha = 0;  // kChain: slerp parameter from `from` to `to`
-  Eigen::Quaterniond align = Eigen::Quaterniond::Identity();  // S_b M_b
+  Eigen::Quaterniond align = Eigen::Quaterniond::Identity();  // the bone posed as the source's match pose
   double fit = -2;   // kChain: how well the chain continues this bone (for bones on two chains)
 };
 
@@ -30,6 +30,18 @@ std::vector<int> SourcePath(const RigModel& rig, int top, int bottom) {
   for (int b = bottom; b != top && b >= 0; b = rig.parent(b)) path.push_back(b);
   std::reverse(path.begin(), path.end());
   return path;
+}
+
+// Heads of every bone of `rig` posed with world orientations `globals` (root heads at the rest's).
+std::vector<Eigen::Vector3d> PosedHeads(const RigModel& rig, const std::vector<Eigen::Quaterniond>& globals) {
+  std::vector<Eigen::Vector3d> heads(static_cast<std::size_t>(rig.size()));
+  for (int b = 0; b < rig.size(); ++b) {
+    const int p = rig.parent(b);
+    heads[static_cast<std::size_t>(b)] =
+        p < 0 ? rig.offset(b)
+              : Eigen::Vector3d(heads[static_cast<std::size_t>(p)] + globals[static_cast<std::size_t>(p)] * rig.offset(b));
+  }
+  return heads;
 }
 
 // The rest of the job's state, set up once per Run from the match poses.
@@ -48,10 +60,14 @@ class Plan {
       match_basis_.push_back(basis);
     }
     const int ns = job.source.size();
+    std::vector<Eigen::Quaterniond> source_match(static_cast<std::size_t>(ns));
     source_match_inverse_.resize(static_cast<std::size_t>(ns));
     for (int a = 0; a < ns; ++a) {
-      source_match_inverse_[static_cast<std::size_t>(a)] = QuatAt(job.source_match, 0, a).normalized().conjugate();
+      source_match[static_cast<std::size_t>(a)] = QuatAt(job.source_match, 0, a).normalized();
+      source_match_inverse_[static_cast<std::size_t>(a)] = source_match[static_cast<std::size_t>(a)].conjugate();
     }
+    source_heads_ = PosedHeads(job.source, source_match);
+    target_heads_ = PosedHeads(t, match_);
     drives_.resize(static_cast<std::size_t>(nt));
     for (int b = 0; b < nt; ++b) {
       const int a = job.bone_map[static_cast<std::size_t>(b)];
@@ -59,11 +75,11 @@ class Plan {
       Drive& d = drives_[static_cast<std::size_t>(b)];
       d.kind = Drive::kMapped;
       d.from = a;
-      d.align = Align(b, SourceDirection(a, a, 0.0));
     }
     for (int b = 0; b < nt; ++b) {
       if (job.bone_map[static_cast<std::size_t>(b)] >= 0) PlanChain(b);
     }
+    AlignDownTheHierarchy();
   }
 
   const Drive& drive(int b) const { return drives_[static_cast<std::size_t>(b)]; }
@@ -89,10 +105,69 @@ class Plan {
     return aims.row(bone).transpose().normalized();
   }
 
-  // S_b M_b: the target's match orientation turned the shortest way onto the source's direction.
-  Eigen::Quaterniond Align(int b, const Eigen::Vector3d& direction) const {
-    const Eigen::Vector3d own = match(b) * Aim(job_.target_aims, b);
-    return (Eigen::Quaterniond::FromTwoVectors(own, direction) * match(b)).normalized();
+  // The target posed as the source's match pose (each drive's `align`), parents first: a bone is carried
+  // by its aligned parent, as an animator turning a T-pose into an A-pose carries the hand with the arm,
+  // then turned the shortest way onto the source's direction, and a mapped bone with children spread
+  // about its line (a hand's fingers, hips' thighs) turned about that line onto the source's spread.
+  void AlignDownTheHierarchy() {
+    const RigModel& t = job_.target;
+    for (int b = 0; b < t.size(); ++b) {
+      Drive& d = drives_[static_cast<std::size_t>(b)];
+      const int p = t.parent(b);
+      const Eigen::Quaterniond carried =
+          (p < 0 ? Eigen::Quaterniond::Identity() : drives_[static_cast<std::size_t>(p)].align) * t.relative(b) *
+          match_basis(b);
+      if (d.kind == Drive::kKeep) {
+        d.align = carried.normalized();
+        continue;
+      }
+      const Eigen::Vector3d direction = d.kind == Drive::kMapped ? SourceDirection(d.from, d.from, 0.0)
+                                                                 : SourceDirection(d.from, d.to, d.alpha);
+      const Eigen::Vector3d own = carried * Aim(job_.target_aims, b);
+      d.align = (Eigen::Quaterniond::FromTwoVectors(own, direction) * carried).normalized();
+      if (d.kind == Drive::kMapped) d.align = (SpreadTurn(b, d.align, direction.normalized()) * d.align).normalized();
+    }
+  }
+
+  // The turn about `axis` that lays the target's mapped children around bone b (posed `aligned`) best onto
+  // the source's around its bone, each child's head seen from its bone's head and taken as a direction;
+  // none where fewer than two children stand off the line or the two spreads do not agree.
+  Eigen::Quaterniond SpreadTurn(int b, const Eigen::Quaterniond& aligned, const Eigen::Vector3d& axis) const {
+    const RigModel& t = job_.target;
+    const int a = job_.bone_map[static_cast<std::size_t>(b)];
+    const Eigen::Quaterniond to_aligned = aligned * match(b).conjugate();
+    double along = 0.0, across = 0.0, weight = 0.0;
+    int spread = 0;
+    for (int c = b + 1; c < t.size(); ++c) {
+      const int ac = job_.bone_map[static_cast<std::size_t>(c)];
+      if (ac < 0 || ac == a || !job_.source.IsAncestor(a, ac) || NearestMappedAbove(c) != b) continue;
+      const Eigen::Vector3d target_offset =
+          to_aligned * (target_heads_[static_cast<std::size_t>(c)] - target_heads_[static_cast<std::size_t>(b)]);
+      const Eigen::Vector3d source_offset =
+          job_.options.space *
+          (source_heads_[static_cast<std::size_t>(ac)] - source_heads_[static_cast<std::size_t>(a)]);
+      if (target_offset.norm() < 1e-12 || source_offset.norm() < 1e-12) continue;
+      const Eigen::Vector3d pt = Across(axis, target_offset.normalized());
+      const Eigen::Vector3d ps = Across(axis, source_offset.normalized());
+      if (pt.norm() > kOffLine && ps.norm() > kOffLine) ++spread;
+      along += pt.dot(ps);
+      across += axis.dot(pt.cross(ps));
+      weight += pt.norm() * ps.norm();
+    }
+    if (spread < 2 || std::hypot(along, across) < 0.5 * weight) return Eigen::Quaterniond::Identity();
+    return Eigen::Quaterniond(Eigen::AngleAxisd(std::atan2(across, along), axis));
+  }
+
+  static constexpr double kOffLine = 0.17;  // sin 10 degrees: a child head this far off the line shows a roll
+
+  static Eigen::Vector3d Across(const Eigen::Vector3d& axis, const Eigen::Vector3d& v) {
+    return v - v.dot(axis) * axis;
+  }
+
+  int NearestMappedAbove(int c) const {
+    int up = job_.target.parent(c);
+    while (up >= 0 && job_.bone_map[static_cast<std::size_t>(up)] < 0) up = job_.target.parent(up);
+    return up;
   }
 
   // Unmapped target bones between mapped `b` and its nearest mapped ancestor.
@@ -137,12 +212,12 @@ class Plan {
       d.to = lower;
       d.alpha = alpha;
       d.fit = fit;
-      d.align = Align(c, SourceDirection(upper, lower, alpha));
     }
   }
 
   const RetargetJob& job_;
   std::vector<Eigen::Quaterniond> match_, match_basis_, source_match_inverse_;
+  std::vector<Eigen::Vector3d> source_heads_, target_heads_;
   std::vector<Drive> drives_;
 };
 

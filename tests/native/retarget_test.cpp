@@ -177,6 +177,34 @@ TEST(Retarget, TPoseToAPoseAndBackKeepsEveryJoint) {
   }
 }
 
+// A hand whose fingers spread across Z on the source and across Y on the target (the palm turned a
+// quarter about the arm in one rest pose): the target's palm faces as the source's on every frame.
+TEST(Retarget, AHandTurnsAboutItsLineToLayItsFingersAsTheSources) {
+  const auto hand = [](const Eigen::Vector3d& across) {
+    const Eigen::Vector3d tip(0.4, 0, 0), along(0.05, 0, 0);
+    return std::vector<BoneSpec>{{"arm", -1, {0, 0, 0}, {0.3, 0, 0}, 0.0},
+                                 {"hand", 0, {0.3, 0, 0}, tip, 0.0},
+                                 {"index", 1, tip + across, tip + across + along, 0.0},
+                                 {"middle", 1, tip, tip + along, 0.0},
+                                 {"pinky", 1, tip - across, tip - across + along, 0.0}};
+  };
+  const RigModel source = MakeRig(hand({0, 0, 0.03}));
+  const RigModel target = MakeRig(hand({0, 0.03, 0}));
+  const RowMatrixXd basis = RandomPoses(source.size(), 20, 11);
+  const Posed posed = Pose(source, basis, RowMatrixXd::Zero(20, 3 * source.size()));
+  const Retargeted run = Retarget(source, target, posed);
+  RowMatrixXd locations = RowMatrixXd::Zero(20, 3 * target.size());
+  locations.leftCols(3) = run.roots;
+  const Posed result = Pose(target, run.rotations, locations);
+  for (int f = 0; f < 20; ++f) {
+    for (const int finger : {2, 4}) {
+      const Eigen::Vector3d want = posed.heads.row(f).segment<3>(3 * finger) - posed.heads.row(f).segment<3>(3);
+      const Eigen::Vector3d got = result.heads.row(f).segment<3>(3 * finger) - result.heads.row(f).segment<3>(3);
+      EXPECT_LT((got - want).norm(), 1e-9) << target.name(finger) << " frame " << f;
+    }
+  }
+}
+
 TEST(Retarget, ChainsOfOtherLengthsEndAsTheSourceAndBendBetween) {
   const RigModel source = MakeRig(Humanoid(3, 0.0));
   for (const int spine : {2, 5}) {
