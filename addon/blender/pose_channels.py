@@ -96,15 +96,25 @@ def rotation_keyer(obj, names):
     return keys
 
 
-def bone_aims(armature, bones) -> tuple[np.ndarray, np.ndarray] | None:
+def _parent_indices(bones) -> list[int]:
+    index = {b.name: i for i, b in enumerate(bones)}
+    return [index[b.parent.name] if b.parent is not None and b.parent.name in index else -1 for b in bones]
+
+
+def continuing_children(bones) -> np.ndarray:
+    """(bones,) the index of the child that continues each of bones (parents first), -1 for none
+    (core.bone_axes)."""
+    return bone_axes.continuing_children(np.array([b.head_local for b in bones], dtype=np.float64),
+                                         _parent_indices(bones))
+
+
+def bone_aims(armature, bones, continuing=None) -> tuple[np.ndarray, np.ndarray] | None:
     """Where each of bones (parents first) points in its own rest frame, (bones, 3), and how far, for an
     armature whose bones' Y axes do not run along their limbs; None for one whose do (core.bone_axes)."""
-    index = {b.name: i for i, b in enumerate(bones)}
     rest = rest_quaternions(armature)
     return bone_axes.aims(np.array([b.head_local for b in bones], dtype=np.float64),
                           np.array([b.tail_local for b in bones], dtype=np.float64),
-                          [index[b.parent.name] if b.parent is not None and b.parent.name in index else -1
-                           for b in bones], np.array([rest[b.name] for b in bones]))
+                          _parent_indices(bones), np.array([rest[b.name] for b in bones]), continuing)
 
 
 def rest_quaternions(armature) -> dict[str, np.ndarray]:

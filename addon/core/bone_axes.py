@@ -3,9 +3,12 @@
 Blender draws a bone from head to tail along its Y axis, and MotionKit takes
 that axis as where the bone points. Blender's FBX importer without automatic
 bone orientation leaves every bone's axes as the file's joint frames, so a
-Mixamo clip's bones all point one way whatever their joints do, and a glTF
-import's thumb may point 40 degrees off its next joint. For such bones the
-aim is the direction to the head of the child that continues the bone.
+Mixamo clip's bones all point one way whatever their joints do; with it, each
+bone takes the joint frame's axis nearest its child (a spine 7 degrees off
+its next joint); a glTF import's thumb may point 40 degrees off. Two rigs are
+only compared alike if a bone's direction means the same on both: the
+direction to the head of the child that continues it, wherever its Y axis
+does not already run there.
 """
 from __future__ import annotations
 
@@ -13,68 +16,89 @@ import numpy as np
 
 from .rotation_channels import conjugate, rotate_each
 
-# A bone whose Y axis lies farther than this from every child's head does not run along its limb.
-_OFF_LIMB_DEG = 30.0
+# A bone whose Y axis lies farther than this from its continuing child's head does not run along its limb.
+_OFF_LIMB_DEG = 0.1
+# On a rig where most bones are off, a leaf turned farther than this from its parent's line is too.
+_OFF_LEAF_DEG = 45.0
 
 
 def _units(v):
     return v / np.maximum(np.linalg.norm(v, axis=-1, keepdims=True), 1e-300)
 
 
-def aims(heads, tails, parents, rest) -> tuple[np.ndarray, np.ndarray] | None:
-    """(bones, 3) where each bone points in its own rest frame, and (bones,) how far its aimed point lies
-    from its head (the child's head; a bone left along Y or a leaf: its length), or None where every bone's
-    Y axis runs along its limb. heads, tails (bones, 3) rest positions; parents (bones,) indices, -1 for roots,
-    parents before children; rest (bones, 4) rest orientations (w x y z).
-
-    A bone points at the head of the child that continues it (its parent's line carried on most
-    straightly; for a root, the child with the most bones below). A bone whose Y axis lies more than 30
-    degrees from every child's head is given that aim; on a rig where most bones are so, every bone is, and
-    a leaf whose Y axis turns more than 45 degrees off its parent's line points on along that line.
-    """
-    heads, tails = np.asarray(heads, dtype=np.float64), np.asarray(tails, dtype=np.float64)
-    parents = np.asarray(parents, dtype=np.int64)
+def _edges(heads, parents):
+    """Each parent-child pair whose heads lie apart: (child, parent, offset, distance) arrays."""
     count = len(heads)
-    if not count:
-        return None
-    size = max(float(np.ptp(np.vstack([heads, tails]), axis=0).max()), 1e-12)
-    reach = np.linalg.norm(tails - heads, axis=1)
-    axes = _units(tails - heads)
+    size = max(float(np.ptp(heads, axis=0).max()), 1e-12) if count else 1.0
     child = np.flatnonzero(parents >= 0)
     parent = parents[child]
     offset = heads[child] - heads[parent]
     distance = np.linalg.norm(offset, axis=1)
     apart = distance > 1e-4 * size  # a child whose head sits on its parent's says nothing of its direction
-    child, parent, offset, distance = child[apart], parent[apart], offset[apart], distance[apart]
-    along = np.einsum("ij,ij->i", axes[parent], offset / distance[:, None])
-    best = np.full(count, -np.inf)
-    np.maximum.at(best, parent, along)
-    has_children = np.isfinite(best)
-    off = has_children & (best < np.cos(np.radians(_OFF_LIMB_DEG)))
-    if not off.any():
-        return None
-    every = off.sum() >= 0.5 * has_children.sum()
-    chosen = np.ones(count, dtype=bool) if every else off
+    return child[apart], parent[apart], offset[apart], distance[apart]
+
+
+def continuing_children(heads, parents) -> np.ndarray:
+    """(bones,) the child that continues each bone, -1 for none: its parent's line carried on most
+    straightly, or for a root the child with the most bones below (equal: the first). Children whose heads
+    sit on their parent's are never chosen. heads (bones, 3), parents (bones,), parents before children."""
+    heads = np.asarray(heads, dtype=np.float64)
+    parents = np.asarray(parents, dtype=np.int64)
+    count = len(heads)
+    out = np.full(count, -1, dtype=np.int64)
+    child, parent, offset, distance = _edges(heads, parents)
+    if not len(child):
+        return out
     below = np.zeros(count, dtype=np.int64)
     for i in range(count - 1, -1, -1):  # parents come before children
         if parents[i] >= 0:
             below[parents[i]] += 1 + below[i]
     incoming = _units(heads - heads[np.maximum(parents, 0)])
     valid = (parents >= 0) & (np.linalg.norm(heads - heads[np.maximum(parents, 0)], axis=1) > 0)
-    # The continuing child: straightest on from the parent's own line, or for a root the biggest subtree.
     score = np.where(valid[parent], np.einsum("ij,ij->i", offset / distance[:, None], incoming[parent]),
                      below[child].astype(np.float64))
-    order = np.lexsort((-child, score, parent))  # equal scores: the first child wins
+    order = np.lexsort((-child, score, parent))
     last = np.r_[parent[order][1:] != parent[order][:-1], True]
-    picked = order[last]  # one edge per parent with children: its best child
+    out[parent[order[last]]] = child[order[last]]
+    return out
+
+
+def aims(heads, tails, parents, rest, continuing=None) -> tuple[np.ndarray, np.ndarray] | None:
+    """(bones, 3) where each bone points in its own rest frame, and (bones,) how far its aimed point lies
+    from its head (the child's head; a bone left along Y or a leaf: its length), or None where every bone's
+    Y axis runs along its limb. heads, tails (bones, 3) rest positions; parents (bones,) indices, -1 for roots,
+    parents before children; rest (bones, 4) rest orientations (w x y z); continuing (bones,) the child each
+    bone points at (-1: none), by default continuing_children's (a retarget passes one rig's choice through
+    the bone map to the other, so that a hand points at the same finger on both).
+
+    A bone whose Y axis lies more than 0.1 degree from its continuing child's head is aimed there; on a rig
+    where most bones are so, a leaf whose Y axis turns more than 45 degrees off its parent's line points on
+    along that line.
+    """
+    heads, tails = np.asarray(heads, dtype=np.float64), np.asarray(tails, dtype=np.float64)
+    parents = np.asarray(parents, dtype=np.int64)
+    count = len(heads)
+    if not count:
+        return None
+    continuing = continuing_children(heads, parents) if continuing is None else np.asarray(continuing)
+    reach = np.linalg.norm(tails - heads, axis=1)
+    axes = _units(tails - heads)
+    has_children = continuing >= 0
     directions = np.full((count, 3), np.nan)
-    directions[parent[picked]] = offset[picked]
+    offset = heads[continuing[has_children]] - heads[has_children]
     reach_of = reach.copy()
-    reach_of[parent[picked]] = distance[picked]
-    leaves = chosen & ~has_children & valid & (np.einsum("ij,ij->i", axes, incoming) < np.cos(np.radians(45.0)))
+    reach_of[has_children] = np.linalg.norm(offset, axis=1)
+    directions[has_children] = _units(offset)
+    off = has_children & (np.einsum("ij,ij->i", axes, np.nan_to_num(directions))
+                          < np.cos(np.radians(_OFF_LIMB_DEG)))
+    incoming = _units(heads - heads[np.maximum(parents, 0)])
+    valid = (parents >= 0) & (np.linalg.norm(heads - heads[np.maximum(parents, 0)], axis=1) > 0)
+    leaves = (off.sum() >= 0.5 * has_children.sum()) & ~has_children & valid & (
+        np.einsum("ij,ij->i", axes, incoming) < np.cos(np.radians(_OFF_LEAF_DEG)))
     directions[leaves] = incoming[leaves]
-    aimed = chosen & np.isfinite(directions).all(axis=1)
+    aimed = off | leaves
+    if not aimed.any():
+        return None
     out = np.tile([0.0, 1.0, 0.0], (count, 1))
-    out[aimed] = rotate_each(conjugate(np.asarray(rest, dtype=np.float64)[aimed]), _units(directions[aimed]))
-    reach = np.where(aimed & has_children, reach_of, reach)
-    return out, reach
+    out[aimed] = rotate_each(conjugate(np.asarray(rest, dtype=np.float64)[aimed]), directions[aimed])
+    return out, np.where(off, reach_of, reach)

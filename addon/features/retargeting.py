@@ -308,10 +308,25 @@ def _leg_length(side: _Side, body, pose: _Pose, up, hips: int, heads_over_clip=N
     return root_motion.hips_drop(pose.heads[hips], legs, pose.heads, tails) + float(np.mean(lengths))
 
 
-def _bone_aims(side: _Side) -> np.ndarray | None:
-    """core.bone_axes.aims of the side's rest pose: None where every bone runs along its Y axis."""
-    found = pose_channels.bone_aims(side.obj.data, side.bones)
-    return None if found is None else found[0]
+def _bone_aims(src: _Side, tgt: _Side, bone_map: list[int]) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """core.bone_axes.aims of each side's rest pose (None where every bone runs along its Y axis), a bone's
+    direction meaning the same on both: a target bone points at the child mapped to the source's continuing
+    child (a hand at the same finger, whatever each rest pose's wrist does), and where one of a pair has
+    nothing to point at (a hand without fingers) both keep their own axes."""
+    source_next = pose_channels.continuing_children(src.bones)
+    target_next = pose_channels.continuing_children(tgt.bones)
+    index = {b.name: i for i, b in enumerate(tgt.bones)}
+    for t, a in enumerate(bone_map):
+        if a >= 0 and (source_next[a] < 0 or target_next[t] < 0):
+            source_next[a] = target_next[t] = -1
+    for child, bone in enumerate(tgt.bones):
+        parent = index.get(bone.parent.name, -1) if bone.parent is not None else -1
+        if parent >= 0 and bone_map[parent] >= 0 and bone_map[child] >= 0 \
+                and source_next[bone_map[parent]] == bone_map[child]:
+            target_next[parent] = child
+    found = (pose_channels.bone_aims(src.obj.data, src.bones, source_next),
+             pose_channels.bone_aims(tgt.obj.data, tgt.bones, target_next))
+    return tuple(None if aims is None else aims[0] for aims in found)
 
 
 def _armature_up(obj) -> np.ndarray:
@@ -553,6 +568,7 @@ def plan(source, target, bone_map=None, frame_range=None, root: str = "scaled", 
     # found here while the native retarget runs beside (it releases the GIL).
     wants_feet = plant_feet or (floor_fit != "off" and root != "none")
     feet = (_feet(src, src_body), _feet(tgt, tgt_body)) if wants_feet else (None, None)
+    source_aims, target_aims = _bone_aims(src, tgt, [int(v) for v in bone_map_idx])
     with ThreadPoolExecutor(max_workers=1) as beside:
         retargeted = beside.submit(
             native.retarget, src.rig, tgt.rig, source_rotations,
@@ -564,7 +580,7 @@ def plan(source, target, bone_map=None, frame_range=None, root: str = "scaled", 
             vertical_offset=target_height - source_scale / target_scale * source_height, root_motion=root,
             ground_bones=list(range(len(tgt.bones))) if ground else [], up=up,
             source_floor=source_floor_height, target_floor=target_floor_height,
-            source_aims=_bone_aims(src), target_aims=_bone_aims(tgt))
+            source_aims=source_aims, target_aims=target_aims)
         found = None if None in feet else contacts.find_contacts(
             src.obj, src.bones, src.rig, source_basis, source_locations, feet[0], contact_settings,
             fps=bvh.frame_rate(action), posed=(source_rotations, source_heads),

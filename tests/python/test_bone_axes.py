@@ -1,0 +1,79 @@
+"""Where bones point (addon/core/bone_axes.py): the continuing child and the aims given to bones whose Y
+axes do not run along their limbs, checked against hand-placed joints and scipy's rotations."""
+import warnings
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from core import bone_axes
+
+# A root (hips) with a spine of two bones and a thigh; an arm off the chest with a hand and three fingers.
+NAMES = ["hips", "spine", "chest", "thigh", "arm", "hand", "index", "middle", "pinky"]
+PARENTS = [-1, 0, 1, 0, 2, 4, 5, 5, 5]
+HEADS = np.array([[0, 0, 1.0], [0, 0, 1.1], [0, 0, 1.3], [0.1, 0, 0.95], [0.2, 0, 1.45], [0.5, 0, 1.45],
+                  [0.6, 0, 1.47], [0.6, 0, 1.45], [0.6, 0, 1.42]])
+
+
+def _tails_along(directions, length=0.05):
+    return HEADS + length * directions / np.linalg.norm(directions, axis=1, keepdims=True)
+
+
+def _rest_from_y(directions):
+    """Rest orientations (w x y z) whose Y axis runs along each direction."""
+    out = []
+    for d in directions:
+        with warnings.catch_warnings():  # one vector leaves the roll free: any roll will do
+            warnings.simplefilter("ignore", UserWarning)
+            r, _ = Rotation.align_vectors([d / np.linalg.norm(d)], [[0.0, 1.0, 0.0]])
+        x, y, z, w = r.as_quat()
+        out.append([w, x, y, z])
+    return np.array(out)
+
+
+def test_continuing_children_follow_the_parents_line_and_for_a_root_the_biggest_subtree():
+    got = bone_axes.continuing_children(HEADS, PARENTS)
+    want = {"hips": "spine", "spine": "chest", "chest": "arm", "arm": "hand", "hand": "middle"}
+    assert {NAMES[b]: NAMES[c] for b, c in enumerate(got) if c >= 0} == want
+    assert [NAMES[b] for b, c in enumerate(got) if c < 0] == ["thigh", "index", "middle", "pinky"]
+
+
+def test_a_rig_drawn_along_its_joints_needs_no_aims():
+    ahead = np.array([HEADS[c] - HEADS[b] if c >= 0 else HEADS[b] - HEADS[PARENTS[b]]
+                      for b, c in enumerate(bone_axes.continuing_children(HEADS, PARENTS))])
+    assert bone_axes.aims(HEADS, _tails_along(ahead), PARENTS, _rest_from_y(ahead)) is None
+
+
+@pytest.mark.parametrize("off_deg", [0.5, 7.0, 90.0])
+def test_bones_off_their_next_joint_are_aimed_there_in_their_own_frames(off_deg):
+    """Every bone turned off_deg from its next joint (an FBX import's nearest axis is 7 degrees off a
+    spine): each aim, carried by the bone's rest orientation, runs to the next joint's head."""
+    following = bone_axes.continuing_children(HEADS, PARENTS)
+    ahead = np.array([HEADS[c] - HEADS[b] if c >= 0 else HEADS[b] - HEADS[PARENTS[b]]
+                      for b, c in enumerate(following)])
+    turn = Rotation.from_rotvec(np.radians(off_deg) * np.array([0.6, 0.0, 0.8]))
+    crooked = turn.apply(ahead)
+    rest = _rest_from_y(crooked)
+    found = bone_axes.aims(HEADS, _tails_along(crooked), PARENTS, rest)
+    assert found is not None
+    aims, reach = found
+    world = Rotation.from_quat(rest[:, [1, 2, 3, 0]]).apply(aims)
+    for b, c in enumerate(following):
+        if c >= 0:
+            want = HEADS[c] - HEADS[b]
+            assert np.degrees(np.arccos(np.clip(world[b] @ want / np.linalg.norm(want), -1, 1))) < 1e-6
+            assert reach[b] == pytest.approx(np.linalg.norm(want))
+
+
+def test_a_given_continuing_child_is_the_one_aimed_at():
+    """A retarget passes one rig's choice to the other: the hand aimed at the index, not the middle."""
+    following = bone_axes.continuing_children(HEADS, PARENTS)
+    following[NAMES.index("hand")] = NAMES.index("index")
+    ahead = np.array([HEADS[c] - HEADS[b] if c >= 0 else HEADS[b] - HEADS[PARENTS[b]]
+                      for b, c in enumerate(bone_axes.continuing_children(HEADS, PARENTS))])
+    rest = _rest_from_y(ahead)
+    aims, _ = bone_axes.aims(HEADS, _tails_along(ahead), PARENTS, rest, following)
+    hand = NAMES.index("hand")
+    world = Rotation.from_quat(rest[hand, [1, 2, 3, 0]]).apply(aims[hand])
+    want = HEADS[NAMES.index("index")] - HEADS[hand]
+    assert world @ want / np.linalg.norm(want) == pytest.approx(1.0, abs=1e-12)
