@@ -17,6 +17,7 @@ from mathutils import Vector
 import characters
 import generate
 import shared_data
+from pointing import pointing_pairs
 
 FEET = {  # per rig kind: (ankle bone, toe bone) for each side
     "walk60": (("lAnkle", "lToeJoint"), ("rAnkle", "rToeJoint")),
@@ -403,8 +404,7 @@ def test_bandai_dash_onto_each_sample_character_points_every_mapped_bone_alike(m
     pairs = [(s, t) for s, t in plan.pairs if s != "joint_Root"]
     assert len(pairs) >= 20
     frames = np.arange(int(action.frame_range[0]), int(action.frame_range[1]) + 1)
-    _, src_dirs = world_tracks(source, [s for s, _ in pairs], frames)
-    _, tgt_dirs = world_tracks(target, [t for _, t in pairs], frames)
+    src_dirs, tgt_dirs = pointing_pairs(source, target, pairs, frames)
     assert angles_deg(src_dirs, tgt_dirs).max() < 0.1
     # The dash runs forward as far as the source's, scaled by the legs (centimetres onto metres).
     src_hips, _ = world_tracks(source, ["Hips"], frames[[0, -1]])
@@ -468,8 +468,7 @@ def test_walk60_onto_the_bandai_skeleton(mk, retargeting, walk60, bandai, mode):
     assert plan.floor_roots == (None, "joint_Root") and plan.hips == ("RootJoint", "Hips")
     retargeting.apply(plan)
     pairs = [(s, t) for s, t in plan.pairs if t != "joint_Root"]
-    _, src_dirs = world_tracks(source, [s for s, _ in pairs], frames)
-    _, tgt_dirs = world_tracks(target, [t for _, t in pairs], frames)
+    src_dirs, tgt_dirs = pointing_pairs(source, target, pairs, frames)
     assert angles_deg(src_dirs, tgt_dirs).max() < 0.1
     assert 50 < plan.leg_ratio < 150  # metres onto centimetres
     heads, _ = world_tracks(target, body, frames)
