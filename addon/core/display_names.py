@@ -26,3 +26,13 @@ def shared_prefix(names: Iterable[str]) -> str:
 
 def strip(name: str, prefix: str) -> str:
     return name[len(prefix):] if prefix and name.startswith(prefix) else name
+
+
+
+def fit(name: str, width: int) -> str:
+    """name in at most width characters: cut in the middle, where an ellipsis says so, keeping its start and
+    its end (the part that tells "LeftHandIndex1" from "LeftHandIndex2": "Left\u2026ndex1" in 10)."""
+    if width < 3 or len(name) <= width:
+        return name
+    tail = (width - 1) // 2 + 1
+    return name[:width - 1 - tail] + "\u2026" + name[len(name) - tail:]

@@ -265,9 +265,14 @@ class MOTIONKIT_UL_bone_map(bpy.types.UIList):
     pair is edited below it, where its fields have the panel's whole width."""
 
     def draw_item(self, context, layout, data, item, icon, active_data, active_propname, index=0):
+        # Blender clips a long label at its end, and a hand's rows would all read "LeftHand...": cut in the
+        # middle instead, to what a column of the list holds (a character is at most about 9 pixels at scale 1).
+        row_chars = (context.region.width - 60) / (9.0 * context.preferences.system.ui_scale)
         split = layout.split(factor=_SHOWN_SPLIT[0])
-        split.label(text=display_names.strip(item.source, _SHOWN_PREFIXES[0]) or "(none)")
-        split.label(text=display_names.strip(item.target, _SHOWN_PREFIXES[1]) or "(none)")
+        for name, prefix, share in ((item.source, _SHOWN_PREFIXES[0], _SHOWN_SPLIT[0]),
+                                    (item.target, _SHOWN_PREFIXES[1], 1.0 - _SHOWN_SPLIT[0])):
+            shown = display_names.strip(name, prefix)
+            split.label(text=display_names.fit(shown, int(row_chars * share)) if shown else "(none)")
 
 
 def _draw_bone_field(layout, holder, prop, rig, label):

@@ -1,4 +1,5 @@
 """Bone names in narrow lists: the prefix all names share, said once."""
+from core import display_names
 from core.display_names import SEPARATORS, shared_prefix, strip
 
 
@@ -26,3 +27,12 @@ def test_strip_leaves_other_names_alone():
     assert strip("root", "mixamorig:") == "root"
     assert strip("x", "") == "x"
     assert all(shared_prefix([f"a{sep}b", f"a{sep}c"]) == f"a{sep}" for sep in SEPARATORS)
+
+
+def test_fit_cuts_long_names_in_the_middle_so_a_hands_rows_stay_apart():
+    fingers = [f"LeftHand{f}{k}" for f in ("Thumb", "Index", "Middle", "Ring", "Pinky") for k in (1, 2, 3)]
+    shown = [display_names.fit(n, 10) for n in fingers]
+    assert len(set(shown)) == len(fingers)
+    assert all(len(s) <= 10 and s.startswith("Left") and "\u2026" in s for s in shown)
+    assert display_names.fit("LeftHandIndex1", 10) == "Left\u2026ndex1"
+    assert display_names.fit("Hips", 10) == "Hips" and display_names.fit("LeftHand", 2) == "LeftHand"
