@@ -197,7 +197,7 @@ def _placement(source, target, pairs_idx, align_facing: bool):
     space = rotation_channels.multiply(rotation_channels.conjugate(target_world), source_world)
     up = _armature_up(tgt.obj)
     if align_facing:
-        zero_pose = _faces_nowhere(source_pose, [a for a, _ in pairs_idx])
+        zero_pose = _faces_nowhere(src, source_pose, [a for a, _ in pairs_idx])
         turn = _facing_turn(space, (src, src_body, source_pose, zero_pose, clip_rotations, clip_heads),
                             (tgt, tgt_body, target_pose), up)
         if turn is None:
@@ -206,9 +206,18 @@ def _placement(source, target, pairs_idx, align_facing: bool):
     return space, up, rotation_channels.rotate(rotation_channels.conjugate(space), up[None, :])[0]
 
 
-def _faces_nowhere(pose: _Pose, bones) -> bool:
-    """Whether a match pose is a zero pose (nearly every bone along one axis): it shows no facing."""
-    axes = rotation_channels.y_axes(pose.rotations[list(bones)])
+def _faces_nowhere(side: _Side, pose: _Pose, bones) -> bool:
+    """Whether a match pose is a zero pose (nearly every joint straight on from its parent's along one axis):
+    it shows no facing. Read from the joints, not the bones' axes, which an FBX or glTF import may leave all
+    pointing one way in a pose that faces somewhere."""
+    parents = [(b, side.index(side.bones[b].parent.name)) for b in bones
+               if side.bones[b].parent is not None and side.bones[b].parent.name in side]
+    offsets = np.array([pose.heads[b] - pose.heads[p] for b, p in parents]).reshape(-1, 3)
+    lengths = np.linalg.norm(offsets, axis=1)
+    axes = offsets[lengths > 1e-9 * max(lengths.max(initial=0.0), 1e-30)]
+    if len(axes) < 3:
+        return False
+    axes = axes / np.linalg.norm(axes, axis=1, keepdims=True)
     _, vectors = np.linalg.eigh(axes.T @ axes)
     along = np.abs(axes @ vectors[:, -1]) > np.cos(np.radians(10.0))
     return bool(np.mean(along) >= 0.9)
@@ -229,16 +238,27 @@ def _turn_to(direction, onto, up) -> np.ndarray:
 
 def _mid_thighs(side: _Side, body, rotations, heads) -> tuple | None:
     """The middle of the left and right thighs (..., 3) in a pose (rotations (..., 4B), heads (..., 3B)), or
-    None without two labelled thighs: across the body, whatever the arms do."""
-    found = [body.limbs.get(f"thigh.{s}") for s in bone_mapping.SIDES]
-    if not all(name in side for name in found):
+    None without two labelled thighs: across the body, whatever the arms do. Between hip and knee joint where
+    the shin is labelled (a bone's axis may not run along it), else half the thigh along its Y axis."""
+    found = [(body.limbs.get(f"thigh.{s}"), body.limbs.get(f"shin.{s}")) for s in bone_mapping.SIDES]
+    if not all(thigh in side for thigh, _ in found):
         return None
     out = []
-    for name in found:
-        b = side.index(name)
+    for thigh, shin in found:
+        b = side.index(thigh)
+        if shin in side:
+            k = side.index(shin)
+            out.append(0.5 * (heads[..., 3 * b:3 * b + 3] + heads[..., 3 * k:3 * k + 3]))
+            continue
         axis = rotation_channels.y_axes(rotations[..., 4 * b:4 * b + 4])
         out.append(heads[..., 3 * b:3 * b + 3] + 0.5 * side.bones[b].length * axis)
     return tuple(out)
+
+
+def _hip_joints(side: _Side, body, heads) -> tuple | None:
+    """The left and right thighs' heads (3,) in a pose's heads (B, 3), or None without two labelled thighs."""
+    found = [body.limbs.get(f"thigh.{s}") for s in bone_mapping.SIDES]
+    return tuple(heads[side.index(n)] for n in found) if all(n in side for n in found) else None
 
 
 def _facing_turn(space, source, target, up) -> np.ndarray | None:
@@ -249,8 +269,9 @@ def _facing_turn(space, source, target, up) -> np.ndarray | None:
     match pose)."""
     src, src_body, source_pose, faces_nowhere, clip_rotations, clip_heads = source
     tgt, tgt_body, target_pose = target
-    onto = _mid_thighs(tgt, tgt_body, target_pose.rotations.reshape(-1), target_pose.heads.reshape(-1))
-    match = _mid_thighs(src, src_body, source_pose.rotations.reshape(-1), source_pose.heads.reshape(-1))
+    # A match pose's hip joints: the pelvis carries them, whatever stance the legs take (a fighter's guard).
+    onto = _hip_joints(tgt, tgt_body, target_pose.heads)
+    match = _hip_joints(src, src_body, source_pose.heads)
     if onto is None or match is None:
         return None
     turn = lambda points: rotation_channels.rotate(space, np.asarray(points))  # noqa: E731
