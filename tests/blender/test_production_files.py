@@ -104,6 +104,13 @@ def palm_frames(obj, hand, frames):
     return np.array(out)
 
 
+def worst_palm_deg(source, target, frames, prefix="mixamorig:"):
+    """The largest turn (degrees) between the source's and the target's palms, either hand, any frame."""
+    return max(frame_angles_deg(palm_frames(source, f"{prefix}{side}Hand", frames),
+                                palm_frames(target, f"{prefix}{side}Hand", frames)).max()
+               for side in ("Left", "Right"))
+
+
 def frame_angles_deg(a, b):
     """Angle (degrees) of the turn between rotation matrices, elementwise over the leading axes."""
     trace = np.einsum("...ji,...ji->...", a, b)
@@ -402,9 +409,7 @@ def test_fbx_and_gltf_files_are_sources(mk, fbx_dir, tmp_path, kind):
     per_bone = angles_deg(src_y, tgt_y).max(axis=0)
     # The exporter writes the rest as the pose it finds (not a T-pose) with bone axes of its own: the hands'
     # turn about their own line comes from where the fingers spread, and the palms must face as the source's.
-    palms = max(frame_angles_deg(palm_frames(source, f"mixamorig:{side}Hand", frames),
-                                 palm_frames(target, f"mixamorig:{side}Hand", frames)).max()
-                for side in ("Left", "Right"))
+    palms = worst_palm_deg(source, target, frames)
     print(f"\npunch as .{kind}: worst arm, hand or finger direction {per_bone.max():.3f} deg "
           f"({pairs[int(per_bone.argmax())]}), palms {palms:.3f} deg")
     assert per_bone.max() < 1.0 and palms < 1.0
@@ -431,9 +436,7 @@ def test_fbx_imports_with_automatic_bone_orientation(mk, fbx_dir, source_oriente
     frames = frames_of(action)[::2]
     per_bone = angles_deg(limb_directions(source, [s for s, _ in pairs], frames),
                           limb_directions(target, [t for _, t in pairs], frames)).max(axis=0)
-    palms = max(frame_angles_deg(palm_frames(source, f"mixamorig:{side}Hand", frames),
-                                 palm_frames(target, f"mixamorig:{side}Hand", frames)).max()
-                for side in ("Left", "Right"))
+    palms = worst_palm_deg(source, target, frames)
     print(f"\nautomatic bone orientation source {source_oriented}, target {target_oriented}: worst direction "
           f"{per_bone.max():.3f} deg ({pairs[int(per_bone.argmax())]}), palms {palms:.3f} deg")
     assert per_bone.max() < 1.0 and palms < 1.0
