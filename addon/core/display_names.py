@@ -2,7 +2,7 @@
 above the list instead of on every row, so that the part that differs fits the sidebar. No bpy here."""
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 
 # A shared prefix is only cut at one of these, so "LeftArm"/"LeftLeg" keep "Left".
 SEPARATORS = ":-_.|/"
@@ -36,3 +36,14 @@ def fit(name: str, width: int) -> str:
         return name
     tail = (width - 1) // 2 + 1
     return name[:width - 1 - tail] + "\u2026" + name[len(name) - tail:]
+
+
+def fit_width(name: str, width: float, text_width: Callable[[str], float]) -> str:
+    """name cut in the middle (as fit) to the most characters whose drawn width, by text_width, is within
+    width: a column's room is in pixels, and a 'w' takes twice an 'l'."""
+    chars = len(name)
+    shown = name
+    while chars >= 3 and text_width(shown) > width:
+        chars -= 1
+        shown = fit(name, chars)
+    return shown

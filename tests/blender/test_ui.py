@@ -128,6 +128,16 @@ def test_a_rigify_target_is_named_with_its_limb_choices(panels):
     assert unread(panels, "sidebar-rigify", ["Rigify (controls)", "Arms", "Legs", "Every Frame"]) == []
 
 
+def cut_from(word: str, name: str) -> bool:
+    """Whether word reads as name cut in the middle: its start, an ellipsis, its end (one letter misread)."""
+    parts = re.split(r"\u2026|\.\.\.?", word)
+    if len(parts) != 2 or min(map(len, parts)) < 2 or sum(map(len, parts)) >= len(name):
+        return False
+    head, tail = parts
+    slips = sum(a != b for a, b in zip(head, name)) + sum(a != b for a, b in zip(tail, name[-len(tail):]))
+    return slips <= 1
+
+
 def test_lists_show_bone_names_at_the_default_width(panels):
     """Item 2: the bone map's rows and the effectors show names, not only icons and x buttons: each row's
     target whole, each source whole or, when longer than its column, cut in the middle (its first and last
@@ -136,10 +146,12 @@ def test_lists_show_bone_names_at_the_default_width(panels):
     rows = panels["bone_map.rows"]
     assert len(rows) >= 6
     read = [w["text"] for w in panels["sidebar-object.words"]]
+    # tesseract may read an underscore beside the ellipsis as a space: "lowe..." "torso"
+    read += [a + b for a, b in zip(read, read[1:])]
     for source, target in rows:
         assert unread(panels, "sidebar-object", [target], slips=1) == [], (target, read)
-        assert not unread(panels, "sidebar-object", [source], slips=1) or (
-            len(source) > 12 and any(w.startswith(source[:3]) and w.endswith(source[-3:]) for w in read)), (source, read)
+        assert not unread(panels, "sidebar-object", [source], slips=1) or any(
+            cut_from(w, source) for w in read), (source, read)
     assert unread(panels, "sidebar-object", ["LeftHand", "LeftFoot", "RightFoot"], slips=1) == []
 
 

@@ -36,3 +36,13 @@ def test_fit_cuts_long_names_in_the_middle_so_a_hands_rows_stay_apart():
     assert all(len(s) <= 10 and s.startswith("Left") and "\u2026" in s for s in shown)
     assert display_names.fit("LeftHandIndex1", 10) == "Left\u2026ndex1"
     assert display_names.fit("Hips", 10) == "Hips" and display_names.fit("LeftHand", 2) == "LeftHand"
+
+
+def test_fit_width_cuts_to_the_room_the_letters_take():
+    def text_width(text):  # a proportional font: narrow l and i, wide w and m
+        return sum(3 if c in "li" else 10 if c in "wm" else 6 for c in text)
+    assert display_names.fit_width("pelvis_lowerback", 200, text_width) == "pelvis_lowerback"
+    shown = display_names.fit_width("pelvis_lowerback", 70, text_width)
+    assert text_width(shown) <= 70 and text_width(display_names.fit("pelvis_lowerback", len(shown) + 1)) > 70
+    assert shown.startswith("pel") and shown.endswith("ack") and "\u2026" in shown
+    assert len(display_names.fit_width("l" * 30, 70, text_width)) > len(display_names.fit_width("w" * 30, 70, text_width))
