@@ -57,6 +57,10 @@ def _slot_for(action: bpy.types.Action, id_data: bpy.types.ID, create: bool):
     for slot in action.slots:
         if slot.target_id_type == id_data.id_type and slot.name_display == id_data.name:
             return slot
+    # An importer may name an action's one slot otherwise ("Slot" from FBX): it is still the object's.
+    fitting = [slot for slot in action.slots if slot.target_id_type in (id_data.id_type, 'UNSPECIFIED')]
+    if len(fitting) == 1 and len(action.slots) == 1:
+        return fitting[0]
     if not create:
         return None
     return action.slots.new(id_type=id_data.id_type, name=id_data.name)

@@ -17,11 +17,11 @@ _DATA = ("objects", "meshes", "armatures", "actions", "materials", "images", "te
          "collections", "node_groups", "curves")
 
 
-def _snapshot() -> dict[str, set]:
+def snapshot() -> dict[str, set]:
     return {kind: set(getattr(bpy.data, kind)[:]) for kind in _DATA}
 
 
-def _added(before: dict[str, set]) -> dict[str, list]:
+def added_since(before: dict[str, set]) -> dict[str, list]:
     return {kind: [item for item in getattr(bpy.data, kind) if item not in before[kind]] for kind in _DATA}
 
 
@@ -64,15 +64,15 @@ def import_animated_armature(path) -> tuple[bpy.types.Object, dict[str, list]]:
         raise ValueError(f"{path}: not a file Blender's importers read here (expected {', '.join(FORMATS)})")
     if not os.path.isfile(path):
         raise ValueError(f"{path}: no such file")
-    before = _snapshot()
+    before = snapshot()
     try:
         _run_importer(path, kind)
     except (RuntimeError, ValueError, TypeError, KeyError, IndexError, AttributeError, UnicodeDecodeError) as error:
-        remove(_added(before))
+        remove(added_since(before))
         detail = str(error).strip().splitlines()
         raise ValueError(f"{path}: Blender's {kind.upper()} importer could not read it"
                          f"{': ' + detail[-1] if detail else ''}") from None
-    added = _added(before)
+    added = added_since(before)
     armatures = [o for o in added["objects"] if o.type == 'ARMATURE']
     animated = [o for o in armatures if animdata.assigned_action(o) is not None]
     if not animated:
@@ -80,3 +80,23 @@ def import_animated_armature(path) -> tuple[bpy.types.Object, dict[str, list]]:
         what = "no armature" if not armatures else "an armature with no animation"
         raise ValueError(f"{path}: the file holds {what}; MotionKit needs an animated armature to retarget from")
     return animated[0], added
+
+
+def _take_name(obj, action) -> str:
+    """The name a file gave a take: glTF's animation (the NLA track the importer put it on), FBX's stack
+    (the action's name after the importer's 'object|')."""
+    anim = obj.animation_data
+    for track in (anim.nla_tracks if anim is not None else ()):
+        if any(strip.action == action for strip in track.strips):
+            return track.name
+    return action.name[len(obj.name) + 1:] if action.name.startswith(obj.name + "|") else action.name
+
+
+def takes(obj, added: dict[str, list]) -> list[tuple[str, bpy.types.Action]]:
+    """(take name, action) for every action an import added that animates obj's bones, the one the
+    importer assigned first, the others as the file ordered them."""
+    assigned = animdata.assigned_action(obj)
+    found = [a for a in added["actions"]
+             if any(c.data_path.startswith("pose.bones[") for c in animdata.fcurves(a, obj))]
+    found.sort(key=lambda a: a != assigned)
+    return [(_take_name(obj, a), a) for a in found]

@@ -350,6 +350,21 @@ def _bone_aims(src: _Side, tgt: _Side, bone_map: list[int]) -> tuple[np.ndarray 
     return tuple(None if aims is None else aims[0] for aims in found)
 
 
+def pointing(source, target, pairs) -> tuple[dict, dict]:
+    """Where each bone of source and target points in its own rest frame, as the retarget matches them
+    ({bone name: unit vector}, Y where a bone runs along its axis): what a measure of the result compares."""
+    src, tgt = _side(source, "source"), _side(target, "target")
+    bone_map = np.full(len(tgt.bones), -1, dtype=np.int64)
+    for a, t in pairs:
+        if a in src and t in tgt:
+            bone_map[tgt.index(t)] = src.index(a)
+    out = []
+    for side, aims in zip((src, tgt), _bone_aims(src, tgt, list(bone_map))):
+        y = np.array([0.0, 1.0, 0.0])
+        out.append({b.name: (y if aims is None else aims[i] / np.linalg.norm(aims[i])) for i, b in enumerate(side.bones)})
+    return out[0], out[1]
+
+
 def _armature_up(obj) -> np.ndarray:
     """World up (Z) in obj's armature space: an FBX import turned 90 degrees about X has it along Y."""
     rotation, _ = _world_rotation_scale(obj)

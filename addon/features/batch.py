@@ -1,0 +1,183 @@
+"""A library of motion files retargeted onto one target in one Blender: every take of every file, a bad file
+reported and the rest done, a quality row per clip (features/clip_report), and what each import brought
+taken away again so that memory stays flat over thousands of files.
+
+motionkit.batch.retarget_library(["clips/"], target, out_dir="out", export="fbx")
+"""
+from __future__ import annotations
+
+import os
+import time
+from dataclasses import dataclass, field
+
+import bpy
+
+from ..blender import animdata, imports
+from ..core import batch_inputs, batch_report
+from . import bvh, clip_report, retargeting
+
+EXPORTS = ("bvh", "fbx", "glb", "gltf")
+# What a file may do wrong that fails its clip and not the batch: MotionKit's and Blender's own errors.
+_CLIP_ERRORS = (ValueError, RuntimeError, TypeError, KeyError, IndexError, AttributeError, OSError,
+                UnicodeDecodeError, ArithmeticError)
+
+
+@dataclass
+class BatchResult:
+    """Every clip's report row (batch_report.COLUMNS), and the actions made, in the files' order."""
+    rows: list = field(default_factory=list)
+    actions: list = field(default_factory=list)
+
+    @property
+    def failed(self) -> int:
+        return sum(row["status"] == "failed" for row in self.rows)
+
+
+def _load_takes(path: str) -> tuple[object, list, dict | None]:
+    """(source armature, [(take name or None, action)], what the import added or None for a BVH)."""
+    if os.path.splitext(path)[1].lower() in imports.FORMATS:
+        obj, added = imports.import_animated_armature(path)
+        return obj, imports.takes(obj, added), added
+    obj, action = bvh.load(path)
+    return obj, [(None, action)], None
+
+
+def _output_path(out_dir: str | None, export: str | None, name: str) -> str | None:
+    if not (out_dir and export):
+        return None
+    safe = "".join(c if c.isalnum() or c in "-_.@" else "_" for c in name)
+    return os.path.join(out_dir, f"{safe}.{export}")
+
+
+def _retarget_take(path, take, action, count, source, target, out_dir, export, overwrite, options) -> tuple:
+    """(report row, new action or None) of one take."""
+    name = batch_inputs.clip_name(path, take, count)
+    row = batch_report.new_row(path, take if count > 1 else "", name)
+    started = time.perf_counter()
+    output = _output_path(out_dir, export, name)
+    if output and os.path.exists(output) and not overwrite:
+        row.update(status="skipped", reason=f"{output} exists (overwrite replaces it)")
+        return row, None
+    made = None
+    try:
+        animdata.assign(source, action)
+        pairs = retargeting.auto_map(source, target) if options.get("bone_map") is None else options["bone_map"]
+        made = retargeting.retarget(source, target, **{**options, "bone_map": pairs}, action_name=name)
+        made.use_fake_user = True
+        row.update(clip_report.row_figures(source, target, pairs))
+        if output:
+            export_clip(target, output, export)
+            row["output"] = output
+    except _CLIP_ERRORS as error:
+        if made is not None:
+            bpy.data.actions.remove(made)
+            made = None
+        row.update(status="failed", reason=_reason(path, take if count > 1 else "", error))
+    row["seconds"] = round(time.perf_counter() - started, 3)
+    return row, made
+
+
+def _reason(path: str, take: str, error: BaseException) -> str:
+    """What went wrong, naming the file (and take) where MotionKit's message does not already."""
+    message = str(error) if isinstance(error, ValueError) else f"{type(error).__name__}: {error}"
+    where = f"{path} | {take}" if take else path
+    return message if path in message else f"{where}: {message}"
+
+
+def retarget_file(path: str, target, *, out_dir=None, export=None, overwrite=False, **options) -> BatchResult:
+    """Every take of one file onto target; everything the file brought is removed again, whatever happens."""
+    result, names = BatchResult(), []
+    before = imports.snapshot()
+    try:
+        try:
+            source, takes, _ = _load_takes(path)
+        except _CLIP_ERRORS as error:
+            result.rows.append(batch_report.new_row(path, "", batch_inputs.clip_name(path),
+                                                    status="failed", reason=_reason(path, "", error)))
+            return result
+        if not takes:
+            result.rows.append(batch_report.new_row(path, "", batch_inputs.clip_name(path), status="failed",
+                                                    reason=f"{path}: the armature has no take that moves its bones"))
+        for take, action in takes:
+            row, made = _retarget_take(path, take, action, len(takes), source, target, out_dir, export, overwrite,
+                                       options)
+            result.rows.append(row)
+            if made is not None:
+                result.actions.append(made)
+                names.append(row["action"])
+    finally:
+        kept = set(result.actions)
+        added = imports.added_since(before)
+        added["actions"] = [a for a in added["actions"] if a not in kept]
+        imports.remove(added)
+    for action, name in zip(result.actions, names):  # the source's own action held the name until now
+        action.name = name
+    return result
+
+
+def retarget_library(inputs, target, *, pattern: str = "*", recursive: bool = True, out_dir: str | None = None,
+                     export: str | None = None, overwrite: bool = False, report_dir: str | None = None,
+                     progress=None, **options) -> BatchResult:
+    """Retarget every take of every motion file that inputs name (files, folders) onto target.
+
+    One action per take, named '<file>' or '<file>|<take>', kept with a fake user. A file or take that
+    fails is a 'failed' row with its reason and leaves nothing behind; the others are done. export: 'bvh',
+    'fbx', 'glb' or 'gltf' writes each clip into out_dir, an existing file kept unless overwrite.
+    report_dir: where report.json and report.csv go. progress(done, total, path) is called before each file.
+    options: retargeting.retarget's.
+    """
+    if export is not None and export not in EXPORTS:
+        raise ValueError(f"unknown export {export!r}; expected one of {EXPORTS}")
+    if export and not out_dir:
+        raise ValueError("export needs out_dir, the folder the clips are written into")
+    files = batch_inputs.collect(inputs, pattern, recursive)
+    if out_dir:
+        os.makedirs(out_dir, exist_ok=True)
+    result = BatchResult()
+    for done, path in enumerate(files):
+        if progress is not None:
+            progress(done, len(files), path)
+        one = retarget_file(path, target, out_dir=out_dir, export=export, overwrite=overwrite, **options)
+        result.rows += one.rows
+        result.actions += one.actions
+    if progress is not None:
+        progress(len(files), len(files), "")
+    if report_dir:
+        batch_report.write(result.rows, report_dir)
+    return result
+
+
+def export_clip(target, path: str, kind: str) -> None:
+    """The target playing its action, written by MotionKit's BVH writer or Blender's exporters."""
+    if kind == "bvh":
+        bvh.save(target, path)
+        return
+    selected = [o for o in bpy.context.view_layer.objects if o.select_get()]
+    active = bpy.context.view_layer.objects.active
+    try:
+        for obj in selected:
+            obj.select_set(False)
+        target.select_set(True)
+        bpy.context.view_layer.objects.active = target
+        if kind == "fbx":
+            bpy.ops.export_scene.fbx(filepath=path, use_selection=True, object_types={'ARMATURE'},
+                                     add_leaf_bones=False, bake_anim_use_all_actions=False,
+                                     bake_anim_use_nla_strips=False)
+        else:
+            bpy.ops.export_scene.gltf(**_gltf_options(path, kind))
+    finally:
+        target.select_set(False)
+        for obj in selected:
+            obj.select_set(True)
+        bpy.context.view_layer.objects.active = active
+
+
+def _gltf_options(path: str, kind: str) -> dict:
+    """Only the active action, in whichever words this Blender's glTF exporter has for it."""
+    known = bpy.ops.export_scene.gltf.get_rna_type().properties.keys()
+    options = {"filepath": path, "use_selection": True, "export_format": 'GLB' if kind == "glb" else 'GLTF_SEPARATE'}
+    if "export_animation_mode" in known:
+        options["export_animation_mode"] = 'ACTIVE_ACTIONS'
+    elif "export_nla_strips" in known:
+        options["export_nla_strips"] = False
+    return options

@@ -1,0 +1,113 @@
+"""A retargeted clip's quality (core/clip_quality) read off the two armatures as they now play: both actions
+posed natively from their keys, no frame_set. The source's stance frames are detected on the source itself,
+so that a target whose feet slide where the source's stood shows it.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..blender import animdata, pose_channels
+from ..core import bone_mapping, clip_quality, rotation_channels
+from . import bvh, contacts, retargeting
+
+WORLD_UP = np.array([0.0, 0.0, 1.0])  # the figures are in world space, where Blender's up is Z
+FEET = ((0, 1), (2, 3))  # contacts.POINTS: each foot's ankle and ball
+
+
+class _Posed:
+    """One armature's action over frames: basis channels, armature-space rotations and heads, and world."""
+
+    def __init__(self, obj, frames):
+        self.obj = obj
+        self.rig, self.bones = pose_channels.native_rig(obj.data)
+        self.index = {b.name: i for i, b in enumerate(self.bones)}
+        action = animdata.assigned_action(obj)
+        self.basis = pose_channels.rotations(obj, action, self.bones, frames)
+        self.moved = np.ascontiguousarray(pose_channels.locations(obj, action, self.bones, frames)[0])
+        rotations, heads = pose_channels.armature_motion(obj, action, frames, self.rig, self.bones)
+        _, turn, _ = obj.matrix_world.decompose()
+        world = np.array(obj.matrix_world)
+        count = len(frames)
+        self.rotations = rotation_channels.multiply(np.array(turn), rotations.reshape(count, -1, 4))
+        self.heads = heads.reshape(count, -1, 3) @ world[:3, :3].T + world[:3, 3]
+
+    def y_axes(self, bones) -> np.ndarray:
+        return rotation_channels.y_axes(self.rotations[:, bones])
+
+
+def _directions(source: _Posed, target: _Posed, pairs) -> tuple[np.ndarray, np.ndarray]:
+    """World directions (frames, pairs, 3) of each pair's bones, each where the retarget aims it."""
+    aims = retargeting.pointing(source.obj, target.obj, pairs)
+    out = []
+    for posed, names, side_aims in ((source, [a for a, _ in pairs], aims[0]), (target, [t for _, t in pairs], aims[1])):
+        q = posed.rotations[:, [posed.index[n] for n in names]]
+        out.append(rotation_channels.rotate_each(q, np.array([side_aims[n] for n in names])[None]))
+    return out[0], out[1]
+
+
+def _stance(source: _Posed, fps: float) -> np.ndarray | None:
+    try:
+        feet = contacts.find_feet(source.obj)
+    except ValueError:
+        return None  # a rig without two recognised legs has no feet to judge
+    return contacts.find_contacts(source.obj, source.bones, source.rig, source.basis, source.moved, feet, fps=fps,
+                                  floor=None)
+
+
+def source_stance(source, target) -> np.ndarray | None:
+    """On which of the target action's frames the source stands on each foot point (frames, 4), as
+    detected on the source (contacts.POINTS); None when the source has no two legs."""
+    action = animdata.assigned_action(target)
+    return _stance(_Posed(source, pose_channels.action_frames(action)), bvh.frame_rate(action))
+
+
+def _feet(source: _Posed, target: _Posed, fps: float) -> clip_quality.FeetMotion | None:
+    stance = _stance(source, fps)
+    try:
+        target_feet = contacts.find_feet(target.obj)
+    except ValueError:
+        return None
+    if stance is None:
+        return None
+    points, _ = contacts.foot_points(target.obj, target.bones, target.rig, target.basis, target.moved, target_feet)
+    rest_basis = np.tile([1.0, 0.0, 0.0, 0.0], (1, len(target.bones)))
+    rest, _ = contacts.foot_points(target.obj, target.bones, target.rig, rest_basis,
+                                   np.zeros((1, 3 * len(target.bones))), target_feet)
+    return clip_quality.FeetMotion(points=points, rest=rest[0], stance=stance, up=WORLD_UP, feet=FEET)
+
+
+def measure(source, target, pairs) -> clip_quality.Quality:
+    """The figures of the target's action against the source's, over the target action's frames; pairs:
+    the (source bone, target bone) map the retarget used."""
+    action = animdata.assigned_action(target)
+    frames = pose_channels.action_frames(action)
+    src, tgt = _Posed(source, frames), _Posed(target, frames)
+    pairs = [(a, t) for a, t in pairs if a in src.index and t in tgt.index]
+    source_dirs, target_dirs = _directions(src, tgt, pairs)
+    turn = clip_quality.best_turn_about(WORLD_UP, source_dirs, target_dirs)
+    bones = clip_quality.BoneMotion(
+        source_directions=rotation_channels.rotate(turn, source_dirs),
+        target_directions=target_dirs,
+        source_rotations=src.rotations[:, [src.index[a] for a, _ in pairs]],
+        target_rotations=tgt.rotations[:, [tgt.index[t] for _, t in pairs]],
+        names=[t for _, t in pairs])
+    return clip_quality.measure(_feet(src, tgt, bvh.frame_rate(action)), bones)
+
+
+def count_mapped(target, pairs) -> tuple[int, int]:
+    """(body bones, finger bones) among the pairs' target bones."""
+    body = bone_mapping.classify(pose_channels.mapping_rig(target))
+    fingers = {bone for chain in body.fingers.values() for bone in chain}
+    mapped = {t for _, t in pairs}
+    return len(mapped - fingers), len(mapped & fingers)
+
+
+def row_figures(source, target, pairs) -> dict:
+    """A batch report's figures of the target's new action (batch_report.COLUMNS)."""
+    action = animdata.assigned_action(target)
+    start, end = action.frame_range
+    body, fingers = count_mapped(target, pairs)
+    figures = {"frames": int(round(end - start)) + 1, "fps": round(bvh.frame_rate(action), 3),
+               "bones_mapped": body, "fingers_mapped": fingers}
+    figures.update(measure(source, target, pairs).as_dict())
+    return figures
