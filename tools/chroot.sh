@@ -41,7 +41,7 @@ root=$cache/$suite-chroot
 # Blender under Xvfb (mesa's software OpenGL) and tesseract to read its
 # screenshots. The same names in trixie and sid.
 packages=(
-  blender python3 python3-dev python3-numpy python3-scipy python3-pytest
+  blender python3 python3-dev python3-numpy python3-scipy python3-pytest python3-distributed
   python3-matplotlib g++ cmake make libeigen3-dev pybind11-dev libgtest-dev
   libgmock-dev libbenchmark-dev ca-certificates xz-utils
   xvfb xauth libgl1-mesa-dri libegl1 mesa-utils tesseract-ocr x11-apps

@@ -6,7 +6,7 @@
 #                                    sid (5.2) chroots (tools/chroot.sh)
 set -euo pipefail
 packages=(
-  blender python3 python3-dev python3-numpy python3-scipy python3-pytest python3-matplotlib
+  blender python3 python3-dev python3-numpy python3-scipy python3-pytest python3-matplotlib python3-distributed
   g++ cmake make libeigen3-dev pybind11-dev libgtest-dev libgmock-dev libbenchmark-dev
   debootstrap util-linux zip
   clang libclang-rt-dev

@@ -40,7 +40,17 @@ def _folder_files(folder: str, pattern: str, recursive: bool) -> list[str]:
     return files
 
 
-def clip_name(path: str, take: str | None = None, takes: int = 1) -> str:
+def stems(files: list[str]) -> dict[str, str]:
+    """Each file's name for its clips: its stem, or its whole name where several files of the batch share
+    the stem (walk.fbx and walk.bvh), so that no clip or output takes another's name."""
+    plain = {path: os.path.splitext(os.path.basename(path))[0] for path in files}
+    counts: dict[str, int] = {}
+    for stem in plain.values():
+        counts[stem] = counts.get(stem, 0) + 1
+    return {path: stem if counts[stem] == 1 else os.path.basename(path) for path, stem in plain.items()}
+
+
+def clip_name(path: str, take: str | None = None, takes: int = 1, stem: str | None = None) -> str:
     """An action's name for a take of a file: the file's stem, with '|take' when the file holds several."""
-    stem = os.path.splitext(os.path.basename(path))[0]
+    stem = stem or os.path.splitext(os.path.basename(path))[0]
     return f"{stem}|{take}" if take and takes > 1 else stem

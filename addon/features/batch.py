@@ -49,9 +49,9 @@ def _output_path(out_dir: str | None, export: str | None, name: str) -> str | No
     return os.path.join(out_dir, f"{safe}.{export}")
 
 
-def _retarget_take(path, take, action, count, source, target, out_dir, export, overwrite, options) -> tuple:
+def _retarget_take(path, stem, take, action, count, source, target, out_dir, export, overwrite, options) -> tuple:
     """(report row, new action or None) of one take."""
-    name = batch_inputs.clip_name(path, take, count)
+    name = batch_inputs.clip_name(path, take, count, stem)
     row = batch_report.new_row(path, take if count > 1 else "", name)
     started = time.perf_counter()
     output = _output_path(out_dir, export, name)
@@ -84,23 +84,25 @@ def _reason(path: str, take: str, error: BaseException) -> str:
     return message if path in message else f"{where}: {message}"
 
 
-def retarget_file(path: str, target, *, out_dir=None, export=None, overwrite=False, **options) -> BatchResult:
-    """Every take of one file onto target; everything the file brought is removed again, whatever happens."""
+def retarget_file(path: str, target, *, out_dir=None, export=None, overwrite=False, stem=None,
+                  **options) -> BatchResult:
+    """Every take of one file onto target; everything the file brought is removed again, whatever happens.
+    stem: the file's name for its clips (batch_inputs.stems), by default its own stem."""
     result, names = BatchResult(), []
     before = imports.snapshot()
     try:
         try:
             source, takes, _ = _load_takes(path)
         except _CLIP_ERRORS as error:
-            result.rows.append(batch_report.new_row(path, "", batch_inputs.clip_name(path),
+            result.rows.append(batch_report.new_row(path, "", batch_inputs.clip_name(path, stem=stem),
                                                     status="failed", reason=_reason(path, "", error)))
             return result
         if not takes:
-            result.rows.append(batch_report.new_row(path, "", batch_inputs.clip_name(path), status="failed",
+            result.rows.append(batch_report.new_row(path, "", batch_inputs.clip_name(path, stem=stem), status="failed",
                                                     reason=f"{path}: the armature has no take that moves its bones"))
         for take, action in takes:
-            row, made = _retarget_take(path, take, action, len(takes), source, target, out_dir, export, overwrite,
-                                       options)
+            row, made = _retarget_take(path, stem, take, action, len(takes), source, target, out_dir, export,
+                                       overwrite, options)
             result.rows.append(row)
             if made is not None:
                 result.actions.append(made)
@@ -133,11 +135,12 @@ def retarget_library(inputs, target, *, pattern: str = "*", recursive: bool = Tr
     files = batch_inputs.collect(inputs, pattern, recursive)
     if out_dir:
         os.makedirs(out_dir, exist_ok=True)
-    result = BatchResult()
+    result, stems = BatchResult(), batch_inputs.stems(files)
     for done, path in enumerate(files):
         if progress is not None:
             progress(done, len(files), path)
-        one = retarget_file(path, target, out_dir=out_dir, export=export, overwrite=overwrite, **options)
+        one = retarget_file(path, target, out_dir=out_dir, export=export, overwrite=overwrite, stem=stems[path],
+                            **options)
         result.rows += one.rows
         result.actions += one.actions
     if progress is not None:

@@ -7,12 +7,15 @@ import csv
 import json
 import os
 import shutil
+import subprocess
+import sys
 
 import bpy
 import numpy as np
 import pytest
 from mathutils import Vector
 
+import conftest
 from test_production_files import fbx_dir, import_fbx  # noqa: F401  (fbx_dir is a fixture)
 
 SNAKE_BVH = """HIERARCHY
@@ -193,3 +196,91 @@ def test_the_reports_figures_are_blenders_evaluation(mk, library, target, clip):
         else:
             assert getattr(measured, key) == value, key
     print(f"\n{clip}: {measured.as_dict()}")
+
+
+def _keys(action, obj, animdata):
+    """{(data path, index): keyframe points (n, 2)} of an action's curves for obj."""
+    out = {}
+    for curve in animdata.fcurves(action, obj):
+        co = np.empty(2 * len(curve.keyframe_points))
+        curve.keyframe_points.foreach_get("co", co)
+        out[(curve.data_path, curve.array_index)] = co.reshape(-1, 2)
+    return out
+
+
+def _same_actions(mk, one, other, target):
+    assert [r["status"] for r in one.rows] == [r["status"] for r in other.rows]
+    assert len(one.actions) == len(other.actions) > 0
+    for a, b in zip(one.actions, other.actions):
+        keys_a, keys_b = _keys(a, target, mk.animdata), _keys(b, target, mk.animdata)
+        assert keys_a.keys() == keys_b.keys() and keys_a, (a.name, b.name)
+        for channel, co in keys_a.items():
+            assert np.allclose(co, keys_b[channel], atol=1e-9), (a.name, channel)
+        assert a.use_fake_user and b.use_fake_user
+
+
+def _some_files(library):
+    return [library / "bvh" / "walk60.bvh", library / "punch.fbx", library / "fight.fbx",
+            library / "bvh" / "cut_short.bvh", library / "kick_gltf.glb"]
+
+
+def test_two_worker_blenders_give_the_same_actions_and_rows_as_one(mk, library, target):
+    files = _some_files(library)
+    alone = mk.batch.retarget_library(files, target)
+    shared = mk.batch_workers.run_parallel(files, target, workers=2)
+    assert [(r["file"], r["take"]) for r in shared.rows] == [(r["file"], r["take"]) for r in alone.rows]
+    _same_actions(mk, alone, shared, target)
+    for a, b in zip(alone.rows, shared.rows):
+        assert a["sliding_worst_mm"] == b["sliding_worst_mm"] and a["direction_worst_deg"] == b["direction_worst_deg"]
+
+
+@pytest.fixture()
+def dask_scheduler():
+    """A Dask LocalCluster of two worker processes, in a Python of its own, for as long as the test runs."""
+    script = ("from distributed import LocalCluster\n"
+              "import sys, time\n"
+              "cluster = LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None)\n"
+              "print(cluster.scheduler_address, flush=True)\n"
+              "sys.stdin.read()\n")
+    process = subprocess.Popen([sys.executable, "-c", script], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                               text=True)
+    try:
+        address = process.stdout.readline().strip()
+        assert address.startswith("tcp://"), f"the LocalCluster did not start: {address!r}"
+        yield address
+    finally:
+        process.stdin.close()
+        process.wait(timeout=60)
+
+
+def test_a_dask_cluster_gives_the_same_actions_and_rows_as_one_blender(mk, library, target, dask_scheduler):
+    files = _some_files(library)
+    alone = mk.batch.retarget_library(files, target)
+    on_dask = mk.batch_workers.run_parallel(files, target, scheduler=dask_scheduler)
+    assert [(r["file"], r["take"], r["status"]) for r in on_dask.rows] == \
+        [(r["file"], r["take"], r["status"]) for r in alone.rows]
+    _same_actions(mk, alone, on_dask, target)
+
+
+def test_the_command_line_retargets_a_folder_and_exits_with_the_number_that_failed(mk, library, target, tmp_path):
+    """The README's command, in a Blender of its own with the add-on installed as a user installs it."""
+    blend = str(tmp_path / "character.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=blend, copy=True)
+    env = conftest.fresh_blender_env(tmp_path)
+    install = ("import sys, bpy; sys.path.insert(0, %r); import install_addon; "
+               "install_addon.install(%r); bpy.ops.wm.save_userpref()") % (os.path.join(conftest.ROOT, "tools"),
+                                                                           os.environ["MOTIONKIT_ZIP"])
+    subprocess.run([bpy.app.binary_path, "-b", "--factory-startup", "--python-expr", install], env=env,
+                   check=True, capture_output=True, timeout=300)
+    out = tmp_path / "out"
+    command = [bpy.app.binary_path, "-b", blend, "--python-expr", "import motionkit.cli as c; c.main()", "--",
+               "retarget", "--target", target.name, "--out", str(out), "--export", "bvh", "--save",
+               str(tmp_path / "done.blend"), str(library)]
+    done = subprocess.run(command, env=env, capture_output=True, text=True, timeout=900)
+    assert done.returncode == len(BAD), done.stdout[-3000:] + done.stderr[-3000:]
+    assert "[1/8]" in done.stdout and f"{len(GOOD) + len(BAD)} clips, {len(GOOD)} done, {len(BAD)} failed" in done.stdout
+    rows = json.loads((out / "report.json").read_text())["clips"]
+    assert {r["action"] for r in rows if r["status"] == "ok"} == GOOD
+    assert len([n for n in os.listdir(out) if n.endswith(".bvh")]) == len(GOOD)
+    with bpy.data.libraries.load(str(tmp_path / "done.blend")) as (saved, _):
+        assert GOOD <= set(saved.actions)

@@ -34,3 +34,9 @@ def test_an_input_that_does_not_exist_is_named(tmp_path):
 def test_a_take_is_named_after_its_file_and_the_take_when_there_are_several():
     assert batch_inputs.clip_name("/x/punch.fbx", "mixamo.com", 1) == "punch"
     assert batch_inputs.clip_name("/x/moves.glb", "Run", 3) == "moves|Run"
+
+
+def test_files_that_share_a_stem_keep_their_extensions_in_their_clips_names():
+    stems = batch_inputs.stems(["/a/walk.fbx", "/b/walk.bvh", "/a/run.bvh"])
+    assert stems == {"/a/walk.fbx": "walk.fbx", "/b/walk.bvh": "walk.bvh", "/a/run.bvh": "run"}
+    assert batch_inputs.clip_name("/a/walk.fbx", "Take 1", 2, stems["/a/walk.fbx"]) == "walk.fbx|Take 1"

@@ -1,0 +1,101 @@
+"""MotionKit from a pipeline's command line, in a Blender that has the target's .blend open:
+
+    blender -b character.blend --python-expr "import motionkit.cli as c; c.main()" -- \\
+        retarget --target Armature --out DIR [--export fbx] [--workers 2 | --scheduler tcp://host:8786] clips/
+
+Progress goes to the console (file i of n, time left), the report (report.json, report.csv) into --report
+(default: --out, else the current folder) and as a table onto the console; --save keeps the new actions in
+the .blend. The exit status is the number of files that failed (at most 100): 0 when every clip was done.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+
+import bpy
+
+from ..core import batch_report
+from . import batch, batch_workers
+
+MAX_STATUS = 100
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="motionkit", description="MotionKit from the command line")
+    commands = parser.add_subparsers(dest="command", required=True)
+    run = commands.add_parser("retarget", help="retarget motion files and folders onto an armature of the .blend")
+    run.add_argument("inputs", nargs="+", help="motion files (.bvh .fbx .glb .gltf) and folders")
+    run.add_argument("--target", required=True, help="the armature object to retarget onto")
+    run.add_argument("--glob", default="*", help="in folders, only files whose names match (default *)")
+    run.add_argument("--no-recursive", action="store_true", help="only the folders' own files, not subfolders'")
+    run.add_argument("--out", help="the folder exports (and by default the report) go into")
+    run.add_argument("--export", choices=batch.EXPORTS, help="write each clip as a file of this kind into --out")
+    run.add_argument("--overwrite", action="store_true", help="replace exported files that exist")
+    run.add_argument("--report", help="the folder report.json and report.csv go into")
+    run.add_argument("--save", nargs="?", const="", metavar="BLEND",
+                     help="save the .blend with the new actions (to BLEND, else over the open file)")
+    run.add_argument("--plant-feet", choices=("auto", "on", "off"), default="auto")
+    workers = run.add_mutually_exclusive_group()
+    workers.add_argument("--workers", type=int, default=1, help="Blender processes to run side by side")
+    workers.add_argument("--scheduler", help="a Dask distributed scheduler's address to run the files on")
+    return parser
+
+
+def retarget_options(args) -> dict:
+    """The retarget's options the command line sets (what a worker is given too)."""
+    return {"plant_feet": {"auto": None, "on": True, "off": False}[args.plant_feet]}
+
+
+class ConsoleProgress:
+    """'[3/200] clips/walk.bvh, 41 s left' lines, the time left from the pace so far."""
+
+    def __init__(self):
+        self.started = time.perf_counter()
+
+    def __call__(self, done: int, total: int, path: str) -> None:
+        if not path:
+            print(f"[{done}/{total}] done in {time.perf_counter() - self.started:.1f} s", flush=True)
+            return
+        left = ""
+        if done:
+            left = f", {(time.perf_counter() - self.started) / done * (total - done):.0f} s left"
+        print(f"[{done + 1}/{total}] {path}{left}", flush=True)
+
+
+def _target(name: str):
+    obj = bpy.data.objects.get(name)
+    if obj is None or obj.type != 'ARMATURE':
+        armatures = [o.name for o in bpy.data.objects if o.type == 'ARMATURE']
+        raise SystemExit(f"motionkit: no armature '{name}' in {bpy.data.filepath or 'the open file'} "
+                         f"(armatures: {', '.join(armatures) or 'none'})")
+    return obj
+
+
+def run(argv: list[str]) -> batch.BatchResult:
+    args = _parser().parse_args(argv)
+    target = _target(args.target)
+    report_dir = args.report or args.out or os.getcwd()
+    common = dict(pattern=args.glob, recursive=not args.no_recursive, out_dir=args.out, export=args.export,
+                  overwrite=args.overwrite, progress=ConsoleProgress(), **retarget_options(args))
+    if args.scheduler or args.workers > 1:
+        result = batch_workers.run_parallel(args.inputs, target, workers=args.workers, scheduler=args.scheduler,
+                                            **common)
+    else:
+        result = batch.retarget_library(args.inputs, target, **common)
+    batch_report.write(result.rows, report_dir)
+    print(batch_report.table(result.rows), flush=True)
+    if args.save is not None:
+        bpy.ops.wm.save_as_mainfile(filepath=os.path.abspath(args.save) if args.save else bpy.data.filepath)
+    return result
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Runs the command after Blender's '--' and exits Blender with the number of failed files."""
+    if argv is None:
+        argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
+    if argv[:1] == ["worker"]:
+        sys.exit(batch_workers.worker_main(argv[1:]))
+    result = run(argv)
+    sys.exit(min(result.failed, MAX_STATUS))
