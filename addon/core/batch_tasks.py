@@ -22,20 +22,25 @@ def blender_command(blender: str, blend: str, package: str, worker_args: list[st
 
 
 def run_worker(command: list[str], result_prefix: str, log_path: str | None = None) -> dict:
-    """Runs a worker Blender to its end: {"rows": [...], "blend": its actions' .blend, "returncode": ...}.
-    A worker that dies leaves a row-less result whose 'error' holds the end of what it printed."""
+    """Runs a worker Blender to its end here: collect()'s result."""
     with open(log_path or os.devnull, "w", encoding="utf-8") as log:
         done = subprocess.run(command, stdout=log, stderr=subprocess.STDOUT, check=False)
-    result = {"rows": [], "blend": result_prefix + ".blend", "returncode": done.returncode, "error": ""}
+    tail = ""
+    if log_path and os.path.exists(log_path):
+        with open(log_path, encoding="utf-8", errors="replace") as f:
+            tail = f.read()[-2000:]
+    return collect(result_prefix, done.returncode, tail)
+
+
+def collect(result_prefix: str, returncode: int, output_tail: str = "") -> dict:
+    """What a worker Blender left: {"rows": [...], "blend": its actions' .blend, "returncode", "error"}. A
+    worker that died leaves no rows, and 'error' holds the end of what it printed."""
+    result = {"rows": [], "blend": result_prefix + ".blend", "returncode": returncode, "error": ""}
     try:
         with open(result_prefix + ".json", encoding="utf-8") as f:
             result["rows"] = json.load(f)["rows"]
     except (OSError, ValueError):
-        tail = ""
-        if log_path and os.path.exists(log_path):
-            with open(log_path, encoding="utf-8", errors="replace") as f:
-                tail = f.read()[-2000:]
-        result["error"] = f"the worker Blender ended ({done.returncode}) without its report: {tail}"
+        result["error"] = f"the worker Blender ended ({returncode}) without its report: {output_tail[-2000:]}"
     return result
 
 

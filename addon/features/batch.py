@@ -49,7 +49,8 @@ def _output_path(out_dir: str | None, export: str | None, name: str) -> str | No
     return os.path.join(out_dir, f"{safe}.{export}")
 
 
-def _retarget_take(path, stem, take, action, count, source, target, out_dir, export, overwrite, options) -> tuple:
+def _retarget_take(path, stem, take, action, count, source, target, out_dir, export, overwrite, keep,
+                   options) -> tuple:
     """(report row, new action or None) of one take."""
     name = batch_inputs.clip_name(path, take, count, stem)
     row = batch_report.new_row(path, take if count > 1 else "", name)
@@ -68,6 +69,9 @@ def _retarget_take(path, stem, take, action, count, source, target, out_dir, exp
         if output:
             export_clip(target, output, export)
             row["output"] = output
+        if not keep:
+            bpy.data.actions.remove(made)
+            made = None
     except _CLIP_ERRORS as error:
         if made is not None:
             bpy.data.actions.remove(made)
@@ -84,11 +88,12 @@ def _reason(path: str, take: str, error: BaseException) -> str:
     return message if path in message else f"{where}: {message}"
 
 
-def retarget_file(path: str, target, *, out_dir=None, export=None, overwrite=False, stem=None,
+def retarget_file(path: str, target, *, out_dir=None, export=None, overwrite=False, stem=None, keep=True,
                   **options) -> BatchResult:
     """Every take of one file onto target; everything the file brought is removed again, whatever happens.
-    stem: the file's name for its clips (batch_inputs.stems), by default its own stem."""
-    result, names = BatchResult(), []
+    stem: the file's name for its clips (batch_inputs.stems), by default its own stem; keep: False removes
+    each new action once it is written out (a pipeline that wants the files only)."""
+    result, named = BatchResult(), []
     before = imports.snapshot()
     try:
         try:
@@ -102,36 +107,40 @@ def retarget_file(path: str, target, *, out_dir=None, export=None, overwrite=Fal
                                                     reason=f"{path}: the armature has no take that moves its bones"))
         for take, action in takes:
             row, made = _retarget_take(path, stem, take, action, len(takes), source, target, out_dir, export,
-                                       overwrite, options)
+                                       overwrite, keep, options)
             result.rows.append(row)
             if made is not None:
                 result.actions.append(made)
-                names.append(row["action"])
+                named.append(row)
     finally:
         kept = set(result.actions)
         added = imports.added_since(before)
         added["actions"] = [a for a in added["actions"] if a not in kept]
         imports.remove(added)
-    for action, name in zip(result.actions, names):  # the source's own action held the name until now
-        action.name = name
+    for action, row in zip(result.actions, named):  # the source's own action held the name until now
+        action.name = row["action"]
+        row["action"] = action.name  # what Blender made of it, were the name another action's
     return result
 
 
 def retarget_library(inputs, target, *, pattern: str = "*", recursive: bool = True, out_dir: str | None = None,
                      export: str | None = None, overwrite: bool = False, report_dir: str | None = None,
-                     progress=None, **options) -> BatchResult:
+                     keep: bool = True, progress=None, **options) -> BatchResult:
     """Retarget every take of every motion file that inputs name (files, folders) onto target.
 
     One action per take, named '<file>' or '<file>|<take>', kept with a fake user. A file or take that
     fails is a 'failed' row with its reason and leaves nothing behind; the others are done. export: 'bvh',
     'fbx', 'glb' or 'gltf' writes each clip into out_dir, an existing file kept unless overwrite.
-    report_dir: where report.json and report.csv go. progress(done, total, path) is called before each file.
+    report_dir: where report.json and report.csv go. keep=False: the actions are written out, not kept.
+    progress(done, total, path) is called before each file.
     options: retargeting.retarget's.
     """
     if export is not None and export not in EXPORTS:
         raise ValueError(f"unknown export {export!r}; expected one of {EXPORTS}")
     if export and not out_dir:
         raise ValueError("export needs out_dir, the folder the clips are written into")
+    if not keep and not export:
+        raise ValueError("keep=False without export would leave nothing of the clips")
     files = batch_inputs.collect(inputs, pattern, recursive)
     if out_dir:
         os.makedirs(out_dir, exist_ok=True)
@@ -140,7 +149,7 @@ def retarget_library(inputs, target, *, pattern: str = "*", recursive: bool = Tr
         if progress is not None:
             progress(done, len(files), path)
         one = retarget_file(path, target, out_dir=out_dir, export=export, overwrite=overwrite, stem=stems[path],
-                            **options)
+                            keep=keep, **options)
         result.rows += one.rows
         result.actions += one.actions
     if progress is not None:

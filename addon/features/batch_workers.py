@@ -123,14 +123,15 @@ def _run_local(commands, folder, total, progress) -> list[dict]:
 
 
 def _run_dask(commands, scheduler, total, progress) -> list[dict]:
-    import cloudpickle
+    import subprocess
     from distributed import Client, as_completed
-    cloudpickle.register_pickle_by_value(batch_tasks)  # Dask's workers have no add-on to import it from
     results = []
     with Client(scheduler) as client:
-        futures = [client.submit(batch_tasks.run_worker, c, p, p + ".log", pure=False) for c, p in commands]
+        futures = {client.submit(subprocess.run, command, capture_output=True, text=True, check=False,
+                                 pure=False): prefix for command, prefix in commands}
         for future in as_completed(futures):
-            results.append(future.result())
+            done = future.result()
+            results.append(batch_tasks.collect(futures[future], done.returncode, done.stdout + done.stderr))
             if progress is not None:
                 files_done = len({row["index"] for r in results for row in r["rows"]})
                 progress(files_done, total, f"Dask: {len(results)} of {len(futures)} tasks done")
@@ -138,8 +139,8 @@ def _run_dask(commands, scheduler, total, progress) -> list[dict]:
 
 
 def run_parallel(inputs, target, *, workers: int = 2, scheduler: str | None = None, pattern: str = "*",
-                 recursive: bool = True, out_dir=None, export=None, overwrite=False, progress=None,
-                 **options) -> batch.BatchResult:
+                 recursive: bool = True, out_dir=None, export=None, overwrite=False, keep: bool = True,
+                 progress=None, **options) -> batch.BatchResult:
     """batch.retarget_library over worker Blenders (workers of them here, or a Dask scheduler's); the same
     actions and rows, in the files' order."""
     files = batch_inputs.collect(inputs, pattern, recursive)
@@ -149,7 +150,7 @@ def run_parallel(inputs, target, *, workers: int = 2, scheduler: str | None = No
     try:
         blend = os.path.join(folder, "target.blend")
         bpy.ops.wm.save_as_mainfile(filepath=blend, copy=True)
-        worker_options = dict(options, out_dir=out_dir, export=export, overwrite=overwrite,
+        worker_options = dict(options, out_dir=out_dir, export=export, overwrite=overwrite, keep=keep,
                               stems=batch_inputs.stems(files))
         commands = _worker_commands(files, target, blend, folder, workers, worker_options, scheduler)
         results = (_run_dask(commands, scheduler, len(files), progress) if scheduler

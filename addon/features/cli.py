@@ -36,6 +36,8 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--report", help="the folder report.json and report.csv go into")
     run.add_argument("--save", nargs="?", const="", metavar="BLEND",
                      help="save the .blend with the new actions (to BLEND, else over the open file)")
+    run.add_argument("--files-only", action="store_true",
+                     help="with --export: write the clips out without keeping their actions in the .blend")
     run.add_argument("--plant-feet", choices=("auto", "on", "off"), default="auto")
     workers = run.add_mutually_exclusive_group()
     workers.add_argument("--workers", type=int, default=1, help="Blender processes to run side by side")
@@ -78,7 +80,8 @@ def run(argv: list[str]) -> batch.BatchResult:
     target = _target(args.target)
     report_dir = args.report or args.out or os.getcwd()
     common = dict(pattern=args.glob, recursive=not args.no_recursive, out_dir=args.out, export=args.export,
-                  overwrite=args.overwrite, progress=ConsoleProgress(), **retarget_options(args))
+                  overwrite=args.overwrite, keep=not args.files_only, progress=ConsoleProgress(),
+                  **retarget_options(args))
     if args.scheduler or args.workers > 1:
         result = batch_workers.run_parallel(args.inputs, target, workers=args.workers, scheduler=args.scheduler,
                                             **common)

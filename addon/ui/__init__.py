@@ -3,7 +3,7 @@ menu entries (bvh, keys, retarget, contacts, ik), the sidebar's top panel, the p
 share (common). register() puts them into Blender in order; unregister() takes them out in reverse."""
 import bpy
 
-from . import bvh, common, contacts, ik, keys, preferences, retarget, sidebar
+from . import batch, bvh, common, contacts, ik, keys, preferences, retarget, sidebar
 from ..features import ik_live
 
 classes = (
@@ -14,6 +14,7 @@ classes = (
     *keys.classes,
     *contacts.classes,
     *retarget.classes,
+    *batch.classes,
     *ik.classes,
 )
 
@@ -22,6 +23,7 @@ def register():
     for cls in classes:
         bpy.utils.register_class(cls)
     retarget.register_properties()
+    batch.register_properties()
     ik.register_properties()
     bpy.types.TOPBAR_MT_file_import.append(bvh.menu_import)
     bpy.types.TOPBAR_MT_file_export.append(bvh.menu_export)
@@ -39,6 +41,7 @@ def unregister():
     bpy.types.TOPBAR_MT_file_import.remove(bvh.menu_import)
     ik_live.unregister()
     ik.unregister_properties()
+    batch.unregister_properties()
     retarget.unregister_properties()
     for cls in reversed(classes):
         bpy.utils.unregister_class(cls)

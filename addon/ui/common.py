@@ -10,10 +10,39 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import blf
 import bpy
 from bpy.props import EnumProperty, StringProperty
 
-from ..core import native_state
+from ..core import display_names, native_state
+
+
+# The width a list row's split shares out is the sidebar's less the panel's margins and the list's box, less
+# the scroll bar's when the list has one; a label keeps some of its column clear. Pixels at scale 1, read off
+# screenshots at the default sidebar width (Blender 4 widened the list's box and its scroll bar).
+LIST_MARGIN_PX, SCROLL_BAR_PX = (64, 18) if bpy.app.version >= (4, 0, 0) else (55, 17)
+LABEL_PADDING_PX = 12
+ICON_PX = 28  # an icon and the space after it
+
+
+def set_interface_font(context) -> float:
+    """Sets blf's default font to the size the interface draws labels at; returns the interface's scale."""
+    scale = context.preferences.system.ui_scale or 1.0
+    blf.size(0, context.preferences.ui_styles[0].widget.points * scale)
+    return scale
+
+
+def text_width(text: str) -> float:
+    return blf.dimensions(0, text)[0]
+
+
+def fit_label(context, text: str, share: float, scrolls: bool = False, icon: bool = False) -> str:
+    """text cut in the middle to fit the column that takes share of a list row (after an icon, if any), as
+    the interface draws it."""
+    scale = set_interface_font(context)
+    row = context.region.width - (LIST_MARGIN_PX + SCROLL_BAR_PX * scrolls) * scale
+    room = row * share - (LABEL_PADDING_PX + ICON_PX * icon) * scale
+    return display_names.fit_width(text, room, text_width)
 
 
 class Progress:

@@ -3,7 +3,6 @@ the bone map list and its operators (auto-map, schemes, load and save), the Reta
 panel with its Bone Map, Controls, Options and Plant Feet sub-panels."""
 import os
 
-import blf
 import bpy
 from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProperty, IntProperty,
                        PointerProperty, StringProperty)
@@ -254,11 +253,6 @@ class MOTIONKIT_OT_bone_map_load(bpy.types.Operator, ImportHelper):
         return _fill_map(self, context, lambda settings: bone_mapping.load_map(self.filepath))
 
 
-# The width a list row's split shares out is the sidebar's less the panel's margins and the list's box, less
-# the scroll bar's when the list has one; a label keeps some of its column clear. Pixels at scale 1, read off
-# screenshots at the default sidebar width (Blender 4 widened the list's box and its scroll bar).
-LIST_MARGIN_PX, SCROLL_BAR_PX = (64, 18) if bpy.app.version >= (4, 0, 0) else (55, 17)
-LABEL_PADDING_PX = 12
 # The most of a row the target's names may take, so that the source's still say something.
 TARGET_SHARE_MAX = 0.6
 # How the bone map's list shows its names, worked out once per draw of the panel for the list's rows: the
@@ -266,32 +260,21 @@ TARGET_SHARE_MAX = 0.6
 _SHOWN = {"prefixes": ("", ""), "split": 0.5, "row_width": 200.0}
 
 
-def _set_interface_font(context) -> float:
-    """Sets blf's default font to the size the interface draws labels at; returns the interface's scale."""
-    scale = context.preferences.system.ui_scale or 1.0
-    blf.size(0, context.preferences.ui_styles[0].widget.points * scale)
-    return scale
-
-
 def _header(prefix: str, side: str) -> str:
     return f"{prefix}*" if prefix else side
-
-
-def _text_width(text: str) -> float:
-    return blf.dimensions(0, text)[0]
 
 
 def _plan_bone_map_list(context, settings, scrolls: bool) -> None:
     """The target's names whole where a row holds them (the rig being animated is the one the user knows by
     name), the source's in what is left; either cut in the middle when too long."""
-    scale = _set_interface_font(context)
+    scale = common.set_interface_font(context)
     prefixes = tuple(display_names.shared_prefix(getattr(p, side) for p in settings.pairs)
                      for side in ("source", "target"))
-    row_width = context.region.width - (LIST_MARGIN_PX + SCROLL_BAR_PX * scrolls) * scale
-    padding = LABEL_PADDING_PX * scale
-    target_width = max([_text_width(display_names.strip(p.target, prefixes[1])) for p in settings.pairs]
-                       + [_text_width(_header(prefixes[1], "Target"))]) + padding
-    source_header_width = _text_width(_header(prefixes[0], "Source")) + padding
+    row_width = context.region.width - (common.LIST_MARGIN_PX + common.SCROLL_BAR_PX * scrolls) * scale
+    padding = common.LABEL_PADDING_PX * scale
+    target_width = max([common.text_width(display_names.strip(p.target, prefixes[1])) for p in settings.pairs]
+                       + [common.text_width(_header(prefixes[1], "Target"))]) + padding
+    source_header_width = common.text_width(_header(prefixes[0], "Source")) + padding
     row_width = max(row_width, 1.0)
     split = max(1.0 - min(target_width / row_width, TARGET_SHARE_MAX), source_header_width / row_width)
     _SHOWN.update(prefixes=prefixes, split=split, row_width=row_width)
@@ -304,13 +287,13 @@ class MOTIONKIT_UL_bone_map(bpy.types.UIList):
     def draw_item(self, context, layout, data, item, icon, active_data, active_propname, index=0):
         # Blender clips a long label at its end, and a hand's rows would all read "LeftHand...": cut in the
         # middle instead, to what a column of the list holds, measured in the interface's own font.
-        scale = _set_interface_font(context)
+        scale = common.set_interface_font(context)
         split = layout.split(factor=_SHOWN["split"])
         for name, prefix, share in ((item.source, _SHOWN["prefixes"][0], _SHOWN["split"]),
                                     (item.target, _SHOWN["prefixes"][1], 1.0 - _SHOWN["split"])):
             shown = display_names.strip(name, prefix)
-            room = _SHOWN["row_width"] * share - LABEL_PADDING_PX * scale
-            split.label(text=display_names.fit_width(shown, room, _text_width) if shown else "(none)")
+            room = _SHOWN["row_width"] * share - common.LABEL_PADDING_PX * scale
+            split.label(text=display_names.fit_width(shown, room, common.text_width) if shown else "(none)")
 
 
 def _draw_bone_field(layout, holder, prop, rig, label):

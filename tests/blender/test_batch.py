@@ -284,3 +284,17 @@ def test_the_command_line_retargets_a_folder_and_exits_with_the_number_that_fail
     assert len([n for n in os.listdir(out) if n.endswith(".bvh")]) == len(GOOD)
     with bpy.data.libraries.load(str(tmp_path / "done.blend")) as (saved, _):
         assert GOOD <= set(saved.actions)
+
+
+def test_the_library_operator_fills_the_report_list(mk, library, target):
+    """The sidebar's Library panel: the operator retargets the folder, its rows sorted worst first."""
+    bpy.context.scene.motionkit_retarget.target = target
+    settings = bpy.context.scene.motionkit_batch
+    settings.folder = str(library / "bvh")
+    actions = set(bpy.data.actions)
+    assert bpy.ops.motionkit.retarget_library() == {'FINISHED'}
+    rows = {row.action: row for row in settings.rows}
+    assert set(rows) == {"walk60", "run_forward", "cut_short"}
+    assert rows["cut_short"].status == "failed" and "cut_short.bvh" in rows["cut_short"].reason
+    assert rows["walk60"].frames == 182 and rows["walk60"].sliding_worst_mm >= 0.0
+    assert {a.name for a in set(bpy.data.actions) - actions} == {"walk60", "run_forward"}
