@@ -57,10 +57,12 @@ def _slot_for(action: bpy.types.Action, id_data: bpy.types.ID, create: bool):
     for slot in action.slots:
         if slot.target_id_type == id_data.id_type and slot.name_display == id_data.name:
             return slot
-    # An importer may name an action's one slot otherwise ("Slot" from FBX): it is still the object's.
-    fitting = [slot for slot in action.slots if slot.target_id_type in (id_data.id_type, 'UNSPECIFIED')]
-    if len(fitting) == 1 and len(action.slots) == 1:
-        return fitting[0]
+    # An importer may name an action's one slot after no object at all ("Slot" from FBX): it is still the
+    # object's. A slot named after another object is that object's.
+    if len(action.slots) == 1:
+        slot = action.slots[0]
+        if slot.target_id_type in (id_data.id_type, 'UNSPECIFIED') and slot.name_display not in bpy.data.objects:
+            return slot
     if not create:
         return None
     return action.slots.new(id_type=id_data.id_type, name=id_data.name)
