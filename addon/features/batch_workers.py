@@ -82,17 +82,17 @@ def _merge(result: batch.BatchResult, worker: dict) -> None:
     result.rows += worker["rows"]
 
 
-def _worker_commands(files, target, blend, folder, workers, options, scheduler) -> list[tuple[list, str]]:
-    """(command, result prefix) per worker: N sharing a queue locally; on Dask, a task per few files so that
-    the scheduler can balance them."""
+def _worker_commands(files, target, blend, folder, workers, options, tasks=None) -> list[tuple[list, str]]:
+    """(command, result prefix) per worker: workers sharing a queue locally; or tasks, each a slice of the
+    files (on Dask, a few per worker: the scheduler balances them, each pays one Blender's start)."""
     common = ["--target", target.name, "--options", json.dumps(options)]
-    if scheduler is None:
+    if tasks is None:
         batch_tasks.write_queue(folder, files)
         return [(batch_tasks.blender_command(bpy.app.binary_path, blend, _PACKAGE,
                                              common + ["--result", os.path.join(folder, f"worker{w}"),
                                                        "--queue", folder]), os.path.join(folder, f"worker{w}"))
                 for w in range(workers)]
-    chunk = max(1, min(8, len(files) // (4 * max(workers, 1)) or 1))
+    chunk = max(1, -(-len(files) // max(tasks, 1)))
     out = []
     for start in range(0, len(files), chunk):
         prefix = os.path.join(folder, f"task{start}")
@@ -122,11 +122,17 @@ def _run_local(commands, folder, total, progress) -> list[dict]:
     return results
 
 
-def _run_dask(commands, scheduler, total, progress) -> list[dict]:
+TASKS_PER_DASK_WORKER = 3
+
+
+def _run_dask(make_commands, scheduler, total, progress) -> list[dict]:
+    """make_commands(tasks) -> the tasks' commands, sized once the cluster says how many workers it has."""
     import subprocess
     from distributed import Client, as_completed
     results = []
     with Client(scheduler) as client:
+        workers = max(len(client.scheduler_info()["workers"]), 1)
+        commands = make_commands(TASKS_PER_DASK_WORKER * workers)
         futures = {client.submit(subprocess.run, command, capture_output=True, text=True, check=False,
                                  pure=False): prefix for command, prefix in commands}
         for future in as_completed(futures):
@@ -152,9 +158,12 @@ def run_parallel(inputs, target, *, workers: int = 2, scheduler: str | None = No
         bpy.ops.wm.save_as_mainfile(filepath=blend, copy=True)
         worker_options = dict(options, out_dir=out_dir, export=export, overwrite=overwrite, keep=keep,
                               stems=batch_inputs.stems(files))
-        commands = _worker_commands(files, target, blend, folder, workers, worker_options, scheduler)
-        results = (_run_dask(commands, scheduler, len(files), progress) if scheduler
-                   else _run_local(commands, folder, len(files), progress))
+        if scheduler:
+            results = _run_dask(lambda tasks: _worker_commands(files, target, blend, folder, workers, worker_options,
+                                                               tasks), scheduler, len(files), progress)
+        else:
+            results = _run_local(_worker_commands(files, target, blend, folder, workers, worker_options), folder,
+                                 len(files), progress)
         result = batch.BatchResult()
         for worker in results:
             if worker["error"]:
