@@ -24,7 +24,8 @@ from .core import bone_mapping, control_rig, foot_contacts, rotation_channels
 from .core.native_state import native
 from .features import batch, batch_workers, bvh, cli, contacts, control_rigs, ik, resampling, retargeting, scene_timing
 from .features.resampling import reduce_keys, resample
-from .features.retargeting import retarget, retarget_files
+from .features.batch import retarget_files
+from .features.retargeting import retarget
 from . import ui
 
 __all__ = ["animdata", "batch", "batch_workers", "bone_mapping", "cli", "bvh", "contacts", "control_rig", "control_rigs", "foot_contacts", "ik",

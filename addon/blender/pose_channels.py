@@ -180,9 +180,13 @@ def armature_motion(obj, action, frames, rig=None, bones=None) -> tuple[np.ndarr
     if rig is None:
         rig, bones = native_rig(obj.data)
     moved, _ = locations(obj, action, bones, frames)
+    return pose_basis(rig, frames, rotations(obj, action, bones, frames), moved)
+
+
+def pose_basis(rig, frames, basis, moved) -> tuple[np.ndarray, np.ndarray]:
+    """armature_motion's pose of pose channels already read (basis (frames, 4B), moved (frames, 3B))."""
     with native_state.blender_frames(frames):
-        return native_state.native().armature_pose(rig, rotations(obj, action, bones, frames),
-                                                   np.ascontiguousarray(moved))
+        return native_state.native().armature_pose(rig, basis, np.ascontiguousarray(moved))
 
 
 def current_pose(obj, bones) -> tuple[np.ndarray, np.ndarray]:

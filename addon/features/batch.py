@@ -159,6 +159,20 @@ def retarget_library(inputs, target, *, pattern: str = "*", recursive: bool = Tr
     return result
 
 
+def retarget_files(paths, target, **options) -> list:
+    """Every file's takes onto target, one action each (retarget_file), and the actions in the order of
+    paths; for scripts that want a bad file to stop them: a file that fails raises ValueError naming it,
+    and the files before it keep their actions."""
+    actions = []
+    for path in paths:
+        one = retarget_file(os.fspath(path), target, **options)
+        failed = [row for row in one.rows if row["status"] == "failed"]
+        if failed:
+            raise ValueError(failed[0]["reason"])
+        actions += one.actions
+    return actions
+
+
 def export_clip(target, path: str, kind: str) -> None:
     """The target playing its action, written by MotionKit's BVH writer or Blender's exporters."""
     if kind == "bvh":

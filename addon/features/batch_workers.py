@@ -170,7 +170,7 @@ def run_parallel(inputs, target, *, workers: int = 2, scheduler: str | None = No
                 print(f"motionkit: {worker['error']}", file=sys.stderr)
             _merge(result, worker)
         done = {row["index"] for row in result.rows}
-        result.rows += [dict(batch_report.new_row(path, "", batch_inputs.clip_name(path), status="failed",
+        result.rows += [dict(batch_report.new_row(path, "", worker_options["stems"][path], status="failed",
                                                   reason=f"{path}: its worker Blender ended without a report"),
                              index=i) for i, path in enumerate(files) if i not in done]
         result.rows.sort(key=lambda row: row["index"])

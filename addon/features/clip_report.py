@@ -15,7 +15,8 @@ FEET = ((0, 1), (2, 3))  # contacts.POINTS: each foot's ankle and ball
 
 
 class _Posed:
-    """One armature's action over frames: basis channels, armature-space rotations and heads, and world."""
+    """One armature's action over frames, its channels read once: basis channels, and armature-space
+    orientations and heads (the pose) with the orientations also in world space."""
 
     def __init__(self, obj, frames):
         self.obj = obj
@@ -24,15 +25,9 @@ class _Posed:
         action = animdata.assigned_action(obj)
         self.basis = pose_channels.rotations(obj, action, self.bones, frames)
         self.moved = np.ascontiguousarray(pose_channels.locations(obj, action, self.bones, frames)[0])
-        rotations, heads = pose_channels.armature_motion(obj, action, frames, self.rig, self.bones)
+        self.pose = pose_channels.pose_basis(self.rig, frames, self.basis, self.moved)
         _, turn, _ = obj.matrix_world.decompose()
-        world = np.array(obj.matrix_world)
-        count = len(frames)
-        self.rotations = rotation_channels.multiply(np.array(turn), rotations.reshape(count, -1, 4))
-        self.heads = heads.reshape(count, -1, 3) @ world[:3, :3].T + world[:3, 3]
-
-    def y_axes(self, bones) -> np.ndarray:
-        return rotation_channels.y_axes(self.rotations[:, bones])
+        self.rotations = rotation_channels.multiply(np.array(turn), self.pose[0].reshape(len(frames), -1, 4))
 
 
 def _directions(source: _Posed, target: _Posed, pairs) -> tuple[np.ndarray, np.ndarray]:
@@ -51,7 +46,7 @@ def _stance(source: _Posed, fps: float) -> np.ndarray | None:
     except ValueError:
         return None  # a rig without two recognised legs has no feet to judge
     return contacts.find_contacts(source.obj, source.bones, source.rig, source.basis, source.moved, feet, fps=fps,
-                                  floor=None)
+                                  posed=source.pose, floor=None)
 
 
 def source_stance(source, target) -> np.ndarray | None:
@@ -69,7 +64,8 @@ def _feet(source: _Posed, target: _Posed, fps: float) -> clip_quality.FeetMotion
         return None
     if stance is None:
         return None
-    points, _ = contacts.foot_points(target.obj, target.bones, target.rig, target.basis, target.moved, target_feet)
+    points, _ = contacts.foot_points(target.obj, target.bones, target.rig, target.basis, target.moved, target_feet,
+                                     posed=target.pose)
     rest_basis = np.tile([1.0, 0.0, 0.0, 0.0], (1, len(target.bones)))
     rest, _ = contacts.foot_points(target.obj, target.bones, target.rig, rest_basis,
                                    np.zeros((1, 3 * len(target.bones))), target_feet)
@@ -103,11 +99,15 @@ def count_mapped(target, pairs) -> tuple[int, int]:
 
 
 def row_figures(source, target, pairs) -> dict:
-    """A batch report's figures of the target's new action (batch_report.COLUMNS)."""
+    """A batch report's figures of the target's new action (batch_report.COLUMNS). Only an action that keys
+    the mapped bones themselves is measured: on a control rig the controls move them, through constraints
+    that posing the keys alone does not evaluate, and its figures stay None."""
     action = animdata.assigned_action(target)
     start, end = action.frame_range
     body, fingers = count_mapped(target, pairs)
     figures = {"frames": int(round(end - start)) + 1, "fps": round(bvh.frame_rate(action), 3),
                "bones_mapped": body, "fingers_mapped": fingers}
-    figures.update(measure(source, target, pairs).as_dict())
+    keyed = {c.data_path for c in animdata.fcurves(action, target)}
+    if all(any(path.startswith(pose_channels.bone_path(t)) for path in keyed) for _, t in pairs):
+        figures.update(measure(source, target, pairs).as_dict())
     return figures

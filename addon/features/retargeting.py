@@ -1124,30 +1124,3 @@ def remove_armature(obj) -> None:
     bpy.data.armatures.remove(armature)
     if action is not None and action.users == 0:
         bpy.data.actions.remove(action)
-
-
-def retarget_files(paths, target, *, keep_sources: bool = False, **options) -> list:
-    """Retarget every BVH file onto the target: one action per file, named after it.
-
-    For pipelines (blender --background): each file is imported, retargeted
-    and, unless keep_sources, its armature removed again. The target ends with
-    the last file's action assigned; every action keeps a fake user so that
-    saving the file keeps them all. Returns the actions in the order of paths.
-    A file that fails raises ValueError naming it; the files before it keep
-    their actions.
-    """
-    actions = []
-    for path in paths:
-        name = os.path.splitext(os.path.basename(path))[0]
-        source, _ = bvh.load(os.fspath(path))
-        try:
-            action = retarget(source, target, action_name=name, **options)  # onto controls too
-            action.use_fake_user = True
-            actions.append(action)
-        except ValueError as ex:
-            raise ValueError(f"{path}: {ex}") from None
-        finally:
-            if not keep_sources:
-                remove_armature(source)
-        action.name = name  # the imported source's action held the name until now
-    return actions
