@@ -1,5 +1,9 @@
 // IkClipJob: validation, splitting the effectors into independent problems, and running them over the
 // clip's frames on threads.
+#include <exception>
+#include <thread>
+
+#include "../parallel.hpp"
 #include "solver.hpp"
 
 namespace motionkit {
@@ -9,7 +13,8 @@ using ik_internal::EffectorName;
 using ik_internal::FrameIndex;
 using ik_internal::kPi;
 using ik_internal::kSwingReach;
-using ik_internal::Solver;
+using ik_internal::Data;
+using ik_internal::Model;
 
 namespace {
 
@@ -213,14 +218,19 @@ void IkClipJob::Run() {
   const int tasks = group_count * static_cast<int>(runs);
   std::vector<std::exception_ptr> failures(static_cast<std::size_t>(tasks));
   std::vector<std::vector<int>> solved(static_cast<std::size_t>(tasks));
+  // One model per group, shared by its runs (they only read it).
+  std::vector<Model> models;
+  models.reserve(groups.size());
+  for (const std::vector<int>& group : groups) models.emplace_back(*this, group);
   const auto run_start = [&](Eigen::Index run) { return frames * run / runs; };
   internal::ParallelFor(tasks, threads, [&](int t) {
     const auto i = static_cast<std::size_t>(t / runs);
     const Eigen::Index run = t % runs;
     try {
-      Solver solver(*this, groups[i], counts[i].data());
-      solver.Run(run_start(run), run_start(run + 1));
-      solved[static_cast<std::size_t>(t)] = solver.Bones();
+      Data data(models[i]);
+      data.iterations = counts[i].data();
+      ik_internal::SolveFrames(models[i], data, *this, run_start(run), run_start(run + 1));
+      solved[static_cast<std::size_t>(t)] = ik_internal::SolvedBones(models[i]);
     } catch (...) {
       failures[static_cast<std::size_t>(t)] = std::current_exception();
     }
@@ -251,8 +261,9 @@ RowMatrixXd IkClipJob::Jacobian(Eigen::Index frame) const {
   IkClipJob job = *this;  // views and settings: the solver writes nothing here
   std::vector<int> ids(job.effectors.size());
   for (std::size_t e = 0; e < ids.size(); ++e) ids[e] = static_cast<int>(e);
-  Solver solver(job, std::move(ids), nullptr);
-  return solver.Jacobian(frame);
+  const Model model(job, std::move(ids));
+  Data data(model);
+  return ik_internal::JacobianAt(model, data, frame);
 }
 
 }  // namespace motionkit

@@ -1,33 +1,33 @@
-// Forward kinematics of the solver's pose, the effectors' errors, the cost and the regulariser.
+// Forward kinematics of the solver's pose, the effectors' errors, the cost and the posture prior.
 #include "solver.hpp"
 
 namespace motionkit::ik_internal {
 
-Solver::Pose Solver::MakePose() const {
+Pose MakePose(const Model& m) {
   Pose p;
-  p.basis.assign(static_cast<std::size_t>(bones_), Quat::Identity());
-  p.scale.assign(static_cast<std::size_t>(bones_), 1.0);
+  p.basis.assign(static_cast<std::size_t>(m.bones), Quat::Identity());
+  p.scale.assign(static_cast<std::size_t>(m.bones), 1.0);
   return p;
 }
 
-Solver::Fk Solver::MakeFk() const {
+Fk MakeFk(const Model& m) {
   Fk fk;
-  fk.frame.assign(static_cast<std::size_t>(bones_), Quat::Identity());
-  fk.global.assign(static_cast<std::size_t>(bones_), Quat::Identity());
-  fk.head.assign(static_cast<std::size_t>(bones_), Vec3::Zero());
-  fk.tip.assign(static_cast<std::size_t>(effector_count_), Vec3::Zero());
-  fk.moment.assign(static_cast<std::size_t>(bones_), Vec3::Zero());
+  fk.frame.assign(static_cast<std::size_t>(m.bones), Quat::Identity());
+  fk.global.assign(static_cast<std::size_t>(m.bones), Quat::Identity());
+  fk.head.assign(static_cast<std::size_t>(m.bones), Vec3::Zero());
+  fk.tip.assign(static_cast<std::size_t>(m.effector_count), Vec3::Zero());
+  fk.moment.assign(static_cast<std::size_t>(m.bones), Vec3::Zero());
   return fk;
 }
 
-void Solver::Place(int b, const Pose& pose, Fk& fk) const {
-  const int p = rig_.parent(b);
+void PlaceBone(const Model& m, int b, const Pose& pose, Fk& fk) {
+  const int p = m.rig.parent(b);
   if (p < 0) {
-    At(fk.frame, b) = rig_.relative(b);
-    At(fk.head, b) = b == 0 ? pose.root : rig_.offset(b);
+    At(fk.frame, b) = m.rig.relative(b);
+    At(fk.head, b) = b == 0 ? pose.root : m.rig.offset(b);
     At(fk.global, b) = At(fk.frame, b) * At(pose.basis, b);
   } else {
-    const PosedBone posed = PoseBone(rig_, b, At(fk.global, p), At(fk.head, p), At(pose.basis, b), Vec3::Zero(),
+    const PosedBone posed = PoseBone(m.rig, b, At(fk.global, p), At(fk.head, p), At(pose.basis, b), Vec3::Zero(),
                                      At(pose.scale, p));
     At(fk.frame, b) = posed.frame;
     At(fk.head, b) = posed.head;
@@ -35,123 +35,122 @@ void Solver::Place(int b, const Pose& pose, Fk& fk) const {
   }
 }
 
-void Solver::Forward(const Pose& pose, Fk& fk) const {
-  for (int b : moving_) Place(b, pose, fk);
-  for (int e = 0; e < effector_count_; ++e) {
-    const int b = At(effectors_, e).bone;
-    At(fk.tip, e) = At(fk.head, b) + At(fk.global, b) * Vec3(0.0, At(pose.scale, b) * rig_.length(b), 0.0);
-  }
-  if (!balance_) return;
-  // Each bone's mass at its midpoint, summed up the tree (parents come first).
-  for (int b = 0; b < bones_; ++b) {
-    const Vec3 half = At(fk.global, b) * Vec3(0.0, 0.5 * At(pose.scale, b) * rig_.length(b), 0.0);
-    At(fk.moment, b) = At(mass_, b) * (At(fk.head, b) + half);
+namespace {
+
+// Each bone's mass at its midpoint, summed up the tree (parents come first).
+void PlaceCentreOfMass(const Model& m, const Pose& pose, Fk& fk) {
+  const BalanceModel& bm = m.balance;
+  for (int b = 0; b < m.bones; ++b) {
+    const Vec3 half = At(fk.global, b) * Vec3(0.0, 0.5 * At(pose.scale, b) * m.rig.length(b), 0.0);
+    At(fk.moment, b) = At(bm.mass, b) * (At(fk.head, b) + half);
   }
   Vec3 sum = Vec3::Zero();
-  for (int b = bones_ - 1; b >= 0; --b) {
-    const int p = rig_.parent(b);
+  for (int b = m.bones - 1; b >= 0; --b) {
+    const int p = m.rig.parent(b);
     if (p >= 0) {
       At(fk.moment, p) += At(fk.moment, b);
     } else {
       sum += At(fk.moment, b);
     }
   }
-  fk.com = sum / total_mass_;
+  fk.com = sum / bm.total_mass;
 }
 
-double Solver::EffectorError(int e, const Fk& fk, bool position_only) const {
-  const Effector& ef = At(effectors_, e);
+// The balance's rows of the residual (zero while the centre of mass is inside: the level is then
+// left out) and its share of the cost.
+void EvaluateBalance(const Model& m, const Data& d, const Fk& fk, double* residual, Cost& cost) {
+  const Effector& com = m.balance.com;
+  Eigen::Map<Vec3> out(residual + com.row);
+  Vec3 target;
+  out.setZero();
+  if (!BalanceTarget(m, d, fk.com, target)) return;
+  const Vec3 delta = target - fk.com;
+  cost.balance = delta.norm();
+  if (BalanceEnforced(m, d)) {
+    out = com.sqrt_weight * delta;
+    cost.task += com.sqrt_weight * com.sqrt_weight * delta.squaredNorm();
+    cost.worst = std::max(cost.worst, cost.balance);
+  }
+}
+
+}  // namespace
+
+void ForwardKinematics(const Model& m, const Pose& pose, Fk& fk) {
+  for (int b : m.order.moving) PlaceBone(m, b, pose, fk);
+  for (int e = 0; e < m.effector_count; ++e) {
+    const int b = At(m.effectors, e).bone;
+    At(fk.tip, e) = At(fk.head, b) + At(fk.global, b) * Vec3(0.0, At(pose.scale, b) * m.rig.length(b), 0.0);
+  }
+  if (m.balance.enabled) PlaceCentreOfMass(m, pose, fk);
+}
+
+bool PoseFinite(const Model& m, const Pose& pose) {
+  bool finite = pose.root.allFinite();
+  for (const Joint& j : m.joints) {
+    finite = finite && At(pose.basis, j.bone).coeffs().allFinite() && std::isfinite(At(pose.scale, j.bone));
+  }
+  return finite;
+}
+
+double EffectorError(const Model& m, const Data& d, int e, const Fk& fk, bool position_only) {
+  const Effector& ef = At(m.effectors, e);
   double error = 0.0;
-  if (ef.position) error = (At(target_position_, e) - At(fk.tip, e)).norm();
+  if (ef.position) error = (At(d.target_position, e) - At(fk.tip, e)).norm();
   if (ef.orientation && !(position_only && ef.position)) {
-    const double angle = RotationVector(At(target_orientation_, e) * At(fk.global, ef.bone).conjugate()).norm();
-    error = std::max(error, ls_ * angle);
+    const double angle = RotationVector(At(d.target_orientation, e) * At(fk.global, ef.bone).conjugate()).norm();
+    error = std::max(error, m.ls * angle);
   }
   return error;
 }
 
-Solver::Cost Solver::Evaluate(const Fk& fk, double* residual) const {
+Cost EvaluateCost(const Model& m, const Data& d, const Fk& fk, double* residual) {
   Cost cost;
-  for (int e = 0; e < effector_count_; ++e) {
-    const Effector& ef = At(effectors_, e);
+  for (int e = 0; e < m.effector_count; ++e) {
+    const Effector& ef = At(m.effectors, e);
     double* r = residual + ef.row;
     double position = 0.0, orientation = 0.0;
     if (ef.position) {
-      const Vec3 d = At(target_position_, e) - At(fk.tip, e);
-      position = d.norm();
+      const Vec3 delta = At(d.target_position, e) - At(fk.tip, e);
+      position = delta.norm();
       Eigen::Map<Vec3> out(r);
-      out = ef.sqrt_weight * d;
+      out = ef.sqrt_weight * delta;
       r += 3;
     }
     if (ef.orientation) {
-      const Vec3 w = RotationVector(At(target_orientation_, e) * At(fk.global, ef.bone).conjugate());
-      orientation = ls_ * w.norm();
+      const Vec3 w = RotationVector(At(d.target_orientation, e) * At(fk.global, ef.bone).conjugate());
+      orientation = m.ls * w.norm();
       Eigen::Map<Vec3> out(r);
-      out = (ef.sqrt_weight * ls_) * w;
+      out = (ef.sqrt_weight * m.ls) * w;
     }
     const double weighted = ef.sqrt_weight * ef.sqrt_weight;
     cost.task += weighted * (position * position + orientation * orientation);
     (ef.pin ? cost.pins : cost.worst) = std::max({ef.pin ? cost.pins : cost.worst, position, orientation});
   }
-  if (balance_) {
-    // Zero rows while the centre of mass is inside: the level is then left out.
-    Eigen::Map<Vec3> out(residual + com_.row);
-    Vec3 target;
-    out.setZero();
-    if (BalanceTarget(fk.com, target)) {
-      const Vec3 d = target - fk.com;
-      cost.balance = d.norm();
-      if (BalanceEnforced()) {
-        out = com_.sqrt_weight * d;
-        cost.task += com_.sqrt_weight * com_.sqrt_weight * d.squaredNorm();
-        cost.worst = std::max(cost.worst, cost.balance);
-      }
-    }
-  }
+  if (m.balance.enabled) EvaluateBalance(m, d, fk, residual, cost);
   if (!std::isfinite(cost.task)) cost.worst = kInf;
   return cost;
 }
 
-// Where each unknown stands from the reference, in its column's units (rho),
-// and the regulariser's cost.
-double Solver::Regulariser(const Pose& pose, double* rho) const {
+double MeasurePrior(const Model& m, const Data& d, const Pose& pose, double* offset) {
   double sum = 0.0;
-  if (translate_) {
-    const Vec3 d = pose.root - reference_.root;
-    for (int k = 0; k < 3; ++k) rho[k] = d[k];
-    sum += d.squaredNorm() * columns_[0].metric;
+  if (m.translate) {
+    const Vec3 delta = pose.root - d.reference.root;
+    for (int k = 0; k < 3; ++k) offset[k] = delta[k];
+    sum += delta.squaredNorm() * m.columns[0].metric;
   }
-  for (const Joint& j : joints_) {
+  for (const Joint& j : m.joints) {
     if (j.axis_count > 0) {
-      const Vec3 d = RotationVector(At(pose.basis, j.bone) * At(reference_.basis, j.bone).conjugate());
+      const Vec3 turn = RotationVector(At(pose.basis, j.bone) * At(d.reference.basis, j.bone).conjugate());
       for (int k = 0; k < j.axis_count; ++k) {
-        const double v = d[j.axes[static_cast<std::size_t>(k)]];
-        rho[j.first_column + k] = v;
+        const double v = turn[j.axes[static_cast<std::size_t>(k)]];
+        offset[j.first_column + k] = v;
         sum += StageCost(j.stage) * v * v;
       }
     }
     if (j.stretch_column >= 0) {
-      const double d = At(pose.scale, j.bone) - At(reference_.scale, j.bone);
-      rho[j.stretch_column] = d;
-      sum += StageCost(j.stage) * d * d;
-    }
-  }
-  return sum;
-}
-
-double Solver::RegulariserCost(const Pose& pose) const {
-  double sum = 0.0;
-  if (translate_) sum += (pose.root - reference_.root).squaredNorm() * columns_[0].metric;
-  for (const Joint& j : joints_) {
-    if (j.axis_count > 0) {
-      const Vec3 d = RotationVector(At(pose.basis, j.bone) * At(reference_.basis, j.bone).conjugate());
-      for (int k = 0; k < j.axis_count; ++k) {
-        sum += StageCost(j.stage) * d[j.axes[static_cast<std::size_t>(k)]] * d[j.axes[static_cast<std::size_t>(k)]];
-      }
-    }
-    if (j.stretch_column >= 0) {
-      const double d = At(pose.scale, j.bone) - At(reference_.scale, j.bone);
-      sum += StageCost(j.stage) * d * d;
+      const double s = At(pose.scale, j.bone) - At(d.reference.scale, j.bone);
+      offset[j.stretch_column] = s;
+      sum += StageCost(j.stage) * s * s;
     }
   }
   return sum;

@@ -1,0 +1,116 @@
+// Recruitment by stages around the Jacobian methods' loop, and a frame's solve's start and end (the
+// posture settled, the pins polished, or the last pose that met them).
+#include "solver.hpp"
+
+namespace motionkit::ik_internal {
+
+namespace {
+
+// The later stages join where the last frame's solve had them (its
+// corrections on this frame's input), not from the input: a target out of
+// the limbs' reach on frame after frame is then met by a spine and hips that
+// go on from where they were, rather than found again from the input each
+// frame (a search that ends a little differently each time: popping). The
+// pinned chains come along, their corrections having gone with the hips'.
+void CarryLaterStages(const Model& m, Data& d) {
+  if (!(m.options.warm_start && d.warm.have_last)) return;
+  d.trial = d.current;
+  if (m.translate && m.columns[0].stage > 0) d.trial.root = d.input.root + d.warm.last.root;
+  for (int jo = 0; jo < static_cast<int>(m.joints.size()); ++jo) {
+    const Joint& j = At(m.joints, jo);
+    if (j.stage == 0 && !j.pinned_chain) continue;
+    At(d.trial.basis, j.bone) = (At(d.warm.last.basis, j.bone) * At(d.input.basis, j.bone)).normalized();
+    At(d.trial.scale, j.bone) = At(d.warm.last.scale, j.bone);
+    ClampJoint(m, d, jo, d.trial);
+  }
+  ForwardKinematics(m, d.trial, d.trial_fk);
+  ForwardKinematics(m, d.current, d.fk);
+  const Cost carried = EvaluateCost(m, d, d.trial_fk, d.buffers.trial_residual.data());
+  const Cost here = EvaluateCost(m, d, d.fk, d.buffers.residual.data());
+  if (carried.pins <= std::max(here.pins, PinSlack(m))) AcceptTrial(d);
+}
+
+// Pins come first: back to the last iterate that met them, or else to the
+// frame's input (which meets them by definition) brought into the limits, if
+// that holds them better than where the solve ended (limits are never broken:
+// a pin a limit forbids is met as nearly as it allows).
+void FallBackToPinnedPose(const Model& m, Data& d, const Cost& cost) {
+  d.trial = d.fallback.have ? d.fallback.pose : d.input;
+  ClampJoints(m, d, d.trial);
+  ForwardKinematics(m, d.trial, d.trial_fk);
+  if (d.fallback.have || EvaluateCost(m, d, d.trial_fk, d.buffers.trial_residual.data()).pins < cost.pins) {
+    d.current.root = d.trial.root;
+    for (const Joint& j : m.joints) {
+      At(d.current.basis, j.bone) = At(d.trial.basis, j.bone);
+      At(d.current.scale, j.bone) = At(d.trial.scale, j.bone);
+    }
+  }
+  ForwardKinematics(m, d.current, d.fk);
+}
+
+}  // namespace
+
+// Recruitment: the joints of stage 0 first; while a target (or the balance)
+// stays unmet, the later stages' joints join, from where the input has them,
+// so that a reachable target never moves them.
+//
+// Each stage has max_iterations, less a few kept back (with priorities and
+// pins) for the pins' polish at the end: without stages, a frame never takes
+// more than max_iterations.
+int SolveStaged(const Model& m, Data& d) {
+  StartStagedSolve(m, d);
+  const int max_iterations = m.options.max_iterations;
+  const int reserve = m.priorities && m.pinned ? std::min(16, max_iterations / 4) : 0;
+  int iterations = 0, last = 0;
+  // The first stage alone, then (if a target or the balance is left unmet)
+  // every stage at once: within it each later stage's unknowns cost ten times
+  // the last's (StageCost), so the spine still gives before the hips, without
+  // a solve per stage and a jump from one to the next.
+  for (d.stage = 0; d.stage < m.stages; d.stage = d.stage == 0 && m.stages > 1 ? m.stages - 1 : m.stages) {
+    if (d.stage > 0) CarryLaterStages(m, d);
+    last = SolveJacobian(m, d, max_iterations - reserve);
+    iterations += last;
+    ForwardKinematics(m, d.current, d.fk);
+    const Cost cost = EvaluateCost(m, d, d.fk, d.buffers.residual.data());
+    if (cost.worst <= m.tolerance && cost.balance <= m.tolerance) break;
+  }
+  d.stage = std::min(d.stage, m.stages - 1);  // the stage that ended it: its holds and balance for the polish
+  d.ended_stage = d.stage;
+  // The first pass settles once later stages have joined (their null space is
+  // the large one). Within the limbs' reach it leaves the posture to the warm
+  // start: settled arms carried on to the next frames stalled short of
+  // targets the arm alone reaches (walk60's lab clip: six frames missed by 1
+  // to 3 cm).
+  return iterations + SettleAndMeetPins(m, d, max_iterations - last, d.stage > 0);
+}
+
+void StartStagedSolve(const Model& m, Data& d) {
+  d.fallback.have = false;
+  d.levels.balance_active = false;
+  ForwardKinematics(m, d.current, d.fk);
+  const Cost start = EvaluateCost(m, d, d.fk, d.buffers.residual.data());
+  if (m.priorities && start.pins <= m.pin_tolerance && start.balance <= m.tolerance) {
+    RememberPinnedIterate(m, d, d.current);
+  }
+}
+
+int SettleAndMeetPins(const Model& m, Data& d, int budget, bool settle) {
+  Cost cost = EvaluateCost(m, d, d.fk, d.buffers.residual.data());
+  int iterations = settle ? SettlePosture(m, d, cost, m.options.max_iterations / 2) : 0;
+  if (m.priorities && cost.pins > m.pin_tolerance) iterations += PolishPins(m, d, cost, budget);
+  if (m.priorities && cost.pins > m.pin_tolerance) FallBackToPinnedPose(m, d, cost);
+  d.stage = m.stages - 1;
+  d.fallback.have = false;
+  return iterations;
+}
+
+void RememberPinnedIterate(const Model& m, Data& d, const Pose& pose) {
+  d.fallback.pose.root = pose.root;
+  for (const Joint& j : m.joints) {
+    At(d.fallback.pose.basis, j.bone) = At(pose.basis, j.bone);
+    At(d.fallback.pose.scale, j.bone) = At(pose.scale, j.bone);
+  }
+  d.fallback.have = true;
+}
+
+}  // namespace motionkit::ik_internal
