@@ -7,7 +7,8 @@ namespace {
 
 void SizeBuffers(const Model& m, StepBuffers& b) {
   const auto rows = static_cast<std::size_t>(m.rows), cols = static_cast<std::size_t>(m.cols);
-  for (std::vector<double>* v : {&b.residual, &b.trial_residual, &b.y, &b.linear_change, &b.held_residual}) {
+  for (std::vector<double>* v :
+       {&b.residual, &b.trial_residual, &b.effector_system, &b.linear_change, &b.held_residual}) {
     v->assign(rows, 0.0);
   }
   b.gram.assign(rows * rows, 0.0);
@@ -38,8 +39,8 @@ void SizeSecondPass(const Model& m, SecondPass& s) {
 }  // namespace
 
 Data::Data(const Model& m) {
-  for (Pose* p : {&input, &current, &trial, &reference, &warm.last, &warm.earlier, &fallback.pose, &ccd.best, &ccd.previous,
-                  &correction.pose}) {
+  for (Pose* p : {&input, &current, &trial, &reference, &warm.last, &warm.earlier, &fallback.pose, &ccd.best,
+                  &ccd.previous, &correction.pose}) {
     *p = MakePose(m);
   }
   for (Fk* f : {&fk, &trial_fk, &correction.fk}) *f = MakeFk(m);
@@ -67,7 +68,9 @@ Data::Data(const Model& m) {
   bounds.coordinates.assign(joints, Vec3::Zero());
   levels.rows.assign(rows, 0);
   levels.held_rows.assign(rows, 0);
-  for (std::vector<double>* v : {&levels.held_gram, &levels.held_solve, &levels.level_gram}) v->assign(rows * rows, 0.0);
+  for (std::vector<double>* v : {&levels.held_gram, &levels.held_solve, &levels.level_gram}) {
+    v->assign(rows * rows, 0.0);
+  }
   levels.level_rhs.assign(2 * rows, 0.0);
   if (m.balance.enabled) SizeBalance(m, *this);
   const auto points = static_cast<std::size_t>(3 + m.effector_count);

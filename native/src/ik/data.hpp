@@ -45,7 +45,7 @@ struct Block {
 struct StepBuffers {
   std::vector<double> residual;        // rows: e, the weighted residual at the current pose
   std::vector<double> trial_residual;  // rows: at the trial pose
-  std::vector<double> y;               // rows: the system's right-hand side, solved in place into y
+  std::vector<double> effector_system;  // rows: the right-hand side, solved in place into y
   std::vector<double> linear_change;   // rows: A times a step (the change the linear model predicts)
   std::vector<double> step;            // columns: u, the step to try
   std::vector<double> prior_step;      // columns: u0, the posture prior's share of a DLS step

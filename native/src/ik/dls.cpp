@@ -125,7 +125,7 @@ bool SolveEffectorSpace(const Model& m, Data& d) {
   }
   Gram(m, d, true, 1.0);
   if (!Cholesky(d.buffers.gram.data(), m.rows)) return false;
-  CholeskySolve(d.buffers.gram.data(), m.rows, d.buffers.y.data());
+  CholeskySolve(d.buffers.gram.data(), m.rows, d.buffers.effector_system.data());
   return true;
 }
 
@@ -141,11 +141,12 @@ bool DlsStep(const Model& m, Data& d, double lambda2, double mu) {
   PriorStep(m, d, lambda2, mu);
   MultiplyA(m, d, b.prior_step.data(), b.linear_change.data());
   for (int i = 0; i < m.rows; ++i) {
-    At(b.y, i) = At(b.residual, i) - (b.holding ? At(b.held_residual, i) : 0.0) - At(b.linear_change, i);
+    const double held = b.holding ? At(b.held_residual, i) : 0.0;
+    At(b.effector_system, i) = At(b.residual, i) - held - At(b.linear_change, i);
   }
   WeighBlocks(m, d);
   if (!SolveEffectorSpace(m, d)) return false;
-  MultiplyAt(m, d, b.y.data(), b.at_y.data());
+  MultiplyAt(m, d, b.effector_system.data(), b.at_y.data());
   MultiplyW(m, d, b.at_y.data(), b.step.data());
   for (int j = 0; j < m.cols; ++j) At(b.step, j) += At(b.prior_step, j);
   return AllFinite(b.step);

@@ -48,9 +48,9 @@ double BendDirection(const Model& m, Data& d) {
   for (int i = 0; i < m.rows; ++i) trace += b.gram[static_cast<std::size_t>(i * m.rows + i)];
   Gram(m, d, false, 1e-9 * trace / m.rows + 1e-300);
   if (Cholesky(b.gram.data(), m.rows)) {
-    MultiplyA(m, d, b.direction.data(), b.y.data());
-    CholeskySolve(b.gram.data(), m.rows, b.y.data());
-    MultiplyAt(m, d, b.y.data(), b.at_y.data());
+    MultiplyA(m, d, b.direction.data(), b.effector_system.data());
+    CholeskySolve(b.gram.data(), m.rows, b.effector_system.data());
+    MultiplyAt(m, d, b.effector_system.data(), b.at_y.data());
     double left = 0.0;
     for (int j = 0; j < m.cols; ++j) left = std::max(left, std::abs(At(b.direction, j) - At(b.at_y, j)));
     if (left > 1e-3) {  // else the bend lies in the Jacobian's range: keep it as it is

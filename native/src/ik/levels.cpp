@@ -62,7 +62,7 @@ bool ProjectOutHeldRows(const Model& m, Data& d, int count, int held) {
 // One level's increment, in the null space of the `held` rows above it: adds to y.
 bool SolveLevel(const Model& m, Data& d, int count, int held, const double* rhs) {
   LevelScratch& lv = d.levels;
-  std::vector<double>& y = d.buffers.y;
+  std::vector<double>& y = d.buffers.effector_system;
   const std::vector<double>& s = d.buffers.gram;
   const auto at = [n = m.rows](int i, int j) { return static_cast<std::size_t>(i * n + j); };
   double* r = lv.level_rhs.data();
@@ -95,8 +95,8 @@ bool SolveLevel(const Model& m, Data& d, int count, int held, const double* rhs)
 bool SolveLevels(const Model& m, Data& d) {
   LevelScratch& lv = d.levels;
   double* rhs = lv.level_rhs.data() + m.rows;
-  std::copy(d.buffers.y.begin(), d.buffers.y.end(), rhs);
-  std::fill(d.buffers.y.begin(), d.buffers.y.end(), 0.0);
+  std::copy(d.buffers.effector_system.begin(), d.buffers.effector_system.end(), rhs);
+  std::fill(d.buffers.effector_system.begin(), d.buffers.effector_system.end(), 0.0);
   // Once the balance has been a level this frame it stays one (holding the
   // centre of mass where it is when inside): an inequality that comes and
   // goes from one step to the next makes the steps chatter.

@@ -7,9 +7,9 @@ bool PseudoInverseStep(const Model& m, Data& d, double eps) {
   StepBuffers& b = d.buffers;
   Gram(m, d, false, eps);
   if (!Cholesky(b.gram.data(), m.rows)) return false;
-  std::copy(b.residual.begin(), b.residual.end(), b.y.begin());
-  CholeskySolve(b.gram.data(), m.rows, b.y.data());
-  MultiplyAt(m, d, b.y.data(), b.step.data());
+  std::copy(b.residual.begin(), b.residual.end(), b.effector_system.begin());
+  CholeskySolve(b.gram.data(), m.rows, b.effector_system.data());
+  MultiplyAt(m, d, b.effector_system.data(), b.step.data());
   return AllFinite(b.step);
 }
 

@@ -138,7 +138,8 @@ int SettlePosture(const Model& m, Data& d, Cost& cost, int budget) {
     const bool stepped = StepToTrial(m, d, m.lambda * m.lambda, m.mu, true, next);
     d.settle_gain = 0.0;
     if (!stepped) break;
-    SecondOrderCorrection(m, d, next, false);  // back onto what the levels hold (the step is theirs only to first order)
+    // Back onto what the levels hold (the step is theirs only to first order).
+    SecondOrderCorrection(m, d, next, false);
     fresh = false;
     const double next_prior = MeasurePrior(m, d, d.trial, b.trial_prior_offset.data());
     if (std::isfinite(next_prior) && next_prior < prior && next.worst <= worst && next.pins <= pins &&

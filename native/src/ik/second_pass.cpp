@@ -42,11 +42,14 @@ double LowPass(const Model& m, Data& d, Eigen::Index i, Eigen::Index n, Vec3& ro
     root += w * s.root_shifts[at];
     stage = std::max(stage, s.end_stages[at]);
     for (std::size_t jo = 0; jo < joints; ++jo) {
-      s.rotation_sum[jo] += w * RotationVector(s.corrections[own * joints + jo].conjugate() * s.corrections[at * joints + jo]);
+      const Quat& mine = s.corrections[own * joints + jo];
+      s.rotation_sum[jo] += w * RotationVector(mine.conjugate() * s.corrections[at * joints + jo]);
       s.scale_sum[jo] += w * s.correction_scales[at * joints + jo];
     }
     for (std::size_t e = 0; e < effectors; ++e) {
-      if (missed(k, e) && (missed(k - 1, e) || missed(k + 1, e))) s.shift_sum[e] += w * s.shortfalls[at * effectors + e];
+      if (missed(k, e) && (missed(k - 1, e) || missed(k + 1, e))) {
+        s.shift_sum[e] += w * s.shortfalls[at * effectors + e];
+      }
     }
   }
   return total;
