@@ -140,7 +140,7 @@ void TryStep(const Model& m, Data& d, Attempt& t) {
   // The step's curvature took the pins off: one or two steps on the pins
   // alone put them back before it is judged.
   if (m.priorities && t.next.pins > m.pin_tolerance && SecondOrderCorrection(m, d, t.next)) {
-    BuildJacobian(m, d, d.fk);  // the blocks are the trial's now: back to this iterate's
+    BuildJacobian(m, d, d.fk);  // the correction built the blocks at the trial: back to this iterate
     ResetBounds(m, d, d.current);
   }
   if (t.mu > 0.0) t.next_prior = MeasurePrior(m, d, d.trial, d.buffers.trial_prior_offset.data());

@@ -98,13 +98,10 @@ Vec3 ClampToLimits(const Vec3& a, const Vec3& lo, const Vec3& hi) {
   return c;
 }
 
-void ClampJoint(const Model& m, const Data& d, int joint, Pose& pose) {
-  const Joint& j = At(m.joints, joint);
-  if (j.stretch_column >= 0) At(pose.scale, j.bone) = std::clamp(At(pose.scale, j.bone), j.min_scale, j.max_scale);
-  if (!j.limited) return;
+void ClampRotation(const Joint& j, const Vec3& lo, const Vec3& hi, Pose& pose) {
   Quat& q = At(pose.basis, j.bone);
   const Vec3 a = IkSwingTwist(q);
-  const Vec3 c = ClampToLimits(a, At(d.limit_lo, joint), At(d.limit_hi, joint));
+  const Vec3 c = ClampToLimits(a, lo, hi);
   if (c != a) q = IkFromSwingTwist(c);
 }
 

@@ -125,7 +125,17 @@ Cost EvaluateCost(const Model& m, const Data& d, const Fk& fk, double* residual)
 double MeasurePrior(const Model& m, const Data& d, const Pose& pose, double* offset);
 
 // ---- limits.cpp
-void ClampJoint(const Model& m, const Data& d, int joint, Pose& pose);
+// A limited joint's rotation into its limits (lo, hi: the frame's).
+void ClampRotation(const Joint& j, const Vec3& lo, const Vec3& hi, Pose& pose);
+// Inline: most joints of a rig are neither limited nor stretched, and every trial step clamps them all.
+inline void ClampJoint(const Model& m, const Data& d, int joint, Pose& pose) {
+  const Joint& j = m.joints[static_cast<std::size_t>(joint)];
+  double& scale = pose.scale[static_cast<std::size_t>(j.bone)];
+  if (j.stretch_column >= 0) scale = std::clamp(scale, j.min_scale, j.max_scale);
+  if (j.limited) {
+    ClampRotation(j, d.limit_lo[static_cast<std::size_t>(joint)], d.limit_hi[static_cast<std::size_t>(joint)], pose);
+  }
+}
 void ClampJoints(const Model& m, const Data& d, Pose& pose);
 // Where a step starts: each limited joint's coordinates at `pose`, and only the later recruitment
 // stages' columns held.
