@@ -9,6 +9,7 @@ from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProp
 from bpy_extras.io_utils import ExportHelper, ImportHelper
 
 from . import common, contacts as contact_ui
+from ..blender import pose_channels
 from ..core import bone_mapping, display_names
 from ..features import bvh, control_rigs, retargeting, scene_timing
 
@@ -116,8 +117,8 @@ def _source_ready(settings) -> str:
 
 def _source_rig(settings):
     if settings.source_kind == 'BVH':
-        return bvh.mapping_rig(bpy.path.abspath(settings.bvh_path))
-    return retargeting.mapping_rig(settings.source)
+        return bvh.file_mapping_rig(bpy.path.abspath(settings.bvh_path))
+    return pose_channels.armature_mapping_rig(settings.source)
 
 
 def _poll_rigs(cls, context) -> bool:
@@ -197,7 +198,7 @@ class MOTIONKIT_OT_bone_map_auto(bpy.types.Operator):
 
     def execute(self, context):
         return _fill_map(self, context, lambda settings: bone_mapping.auto_map(
-            _source_rig(settings), retargeting.mapping_rig(settings.target)))
+            _source_rig(settings), pose_channels.armature_mapping_rig(settings.target)))
 
 
 def _scheme_items(self, context):
@@ -223,7 +224,7 @@ class MOTIONKIT_OT_bone_map_scheme(bpy.types.Operator):
 
     def execute(self, context):
         return _fill_map(self, context, lambda settings: bone_mapping.map_from_presets(
-            _source_rig(settings), self.source_scheme, retargeting.mapping_rig(settings.target), self.target_scheme))
+            _source_rig(settings), self.source_scheme, pose_channels.armature_mapping_rig(settings.target), self.target_scheme))
 
 
 class MOTIONKIT_OT_bone_map_save(bpy.types.Operator, ExportHelper):
