@@ -197,6 +197,9 @@ class MOTIONKIT_UL_ik_effectors(bpy.types.UIList):
 
 
 class _IkPanel(common.SidebarPanel):
+    """A panel under the IK panel, shown for an armature (Blender names each panel after its class)."""
+    bl_parent_id = "MOTIONKIT_PT_ik"
+
     @classmethod
     def poll(cls, context):
         return _armature(context) is not None
@@ -205,7 +208,6 @@ class _IkPanel(common.SidebarPanel):
 class MOTIONKIT_PT_ik(common.SidebarPanel, bpy.types.Panel):
     """The effectors, the active one's settings, Solve and Live."""
     bl_label = "Full-body IK"
-    bl_idname = "MOTIONKIT_PT_ik"
 
     def draw(self, context):
         layout = self.layout
@@ -250,8 +252,6 @@ class MOTIONKIT_PT_ik(common.SidebarPanel, bpy.types.Panel):
 
 class MOTIONKIT_PT_ik_solver(_IkPanel, bpy.types.Panel):
     bl_label = "Solver"
-    bl_idname = "MOTIONKIT_PT_ik_solver"
-    bl_parent_id = "MOTIONKIT_PT_ik"
     bl_options = {'DEFAULT_CLOSED'}
 
     def draw(self, context):
@@ -262,18 +262,13 @@ class MOTIONKIT_PT_ik_solver(_IkPanel, bpy.types.Panel):
         col.prop(settings, "max_iterations")
         col.prop(settings, "damping")
         col.prop(settings, "regularization")
-        col = layout.column(heading="Root")
-        col.prop(settings, "root_translation")
-        col.prop(settings, "root_rotation")
-        col = layout.column(heading="Joints")
-        col.prop(settings, "use_limits")
+        common.draw_groups(layout, settings, (("Root", ("root_translation", "root_rotation")),
+                                              ("Joints", ("use_limits",))))
 
 
 class MOTIONKIT_PT_ik_natural(_IkPanel, bpy.types.Panel):
     """Natural defaults and balance: what they are on this rig, and their settings."""
     bl_label = "Natural Defaults"
-    bl_idname = "MOTIONKIT_PT_ik_natural"
-    bl_parent_id = "MOTIONKIT_PT_ik"
     bl_options = {'DEFAULT_CLOSED'}
 
     def draw(self, context):
@@ -301,8 +296,6 @@ class MOTIONKIT_PT_ik_natural(_IkPanel, bpy.types.Panel):
 
 class MOTIONKIT_PT_ik_bake(_IkPanel, bpy.types.Panel):
     bl_label = "Bake"
-    bl_idname = "MOTIONKIT_PT_ik_bake"
-    bl_parent_id = "MOTIONKIT_PT_ik"
 
     def draw(self, context):
         settings = _armature(context).motionkit_ik

@@ -316,7 +316,6 @@ def _labelled(layout, text):
 
 class MOTIONKIT_PT_retarget(common.SidebarPanel, bpy.types.Panel):
     bl_label = "Retarget"
-    bl_idname = "MOTIONKIT_PT_retarget"
 
     def draw(self, context):
         settings = context.scene.motionkit_retarget
@@ -338,11 +337,14 @@ class MOTIONKIT_PT_retarget(common.SidebarPanel, bpy.types.Panel):
         layout.operator("motionkit.retarget", icon='ARMATURE_DATA')
 
 
-class MOTIONKIT_PT_retarget_map(common.SidebarPanel, bpy.types.Panel):
+class RetargetSubPanel(common.SidebarPanel):
+    """A panel under the Retarget panel (Blender names each panel after its class)."""
+    bl_parent_id = "MOTIONKIT_PT_retarget"
+
+
+class MOTIONKIT_PT_retarget_map(RetargetSubPanel, bpy.types.Panel):
     """The bone map: names side by side, the shared prefixes said once, the picked pair's fields below."""
     bl_label = "Bone Map"
-    bl_idname = "MOTIONKIT_PT_retarget_map"
-    bl_parent_id = "MOTIONKIT_PT_retarget"
 
     def draw(self, context):
         settings = context.scene.motionkit_retarget
@@ -374,11 +376,9 @@ class MOTIONKIT_PT_retarget_map(common.SidebarPanel, bpy.types.Panel):
             _draw_bone_field(col, item, "target", settings.target, "Target Bone")
 
 
-class MOTIONKIT_PT_retarget_controls(common.SidebarPanel, bpy.types.Panel):
+class MOTIONKIT_PT_retarget_controls(RetargetSubPanel, bpy.types.Panel):
     """What the target is (a control rig MotionKit recognises, or bones), and how its limbs are keyed."""
     bl_label = "Controls"
-    bl_idname = "MOTIONKIT_PT_retarget_controls"
-    bl_parent_id = "MOTIONKIT_PT_retarget"
 
     def draw(self, context):
         settings = context.scene.motionkit_retarget
@@ -398,10 +398,8 @@ class MOTIONKIT_PT_retarget_controls(common.SidebarPanel, bpy.types.Panel):
         layout.prop(settings, "control_map", text="")
 
 
-class MOTIONKIT_PT_retarget_options(common.SidebarPanel, bpy.types.Panel):
+class MOTIONKIT_PT_retarget_options(RetargetSubPanel, bpy.types.Panel):
     bl_label = "Options"
-    bl_idname = "MOTIONKIT_PT_retarget_options"
-    bl_parent_id = "MOTIONKIT_PT_retarget"
 
     def draw(self, context):
         settings = context.scene.motionkit_retarget
@@ -417,23 +415,14 @@ class MOTIONKIT_PT_retarget_options(common.SidebarPanel, bpy.types.Panel):
         col.prop(settings, "floor_root")
         if settings.floor_root == "extract":
             col.prop(settings, "root_smoothing")
-        col = layout.column(heading="Feet")
-        col.prop(settings, "ground")
-        col.prop(settings, "floor_fit")
-        col = layout.column(heading="Motion")
-        col.prop(settings, "align_facing")
+        common.draw_groups(layout, settings, (("Feet", ("ground", "floor_fit")), ("Motion", ("align_facing",))))
         common.draw_frame_range(layout, settings, "use_frame_range", "Source")
-        col = layout.column(heading="Scene")
-        col.prop(settings, "scene_from_clip")
-        col = layout.column(heading="Action")
-        col.prop(settings, "overwrite")
+        common.draw_groups(layout, settings, (("Scene", ("scene_from_clip",)), ("Action", ("overwrite",))))
 
 
-class MOTIONKIT_PT_retarget_feet(common.SidebarPanel, bpy.types.Panel):
+class MOTIONKIT_PT_retarget_feet(RetargetSubPanel, bpy.types.Panel):
     """Planted feet: contacts detected on the source and held on the target; their thresholds."""
     bl_label = "Plant Feet"
-    bl_idname = "MOTIONKIT_PT_retarget_feet"
-    bl_parent_id = "MOTIONKIT_PT_retarget"
     bl_options = {'DEFAULT_CLOSED'}
 
     def draw_header(self, context):

@@ -36,7 +36,7 @@ def subject(mk, walk60, name):
         spec = getattr(characters, {"MixamoT": "MIXAMO_T", "RigifyA": "RIGIFY_A", "UnrealA": "UNREAL_A"}[name])
         obj = generate.build_armature(spec)
         generate.add_walk(obj, spec, mk.animdata)
-    labels = module(mk, "core.bone_mapping").classify(module(mk, "blender.pose_channels").mapping_rig(obj))
+    labels = module(mk, "core.bone_mapping").classify(module(mk, "blender.pose_channels").armature_mapping_rig(obj))
     return obj, labels
 
 
