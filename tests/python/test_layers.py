@@ -79,3 +79,12 @@ def test_no_layer_below_ui_reads_the_uis_properties(layer):
         read = {node.attr for node in ast.walk(tree) if isinstance(node, ast.Attribute)} | \
             {node.value for node in ast.walk(tree) if isinstance(node, ast.Constant) and isinstance(node.value, str)}
         assert not read & registered, f"{os.path.relpath(path, ADDON)} reads {sorted(read & registered)}"
+
+
+@pytest.mark.parametrize("layer", [layer for layer in LAYERS if layer != "blender"])
+def test_only_blender_reads_or_writes_blender_data_in_bulk(layer):
+    """foreach_get and foreach_set, Blender's bulk access, appear in blender/ only."""
+    for path in _modules(layer):
+        tree = ast.parse(open(path, encoding="utf-8").read(), path)
+        bulk = {node.attr for node in ast.walk(tree) if isinstance(node, ast.Attribute)} & {"foreach_get", "foreach_set"}
+        assert not bulk, f"{os.path.relpath(path, ADDON)} calls {sorted(bulk)}"
