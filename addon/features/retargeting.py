@@ -520,7 +520,9 @@ def plan(source, target, bone_map=None, frame_range=None, root: str = "scaled", 
     # The source's contacts, needed to plant feet or to put them on the floor, need only the source's pose.
     wants_feet = plant_feet or (floor_fit != "off" and root != "none")
     feet = (_feet(src, rigs.src_body), _feet(tgt, rigs.tgt_body)) if wants_feet else (None, None)
-    rotations, root_locations, found = _retarget_clip(rigs, clip, fit, root, ground, feet[0], contact_settings)
+    # The source's contacts count only where both rigs have feet.
+    rotations, root_locations, found = _retarget_clip(rigs, clip, fit, root, ground,
+                                                      None if None in feet else feet[0], contact_settings)
     _share_twist(tgt, rigs.tgt_body, rotations, {b for _, b in rigs.pairs_idx})
     locations, located, mode = _place_roots(rigs, clip, fit, rotations, root_locations, root, floor_root,
                                             root_smoothing)
