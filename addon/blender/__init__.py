@@ -1,2 +1,4 @@
-"""The only code that reads or writes Blender data in bulk: actions and their keys in every Blender's
-world (animdata), and armatures' pose channels and rigs (pose_channels)."""
+"""The only code that reads or writes Blender data in bulk (foreach_get, foreach_set, key arrays; a test
+checks): actions, their keys and frame rates in every Blender's world (animdata), armatures' hierarchy,
+rest poses, pose channels and native rigs (pose_channels), and motion files through Blender's importers,
+taken back whole on failure (imports)."""

@@ -45,6 +45,26 @@ class Channel(tuple):
         return f"{self[0]}[{self[1]}]"
 
 
+# An action's custom property: the frames per second its keys were captured at, when that is known (a BVH
+# import records it); speeds and smoothing in seconds need it when the scene plays the clip at another rate.
+FRAME_RATE = "motionkit_frame_rate"
+
+
+def frame_rate(action) -> float:
+    """Frames per second of an action's keys: as captured (FRAME_RATE), else the scene's."""
+    rate = action.get(FRAME_RATE) if action is not None else None
+    if rate is not None and float(rate) > 0:
+        return float(rate)
+    render = bpy.context.scene.render
+    return render.fps / render.fps_base
+
+
+def record_frame_rate(action, rate: float) -> None:
+    """Keep the frames per second of action's keys on it (FRAME_RATE), when known (positive)."""
+    if rate > 0:
+        action[FRAME_RATE] = rate
+
+
 def new_action(name: str) -> bpy.types.Action:
     return bpy.data.actions.new(name)
 
@@ -360,6 +380,17 @@ def _pack(native, id_data, channels, frames, values, what: str = "") -> np.ndarr
     return co
 
 
+def holds_every_key(fcurve: bpy.types.FCurve) -> bool:
+    """Whether every key of fcurve holds its value until the next (CONSTANT interpolation), as a 0/1 foot
+    contact does."""
+    points = fcurve.keyframe_points
+    if not len(points) or points[0].interpolation != 'CONSTANT':
+        return False
+    codes = np.empty(len(points), dtype=np.int32)
+    points.foreach_get("interpolation", codes)  # the enum's storage: equal codes, equal interpolation
+    return bool(np.all(codes == codes[0]))
+
+
 def read_keys(fcurve: bpy.types.FCurve) -> tuple[np.ndarray, np.ndarray]:
     """(frames, values) of every key, as float32 arrays exactly as Blender stores them."""
     points = fcurve.keyframe_points
@@ -368,11 +399,12 @@ def read_keys(fcurve: bpy.types.FCurve) -> tuple[np.ndarray, np.ndarray]:
 
 
 def sample(action: bpy.types.Action, id_data: bpy.types.ID, channels: Iterable,
-           frames) -> tuple[np.ndarray, np.ndarray]:
+           frames, static=None) -> tuple[np.ndarray, np.ndarray]:
     """Values of the action's curves for channels at frames: (values (c, n), found (c,)).
 
-    Channels without a curve come back as NaN with found False, so the caller
-    picks the default (usually the property's static value). Constant, linear
+    Channels without a curve come back with found False, holding their static
+    value (static: (c,), usually the properties' own values) on every frame,
+    or NaN when static is None. Constant, linear
     and Bezier keys are evaluated natively, as fcurve.evaluate would; curves
     with modifiers or easing keys go through fcurve.evaluate itself.
     """
@@ -416,4 +448,6 @@ def sample(action: bpy.types.Action, id_data: bpy.types.ID, channels: Iterable,
         interp = np.concatenate([k[1] for k in keys])
         linear = np.array([k[2] for k in keys], dtype=np.int32)
         values[native_rows] = native.evaluate_fcurves(co, left, right, interp, offsets, linear, frames)
+    if static is not None:
+        values[~found] = np.asarray(static, dtype=np.float64).reshape(-1)[~found, None]
     return values, found

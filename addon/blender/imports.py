@@ -1,4 +1,5 @@
-"""Motion files read through Blender's own importers (FBX, glTF), leaving nothing behind on failure.
+"""Motion files read through Blender's own importers (FBX, glTF), leaving nothing behind on failure, and an
+imported armature taken away again.
 
 Blender's importers are operators that add whatever the file holds (meshes,
 materials, images, several armatures, one action per take); MotionKit keeps
@@ -34,6 +35,17 @@ def remove(added: dict[str, list]) -> None:
                 collection.remove(item)
             except ReferenceError:  # already gone with something removed before it
                 pass
+
+
+def remove_armature(obj, action=None) -> None:
+    """Removes an armature object, its armature, and its action (action, else the one it plays) once nothing
+    else uses that."""
+    action = action if action is not None else animdata.assigned_action(obj)
+    armature = obj.data
+    bpy.data.objects.remove(obj)
+    bpy.data.armatures.remove(armature)
+    if action is not None and action.users == 0:
+        bpy.data.actions.remove(action)
 
 
 def _run_importer(path: str, kind: str) -> None:

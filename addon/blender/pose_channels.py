@@ -1,9 +1,9 @@
 """An armature's bones and pose channels as arrays: rest data and keyed motion, read in bulk.
 
-Shared by the BVH exporter and the retargeter: bones parents first, rest
-orientations in armature space, and the pose channels an action gives every
-bone on many frames (evaluated natively, as Blender evaluates them), as
-quaternions whatever each bone's rotation mode.
+The one place for what the features read off an armature: its bones parents first and their hierarchy,
+its rest pose (heads, tails, orientations, size) as numpy and as a native Rig, the pose channels an action
+gives every bone on many frames (evaluated natively, as Blender evaluates them), as quaternions whatever
+each bone's rotation mode, the bones' IK settings and their evaluated matrices.
 """
 from __future__ import annotations
 
@@ -23,14 +23,10 @@ def depth_first(armature) -> list:
     return order
 
 
-def mapping_rig(obj):
-    """The armature at rest as core.bone_mapping sees it."""
-    bones = depth_first(obj.data)
+def parent_indices(bones) -> list[int]:
+    """Each bone's parent as an index into bones, -1 for a bone whose parent is not among them."""
     index = {b.name: i for i, b in enumerate(bones)}
-    return bone_mapping.Rig(tuple(b.name for b in bones),
-                            tuple(index[b.parent.name] if b.parent else -1 for b in bones),
-                            np.array([b.head_local for b in bones], dtype=np.float64).reshape(-1, 3),
-                            np.array([b.tail_local for b in bones], dtype=np.float64).reshape(-1, 3))
+    return [index[b.parent.name] if b.parent is not None and b.parent.name in index else -1 for b in bones]
 
 
 def ancestors(bone) -> list:
@@ -42,9 +38,59 @@ def ancestors(bone) -> list:
     return out
 
 
+def is_below(bone, top) -> bool:
+    """Whether bone is top or hangs from it."""
+    return bone == top or top in ancestors(bone)
+
+
+def heads(bones) -> np.ndarray:
+    """The bones' rest heads in armature space (bones, 3)."""
+    return np.array([b.head_local for b in bones], dtype=np.float64).reshape(-1, 3)
+
+
+def tails(bones) -> np.ndarray:
+    """The bones' rest tails in armature space (bones, 3)."""
+    return np.array([b.tail_local for b in bones], dtype=np.float64).reshape(-1, 3)
+
+
+def rest_points(armature) -> np.ndarray:
+    """Every bone's rest head, then every tail, in the armature's own bone order (2 bones, 3), read in bulk."""
+    points = np.empty((2, 3 * len(armature.bones)))
+    armature.bones.foreach_get("head_local", points[0])
+    armature.bones.foreach_get("tail_local", points[1])
+    return points.reshape(-1, 3)
+
+
+def rig_size(armature) -> float:
+    """The diagonal of the box around the rest pose's heads and tails: the length the solvers' tolerances
+    scale with."""
+    return float(np.linalg.norm(np.ptp(rest_points(armature), axis=0)))
+
+
+def rest_matrices(armature) -> np.ndarray:
+    """Every bone's rest matrix in armature space as Blender stores it (float32, bones x 16), read in bulk."""
+    flat = np.empty(16 * len(armature.bones), dtype=np.float32)
+    armature.bones.foreach_get("matrix_local", flat)
+    return flat
+
+
+def armature_mapping_rig(obj):
+    """The armature at rest as core.bone_mapping sees it."""
+    bones = depth_first(obj.data)
+    return bone_mapping.Rig(tuple(b.name for b in bones), tuple(parent_indices(bones)), heads(bones), tails(bones))
+
+
 def bone_path(name: str) -> str:
     """The data path of a pose bone, for F-curves."""
     return f'pose.bones["{bpy.utils.escape_identifier(name)}"]'
+
+
+def frames_between(start, end) -> np.ndarray:
+    """The whole frames start..end (inclusive) as float64; ValueError when there are none."""
+    start, end = int(start), int(end)
+    if end < start:
+        raise ValueError(f"frame range {start}..{end} is empty")
+    return np.arange(start, end + 1, dtype=np.float64)
 
 
 def action_frames(action, frame_range=None) -> np.ndarray:
@@ -52,10 +98,7 @@ def action_frames(action, frame_range=None) -> np.ndarray:
     if frame_range is None:
         start, end = action.frame_range
         frame_range = (int(np.floor(start + 1e-6)), int(np.ceil(end - 1e-6)))
-    start, end = (int(v) for v in frame_range)
-    if end < start:
-        raise ValueError(f"frame range {start}..{end} is empty")
-    return np.arange(start, end + 1, dtype=np.float64)
+    return frames_between(*frame_range)
 
 
 def rotation_keys(obj, names, q, *, placeholder: bool = False) -> tuple[list, np.ndarray]:
@@ -96,25 +139,18 @@ def rotation_keyer(obj, names):
     return keys
 
 
-def _parent_indices(bones) -> list[int]:
-    index = {b.name: i for i, b in enumerate(bones)}
-    return [index[b.parent.name] if b.parent is not None and b.parent.name in index else -1 for b in bones]
-
-
 def continuing_children(bones) -> np.ndarray:
     """(bones,) the index of the child that continues each of bones (parents first), -1 for none
     (core.bone_axes)."""
-    return bone_axes.continuing_children(np.array([b.head_local for b in bones], dtype=np.float64),
-                                         _parent_indices(bones))
+    return bone_axes.continuing_children(heads(bones), parent_indices(bones))
 
 
 def bone_aims(armature, bones, continuing=None) -> tuple[np.ndarray, np.ndarray] | None:
     """Where each of bones (parents first) points in its own rest frame, (bones, 3), and how far, for an
     armature whose bones' Y axes do not run along their limbs; None for one whose do (core.bone_axes)."""
     rest = rest_quaternions(armature)
-    return bone_axes.aims(np.array([b.head_local for b in bones], dtype=np.float64),
-                          np.array([b.tail_local for b in bones], dtype=np.float64),
-                          _parent_indices(bones), np.array([rest[b.name] for b in bones]), continuing)
+    return bone_axes.aims(heads(bones), tails(bones), parent_indices(bones), np.array([rest[b.name] for b in bones]),
+                          continuing)
 
 
 def rest_quaternions(armature) -> dict[str, np.ndarray]:
@@ -125,53 +161,49 @@ def rest_quaternions(armature) -> dict[str, np.ndarray]:
 def rotations(obj, action, bones, frames) -> np.ndarray:
     """Pose quaternions (frames, 4 * bones) from the action, in each bone's rotation mode."""
     native = native_state.native()
-    channels, kinds = [], []
+    channels, kinds, static = [], [], []
     for bone in bones:
         pose_bone = obj.pose.bones[bone.name]
-        path = bone_path(bone.name)
         mode = pose_bone.rotation_mode
         prop, size = rotation_channels.channel_property(mode)
-        static = tuple(getattr(pose_bone, prop))
-        kinds.append((mode, len(channels), static))
-        channels += [(f"{path}.{prop}", k) for k in range(size)]
-    values, found = animdata.sample(action, obj, channels, frames)
+        kinds.append((mode, len(channels), size))
+        channels += [(f"{bone_path(bone.name)}.{prop}", k) for k in range(size)]
+        static += tuple(getattr(pose_bone, prop))
+    values, _ = animdata.sample(action, obj, channels, frames, static)
     out = np.empty((frames.size, 4 * len(bones)))
-    for j, (mode, start, static) in enumerate(kinds):
-        size = len(static)
-        block = values[start:start + size].T.copy()
-        for k in range(size):
-            if not found[start + k]:
-                block[:, k] = static[k]
+    for j, (mode, start, size) in enumerate(kinds):
+        block = values[start:start + size].T
         q = rotation_channels.to_quaternions(native, mode, block, f"bone '{bones[j].name}' rotation", frames)
         out[:, 4 * j:4 * j + 4] = q
     return out
 
 
 def locations(obj, action, bones, frames) -> tuple[np.ndarray, list[bool]]:
-    channels = []
-    for bone in bones:
-        path = bone_path(bone.name)
-        channels += [(f"{path}.location", k) for k in range(3)]
-    values, found = animdata.sample(action, obj, channels, frames)
+    """Location channels (frames, 3 * bones) from the action, and per bone whether it moves at all."""
+    channels = [(f"{bone_path(bone.name)}.location", k) for bone in bones for k in range(3)]
     static = np.array([obj.pose.bones[bone.name].location for bone in bones], dtype=np.float64).reshape(-1)
-    # Curves where there are any, the pose's own location elsewhere; one transpose, not a column at a time.
-    out = np.ascontiguousarray(np.where(found[:, None], values, static[:, None]).T)
+    values, found = animdata.sample(action, obj, channels, frames, static)
+    out = np.ascontiguousarray(values.T)
     animated = (found.reshape(-1, 3).any(axis=1) | (static.reshape(-1, 3) != 0).any(axis=1)).tolist()
     return out, animated
 
 
+def build_rig(names, parents, rest, rest_heads, lengths):
+    """A native Rig from arrays: bone names and parent indices (parents first), rest orientations (bones,
+    4) w x y z, rest heads (bones, 3) and lengths (bones,)."""
+    return native_state.native().Rig(list(names), [int(p) for p in parents],
+                                     np.ascontiguousarray(rest, dtype=np.float64).reshape(-1, 4),
+                                     np.ascontiguousarray(rest_heads, dtype=np.float64).reshape(-1, 3),
+                                     np.ascontiguousarray(lengths, dtype=np.float64).reshape(-1))
+
+
 def native_rig(armature, bones=None):
     """The armature at rest as a native Rig (bones parents first), and that bone order."""
-    native = native_state.native()
     bones = bones if bones is not None else depth_first(armature)
-    index = {bone.name: i for i, bone in enumerate(bones)}
     rest = rest_quaternions(armature)
-    rest = {name: q / np.linalg.norm(q) for name, q in rest.items()}  # float32 matrices: unit to ~1e-6 only
-    rig = native.Rig([b.name for b in bones], [index[b.parent.name] if b.parent else -1 for b in bones],
-                     np.array([rest[b.name] for b in bones], dtype=np.float64).reshape(-1, 4),
-                     np.array([b.head_local for b in bones], dtype=np.float64).reshape(-1, 3),
-                     np.array([b.length for b in bones], dtype=np.float64))
-    return rig, bones
+    unit = [rest[b.name] / np.linalg.norm(rest[b.name]) for b in bones]  # float32 matrices: unit to ~1e-6 only
+    return build_rig([b.name for b in bones], parent_indices(bones), np.array(unit), heads(bones),
+                     [b.length for b in bones]), bones
 
 
 def armature_motion(obj, action, frames, rig=None, bones=None) -> tuple[np.ndarray, np.ndarray]:
@@ -211,6 +243,38 @@ def current_pose(obj, bones) -> tuple[np.ndarray, np.ndarray]:
                                                              f"'{obj.name}' pose rotation")
     order = [pose_bones.find(bone.name) for bone in bones]
     return quaternions[order], arrays["location"][order]
+
+
+def ik_settings(obj, bones) -> dict:
+    """The bones' IK settings (ik_min_*, ik_max_*, use_ik_limit_*, lock_ik_*, ik_stiffness_*, ik_stretch),
+    read in bulk, in the order of bones, as the native IK solve takes them."""
+    pose_bones = obj.pose.bones
+    order = [pose_bones.find(bone.name) for bone in bones]
+
+    def read(prop, dtype=np.float64):
+        values = np.empty(len(pose_bones), dtype=dtype)
+        pose_bones.foreach_get(prop, values)
+        return values[order]
+
+    def per_axis(pattern, dtype=np.float64):
+        return np.stack([read(pattern.format(axis), dtype) for axis in "xyz"], axis=1)
+
+    limited = per_axis("use_ik_limit_{}", bool)
+    stretch = read("ik_stretch")
+    scale_range = np.ones((len(bones), 2))
+    scale_range[stretch > 0] = (0.5, 2.0)
+    return {"limit_min": np.where(limited, per_axis("ik_min_{}"), -np.inf),
+            "limit_max": np.where(limited, per_axis("ik_max_{}"), np.inf),
+            "locked": per_axis("lock_ik_{}", bool), "stiffness": np.minimum(per_axis("ik_stiffness_{}"), 0.99),
+            "stretch": stretch, "scale_range": scale_range}
+
+
+def pose_matrices(obj) -> dict:
+    """Each pose bone's evaluated matrix in armature space ({name: (4, 4)} float64), read in bulk."""
+    flat = np.empty(16 * len(obj.pose.bones), dtype=np.float32)
+    obj.pose.bones.foreach_get("matrix", flat)
+    mats = flat.reshape(-1, 4, 4).transpose(0, 2, 1).astype(np.float64)  # Blender's matrices are column-major
+    return {pb.name: mats[i] for i, pb in enumerate(obj.pose.bones)}
 
 
 # Blender 5.0 moved bone selection from the armature's bones to the pose bones.

@@ -193,3 +193,26 @@ def between(a, b) -> np.ndarray:
         return np.concatenate([[0.0], axis / np.linalg.norm(axis)])
     q = np.concatenate([[w], np.cross(a, b)])
     return q / np.linalg.norm(q)
+
+
+def ik_swing_twist(q) -> np.ndarray:
+    """The IK's joint-limit coordinates (swing x, twist, swing z) of basis rotations q (n, 4): the native
+    IkSwingTwist (native/src/ik/limits.cpp) step for step, so that limits set from these coordinates are the
+    bounds the solver clamps. q = swing * twist, twist about Y in [-pi, pi] (its w made non-negative), swing
+    the rotation vector (x, 0, z); a half-turn swing has no twist: 0."""
+    q = np.asarray(q, dtype=np.float64)
+    tw, ty = q[:, 0].copy(), q[:, 2].copy()
+    n = np.hypot(tw, ty)
+    some = n > 1e-12
+    tw = np.where(some, tw / np.where(some, n, 1.0), 1.0)
+    ty = np.where(some, ty / np.where(some, n, 1.0), 0.0)
+    flip = np.where(tw < 0, -1.0, 1.0)
+    tw, ty = tw * flip, ty * flip
+    zero = np.zeros_like(tw)
+    swing = multiply(q, np.stack([tw, zero, -ty, zero], axis=1))
+    # RotationVector (native/src/so3.hpp): w made non-negative, angle in [0, pi].
+    swing *= np.where(swing[:, :1] < 0, -1.0, 1.0)
+    w, v = swing[:, 0], swing[:, 1:]
+    s = np.linalg.norm(v, axis=1)
+    scale = np.where(s < 1e-9, 2.0 / np.maximum(w, 1e-300), 2.0 * np.arctan2(s, w) / np.where(s < 1e-9, 1.0, s))
+    return np.stack([v[:, 0] * scale, 2.0 * np.arctan2(ty, tw), v[:, 2] * scale], axis=1)

@@ -11,30 +11,20 @@ through the same forward/up axis options as Blender's own importer.
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import bpy
 import numpy as np
 from bpy_extras.io_utils import axis_conversion
 from mathutils import Quaternion
 
-from ..blender import animdata, pose_channels
+from ..blender import animdata, imports, pose_channels
 from ..core import bone_mapping, frame_rates, native_state, rotation_channels
 
 ROTATION_MODES = ('QUATERNION', 'NATIVE', 'XYZ', 'XZY', 'YXZ', 'YZX', 'ZXY', 'ZYX')
-FRAME_RATE = "motionkit_frame_rate"  # an action's custom property: its keys' frames per second
 # An armature's custom property: its floor's height along its Z (a capture's floor is its origin's level,
 # wherever its rest pose stands: a root OFFSET of zero hangs the rest pose below it). Retargeting reads it.
 FLOOR = "motionkit_floor"
-
-
-def frame_rate(action) -> float:
-    """Frames per second of an action's keys: as captured (a BVH import records it), else the scene's."""
-    rate = action.get(FRAME_RATE) if action is not None else None
-    if rate is not None and float(rate) > 0:
-        return float(rate)
-    render = bpy.context.scene.render
-    return render.fps / render.fps_base
 
 
 @dataclass
@@ -148,7 +138,36 @@ def load(filepath: str, options: ImportOptions | None = None, *, context=None, n
     be read.
     """
     options = options or ImportOptions(**option_values)
-    native = native_state.native()
+    skeleton, motion = _read_file(filepath, options)
+    context = context or bpy.context
+    scene = context.scene
+    name = name or os.path.splitext(os.path.basename(os.fspath(filepath)))[0]
+    heads, tails = _rest_bones(skeleton, options)
+    obj = action = None
+    try:
+        obj, bone_names = _build_armature(name, skeleton, heads, tails, context.collection)
+        channels, values = _channel_values(obj, bone_names, skeleton, motion, options)
+        action = animdata.new_action(name)
+        if channels and motion.frames:
+            animdata.write_keys(obj, action, channels, _key_frames(motion, options, scene), values)
+        if motion.frame_time > 0:
+            # The rate the keys were captured at, per Blender frame.
+            animdata.record_frame_rate(action, scene.render.fps / scene.render.fps_base if options.use_fps_scale
+                                       else 1.0 / motion.frame_time)
+        animdata.assign(obj, action)
+    except BaseException:
+        if obj is not None:
+            imports.remove_armature(obj, action)
+        raise
+    # Every bone selected, as Blender's own importer leaves them: the Graph Editor and the Dope Sheet show
+    # only selected bones' curves by default, so a fresh import would otherwise look unkeyed there.
+    pose_channels.select_all(obj)
+    _scene_from_clip(scene, motion, options)
+    return obj, action
+
+
+def _read_file(filepath, options: ImportOptions):
+    """The file's (Skeleton, Motion), its options checked first."""
     if options.rotation_mode not in ROTATION_MODES:
         raise ValueError(f"bvh.load: unknown rotation_mode {options.rotation_mode!r}")
     if not (options.scale > 0 and np.isfinite(options.scale)):
@@ -158,90 +177,76 @@ def load(filepath: str, options: ImportOptions | None = None, *, context=None, n
         raise ValueError("no BVH file was chosen" + (f" (only the folder {filepath})" if filepath else ""))
     if os.path.isdir(filepath):
         raise ValueError(f"{filepath} is a folder, not a BVH file")
-    skeleton, motion = native.read_bvh(filepath)  # MotionKitError is a ValueError
+    skeleton, motion = native_state.native().read_bvh(filepath)  # MotionKitError is a ValueError
     if all(skeleton.end_sites):
         raise ValueError(f"{filepath}: the hierarchy has no joints to make bones of")
-    context = context or bpy.context
-    scene = context.scene
-    name = name or os.path.splitext(os.path.basename(filepath))[0]
+    return skeleton, motion
 
-    conv_matrix, conv_quat = _conversion(options.axis_forward, options.axis_up)
+
+def _rest_bones(skeleton, options: ImportOptions) -> tuple[np.ndarray, np.ndarray]:
+    """Every joint's bone head and tail (joints, 3) in Blender's armature space, as the importer makes them."""
+    conv_matrix, _ = _conversion(options.axis_forward, options.axis_up)
     up = np.array(conv_matrix).T @ np.array([0.0, 0.0, 1.0])  # Blender's up, in BVH space
     heads_bvh = _rest_heads(skeleton)
     tails_bvh = _rest_tails(skeleton, heads_bvh, up)
     to_blender = np.array(conv_matrix) * options.scale
-    heads, tails = heads_bvh @ to_blender.T, tails_bvh @ to_blender.T
+    return heads_bvh @ to_blender.T, tails_bvh @ to_blender.T
 
-    created = []
-    try:
-        obj, bone_names = _build_armature(name, skeleton, heads, tails, context.collection)
-        created.append(obj)
-        rest = pose_channels.rest_quaternions(obj.data)
-        joints = len(skeleton)
-        bone_rest = np.tile([1.0, 0.0, 0.0, 0.0], (joints, 1))
-        for i, bone in bone_names.items():
-            bone_rest[i] = rest[bone]
-        rotations, locations = native.bvh_to_pose(skeleton, np.ascontiguousarray(motion.values), bone_rest,
-                                                  conv_quat, float(options.scale))
 
-        # Plan the channels, then fill one (channels, frames) matrix in place.
-        channels, fills = [], []
-        for i, bone in bone_names.items():
-            joint_channels = skeleton.channels[i]
-            path = pose_channels.bone_path(bone)
-            if any(c.endswith("position") for c in joint_channels):
-                fills.append((len(channels), 'LOCATION', i))
-                channels += [(f"{path}.location", k, bone) for k in range(3)]
-            if not any(c.endswith("rotation") for c in joint_channels):
-                continue
-            mode = options.rotation_mode
-            if mode == 'NATIVE':
-                letters = "".join(c[0] for c in joint_channels if c.endswith("rotation"))
-                mode = letters[::-1] if len(letters) == 3 and len(set(letters)) == 3 else 'QUATERNION'
-            obj.pose.bones[bone].rotation_mode = mode
-            fills.append((len(channels), mode, i))
-            prop, size = ("rotation_quaternion", 4) if mode == 'QUATERNION' else ("rotation_euler", 3)
-            channels += [(f"{path}.{prop}", k, bone) for k in range(size)]
-        matrix = np.empty((len(channels), motion.frames))
+def _joint_rotation_mode(joint_channels, mode: str) -> str:
+    """The rotation mode of a joint's bone: NATIVE is the file's order of its three rotation channels."""
+    if mode != 'NATIVE':
+        return mode
+    letters = "".join(c[0] for c in joint_channels if c.endswith("rotation"))
+    return letters[::-1] if len(letters) == 3 and len(set(letters)) == 3 else 'QUATERNION'
 
-        eulers = {}  # Euler mode -> [(row, joint)]: one native call per mode, its joints spread over the cores
-        for row, kind, i in fills:
-            if kind == 'LOCATION':
-                matrix[row:row + 3] = locations[:, 3 * i:3 * i + 3].T
-            elif kind == 'QUATERNION':
-                matrix[row:row + 4] = rotations[:, 4 * i:4 * i + 4].T
-            else:
-                eulers.setdefault(kind, []).append((row, i))
-        for kind, joints in eulers.items():
-            order, axes = rotation_channels.euler_order(kind)
-            columns = (4 * np.array([i for _, i in joints])[:, None] + np.arange(4)).ravel()
-            angles = native.quaternion_to_euler(np.ascontiguousarray(rotations[:, columns]), order)
-            for k, (row, _) in enumerate(joints):
-                matrix[[row + a for a in axes]] = angles[:, 3 * k:3 * k + 3].T
 
-        action = animdata.new_action(name)
-        created.append(action)
-        if channels and motion.frames:
-            animdata.write_keys(obj, action, channels, _key_frames(motion, options, scene), matrix)
-        if motion.frame_time > 0:
-            # The rate the keys were captured at, per Blender frame: speeds (foot contacts) need it when
-            # the scene plays the clip at another rate.
-            action[FRAME_RATE] = (scene.render.fps / scene.render.fps_base if options.use_fps_scale
-                                  else 1.0 / motion.frame_time)
-        animdata.assign(obj, action)
-    except BaseException:
-        for item in reversed(created):
-            if isinstance(item, bpy.types.Object):
-                armature = item.data
-                bpy.data.objects.remove(item)
-                bpy.data.armatures.remove(armature)
-            else:
-                bpy.data.actions.remove(item)
-        raise
+def _channel_values(obj, bone_names, skeleton, motion, options: ImportOptions) -> tuple[list, np.ndarray]:
+    """The bones' channels (their rotation modes set here) and the clip's values on them (channels, frames),
+    converted from the file's in one native call."""
+    native = native_state.native()
+    rest = pose_channels.rest_quaternions(obj.data)
+    bone_rest = np.tile([1.0, 0.0, 0.0, 0.0], (len(skeleton), 1))
+    for i, bone in bone_names.items():
+        bone_rest[i] = rest[bone]
+    _, conv_quat = _conversion(options.axis_forward, options.axis_up)
+    rotations, locations = native.bvh_to_pose(skeleton, np.ascontiguousarray(motion.values), bone_rest,
+                                              conv_quat, float(options.scale))
+    # Plan the channels, then fill one (channels, frames) matrix in place.
+    channels, fills = [], []
+    for i, bone in bone_names.items():
+        joint_channels = skeleton.channels[i]
+        path = pose_channels.bone_path(bone)
+        if any(c.endswith("position") for c in joint_channels):
+            fills.append((len(channels), 'LOCATION', i))
+            channels += [(f"{path}.location", k, bone) for k in range(3)]
+        if not any(c.endswith("rotation") for c in joint_channels):
+            continue
+        mode = _joint_rotation_mode(joint_channels, options.rotation_mode)
+        obj.pose.bones[bone].rotation_mode = mode
+        fills.append((len(channels), mode, i))
+        prop, size = ("rotation_quaternion", 4) if mode == 'QUATERNION' else ("rotation_euler", 3)
+        channels += [(f"{path}.{prop}", k, bone) for k in range(size)]
+    matrix = np.empty((len(channels), motion.frames))
+    eulers = {}  # Euler mode -> [(row, joint)]: one native call per mode, its joints spread over the cores
+    for row, kind, i in fills:
+        if kind == 'LOCATION':
+            matrix[row:row + 3] = locations[:, 3 * i:3 * i + 3].T
+        elif kind == 'QUATERNION':
+            matrix[row:row + 4] = rotations[:, 4 * i:4 * i + 4].T
+        else:
+            eulers.setdefault(kind, []).append((row, i))
+    for kind, joints in eulers.items():
+        order, axes = rotation_channels.euler_order(kind)
+        columns = (4 * np.array([i for _, i in joints])[:, None] + np.arange(4)).ravel()
+        angles = native.quaternion_to_euler(np.ascontiguousarray(rotations[:, columns]), order)
+        for k, (row, _) in enumerate(joints):
+            matrix[[row + a for a in axes]] = angles[:, 3 * k:3 * k + 3].T
+    return channels, matrix
 
-    # Every bone selected, as Blender's own importer leaves them: the Graph Editor and the Dope Sheet show
-    # only selected bones' curves by default, so a fresh import would otherwise look unkeyed there.
-    pose_channels.select_all(obj)
+
+def _scene_from_clip(scene, motion, options: ImportOptions) -> None:
+    """The scene's frame rate and range from the file, as options ask."""
     if options.update_scene_fps and motion.frame_time > 0:
         # The rate the file meant: its printed frame time (0.016667 s) is 60 fps, not 59.9988.
         scene.render.fps, scene.render.fps_base = frame_rates.scene_rate(motion.frame_time)
@@ -249,18 +254,13 @@ def load(filepath: str, options: ImportOptions | None = None, *, context=None, n
         last = _key_frames(motion, options, scene)[-1]
         scene.frame_start = options.frame_start
         scene.frame_end = max(scene.frame_end, int(np.ceil(last)))
-    return obj, action
 
 
-def mapping_rig(filepath: str, options: ImportOptions | None = None):
-    """The file's skeleton as the importer would make its bones, for motionkit.bone_mapping."""
+def file_mapping_rig(filepath: str, options: ImportOptions | None = None):
+    """A BVH file's skeleton as the importer would make its bones, for motionkit.bone_mapping."""
     options = options or ImportOptions()
     skeleton, _ = native_state.native().read_bvh(os.fspath(filepath))
-    conv_matrix, _ = _conversion(options.axis_forward, options.axis_up)
-    up = np.array(conv_matrix).T @ np.array([0.0, 0.0, 1.0])
-    heads_bvh = _rest_heads(skeleton)
-    to_blender = np.array(conv_matrix) * options.scale
-    heads, tails = heads_bvh @ to_blender.T, _rest_tails(skeleton, heads_bvh, up) @ to_blender.T
+    heads, tails = _rest_bones(skeleton, options)
     joints = [i for i, end in enumerate(skeleton.end_sites) if not end]
     index = {j: k for k, j in enumerate(joints)}
     return bone_mapping.Rig(tuple(skeleton.names[j] for j in joints),
@@ -295,8 +295,44 @@ def save(obj, filepath: str, options: ExportOptions | None = None, *, context=No
     """
     options = options or ExportOptions(**option_values)
     native = native_state.native()
-    context = context or bpy.context
-    scene = context.scene
+    scene = (context or bpy.context).scene
+    _check_export(obj, options)
+    frames = pose_channels.frames_between(*(options.frame_range or (scene.frame_start, scene.frame_end)))
+    _, rotation, obj_scale = obj.matrix_world.decompose()
+    sigma = float(np.mean(obj_scale))
+    if not np.allclose(obj_scale, sigma, rtol=1e-6):
+        raise ValueError(f"bvh.save: '{obj.name}' has a non-uniform scale {tuple(obj_scale)}")
+    bones = pose_channels.depth_first(obj.data)
+    action = animdata.assigned_action(obj)
+    rotations = pose_channels.rotations(obj, action, bones, frames)
+    locations, animated = pose_channels.locations(obj, action, bones, frames)
+    locations *= sigma
+
+    conv_matrix, conv_quat = _conversion(options.axis_forward, options.axis_up)
+    world = np.array(obj.matrix_world)
+    to_bvh = np.array(conv_matrix).T * options.scale
+    points = (np.vstack([pose_channels.heads(bones), pose_channels.tails(bones)]) @ world[:3, :3].T
+              + world[:3, 3]) @ to_bvh.T
+    rest = pose_channels.rest_quaternions(obj.data)
+    rest_world = [np.array(rotation @ Quaternion(rest[b.name])) for b in bones]
+    joints = _export_joints(obj, bones, points[:len(bones)], points[len(bones):], animated, rest_world,
+                            options.rotation_order)
+    skeleton = native.Skeleton(joints.names, joints.parents, np.array(joints.offsets), joints.end_sites,
+                               joints.channels)
+    # Pose arrays per joint (end sites carry identity, ignored by the job).
+    count = len(joints.names)
+    joint_rot = np.tile([1.0, 0.0, 0.0, 0.0], (frames.size, count))
+    joint_loc = np.zeros((frames.size, 3 * count))
+    for i, j in enumerate(joints.of_bone):
+        joint_rot[:, 4 * j:4 * j + 4] = rotations[:, 4 * i:4 * i + 4]
+        joint_loc[:, 3 * j:3 * j + 3] = locations[:, 3 * i:3 * i + 3]
+    values = native.pose_to_bvh(skeleton, joint_rot, joint_loc, np.array(joints.rest), conv_quat,
+                                1.0 / options.scale)
+    frame_time = scene.render.fps_base / scene.render.fps
+    native.write_bvh(os.fspath(filepath), skeleton, native.Motion(values, frame_time))
+
+
+def _check_export(obj, options: ExportOptions) -> None:
     if obj is None or obj.type != 'ARMATURE':
         raise ValueError("bvh.save: pick an armature object")
     if not len(obj.data.bones):
@@ -305,67 +341,39 @@ def save(obj, filepath: str, options: ExportOptions | None = None, *, context=No
         raise ValueError("bvh.save: scale must be positive")
     if options.rotation_order != 'NATIVE' and options.rotation_order not in ROTATION_MODES[2:]:
         raise ValueError(f"bvh.save: unknown rotation order {options.rotation_order!r}")
-    start, end = options.frame_range or (scene.frame_start, scene.frame_end)
-    if end < start:
-        raise ValueError(f"bvh.save: frame range {start}..{end} is empty")
-    frames = np.arange(start, end + 1, dtype=np.float64)
 
-    location, rotation, obj_scale = obj.matrix_world.decompose()
-    sigma = float(np.mean(obj_scale))
-    if not np.allclose(obj_scale, sigma, rtol=1e-6):
-        raise ValueError(f"bvh.save: '{obj.name}' has a non-uniform scale {tuple(obj_scale)}")
-    world = np.array(obj.matrix_world)
-    conv_matrix, conv_quat = _conversion(options.axis_forward, options.axis_up)
-    to_bvh = np.array(conv_matrix).T * options.scale
 
-    bones = pose_channels.depth_first(obj.data)
-    index = {bone.name: i for i, bone in enumerate(bones)}
-    rest = pose_channels.rest_quaternions(obj.data)
-    bone_rest_world = [np.array(rotation @ Quaternion(rest[b.name])) for b in bones]
+@dataclass
+class _Joints:
+    """The BVH hierarchy of an armature: a joint per bone (parents first) and an end site after each leaf."""
+    names: list = field(default_factory=list)
+    parents: list = field(default_factory=list)
+    offsets: list = field(default_factory=list)
+    end_sites: list = field(default_factory=list)
+    channels: list = field(default_factory=list)
+    rest: list = field(default_factory=list)      # each joint's rest orientation in the file's world
+    of_bone: list = field(default_factory=list)   # each bone's joint
 
-    def to_bvh_space(points):
-        points = np.asarray(points, dtype=np.float64)
-        return (points @ world[:3, :3].T + world[:3, 3]) @ to_bvh.T
+    def add(self, name, parent, offset, end_site, channels, rest) -> int:
+        for column, value in zip((self.names, self.parents, self.offsets, self.end_sites, self.channels, self.rest),
+                                 (name, parent, offset, end_site, channels, rest)):
+            column.append(value)
+        return len(self.names) - 1
 
-    heads = to_bvh_space([b.head_local for b in bones])
-    tails = to_bvh_space([b.tail_local for b in bones])
-    action = animdata.assigned_action(obj)
-    rotations = pose_channels.rotations(obj, action, bones, frames)
-    locations, animated = pose_channels.locations(obj, action, bones, frames)
-    locations *= sigma
 
-    names, parents, offsets, end_sites, channels, rest_rows = [], [], [], [], [], []
-    joint_of_bone = {}
+def _export_joints(obj, bones, heads, tails, animated, rest_world, rotation_order) -> _Joints:
+    """The joints of bones (depth first) with heads and tails in BVH space: a bone's position channels only
+    where it moves (the root, or a loose bone whose location is animated)."""
+    joints = _Joints()
+    parents = pose_channels.parent_indices(bones)
     for i, bone in enumerate(bones):
-        parent = joint_of_bone[bone.parent.name] if bone.parent else -1
-        joint_of_bone[bone.name] = len(names)
-        names.append(bone.name)
-        parents.append(parent)
-        offsets.append(heads[i] - (heads[index[bone.parent.name]] if bone.parent else 0.0))
-        end_sites.append(False)
-        letters = _channel_letters(obj.pose.bones[bone.name], options.rotation_order)
-        moves = bone.parent is None or (animated[i] and not bone.use_connect)
-        channels.append(([f"{a}position" for a in "XYZ"] if moves else []) +
-                        [f"{a}rotation" for a in letters])
-        rest_rows.append(bone_rest_world[i])
+        parent = parents[i]
+        letters = _channel_letters(obj.pose.bones[bone.name], rotation_order)
+        moves = parent < 0 or (animated[i] and not bone.use_connect)
+        channels = ([f"{a}position" for a in "XYZ"] if moves else []) + [f"{a}rotation" for a in letters]
+        joint = joints.add(bone.name, joints.of_bone[parent] if parent >= 0 else -1,
+                           heads[i] - (heads[parent] if parent >= 0 else 0.0), False, channels, rest_world[i])
+        joints.of_bone.append(joint)
         if not bone.children:
-            names.append(bone.name + "_end")
-            parents.append(joint_of_bone[bone.name])
-            offsets.append(tails[i] - heads[i])
-            end_sites.append(True)
-            channels.append([])
-            rest_rows.append(np.array([1.0, 0.0, 0.0, 0.0]))
-    skeleton = native.Skeleton(names, parents, np.array(offsets), end_sites, channels)
-
-    # Pose arrays per joint (end sites carry identity, ignored by the job).
-    joints = len(names)
-    joint_rot = np.tile([1.0, 0.0, 0.0, 0.0], (frames.size, joints))
-    joint_loc = np.zeros((frames.size, 3 * joints))
-    for i, bone in enumerate(bones):
-        j = joint_of_bone[bone.name]
-        joint_rot[:, 4 * j:4 * j + 4] = rotations[:, 4 * i:4 * i + 4]
-        joint_loc[:, 3 * j:3 * j + 3] = locations[:, 3 * i:3 * i + 3]
-    values = native.pose_to_bvh(skeleton, joint_rot, joint_loc, np.array(rest_rows), conv_quat, 1.0 / options.scale)
-    frame_time = scene.render.fps_base / scene.render.fps
-    native.write_bvh(os.fspath(filepath), skeleton, native.Motion(values, frame_time))
-
+            joints.add(bone.name + "_end", joint, tails[i] - heads[i], True, [], np.array([1.0, 0.0, 0.0, 0.0]))
+    return joints

@@ -8,7 +8,7 @@ import numpy as np
 
 from ..blender import animdata, pose_channels
 from ..core import bone_mapping, clip_quality, rotation_channels
-from . import bvh, contacts, retargeting
+from . import contacts, retargeting
 
 WORLD_UP = np.array([0.0, 0.0, 1.0])  # the figures are in world space, where Blender's up is Z
 FEET = ((0, 1), (2, 3))  # contacts.POINTS: each foot's ankle and ball
@@ -53,7 +53,7 @@ def source_stance(source, target) -> np.ndarray | None:
     """On which of the target action's frames the source stands on each foot point (frames, 4), as
     detected on the source (contacts.POINTS); None when the source has no two legs."""
     action = animdata.assigned_action(target)
-    return _stance(_Posed(source, pose_channels.action_frames(action)), bvh.frame_rate(action))
+    return _stance(_Posed(source, pose_channels.action_frames(action)), animdata.frame_rate(action))
 
 
 def _feet(source: _Posed, target: _Posed, fps: float) -> clip_quality.FeetMotion | None:
@@ -87,12 +87,12 @@ def measure(source, target, pairs) -> clip_quality.Quality:
         source_rotations=src.rotations[:, [src.index[a] for a, _ in pairs]],
         target_rotations=tgt.rotations[:, [tgt.index[t] for _, t in pairs]],
         names=[t for _, t in pairs])
-    return clip_quality.measure(_feet(src, tgt, bvh.frame_rate(action)), bones)
+    return clip_quality.measure(_feet(src, tgt, animdata.frame_rate(action)), bones)
 
 
 def count_mapped(target, pairs) -> tuple[int, int]:
     """(body bones, finger bones) among the pairs' target bones."""
-    body = bone_mapping.classify(pose_channels.mapping_rig(target))
+    body = bone_mapping.classify(pose_channels.armature_mapping_rig(target))
     fingers = {bone for chain in body.fingers.values() for bone in chain}
     mapped = {t for _, t in pairs}
     return len(mapped - fingers), len(mapped & fingers)
@@ -105,7 +105,7 @@ def row_figures(source, target, pairs) -> dict:
     action = animdata.assigned_action(target)
     start, end = action.frame_range
     body, fingers = count_mapped(target, pairs)
-    figures = {"frames": int(round(end - start)) + 1, "fps": round(bvh.frame_rate(action), 3),
+    figures = {"frames": int(round(end - start)) + 1, "fps": round(animdata.frame_rate(action), 3),
                "bones_mapped": body, "fingers_mapped": fingers}
     keyed = {c.data_path for c in animdata.fcurves(action, target)}
     if all(any(path.startswith(pose_channels.bone_path(t)) for path in keyed) for _, t in pairs):

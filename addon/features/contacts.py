@@ -28,7 +28,6 @@ from dataclasses import dataclass, field
 import bpy
 import numpy as np
 
-from . import bvh
 from ..blender import animdata, pose_channels
 from ..core import bone_mapping, native_state, rotation_channels
 from ..core.rotation_channels import conjugate as _conj, multiply as _mul, rotate_each as _rotate
@@ -67,26 +66,8 @@ class Report:
     bones: list = field(default_factory=list)      # bones whose channels the cleanup changed
 
 
-# ---------------------------------------------------------------------------
-# Quaternion helpers (w x y z, batched)
-
 def _about_y(angle):
     return rotation_channels.about(1, angle)
-
-
-def _swing_twist(q):
-    """(swing x, twist, swing z) of basis rotations q (n, 4), as the IK's limits read them."""
-    q = q * np.where(q[:, :1] < 0, -1.0, 1.0)
-    twist = np.stack([q[:, 0], np.zeros(len(q)), q[:, 2], np.zeros(len(q))], axis=1)
-    norm = np.linalg.norm(twist, axis=1, keepdims=True)
-    twist = np.where(norm > 1e-12, twist / np.maximum(norm, 1e-300), [1.0, 0, 0, 0])
-    swing = _mul(q, _conj(twist))
-    swing *= np.where(swing[:, :1] < 0, -1.0, 1.0)
-    half = np.arctan2(np.linalg.norm(swing[:, 1:], axis=1), swing[:, 0])
-    scale = np.where(half > 1e-12, 2 * half / np.maximum(np.sin(half), 1e-300), 2.0)
-    angle = 2 * np.arctan2(twist[:, 2], twist[:, 0])
-    angle = (angle + np.pi) % (2 * np.pi) - np.pi
-    return np.stack([swing[:, 1] * scale, angle, swing[:, 3] * scale], axis=1)
 
 
 # ---------------------------------------------------------------------------
@@ -94,7 +75,7 @@ def _swing_twist(q):
 
 def find_feet(obj) -> list[Foot]:
     """The two legs of an armature from MotionKit's bone map (labels thigh.L, shin.L, foot.L, toe.L, ...)."""
-    return feet_of(bone_mapping.classify(pose_channels.mapping_rig(obj)), obj.name)
+    return feet_of(bone_mapping.classify(pose_channels.armature_mapping_rig(obj)), obj.name)
 
 
 def feet_of(body, name: str) -> list[Foot]:
@@ -143,15 +124,7 @@ def _leg_indices(bones, feet: list[Foot]) -> list[tuple[int, int, int]]:
 
 def _hips(bones, legs) -> int:
     """The thighs' nearest common ancestor: the bone whose translation carries the body."""
-    index = {b.name: i for i, b in enumerate(bones)}
-    parent = {i: (index[b.parent.name] if b.parent else -1) for i, b in enumerate(bones)}
-    paths = []
-    for thigh, _, _ in legs:
-        path, i = [], parent[thigh]
-        while i >= 0:
-            path.append(i)
-            i = parent[i]
-        paths.append(path)
+    paths = [_above(bones, thigh) for thigh, _, _ in legs]
     common = [i for i in paths[0] if i in paths[1]]
     if not common:
         raise ValueError(f"the thighs '{bones[legs[0][0]].name}' and '{bones[legs[1][0]].name}' share no "
@@ -237,7 +210,7 @@ def write_contacts(obj, action, feet, frames, contacts) -> list:
 
 def _knee_roll(angles, shin_world, foot_dir_world) -> tuple[float, str]:
     """The roll r about the shin's Y axis that turns its flexion axis onto +X (so that flexion is +x
-    in the IK's limits), from the plain clip's knee swings (angles: _swing_twist of the shin's basis);
+    in the IK's limits), from the plain clip's knee swings (angles: the ik_swing_twist of the shin's basis);
     from the foot's direction when the clip hardly bends the knee."""
     swing = angles[:, [0, 2]]
     if np.max(np.linalg.norm(swing, axis=1)) > 0.3:
@@ -258,7 +231,7 @@ def _knee_roll(angles, shin_world, foot_dir_world) -> tuple[float, str]:
 
 
 def _rolled(angles, roll):
-    """_swing_twist of about_y(-roll) q about_y(roll) from that of q: the twist about Y is unchanged and
+    """ik_swing_twist of about_y(-roll) q about_y(roll) from that of q: the twist about Y is unchanged and
     the swing vector (x, 0, z) turns by -roll about Y."""
     c, s = np.cos(roll), np.sin(roll)
     x, z = angles[:, 0], angles[:, 2]
@@ -362,7 +335,7 @@ def find_contacts(obj, bones, rig, rotations, locations, feet, settings: Contact
     contacts the target then keeps); fps default the scene's; posed: its armature pose, if at hand; floor:
     the floor's world Z."""
     if fps is None:
-        fps = bvh.frame_rate(None)  # the scene's
+        fps = animdata.frame_rate(None)  # the scene's
     points, leg_length = foot_points(obj, bones, rig, rotations, locations, feet, posed)
     return detect_contacts(points, fps, leg_length, floor, settings)
 
@@ -454,22 +427,57 @@ def _cleanup_steps(obj, bones, rig, frames, rotations, locations, feet, contacts
     Raises ValueError naming the foot, bone and Blender frame.
     """
     started = time.perf_counter()
-    native = native_state.native()
     settings = settings or ContactSettings()
     settings.validate()
     feet = _as_feet(feet)
     frames = np.asarray(frames, dtype=np.float64)
-    count, nb = frames.size, len(bones)
     rotations = np.ascontiguousarray(rotations, dtype=np.float64)
     locations = np.ascontiguousarray(locations, dtype=np.float64)
+    _check_clip(bones, frames, rotations, locations, contacts)
+    contacts = None if contacts is None else np.asarray(contacts, dtype=bool)
+    if fps is None:
+        fps = animdata.frame_rate(None)  # the scene's
+    # Everything the cleanup takes from Blender, read here: after the first stage it reads no Blender data.
+    legs = _leg_indices(bones, feet)
+    part = _SolvePart.read(obj, bones, legs, _hip_index(bones, feet, legs, hips))
+    own = time.perf_counter() - started  # report.seconds: the cleanup's own time, its stages summed
+    yield
+    started = time.perf_counter()
+
+    _check_finite_pose(part, feet, frames, rotations, locations)
+    pose, points, targets, contacts, source = _plant_targets(part.leg_rig, frames, rotations, locations, contacts,
+                                                             settings, fps, follow_heights)
+    report = Report(frames, contacts, source=source)
+    report.bones = [part.bone_names[part.hip]] + [part.bone_names[b] for b in part.changed]
+    solve_input = _LegSolve.prepare(part, feet, pose, points, report)
+    solve = _solve_call(part, solve_input, targets, frames, report, hips_move=hips_move, threads=threads,
+                        name=obj.name)
+    own += time.perf_counter() - started
+    solved = yield solve
+    started = time.perf_counter()
+
+    out_rot, out_loc = _solved_channels(part, solve_input, pose, solved, frames, rotations, locations, in_place,
+                                        obj.name)
+    report.errors = solved.errors
+    report.max_error = solved.errors.max(axis=0) if frames.size else np.zeros(len(POINTS))
+    report.iterations = int(solved.iterations.sum())
+    report.intervals = [[(frames[s], frames[e - 1]) for s, e in runs] for runs in all_intervals(contacts)]
+    report.seconds = own + time.perf_counter() - started
+    return out_rot, out_loc, report
+
+
+def _check_clip(bones, frames, rotations, locations, contacts) -> None:
+    count, nb = frames.size, len(bones)
     if rotations.shape != (count, 4 * nb) or locations.shape != (count, 3 * nb):
         raise ValueError(f"rotations and locations must be ({count}, {4 * nb}) and ({count}, {3 * nb}), "
                          f"not {rotations.shape} and {locations.shape}")
-    if fps is None:
-        fps = bvh.frame_rate(None)  # the scene's
-    legs = _leg_indices(bones, feet)
-    hip = _hips(bones, legs) if hips is None else next(
-        (i for i, b in enumerate(bones) if b.name == hips), None)
+    if contacts is not None and np.shape(contacts) != (count, len(POINTS)):
+        raise ValueError(f"contacts must have shape ({count}, {len(POINTS)}), not {np.shape(contacts)}")
+
+
+def _hip_index(bones, feet, legs, hips) -> int:
+    """The bone whose location channel carries the body: hips (a name), else the thighs' common parent."""
+    hip = _hips(bones, legs) if hips is None else next((i for i, b in enumerate(bones) if b.name == hips), None)
     if hip is None:
         raise ValueError(f"hips bone '{hips}' is not in the armature")
     for foot, chain in zip(feet, legs):
@@ -478,119 +486,161 @@ def _cleanup_steps(obj, bones, rig, frames, rotations, locations, feet, contacts
                              f"'{bones[chain[0]].name}'")
     if bones[hip].use_connect:
         raise ValueError(f"hips bone '{bones[hip].name}' is connected to its parent: its location cannot move")
-    if contacts is not None:
-        contacts = np.asarray(contacts, dtype=bool)
-        if contacts.shape != (count, len(POINTS)):
-            raise ValueError(f"contacts must have shape ({count}, {len(POINTS)}), not {contacts.shape}")
+    return hip
 
-    # Everything the cleanup takes from Blender, read here: after the first stage it reads no Blender data.
-    # The solve's rig: the hips (parentless: its armature pose becomes its basis and location), the
-    # bones from the hips to each thigh (held), and the legs, each shin rolled so its knee bends about X.
-    leg_rig = _LegRig.read(obj, bones, legs)
-    index = {b.name: i for i, b in enumerate(bones)}
-    between = set()
-    for thigh, _, _ in legs:
-        b = bones[thigh].parent
-        while b is not None and b.name != bones[hip].name:
-            between.add(index[b.name])
-            b = b.parent
-    part = [hip] + sorted(between) + [b for chain in legs for b in chain]
-    part.sort(key=lambda i: (i != hip, i))  # bones is depth-first: parents stay before children
-    local = {b: k for k, b in enumerate(part)}
-    names = [bones[b].name for b in part]
-    parents = [local[index[bones[b].parent.name]] if b != hip else -1 for b in part]
-    rest = pose_channels.rest_quaternions(obj.data)
-    rest_q = np.array([rest[name] for name in names])
-    rest_heads = np.array([bones[b].head_local for b in part], dtype=np.float64)
-    rest_points = np.empty((2, 3 * len(obj.data.bones)), dtype=np.float32)  # the whole rig's extent
-    obj.data.bones.foreach_get("head_local", rest_points[0])
-    obj.data.bones.foreach_get("tail_local", rest_points[1])
-    size = float(np.linalg.norm(np.ptp(rest_points.reshape(-1, 3).astype(np.float64), axis=0)))
-    name = obj.name
-    bone_names = [b.name for b in bones]
-    changed = [b for chain in legs for b in chain]
-    effectors = [native.IkEffector(local[b], name=f"foot {foot.side} {what} ('{bone_names[b]}' tail)")
-                 for foot, (_, shin, foot_bone) in zip(feet, legs)
-                 for what, b in (("ankle", shin), ("ball", foot_bone))]
-    own = time.perf_counter() - started  # report.seconds: the cleanup's own time, its stages summed
-    yield
-    started = time.perf_counter()
 
-    # One check over every bone that places the feet; the culprit is looked for only when it fails.
-    if not (np.isfinite(rotations).all() and np.isfinite(locations).all()):
-        for foot, chain in zip(feet, legs):
-            for b in chain + (hip,):
-                bad = ~np.isfinite(rotations[:, 4 * b:4 * b + 4]).all(axis=1) | \
-                    ~np.isfinite(locations[:, 3 * b:3 * b + 3]).all(axis=1)
-                if bad.any():
-                    raise ValueError(f"foot {foot.side}: bone '{bone_names[b]}' has a non-finite pose at frame "
-                                     f"{_blender_frame(frames, np.flatnonzero(bad)[0])}")
+@dataclass
+class _SolvePart:
+    """The solve's rig, read from Blender: the hips (parentless: its armature pose becomes its basis and
+    location), the bones from the hips to each thigh (held), and the legs; by bone index."""
+    leg_rig: _LegRig
+    hip: int
+    between: set         # the bones from the hips down to the thighs, held
+    part: list           # the solved bones, parents first, the hips first
+    local: dict          # bone index -> its index in part
+    parents: list        # parent indices within part
+    rest_q: np.ndarray   # (part, 4) unit rest orientations
+    rest_heads: np.ndarray
+    size: float          # the whole rig's (pose_channels.rig_size)
+    bone_names: list     # every bone's name
+    changed: list        # the legs' bones, whose rotations the cleanup changes
+    effectors: list      # native.IkEffector per foot point, POINTS order
+
+    @classmethod
+    def read(cls, obj, bones, legs, hip) -> "_SolvePart":
+        leg_rig = _LegRig.read(obj, bones, legs)
+        parent = pose_channels.parent_indices(bones)
+        between = set()
+        for thigh, _, _ in legs:
+            b = parent[thigh]
+            while b >= 0 and b != hip:
+                between.add(b)
+                b = parent[b]
+        part = [hip] + sorted(between) + [b for chain in legs for b in chain]
+        part.sort(key=lambda i: (i != hip, i))  # bones is depth-first: parents stay before children
+        local = {b: k for k, b in enumerate(part)}
+        rest = pose_channels.rest_quaternions(obj.data)
+        rest_q = np.array([rest[bones[b].name] for b in part])
+        rest_q /= np.linalg.norm(rest_q, axis=1, keepdims=True)
+        bone_names = [b.name for b in bones]
+        effectors = [native_state.native().IkEffector(local[b], name=f"foot {side} {what} ('{bone_names[b]}' tail)")
+                     for side, (_, shin, foot_bone) in zip(SIDES, legs)
+                     for what, b in (("ankle", shin), ("ball", foot_bone))]
+        return cls(leg_rig, hip, between, part, local, [local[parent[b]] if b != hip else -1 for b in part],
+                   rest_q, pose_channels.heads([bones[b] for b in part]), pose_channels.rig_size(obj.data),
+                   bone_names, [b for chain in legs for b in chain], effectors)
+
+
+def _check_finite_pose(part: _SolvePart, feet, frames, rotations, locations) -> None:
+    """One check over every bone that places the feet; the culprit is looked for only when it fails."""
+    if np.isfinite(rotations).all() and np.isfinite(locations).all():
+        return
+    for foot, chain in zip(feet, part.leg_rig.legs):
+        for b in chain + (part.hip,):
+            bad = ~np.isfinite(rotations[:, 4 * b:4 * b + 4]).all(axis=1) | \
+                ~np.isfinite(locations[:, 3 * b:3 * b + 3]).all(axis=1)
+            if bad.any():
+                raise ValueError(f"foot {foot.side}: bone '{part.bone_names[b]}' has a non-finite pose at frame "
+                                 f"{_blender_frame(frames, np.flatnonzero(bad)[0])}")
+
+
+def _plant_targets(leg_rig: _LegRig, frames, rotations, locations, contacts, settings, fps, follow_heights):
+    """(pose, foot points (F, 4, 3) armature space, IK targets (F, 4, 3) armature space, contacts, their
+    source): the plain pose's foot points held at their plants where contacts (detected when None) say."""
     pose, points, world_points, leg_length = _pose_points(leg_rig, rotations, locations)
+    source = "given"
     if contacts is None:
         contacts = detect_contacts(world_points, fps, leg_length, 0.0, settings)
         source = "detected"
-    else:
-        source = "given"
     with native_state.blender_frames(frames):
-        targets_world, _ = plant_targets(native, world_points, contacts, settings.blend_frames(fps), _RIGID)
+        targets_world, _ = plant_targets(native_state.native(), world_points, contacts, settings.blend_frames(fps),
+                                         _RIGID)
     if follow_heights is not None:
         lift = np.asarray(follow_heights, dtype=np.float64)[:, [0, 0, 1, 1]]  # per point, POINTS order
         held = targets_world[..., 2].copy()
         targets_world[..., 2] = world_points[..., 2] + lift
         _keep_feet_rigid(targets_world, world_points, targets_world[..., 2] - held)
     inverse = np.linalg.inv(leg_rig.world)
-    targets = targets_world @ inverse[:3, :3].T + inverse[:3, 3]
+    return pose, points, targets_world @ inverse[:3, :3].T + inverse[:3, 3], contacts, source
 
-    rest_q /= np.linalg.norm(rest_q, axis=1, keepdims=True)
-    basis = pose.basis.reshape(count, -1, 4)[:, [pose.columns[b] for b in part]]  # a copy: fancy indexing
-    # The solve's leg bones run along where they point (their tails the next joints): rest A, basis
-    # A^-1 basis A, undone after the solve. The hips keep their own frame.
-    aim = leg_rig.aim_rotations(part)
-    aim[0] = [1.0, 0.0, 0.0, 0.0]
-    rest_q = _mul(rest_q, aim)
-    basis = _mul(_mul(_conj(aim)[None], basis), aim[None])
-    # Hips: basis = rest^-1 * posed orientation, location so that rest head + rest * location = head.
-    hip_orient = pose.orient(hip) / np.linalg.norm(pose.orient(hip), axis=1, keepdims=True)
-    basis[:, 0] = _mul(_conj(rest_q[0]), hip_orient)
-    hip_loc = _rotate(_conj(np.broadcast_to(rest_q[0], (count, 4))), pose.head(hip) - rest_heads[0])
-    rolls, knee_angles = {}, {}  # knee_angles: the rolled shin's _swing_twist, for its limits
-    report = Report(frames, contacts, source=source)
-    report.bones = [bone_names[hip]] + [bone_names[b] for b in changed]
-    for foot, (thigh, shin, foot_bone) in zip(feet, legs):
-        foot_dir = points[:, 2 * SIDES.index(foot.side) + 1] - points[:, 2 * SIDES.index(foot.side)]
-        k = local[shin]
-        angles = _swing_twist(basis[:, k])
-        roll, how = _knee_roll(angles, _mul(pose.orient(shin), aim[k]), foot_dir)
-        report.knee_axes[foot.side] = how
-        rolls[shin] = roll
-        knee_angles[shin] = _rolled(angles, roll)
-        rest_q[k] = _mul(rest_q[k], _about_y(roll))
-        basis[:, k] = _mul(_mul(_about_y(-roll), basis[:, k]), _about_y(roll))
-    solve_rig = native.Rig(names, parents, rest_q, rest_heads, leg_rig.lengths[part])
 
-    nb_part = len(part)
-    limit_min = np.full((nb_part, 3), -np.inf)
-    limit_max = np.full((nb_part, 3), np.inf)
-    excluded = np.zeros(nb_part, dtype=bool)
-    excluded[[local[b] for b in between]] = True
+@dataclass
+class _LegSolve:
+    """The solve's input pose and rig, its leg bones turned to run along where they point (aim: rest A,
+    basis A^-1 basis A, undone after the solve; the hips keep their own frame) and each shin rolled so that
+    its knee bends about X, limited to the plain clip's own range (ik_swing_twist coordinates)."""
+    rig: object
+    rest_q: np.ndarray     # (part, 4) the solve's rest orientations
+    basis: np.ndarray      # (F, part, 4) the solve's input basis rotations
+    aim: np.ndarray        # (part, 4)
+    hip_orient: np.ndarray  # (F, 4) the hips' armature-space orientation
+    hip_loc: np.ndarray    # (F, 3) the hips' location in the solve's rest frame
+    rolls: dict            # shin bone -> its roll
+    limit_min: np.ndarray
+    limit_max: np.ndarray
+
+    @classmethod
+    def prepare(cls, part: _SolvePart, feet, pose, points, report) -> "_LegSolve":
+        count = len(points)
+        basis = pose.basis.reshape(count, -1, 4)[:, [pose.columns[b] for b in part.part]]  # a copy
+        aim = part.leg_rig.aim_rotations(part.part)
+        aim[0] = [1.0, 0.0, 0.0, 0.0]
+        rest_q = _mul(part.rest_q, aim)
+        basis = _mul(_mul(_conj(aim)[None], basis), aim[None])
+        # Hips: basis = rest^-1 * posed orientation, location so that rest head + rest * location = head.
+        hip_orient = pose.orient(part.hip) / np.linalg.norm(pose.orient(part.hip), axis=1, keepdims=True)
+        basis[:, 0] = _mul(_conj(rest_q[0]), hip_orient)
+        hip_loc = _rotate(_conj(np.broadcast_to(rest_q[0], (count, 4))), pose.head(part.hip) - part.rest_heads[0])
+        rolls, knee_angles = {}, {}  # knee_angles: the rolled shin's ik_swing_twist, for its limits
+        for foot, (_, shin, _) in zip(feet, part.leg_rig.legs):
+            foot_dir = points[:, 2 * SIDES.index(foot.side) + 1] - points[:, 2 * SIDES.index(foot.side)]
+            k = part.local[shin]
+            angles = rotation_channels.ik_swing_twist(basis[:, k])
+            roll, how = _knee_roll(angles, _mul(pose.orient(shin), aim[k]), foot_dir)
+            report.knee_axes[foot.side] = how
+            rolls[shin] = roll
+            knee_angles[shin] = _rolled(angles, roll)
+            rest_q[k] = _mul(rest_q[k], _about_y(roll))
+            basis[:, k] = _mul(_mul(_about_y(-roll), basis[:, k]), _about_y(roll))
+        rig = pose_channels.build_rig([part.bone_names[b] for b in part.part], part.parents, rest_q,
+                                      part.rest_heads, part.leg_rig.lengths[part.part])
+        limit_min, limit_max = _knee_limits(part, knee_angles)
+        return cls(rig, rest_q, basis, aim, hip_orient, hip_loc, rolls, limit_min, limit_max)
+
+
+def _knee_limits(part: _SolvePart, knee_angles) -> tuple[np.ndarray, np.ndarray]:
+    """(limit_min, limit_max) (part, 3) of the solve: only the knees are limited."""
+    limit_min = np.full((len(part.part), 3), -np.inf)
+    limit_max = np.full((len(part.part), 3), np.inf)
     margin = 1e-6
-    for shin in rolls:
-        k = local[shin]
-        low, high = knee_angles[shin].min(axis=0) - margin, knee_angles[shin].max(axis=0) + margin
+    for shin, angles in knee_angles.items():
+        k = part.local[shin]
+        low, high = angles.min(axis=0) - margin, angles.max(axis=0) + margin
         # Flexion (x) never below the plain clip's least (nor 0 if it never straightens): no backward
         # bend, no more hyper-extension than the input has; up to a deep bend. Twist and side swing
         # stay within what the clip does.
         slack = _KNEE_SLACK
         limit_min[k] = [min(low[0], 0.0), low[1] - slack, low[2] - slack]
         limit_max[k] = [max(high[0], 2.6), high[1] + slack, high[2] + slack]
-    arguments = (solve_rig, np.ascontiguousarray(basis.reshape(count, -1)), np.ascontiguousarray(hip_loc),
-                 np.ascontiguousarray(targets.reshape(count, -1)), np.zeros((count, 0)), effectors)
-    options = dict(limit_min=limit_min, limit_max=limit_max, excluded=excluded,
-                   **{"method": "dls", "max_iterations": 64, "tolerance": 1e-5 * size, "reference": "input",
-                      **_SOLVE_OPTIONS},
-                   root_translation=hips_move, root_rotation=False, warm_start=False, size=size, threads=threads)
+    return limit_min, limit_max
 
-    def solve():
+
+def _solve_call(part: _SolvePart, solve: _LegSolve, targets, frames, report, *, hips_move, threads, name):
+    """The native solve of the whole clip as a call that touches no Blender data."""
+    native = native_state.native()
+    count = frames.size
+    excluded = np.zeros(len(part.part), dtype=bool)
+    excluded[[part.local[b] for b in part.between]] = True
+    arguments = (solve.rig, np.ascontiguousarray(solve.basis.reshape(count, -1)),
+                 np.ascontiguousarray(solve.hip_loc), np.ascontiguousarray(targets.reshape(count, -1)),
+                 np.zeros((count, 0)), part.effectors)
+    options = dict(limit_min=solve.limit_min, limit_max=solve.limit_max, excluded=excluded,
+                   **{"method": "dls", "max_iterations": 64, "tolerance": 1e-5 * part.size, "reference": "input",
+                      **_SOLVE_OPTIONS},
+                   root_translation=hips_move, root_rotation=False, warm_start=False, size=part.size,
+                   threads=threads)
+
+    def run():
         solve_started = time.perf_counter()
         try:
             with native_state.blender_frames(frames):
@@ -601,25 +651,29 @@ def _cleanup_steps(obj, bones, rig, frames, rotations, locations, feet, contacts
         report.solve_seconds = time.perf_counter() - solve_started
         return result
 
-    own += time.perf_counter() - started
-    solved = yield solve
-    started = time.perf_counter()
+    return run
 
-    solved_basis = solved.rotations.reshape(count, nb_part, 4)
-    for shin, roll in rolls.items():
-        k = local[shin]
+
+def _solved_channels(part: _SolvePart, solve: _LegSolve, pose, solved, frames, rotations, locations, in_place,
+                     name) -> tuple[np.ndarray, np.ndarray]:
+    """The solution as the legs' pose-basis rotations and the hips' location channel, written into
+    (copies of) rotations and locations."""
+    count, hip = frames.size, part.hip
+    solved_basis = solved.rotations.reshape(count, len(part.part), 4)
+    for shin, roll in solve.rolls.items():
+        k = part.local[shin]
         solved_basis[:, k] = _mul(_mul(_about_y(roll), solved_basis[:, k]), _about_y(-roll))
-    solved_basis = _mul(_mul(aim[None], solved_basis), _conj(aim)[None])
-    q = solved_basis[:, [local[b] for b in changed]]  # (F, legs' bones, 4), a copy
+    solved_basis = _mul(_mul(solve.aim[None], solved_basis), _conj(solve.aim)[None])
+    q = solved_basis[:, [part.local[b] for b in part.changed]]  # (F, legs' bones, 4), a copy
     q /= np.linalg.norm(q, axis=2, keepdims=True)
     # Keep each bone's hemisphere as the input had it, so that quaternion curves do not flip.
-    given = pose.basis.reshape(count, -1, 4)[:, [pose.columns[b] for b in changed]]
+    given = pose.basis.reshape(count, -1, 4)[:, [pose.columns[b] for b in part.changed]]
     q *= np.where(np.einsum("fbk,fbk->fb", q, given) < 0, -1.0, 1.0)[..., None]
     # The hips' move, from the solve's location (in its rest frame) to its own location channel: the
     # channel is applied in the bone's posed frame less its own basis rotation.
-    moved = _rotate(np.broadcast_to(rest_q[0], (count, 4)), solved.root_locations - hip_loc)
+    moved = _rotate(np.broadcast_to(solve.rest_q[0], (count, 4)), solved.root_locations - solve.hip_loc)
     hip_basis = rotations[:, 4 * hip:4 * hip + 4]
-    frame = _mul(hip_orient, _conj(hip_basis / np.linalg.norm(hip_basis, axis=1, keepdims=True)))
+    frame = _mul(solve.hip_orient, _conj(hip_basis / np.linalg.norm(hip_basis, axis=1, keepdims=True)))
     hip_location = locations[:, 3 * hip:3 * hip + 3] + _rotate(_conj(frame), moved)
     finite = np.isfinite(q).all(axis=(1, 2)) & np.isfinite(hip_location).all(axis=1)  # the only values this changes
     if not finite.all():
@@ -627,15 +681,10 @@ def _cleanup_steps(obj, bones, rig, frames, rotations, locations, feet, contacts
                          f"{_blender_frame(frames, np.flatnonzero(~finite)[0])}")
     out_rot = rotations if in_place else rotations.copy()
     out_loc = locations if in_place else locations.copy()
-    for k, b in enumerate(changed):
+    for k, b in enumerate(part.changed):
         out_rot[:, 4 * b:4 * b + 4] = q[:, k]
     out_loc[:, 3 * hip:3 * hip + 3] = hip_location
-    report.errors = solved.errors
-    report.max_error = solved.errors.max(axis=0) if count else np.zeros(len(POINTS))
-    report.iterations = int(solved.iterations.sum())
-    report.intervals = [[(frames[s], frames[e - 1]) for s, e in runs] for runs in all_intervals(contacts)]
-    report.seconds = own + time.perf_counter() - started
-    return out_rot, out_loc, report
+    return out_rot, out_loc
 
 
 # ---------------------------------------------------------------------------
@@ -674,7 +723,7 @@ def plant(armature, frame_range=None, settings: ContactSettings | None = None, d
         raise ValueError(f"'{obj.name}' has no action to clean up")
     feet = _as_feet(feet) if feet is not None else find_feet(obj)
     if fps is None:
-        fps = bvh.frame_rate(action)
+        fps = animdata.frame_rate(action)
     # The whole action is read and keyed (write_keys replaces a curve's keys: keying only the range
     # would drop the keys outside it); a frame range limits the contacts instead.
     frames = pose_channels.action_frames(action)

@@ -24,7 +24,7 @@ import bpy
 import mathutils
 import numpy as np
 
-from . import bvh, contacts
+from . import contacts
 from ..blender import animdata, pose_channels
 from ..core import control_rig, native_state
 from ..core.control_rig import ControlRigMap
@@ -82,9 +82,9 @@ class _Armature:
 
 class DeformSkeleton:
     """A control rig's deform bones as the armature the retarget poses: the map's parents and tails where
-    the rig's own hierarchy goes through mechanism bones. Reads as an armature object (name, data.bones,
-    matrix_world, pose) without being one: the retarget computes on it and writes nothing."""
-    is_deform_skeleton = True
+    the rig's own hierarchy goes through mechanism bones. It offers what the retarget reads of an armature
+    object (name, type, data.bones, matrix_world, pose, animation_data) without being one, and writes
+    nothing; obj is the rig itself. It equals only itself (retargeting compares obj where the rig is meant)."""
     type = 'ARMATURE'
 
     def __init__(self, obj, rig_map: ControlRigMap):
@@ -127,11 +127,6 @@ class DeformSkeleton:
         self.pose = obj.pose
         self.matrix_world = obj.matrix_world
         self.animation_data = obj.animation_data
-
-    def __eq__(self, other):
-        return other is self or other == self.obj
-
-    __hash__ = object.__hash__
 
 
 # ---------------------------------------------------------------------------
@@ -186,13 +181,6 @@ def describe(obj, control_map=None) -> str:
 
 # ---------------------------------------------------------------------------
 # Measuring the rig
-
-def _pose_matrices(obj) -> dict:
-    flat = np.empty(16 * len(obj.pose.bones), dtype=np.float32)
-    obj.pose.bones.foreach_get("matrix", flat)
-    mats = flat.reshape(-1, 4, 4).transpose(0, 2, 1).astype(np.float64)  # Blender's matrices are column-major
-    return {pb.name: mats[i] for i, pb in enumerate(obj.pose.bones)}
-
 
 def _property(obj, bone, prop):
     pose_bone = obj.pose.bones[bone]
@@ -312,16 +300,22 @@ def _calibrate(obj, rig_map, layout: _Layout, deform: list, size: float) -> dict
                          "collection and retarget again")
     if obj.mode == 'EDIT':
         raise ValueError(f"'{obj.name}' is in Edit Mode: leave it (Object or Pose Mode) and retarget again")
-    pose = obj.pose.bones
     moving = list(layout.driven) + list(layout.poles)
+    samples, bases, steps_of = _evaluate_poses(obj, rig_map, layout, moving, size)
+    return _fit_relations(obj, moving, deform, samples, bases, steps_of, size), samples[0]
+
+
+def _evaluate_poses(obj, rig_map, layout: _Layout, moving: list, size: float):
+    """(samples, bases, steps_of): the armature matrices of every pose bone (pose_channels.pose_matrices) as
+    Blender evaluates the rig at rest and in _SAMPLES random poses of the moving controls, each moving
+    control's basis in each pose, and the constraints of the bones above them (_steps) as evaluated at rest."""
+    pose = obj.pose.bones
     touched = moving + layout.rest
     saved = {n: pose[n].matrix_basis.copy() for n in touched}
     saved_props = [(b, p, _property(obj, b, p)) for b, p, _ in layout.settings]
     rng = np.random.default_rng(_SEED)
-    samples = []
-    bases = {name: [] for name in moving}  # each moving control's basis in each pose
+    samples, bases, steps_of = [], {name: [] for name in moving}, {}
     above = {p.name for name in moving for p in pose[name].parent_recursive}  # where a mechanism may be
-    steps_of = {}
     # The random poses reach beyond the limbs: a limb's no-stretch setting would clamp its IK target there
     # (a Limit Distance in Rigify) and hide how the target follows its control when in reach; calibration
     # stretches.
@@ -339,17 +333,10 @@ def _calibrate(obj, rig_map, layout: _Layout, deform: list, size: float) -> dict
         obj.update_tag(refresh={'OBJECT', 'DATA', 'TIME'})
         for s in range(_SAMPLES + 1):
             for name in touched:
-                if s == 0 or name not in moving:
-                    pose[name].matrix_basis = mathutils.Matrix.Identity(4)
-                    continue
-                axis = rng.normal(size=3)
-                turn = mathutils.Quaternion(axis / np.linalg.norm(axis), rng.uniform(0.2, 1) * _CALIBRATION_ANGLE)
-                m = turn.to_matrix().to_4x4()
-                if name in layout.located or name in layout.poles:
-                    m.translation = rng.uniform(-0.05, 0.05, size=3) * size
-                pose[name].matrix_basis = m
+                pose[name].matrix_basis = _random_basis(rng, layout, name, size) if s and name in moving \
+                    else mathutils.Matrix.Identity(4)
             bpy.context.view_layer.update()
-            samples.append(_pose_matrices(obj))
+            samples.append(pose_channels.pose_matrices(obj))
             for name in moving:
                 bases[name].append(np.array(pose[name].matrix_basis, dtype=np.float64))
             if s == 0:  # the constraints as evaluated with the layout's properties (their drivers)
@@ -364,6 +351,23 @@ def _calibrate(obj, rig_map, layout: _Layout, deform: list, size: float) -> dict
             pose[b][p] = value
         obj.update_tag(refresh={'OBJECT', 'DATA', 'TIME'})
         bpy.context.view_layer.update()
+    return samples, bases, steps_of
+
+
+def _random_basis(rng, layout: _Layout, name: str, size: float):
+    """A random turn of up to _CALIBRATION_ANGLE, and for a located control or pole a random move within a
+    twentieth of the rig's size."""
+    axis = rng.normal(size=3)
+    turn = mathutils.Quaternion(axis / np.linalg.norm(axis), rng.uniform(0.2, 1) * _CALIBRATION_ANGLE)
+    m = turn.to_matrix().to_4x4()
+    if name in layout.located or name in layout.poles:
+        m.translation = rng.uniform(-0.05, 0.05, size=3) * size
+    return m
+
+
+def _fit_relations(obj, moving, deform, samples, bases, steps_of, size) -> dict:
+    """Each moving control's parent's Relation (or Mechanism, checked on the poses), fitted to the samples."""
+    pose = obj.pose.bones
     stack = lambda name: np.array([s[name] for s in samples])  # noqa: E731
     candidates = {n: stack(n) for n in deform}
     candidates.update({n: stack(n) for n in moving})
@@ -388,7 +392,7 @@ def _calibrate(obj, rig_map, layout: _Layout, deform: list, size: float) -> dict
             raise ValueError(f"'{obj.name}': the control '{name}' hangs from '{parent.name}', and {why}; "
                              "set the rig's follow/parent switches to a plain value (0 or 1) and retarget again")
         relations[name] = relation
-    return relations, samples[0]
+    return relations
 
 
 # ---------------------------------------------------------------------------
@@ -419,9 +423,7 @@ def _source_key_frames(source, frames) -> np.ndarray:
     action = animdata.assigned_action(source)
     found = set()
     for fcurve in animdata.fcurves(action, source):
-        co = np.empty(2 * len(fcurve.keyframe_points))
-        fcurve.keyframe_points.foreach_get("co", co)
-        found.update(np.round(co[0::2]).astype(int).tolist())
+        found.update(np.round(animdata.read_keys(fcurve)[0]).astype(int).tolist())
     return np.isin(np.round(frames).astype(int), sorted(found))
 
 
@@ -581,8 +583,7 @@ def apply(plan_: ControlPlan, *, action_name: str | None = None, overwrite: bool
         animdata.write_keys(target, action, plan_.rest_channels, plan_.frames[:1], plan_.rest_values)
         if deform.contacts is not None:  # on the feet's controls, where the animator keys
             contacts.write_contacts(target, action, plan_.feet, deform.frames, deform.contacts)
-        if deform.frame_rate > 0:
-            action[bvh.FRAME_RATE] = deform.frame_rate
+        animdata.record_frame_rate(action, deform.frame_rate)
 
     previous = animdata.assigned_action(target)
     if overwrite and previous is not None:

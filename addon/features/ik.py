@@ -10,15 +10,13 @@ the file changes.
 from __future__ import annotations
 
 import copy
-import threading
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
 import bpy
 import numpy as np
 
 from ..blender import animdata, pose_channels
-from ..core import bone_mapping, ik_defaults, native_state, rotation_channels
+from ..core import bone_mapping, ik_defaults, native_state, rotation_channels, worker_thread
 
 METHODS = (
     ("dls", "Damped LS", "Damped least squares: robust near singular poses; regularised towards the previous "
@@ -27,11 +25,11 @@ METHODS = (
     ("transpose", "Transpose", "Jacobian transpose: gradient steps, simple and slow"),
     ("ccd", "CCD", "Cyclic coordinate descent, joint by joint"),
 )
-_AXES = "xyz"
 # The posture prior's weight with natural defaults: strong enough that what no target needs (an upper
 # arm's twist about a straight arm, say) stays near the input from frame to frame, instead of drifting
 # and popping while a target is out of reach (measured on the sample characters, docs/ik.md).
 NATURAL_REGULARIZATION = 1e-2
+PLAIN_REGULARIZATION = 1e-4  # DLS's light pull towards the previous frame's solution otherwise
 
 
 @dataclass
@@ -66,37 +64,10 @@ class Result:
     bones: list = field(default_factory=list)  # the bones the solve moved
 
 
-def joint_limits(obj, bones) -> dict:
-    """The bones' IK settings (ik_min_*, ik_max_*, use_ik_limit_*, lock_ik_*, ik_stiffness_*, ik_stretch),
-    read in bulk, in the order of bones."""
-    pose_bones = obj.pose.bones
-    order = [pose_bones.find(bone.name) for bone in bones]
-
-    def read(prop, dtype=np.float64):
-        values = np.empty(len(pose_bones), dtype=dtype)
-        pose_bones.foreach_get(prop, values)
-        return values[order]
-
-    def per_axis(pattern, dtype=np.float64):
-        return np.stack([read(pattern.format(axis), dtype) for axis in _AXES], axis=1)
-
-    limited = per_axis("use_ik_limit_{}", bool)
-    stretch = read("ik_stretch")
-    scale_range = np.ones((len(bones), 2))
-    scale_range[stretch > 0] = (0.5, 2.0)
-    return {"limit_min": np.where(limited, per_axis("ik_min_{}"), -np.inf),
-            "limit_max": np.where(limited, per_axis("ik_max_{}"), np.inf),
-            "locked": per_axis("lock_ik_{}", bool), "stiffness": np.minimum(per_axis("ik_stiffness_{}"), 0.99),
-            "stretch": stretch, "scale_range": scale_range}
-
-
-def _frames(obj, frame_range) -> np.ndarray:
+def _frames(frame_range) -> np.ndarray:
     if frame_range is None:
         return np.array([float(bpy.context.scene.frame_current)])
-    start, end = (int(v) for v in frame_range)
-    if end < start:
-        raise ValueError(f"frame range {start}..{end} is empty")
-    return np.arange(start, end + 1, dtype=np.float64)
+    return pose_channels.frames_between(*frame_range)
 
 
 def _world_placements(obj, frames) -> tuple[np.ndarray, np.ndarray]:
@@ -114,8 +85,7 @@ def _world_placements(obj, frames) -> tuple[np.ndarray, np.ndarray]:
     prop, size = rotation_channels.channel_property(mode)
     channels = [("location", k) for k in range(3)] + [(prop, k) for k in range(size)]
     static = list(obj.location) + list(getattr(obj, prop))
-    values, found = animdata.sample(action, obj, channels, frames)
-    values[~found] = np.array(static)[~found, None]
+    values, _ = animdata.sample(action, obj, channels, frames, static)
     q = rotation_channels.to_quaternions(native, mode, values[3:].T, f"target '{obj.name}' rotation", frames)
     return values[:3].T, q
 
@@ -188,13 +158,7 @@ def plan(obj, effectors, frame_range=None, method: str = "dls", *, root_translat
     """Solve without touching the file (see solve). alongside: a callable run on this thread while the
     native solve runs on another (Blender's data may only be touched from this one)."""
     native = native_state.native()
-    if obj is None or not isinstance(obj, bpy.types.Object) or obj.type != 'ARMATURE':
-        raise ValueError(f"'{getattr(obj, 'name', obj)}' is not an armature object")
-    if method not in [m[0] for m in METHODS]:
-        raise ValueError(f"unknown IK method {method!r}; expected one of {[m[0] for m in METHODS]}")
-    effectors = [e if isinstance(e, Effector) else Effector(**e) for e in effectors]
-    if not effectors:
-        raise ValueError("no effectors: give at least one bone and target")
+    effectors = _checked_effectors(obj, effectors, method)
     all_bones = pose_channels.depth_first(obj.data)
     all_names = [b.name for b in all_bones]
     for effector in effectors:
@@ -202,12 +166,7 @@ def plan(obj, effectors, frame_range=None, method: str = "dls", *, root_translat
             raise ValueError(f"{effector.label()}: '{effector.bone}' is not a bone of '{obj.name}'")
         if not (np.isfinite(effector.weight) and effector.weight > 0):
             raise ValueError(f"{effector.label()}: the weight must be positive")
-    # Only the effectors' bones and their ancestors place the effectors: the
-    # solve sees that part of the rig (with the root, whose location channel
-    # it reads), sized as the whole rig so that it is solved as the whole would
-    # be; the other bones are neither read, solved nor keyed.
-    part = sorted(_ancestors(all_bones, all_names, [e.bone for e in effectors]) | {0})
-    _, rest = _rest_of(obj)  # every head, then every tail
+    rest = pose_channels.rest_points(obj.data)
     natural_joints = _natural(obj, all_names, rest, natural, defaults)
     # A humanoid solved whole (recruitment stages; no chain_count) has its posture prior towards its own
     # input pose, strong enough to hold what no target needs (a twist); otherwise the previous frame's
@@ -216,47 +175,27 @@ def plan(obj, effectors, frame_range=None, method: str = "dls", *, root_translat
     if reference is None:
         reference = "input" if whole_body else "previous"
     if not regularization:  # 0 or None: the default
-        regularization = NATURAL_REGULARIZATION if whole_body else 1e-4
+        regularization = NATURAL_REGULARIZATION if whole_body else PLAIN_REGULARIZATION
     if balance is None:  # on when a humanoid's feet are pinned
         balance = natural_joints is not None and any(
             e.pin and natural_joints.part[all_names.index(e.bone)] in ("foot", "shin") for e in effectors)
     balance = bool(balance) and priorities and method == "dls" and any(e.pin for e in effectors)
-    body = _body_root(obj, all_bones, all_names, part, rest)
-    if balance:  # the centre of mass weighs every bone of the body
-        part = sorted(set(part) | {i for i, b in enumerate(all_bones) if _is_below(b, all_bones[body])})
-    above = [all_bones[i] for i in part if i < body and all_bones[i] in pose_channels.ancestors(all_bones[body])]
-    if above:  # a floor root over the hips: solve the hips' subtree in its parent's posed frame
-        part = [i for i in part if i >= body and _is_below(all_bones[i], all_bones[body])]
-        rig, bones = _rig_below(obj, [all_bones[i] for i in part])
-    else:
-        rig, bones = pose_channels.native_rig(obj.data, [all_bones[i] for i in part])
+    rig, bones, above = _solved_rig(obj, all_bones, all_names, effectors, rest, balance)
     names = [b.name for b in bones]
-    rest = rest.reshape(-1, 3).astype(np.float64)
-    size = float(np.linalg.norm(np.ptp(rest, axis=0)))
-    height = float(np.max(np.ptp(rest, axis=0)))
-    frames = _frames(obj, frame_range)
-    action = animdata.assigned_action(obj)
-    if action is None or frame_range is None:
-        # The pose as it stands (one frame).
-        rotations, locations = pose_channels.current_pose(obj, bones)
-        input_rotations = rotations.reshape(1, -1)
-        input_locations = np.ascontiguousarray(locations[:1])
-    else:
-        input_rotations = pose_channels.rotations(obj, action, bones, frames)
-        locations, _ = pose_channels.locations(obj, action, bones[:1], frames)
-        input_locations = np.ascontiguousarray(locations)
+    frames = _frames(frame_range)
+    action = animdata.assigned_action(obj) if frame_range is not None else None
+    input_rotations, input_locations = _input_pose(obj, action, bones, frames)
     positions, orientations = _targets(obj, effectors, frames)
-    if above:
-        positions, orientations = _into_parent_frame(obj, above, frames, action if frame_range is not None else None,
-                                                     positions, orientations)
-    options = joint_limits(obj, bones) if use_limits else {}
+    up = np.linalg.inv(np.array(obj.matrix_world)[:3, :3]) @ np.array([0.0, 0.0, 1.0])
+    if above:  # into the hips' parent's frame (its turn about up, a floor root's facing, keeps up)
+        positions, orientations = _into_parent_frame(obj, above, frames, action, positions, orientations)
+        up = rotation_channels.rotate(rotation_channels.conjugate(_parent_rest(obj, above)), up)
+    options = pose_channels.ik_settings(obj, bones) if use_limits else {}
     if natural_joints is not None:
         options = _with_defaults(options, natural_joints, [all_names.index(n) for n in names], len(names))
     if any(e.chain_count > 0 for e in effectors):
         options["excluded"] = _outside_chains(bones, names, effectors)
-    up = np.linalg.inv(np.array(obj.matrix_world)[:3, :3]) @ np.array([0.0, 0.0, 1.0])
-    if above:  # into the hips' parent's frame (its turn about up, a floor root's facing, keeps up)
-        up = rotation_channels.rotate(rotation_channels.conjugate(_parent_rest(obj, above)), up)
+    height = float(np.max(np.ptp(rest, axis=0)))
 
     def run():
         with native_state.blender_frames(frames):
@@ -268,35 +207,66 @@ def plan(obj, effectors, frame_range=None, method: str = "dls", *, root_translat
                 method=method, max_iterations=max_iterations,
                 tolerance=float(tolerance if tolerance is not None else 1e-5 * height),
                 damping=damping, regularization=regularization, reference=reference,
-                root_translation=root_translation, root_rotation=root_rotation, size=size,
-                priorities=priorities, balance=balance, up=tuple(float(v) for v in up / np.linalg.norm(up)),
-                **options)
+                root_translation=root_translation, root_rotation=root_rotation,
+                size=float(np.linalg.norm(np.ptp(rest, axis=0))), priorities=priorities, balance=balance,
+                up=tuple(float(v) for v in up / np.linalg.norm(up)), **options)
 
-    if alongside is None:
-        solved = run()
+    solved = run() if alongside is None else worker_thread.beside(run, alongside)[0]
+    return _plan_of(obj, bones, frames, input_rotations, solved, root_translation,
+                    options if natural_joints is not None or balance else None, balance)
+
+
+def _checked_effectors(obj, effectors, method) -> list:
+    """The effectors as Effector objects, the armature and method checked (the bones and weights by plan)."""
+    if obj is None or not isinstance(obj, bpy.types.Object) or obj.type != 'ARMATURE':
+        raise ValueError(f"'{getattr(obj, 'name', obj)}' is not an armature object")
+    if method not in [m[0] for m in METHODS]:
+        raise ValueError(f"unknown IK method {method!r}; expected one of {[m[0] for m in METHODS]}")
+    effectors = [e if isinstance(e, Effector) else Effector(**e) for e in effectors]
+    if not effectors:
+        raise ValueError("no effectors: give at least one bone and target")
+    return effectors
+
+
+def _solved_rig(obj, all_bones, all_names, effectors, rest, balance):
+    """(native Rig, its bones, the bones above the hips or []): the part of the armature the solve sees.
+
+    Only the effectors' bones and their ancestors place the effectors: the solve sees that part of the rig
+    (with the root, whose location channel it reads), sized as the whole rig so that it is solved as the
+    whole would be; the other bones are neither read, solved nor keyed. Under a game rig's floor root the
+    hips' subtree is solved in the hips' parent's posed frame (the bones above it returned)."""
+    part = sorted(_ancestors(all_bones, all_names, [e.bone for e in effectors]) | {0})
+    body = _body_root(obj, all_bones, all_names, part, rest)
+    if balance:  # the centre of mass weighs every bone of the body
+        part = sorted(set(part) | {i for i, b in enumerate(all_bones) if pose_channels.is_below(b, all_bones[body])})
+    above = [all_bones[i] for i in part if i < body and all_bones[i] in pose_channels.ancestors(all_bones[body])]
+    if above:
+        part = [i for i in part if i >= body and pose_channels.is_below(all_bones[i], all_bones[body])]
+        rig, bones = _rig_below(obj, [all_bones[i] for i in part])
     else:
-        started = threading.Event()
+        rig, bones = pose_channels.native_rig(obj.data, [all_bones[i] for i in part])
+    return rig, bones, above
 
-        def run_started():
-            started.set()
-            return run()
 
-        with ThreadPoolExecutor(max_workers=1) as pool:
-            solving = pool.submit(run_started)
-            # Blender's calls keep the GIL: let the worker reach the native call, which releases it, first.
-            started.wait()
-            alongside()  # should this raise, the pool still waits for the solve
-            solved = solving.result()
-    rotations = solved.rotations
+def _input_pose(obj, action, bones, frames) -> tuple[np.ndarray, np.ndarray]:
+    """The input pose: rotations (frames or 1, 4B) and the root's location (frames or 1, 3), from the action
+    on frames, or the pose as it stands (one frame) without one."""
+    if action is None:
+        rotations, locations = pose_channels.current_pose(obj, bones)
+        return rotations.reshape(1, -1), np.ascontiguousarray(locations[:1])
+    locations, _ = pose_channels.locations(obj, action, bones[:1], frames)
+    return pose_channels.rotations(obj, action, bones, frames), np.ascontiguousarray(locations)
+
+
+def _plan_of(obj, bones, frames, input_rotations, solved, root_translation, joints, balance) -> Plan:
     count = len(bones)
-    out = rotations.reshape(frames.size, count, 4)
+    out = solved.rotations.reshape(frames.size, count, 4)
     base = np.broadcast_to(np.asarray(input_rotations).reshape(-1, count, 4), out.shape)
     moved = np.any(np.abs(np.einsum("fbk,fbk->fb", out, base)) < 1.0 - 1e-12, axis=0)
     if root_translation:
         moved[0] = True
-    result = Result(frames, solved.errors, solved.iterations, [names[i] for i in np.flatnonzero(moved)])
-    return Plan(obj, bones, frames, rotations, solved.root_locations, moved, result,
-                options if natural_joints is not None or balance else None, balance)
+    result = Result(frames, solved.errors, solved.iterations, [bones[i].name for i in np.flatnonzero(moved)])
+    return Plan(obj, bones, frames, solved.rotations, solved.root_locations, moved, result, joints, balance)
 
 
 def _ancestors(bones, names, starts) -> set:
@@ -304,15 +274,9 @@ def _ancestors(bones, names, starts) -> set:
     index = {name: i for i, name in enumerate(names)}
     out = set()
     for name in starts:
-        bone = bones[index[name]]
-        while bone is not None and index[bone.name] not in out:
-            out.add(index[bone.name])
-            bone = bone.parent
+        out.add(index[name])
+        out.update(index[b.name] for b in pose_channels.ancestors(bones[index[name]]))
     return out
-
-
-def _is_below(bone, top) -> bool:
-    return bone == top or top in pose_channels.ancestors(bone)
 
 
 _LABELS: dict = {}  # rest signature -> the bone map's labels
@@ -326,7 +290,7 @@ def _labels(obj, all_names, rest) -> bone_mapping.Body:
     if key not in _LABELS:
         if len(_LABELS) > 64:
             _LABELS.clear()
-        _LABELS[key] = bone_mapping.classify(pose_channels.mapping_rig(obj))
+        _LABELS[key] = bone_mapping.classify(pose_channels.armature_mapping_rig(obj))
     return _LABELS[key]
 
 
@@ -338,12 +302,8 @@ def _floor_rooted_hips(obj, all_names, rest) -> str | None:
 
 
 def _rest_of(obj) -> tuple[list, np.ndarray]:
-    """The bones' names (depth first) and every head, then every tail, at rest (float32, bulk)."""
-    all_names = [b.name for b in pose_channels.depth_first(obj.data)]
-    rest = np.empty(6 * len(all_names), dtype=np.float32)
-    obj.data.bones.foreach_get("head_local", rest[:3 * len(all_names)])
-    obj.data.bones.foreach_get("tail_local", rest[3 * len(all_names):])
-    return all_names, rest
+    """The bones' names (depth first) and every head, then every tail, at rest."""
+    return [b.name for b in pose_channels.depth_first(obj.data)], pose_channels.rest_points(obj.data)
 
 
 def natural_defaults(obj, settings=None):
@@ -375,9 +335,7 @@ def _natural(obj, all_names, rest, natural, settings):
         settings = ik_defaults.NaturalDefaults.from_dict(settings)
     # Kept per rest pose (heads, tails and each bone's rest frame, so its roll) and settings: the live
     # re-solve runs this on every update.
-    frames = np.empty(16 * len(all_names), dtype=np.float32)
-    obj.data.bones.foreach_get("matrix_local", frames)
-    key = (tuple(all_names), rest.tobytes(), frames.tobytes(),
+    key = (tuple(all_names), rest.tobytes(), pose_channels.rest_matrices(obj.data).tobytes(),
            tuple(sorted((settings or ik_defaults.NaturalDefaults()).to_dict().items())))
     if key not in _NATURAL:
         if len(_NATURAL) > 64:
@@ -385,7 +343,7 @@ def _natural(obj, all_names, rest, natural, settings):
         quats = pose_channels.rest_quaternions(obj.data)
         axes = np.stack([_axes(quats[name]) for name in all_names])
         root = _floor_rooted_hips(obj, all_names, rest) or labels.hips
-        _NATURAL[key] = ik_defaults.natural_joints(pose_channels.mapping_rig(obj), labels, axes, settings,
+        _NATURAL[key] = ik_defaults.natural_joints(pose_channels.armature_mapping_rig(obj), labels, axes, settings,
                                                    body_root=root)
     return _NATURAL[key]
 
@@ -433,7 +391,7 @@ def _body_root(obj, all_bones, all_names, part, rest) -> int:
         return 0
     hips = all_names.index(hips_name)
     above = set(pose_channels.ancestors(all_bones[hips]))
-    if all(all_bones[i] in above or _is_below(all_bones[i], all_bones[hips]) for i in part):
+    if all(all_bones[i] in above or pose_channels.is_below(all_bones[i], all_bones[hips]) for i in part):
         return hips
     return 0
 
@@ -441,18 +399,15 @@ def _body_root(obj, all_bones, all_names, part, rest) -> int:
 def _rig_below(obj, bones):
     """A native Rig of bones (the hips first, then bones below them) at rest in the hips' parent's rest
     frame: posed with the hips' own channels it gives their pose in that parent's posed frame."""
-    native = native_state.native()
     parent = bones[0].parent
     rest = pose_channels.rest_quaternions(obj.data)
     frame = rotation_channels.conjugate(rest[parent.name] / np.linalg.norm(rest[parent.name]))
     origin = np.array(parent.head_local, dtype=np.float64)
-    index = {b.name: i for i, b in enumerate(bones)}
     quats = np.array([rotation_channels.multiply(frame, rest[b.name] / np.linalg.norm(rest[b.name]))
                       for b in bones])
-    heads = rotation_channels.rotate(frame, np.array([b.head_local for b in bones], dtype=np.float64) - origin)
-    rig = native.Rig([b.name for b in bones], [index[b.parent.name] if i else -1 for i, b in enumerate(bones)],
-                     quats.reshape(-1, 4), heads.reshape(-1, 3), np.array([b.length for b in bones], dtype=np.float64))
-    return rig, bones
+    heads = rotation_channels.rotate(frame, pose_channels.heads(bones) - origin)
+    parents = [-1] + pose_channels.parent_indices(bones)[1:]
+    return pose_channels.build_rig([b.name for b in bones], parents, quats, heads, [b.length for b in bones]), bones
 
 
 def _into_parent_frame(obj, above, frames, action, positions, orientations):
@@ -581,7 +536,7 @@ def bake(armature, effectors, frame_range, method: str = "dls", *, new_action: b
                      alongside=copy_current if new_action and current is not None else None, **options)
         action = apply_keys(plan_, new_action=new_action, copy=copies[0] if copies else None)
     except BaseException:
-        for copy in copies:
-            bpy.data.actions.remove(copy)
+        for made in copies:
+            bpy.data.actions.remove(made)
         raise
     return plan_.result, action

@@ -1,37 +1,55 @@
 """Live IK: re-solve the current frame of every armature with Live on, whenever its targets
 move or the frame changes (a depsgraph handler; its cost per re-solve is in docs/benchmarks.md,
 "Full-body IK")."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
 import bpy
 import numpy as np
 
 from . import ik
 
+
+@dataclass
+class LiveSettings:
+    """What Live IK re-solves an armature with: ik.plan's effectors, method and options."""
+    effectors: list = field(default_factory=list)  # ik.Effector
+    method: str = "dls"
+    options: dict = field(default_factory=dict)
+
+
+# (armature object) -> its LiveSettings, or None while Live is off on it; the UI, which keeps the settings,
+# gives it (register).
+_settings_of = None
 _last: dict[str, tuple] = {}
 _busy = False
 
 
-def _signature(obj) -> tuple:
-    settings = obj.motionkit_ik
+def _signature(obj, settings: LiveSettings) -> tuple:
     parts = [bpy.context.scene.frame_current, tuple(np.array(obj.matrix_world).ravel())]
-    for e in settings.effectors:
-        target = e.target
-        if target is not None and not e.pin:
+    for effector in settings.effectors:
+        target, bone = effector.target, None
+        if isinstance(target, tuple):
+            target, bone = target
+        if target is not None and not effector.pin:
             parts.append(tuple(np.array(target.matrix_world).ravel()))
-            if target.type == 'ARMATURE' and e.subtarget in target.pose.bones:
-                parts.append(tuple(target.pose.bones[e.subtarget].head))
+            if target.type == 'ARMATURE' and bone in target.pose.bones:
+                parts.append(tuple(target.pose.bones[bone].head))
     return tuple(parts)
 
 
-def solve_live(obj) -> bool:
-    """Re-solve obj's current frame if its targets moved; True when it did."""
+def solve_live(obj, settings: LiveSettings | None = None) -> bool:
+    """Re-solve obj's current frame if its targets moved; True when it did. settings: by default what the UI
+    keeps for obj."""
     global _busy
-    signature = _signature(obj)
+    settings = settings if settings is not None else _settings_of(obj)
+    signature = _signature(obj, settings)
     if _last.get(obj.name) == signature or _busy:
         return False
     _busy = True
     try:
-        settings = obj.motionkit_ik
-        plan = ik.plan(obj, settings.effector_list(), None, settings.method, **settings.options())
+        plan = ik.plan(obj, settings.effectors, None, settings.method, **settings.options)
         ik.apply_pose(plan)
     except ValueError as ex:
         print(f"MotionKit live IK on '{obj.name}': {ex}")
@@ -43,13 +61,16 @@ def solve_live(obj) -> bool:
 
 def _on_update(scene, depsgraph=None):
     for obj in scene.objects:
-        if obj.type == 'ARMATURE' and obj.motionkit_ik.live and len(obj.motionkit_ik.effectors):
-            solve_live(obj)
+        if obj.type == 'ARMATURE':
+            settings = _settings_of(obj)
+            if settings is not None and settings.effectors:
+                solve_live(obj, settings)
 
 
 def sync() -> None:
     """The handler is installed while any armature has Live on."""
-    wanted = any(o.type == 'ARMATURE' and o.motionkit_ik.live for o in bpy.data.objects)
+    wanted = _settings_of is not None and any(o.type == 'ARMATURE' and _settings_of(o) is not None
+                                              for o in bpy.data.objects)
     for handlers in (bpy.app.handlers.depsgraph_update_post, bpy.app.handlers.frame_change_post):
         if wanted and _on_update not in handlers:
             handlers.append(_on_update)
@@ -71,7 +92,10 @@ def _on_load(*_args):
 _STATE_CHANGES = ("load_post", "undo_post", "redo_post")
 
 
-def register() -> None:
+def register(settings_of) -> None:
+    """settings_of(armature object): its LiveSettings, or None while Live is off on it."""
+    global _settings_of
+    _settings_of = settings_of
     for name in _STATE_CHANGES:
         handlers = getattr(bpy.app.handlers, name)
         if _on_load not in handlers:

@@ -19,7 +19,6 @@ import numpy as np
 from ..blender import animdata, pose_channels
 from ..core import native_state, resample_plan, rotation_channels
 from ..core.resample_plan import ChannelGroup
-from . import bvh
 
 POLYNOMIAL_MAX_KEYS = 64
 # Slopes of sphere curves for exact output come from one-sided second-order
@@ -110,14 +109,7 @@ def _keys(obj, action, group: ChannelGroup) -> tuple[list, np.ndarray, np.ndarra
 def _stepped(group: ChannelGroup) -> bool:
     """A scalar curve whose keys all hold (CONSTANT), such as a 0/1 foot contact: it stays stepped, never
     a spline that overshoots between its values."""
-    if group.kind != 'scalar':
-        return False
-    points = next(iter(group.curves.values())).keyframe_points
-    if not len(points) or points[0].interpolation != 'CONSTANT':
-        return False
-    codes = np.empty(len(points), dtype=np.int32)
-    points.foreach_get("interpolation", codes)  # the enum's storage: equal codes, equal interpolation
-    return bool(np.all(codes == codes[0]))
+    return group.kind == 'scalar' and animdata.holds_every_key(next(iter(group.curves.values())))
 
 
 def _key_range(fcurve) -> tuple[float, float]:
@@ -127,10 +119,7 @@ def _key_range(fcurve) -> tuple[float, float]:
 
 def _sample(obj, action, channels, static, times) -> np.ndarray:
     """The channels as Blender evaluates them at times, (n, size); a channel without a curve holds static."""
-    sampled, found = animdata.sample(action, obj, channels, times)
-    values = np.tile(static, (times.size, 1))
-    values[:, found] = sampled[found].T
-    return values
+    return np.ascontiguousarray(animdata.sample(action, obj, channels, times, static)[0].T)
 
 
 def _scalar_options(kind: str, count: int, tcb) -> dict:
@@ -335,11 +324,11 @@ def resample(targets, step: float | None = None, fps: float | None = None, *, ro
                                 write.interpolation, write.handles)
     if timing.scene_fps is not None:
         _set_scene_rate(scene, timing)
-        # The actions' frames now count the new rate's frames: a capture's recorded rate (bvh.FRAME_RATE,
+        # The actions' frames now count the new rate's frames: a capture's recorded rate (animdata.FRAME_RATE,
         # which contacts and root smoothing turn seconds into frames with) follows.
         for _, action, _ in planned:
-            if action.get(bvh.FRAME_RATE) is not None:
-                action[bvh.FRAME_RATE] = float(timing.scene_fps)
+            if action.get(animdata.FRAME_RATE) is not None:
+                action[animdata.FRAME_RATE] = float(timing.scene_fps)
     return [action for _, action, _ in planned]
 
 

@@ -9,8 +9,6 @@ checked before anything in the file changes, so an error leaves it as it was.
 from __future__ import annotations
 
 import os
-import threading
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import bpy
@@ -18,7 +16,8 @@ import numpy as np
 
 from . import bvh, contacts, control_rigs, resampling
 from ..blender import animdata, imports, pose_channels
-from ..core import bone_mapping, native_state, root_motion, rotation_channels
+from ..blender.imports import remove_armature
+from ..core import bone_mapping, native_state, root_motion, rotation_channels, worker_thread
 from ..core.floor import clip_floor, feet_lifts, hips_lift, sole_height
 from ..core.foot_contacts import ContactSettings
 from ..core.root_motion import FLOOR_ROOTS
@@ -92,12 +91,16 @@ def _check_editable(obj) -> None:
                          f"retarget onto that")
 
 
+def _armature_object(obj):
+    """The armature object itself, for a control rig's deform skeleton too."""
+    return obj.obj if isinstance(obj, control_rigs.DeformSkeleton) else obj
+
+
 def _side(obj, role: str) -> _Side:
     if obj is None:
         raise ValueError(f"no {role} armature given")
     # A control rig's deform skeleton (control_rigs.DeformSkeleton) reads as an armature object.
-    if not (isinstance(obj, bpy.types.Object) or getattr(obj, "is_deform_skeleton", False)) \
-            or obj.type != 'ARMATURE':
+    if not isinstance(obj, (bpy.types.Object, control_rigs.DeformSkeleton)) or obj.type != 'ARMATURE':
         raise ValueError(f"the {role} '{getattr(obj, 'name', obj)}' is not an armature object")
     if not len(obj.data.bones):
         raise ValueError(f"the {role} armature '{obj.name}' has no bones")
@@ -105,12 +108,10 @@ def _side(obj, role: str) -> _Side:
     return _Side(obj, bones, rig)
 
 
-mapping_rig = pose_channels.mapping_rig  # the armature at rest as bone_mapping sees it
-
-
 def auto_map(source, target) -> list[tuple[str, str]]:
     """(source bone, target bone) pairs found from names and, where they say nothing, the skeletons."""
-    return bone_mapping.auto_map(mapping_rig(source), mapping_rig(target))
+    return bone_mapping.auto_map(pose_channels.armature_mapping_rig(source),
+                                 pose_channels.armature_mapping_rig(target))
 
 
 def _pairs(bone_map, source: _Side, target: _Side) -> list[tuple[str, str]]:
@@ -210,8 +211,8 @@ def _faces_nowhere(side: _Side, pose: _Pose, bones) -> bool:
     """Whether a match pose is a zero pose (nearly every joint straight on from its parent's along one axis):
     it shows no facing. Read from the joints, not the bones' axes, which an FBX or glTF import may leave all
     pointing one way in a pose that faces somewhere."""
-    parents = [(b, side.index(side.bones[b].parent.name)) for b in bones
-               if side.bones[b].parent is not None and side.bones[b].parent.name in side]
+    parent = pose_channels.parent_indices(side.bones)
+    parents = [(b, parent[b]) for b in bones if parent[b] >= 0]
     offsets = np.array([pose.heads[b] - pose.heads[p] for b, p in parents]).reshape(-1, 3)
     lengths = np.linalg.norm(offsets, axis=1)
     axes = offsets[lengths > 1e-9 * max(lengths.max(initial=0.0), 1e-30)]
@@ -301,7 +302,7 @@ def _legs(side: _Side, body: bone_mapping.Body) -> list:
         if thigh in side and shin in side:
             f = side.index(foot) if foot in side else -1
             below = () if f < 0 else tuple(i for i, b in enumerate(side.bones)
-                                           if i == f or side.bones[f] in pose_channels.ancestors(b))
+                                           if pose_channels.is_below(b, side.bones[f]))
             legs.append(root_motion.Leg(side.index(thigh), side.index(shin), f, below))
     return legs
 
@@ -336,12 +337,10 @@ def _bone_aims(src: _Side, tgt: _Side, bone_map: list[int]) -> tuple[np.ndarray 
     nothing to point at (a hand without fingers) both keep their own axes."""
     source_next = pose_channels.continuing_children(src.bones)
     target_next = pose_channels.continuing_children(tgt.bones)
-    index = {b.name: i for i, b in enumerate(tgt.bones)}
     for t, a in enumerate(bone_map):
         if a >= 0 and (source_next[a] < 0 or target_next[t] < 0):
             source_next[a] = target_next[t] = -1
-    for child, bone in enumerate(tgt.bones):
-        parent = index.get(bone.parent.name, -1) if bone.parent is not None else -1
+    for child, parent in enumerate(pose_channels.parent_indices(tgt.bones)):
         if parent >= 0 and bone_map[parent] >= 0 and bone_map[child] >= 0 \
                 and source_next[bone_map[parent]] == bone_map[child]:
             target_next[parent] = child
@@ -397,8 +396,7 @@ def _floor_height(side: _Side, body, up, given=None, heads_over_clip=None) -> fl
     recorded = side.obj.data.get(bvh.FLOOR) if hasattr(side.obj.data, "get") else None  # as its importer knew it
     if isinstance(recorded, (int, float)) and np.isfinite(recorded):
         return float(recorded)
-    heads = np.array([b.head_local for b in side.bones], dtype=np.float64)
-    tails = np.array([b.tail_local for b in side.bones], dtype=np.float64)
+    heads, tails = pose_channels.heads(side.bones), pose_channels.tails(side.bones)
     soles = _sole_points(side, body, heads, tails)
     if soles is None:
         return 0.0  # no feet: the armature's origin, as a capture's floor
@@ -443,20 +441,11 @@ class _PlantedFeet:
     finish: object    # (result) -> (rotations, locations, report), the solved legs written into the plan's pose
     bones: set        # names of the bones whose channels the solve changes
     channels: object  # () -> (channels, values) of those bones from the plan's pose, reading no Blender data
-    _thread: threading.Thread | None = None
-    _outcome: tuple = ()
+    _worker: worker_thread.WorkerThread | None = None
 
     def start(self) -> None:
         solve = self.prepare()
-
-        def run():
-            try:
-                self._outcome = (True, self._solved(solve))
-            except BaseException as error:  # handed to the thread that completes the plan
-                self._outcome = (False, error)
-
-        self._thread = threading.Thread(target=run, name="motionkit-feet", daemon=True)
-        self._thread.start()
+        self._worker = worker_thread.WorkerThread(lambda: self._solved(solve), name="motionkit-feet").start()
 
     def _solved(self, solve):
         report = self.finish(solve())[2]
@@ -464,13 +453,9 @@ class _PlantedFeet:
 
     def result(self):
         """(report, (channels, values)): from the worker thread, once it ends, or computed here if none runs."""
-        if self._thread is None:
+        if self._worker is None:
             return self._solved(self.prepare())
-        self._thread.join()
-        ok, outcome = self._outcome
-        if not ok:
-            raise outcome
-        return outcome
+        return self._worker.result()
 
     def complete(self, plan_: "Plan") -> None:
         plan_.contact_report, (channels, values) = self.result()
@@ -498,7 +483,7 @@ class Plan:
     feet: list | None = None  # the target's contacts.Foot per side, when its feet were planted
     contacts: np.ndarray | None = None  # (frames, 4) bool in contacts.POINTS order, detected on the source
     contact_report: object = None  # contacts.Report of the cleanup
-    frame_rate: float = 0.0  # the source keys' frames per second (bvh.frame_rate), kept on the new action
+    frame_rate: float = 0.0  # the source keys' frames per second (animdata.frame_rate), kept on the new action
     pending: _PlantedFeet | None = None  # the feet's IK solve, when plan(defer_solve=True) left it to apply()
     pose: tuple = ()  # (rotations (frames, 4B), locations (frames, 3B)): every target bone's basis, final once
     #                   resolved (the feet's solve writes into them)
@@ -518,12 +503,54 @@ def plan(source, target, bone_map=None, frame_range=None, root: str = "scaled", 
     """Compute the retargeted keys without touching the file (see retarget). defer_solve: leave the feet's
     IK solve pending for apply(), which runs it beside writing the other bones' keys (Plan.resolve runs it
     at once); the contacts, feet and every other bone's values are final either way."""
-    native = native_state.native()
     src, tgt = _side(source, "source"), _side(target, "target")
     if isinstance(tgt.obj, bpy.types.Object):
         _check_editable(tgt.obj)
-    if src.obj == tgt.obj:
+    if _armature_object(src.obj) == _armature_object(tgt.obj):
         raise ValueError(f"the source and the target are the same armature '{src.obj.name}' (a cycle)")
+    _check_options(root, floor_root, floor_fit, root_smoothing, source_match, target_match)
+    action = animdata.assigned_action(src.obj)
+    if action is None:
+        raise ValueError(f"the source '{src.obj.name}' has no action to retarget")
+    pairs = _pairs(bone_map, src, tgt)
+    clip = _read_clip(src, action, pose_channels.action_frames(action, frame_range))
+    rigs = _read_rigs(src, tgt, pairs, clip, source_match, match_frame, target_match)
+    fit = _fit(rigs, clip, align_facing, source_floor, target_floor)
+    plant_feet = _planting(plant_feet, (src, rigs.src_body), (tgt, rigs.tgt_body))
+    # The source's contacts, needed to plant feet or to put them on the floor, need only the source's pose.
+    wants_feet = plant_feet or (floor_fit != "off" and root != "none")
+    feet = (_feet(src, rigs.src_body), _feet(tgt, rigs.tgt_body)) if wants_feet else (None, None)
+    # The source's contacts count only where both rigs have feet.
+    rotations, root_locations, found = _retarget_clip(rigs, clip, fit, root, ground,
+                                                      None if None in feet else feet[0], contact_settings)
+    _share_twist(tgt, rigs.tgt_body, rotations, {b for _, b in rigs.pairs_idx})
+    locations, located, mode = _place_roots(rigs, clip, fit, rotations, root_locations, root, floor_root,
+                                            root_smoothing)
+    feet_lift = None
+    if found is not None and root != "none" and floor_fit != "off":
+        height_scale = fit.unit_scale if root == "offset" else fit.scale
+        feet_lift = fit.target_scale * _stand_on_floor(
+            native_state.native(), (src, rigs.src_body, clip.rotations, clip.heads, fit.source_up, fit.floors[0]),
+            (tgt, rigs.tgt_body, fit.up, fit.floors[1]), rotations, locations, rigs.roots[1], found, height_scale,
+            fit.heights[1], clip.fps)
+    # The legs' solve plants the feet, and puts right what the hips' lift leaves (feet the legs' proportions
+    # keep off the floor); without planting it runs only where that is more than a twentieth of a percent of
+    # the leg, so that a retarget between alike legs keeps every bone's direction exactly.
+    if floor_fit != "legs":
+        feet_lift = None
+    legs_solve = found is not None and (plant_feet or (
+        feet_lift is not None and np.abs(feet_lift).max(initial=0.0) > 5e-4 * fit.target_scale * fit.heights[1]))
+    planted = _plant_feet(tgt, feet[1], found if plant_feet else np.zeros_like(found), clip.frames, rotations,
+                          locations, rigs.roots[1], contact_settings, clip.fps, beside=defer_solve,
+                          heights=feet_lift, hips_move=plant_feet) if legs_solve else None
+    plan_ = _plan_keys(rigs, clip, pairs, fit.scale, (rotations, locations), located, mode, planted, plant_feet,
+                       defer_solve)
+    if not (np.all(np.isfinite(plan_.values)) and np.all(np.isfinite(plan_.still_values))):
+        raise ValueError("the retargeted motion is not finite; check the rigs' rest poses")
+    return plan_  # a pending feet's solve is checked when it completes (contacts.cleanup and write_keys)
+
+
+def _check_options(root, floor_root, floor_fit, root_smoothing, source_match, target_match) -> None:
     if floor_fit not in [f[0] for f in FLOOR_FITS]:
         raise ValueError(f"unknown floor_fit {floor_fit!r}; expected one of {[f[0] for f in FLOOR_FITS]}")
     if root not in [r[0] for r in ROOT_MOTIONS]:
@@ -534,26 +561,56 @@ def plan(source, target, bone_map=None, frame_range=None, root: str = "scaled", 
         raise ValueError(f"root_smoothing must be a non-negative number of seconds, not {root_smoothing!r}")
     if source_match not in [m[0] for m in SOURCE_MATCHES] or target_match not in [m[0] for m in TARGET_MATCHES]:
         raise ValueError(f"unknown match pose {source_match!r} / {target_match!r}")
-    action = animdata.assigned_action(src.obj)
-    if action is None:
-        raise ValueError(f"the source '{src.obj.name}' has no action to retarget")
-    pairs = _pairs(bone_map, src, tgt)
-    frames = pose_channels.action_frames(action, frame_range)
 
-    # The source's channels are read once: posed here, and kept for its foot contacts.
-    source_basis = pose_channels.rotations(src.obj, action, src.bones, frames)
-    source_locations = np.ascontiguousarray(pose_channels.locations(src.obj, action, src.bones, frames)[0])
+
+@dataclass
+class _Clip:
+    """The source's action over the frames retargeted, its channels read once: posed here, and kept for its
+    foot contacts."""
+    action: object
+    frames: np.ndarray
+    fps: float            # its keys' frames per second (animdata.frame_rate)
+    basis: np.ndarray     # (frames, 4B) pose-basis rotations
+    locations: np.ndarray  # (frames, 3B) location channels
+    rotations: np.ndarray  # (frames, 4B) armature-space orientations
+    heads: np.ndarray     # (frames, 3B) armature-space heads
+
+
+def _read_clip(src: _Side, action, frames) -> _Clip:
+    basis = pose_channels.rotations(src.obj, action, src.bones, frames)
+    locations = np.ascontiguousarray(pose_channels.locations(src.obj, action, src.bones, frames)[0])
     with native_state.blender_frames(frames):
-        source_rotations, source_heads = native.armature_pose(src.rig, source_basis, source_locations)
+        rotations, heads = native_state.native().armature_pose(src.rig, basis, locations)
+    return _Clip(action, frames, animdata.frame_rate(action), basis, locations, rotations, heads)
+
+
+@dataclass
+class _Rigs:
+    """The two rigs as the retarget pairs them: their bodies (bone maps), match poses and roots."""
+    src: _Side
+    tgt: _Side
+    src_body: object
+    tgt_body: object
+    source_pose: _Pose
+    target_pose: _Pose
+    target_basis: np.ndarray      # (B, 4) the target's match pose's basis rotations
+    target_locations: np.ndarray  # (B, 3) and location channels
+    bone_map: np.ndarray          # per target bone its source bone, -1 for none
+    pairs_idx: list               # (source bone, target bone) by index, a floor root left out
+    roots: tuple                  # (source, target) hips
+    floor_bones: tuple            # (source, target) floor roots above the hips, or None
+
+
+def _read_rigs(src: _Side, tgt: _Side, pairs, clip: _Clip, source_match, match_frame, target_match) -> _Rigs:
+    native = native_state.native()
     if source_match == 'FRAME':
         if match_frame is None:
             raise ValueError("a source match pose on a frame needs match_frame")
-        match_rot, match_heads = pose_channels.armature_motion(src.obj, action, np.array([float(match_frame)]),
-                                                                     src.rig, src.bones)
+        match_rot, match_heads = pose_channels.armature_motion(src.obj, clip.action, np.array([float(match_frame)]),
+                                                               src.rig, src.bones)
         source_pose = _Pose(match_rot.reshape(-1, 4), match_heads.reshape(-1, 3), _lengths(src))
     else:
-        source_pose = _Pose(_rest_rotations(src),
-                            np.array([b.head_local for b in src.bones], dtype=np.float64), _lengths(src))
+        source_pose = _Pose(_rest_rotations(src), pose_channels.heads(src.bones), _lengths(src))
     if target_match == 'CURRENT':
         target_basis, target_locations = pose_channels.current_pose(tgt.obj, tgt.bones)
     else:
@@ -562,17 +619,15 @@ def plan(source, target, bone_map=None, frame_range=None, root: str = "scaled", 
     match_rotations, match_heads = native.armature_pose(tgt.rig, np.ascontiguousarray(target_basis.reshape(1, -1)),
                                                         np.ascontiguousarray(target_locations.reshape(1, -1)))
     target_pose = _Pose(match_rotations.reshape(-1, 4), match_heads.reshape(-1, 3), _lengths(tgt))
-
     bone_map_idx = np.full(len(tgt.bones), -1, dtype=np.int64)
     pairs_idx = [(src.index(a), tgt.index(b)) for a, b in pairs]
     for a, b in pairs_idx:
         bone_map_idx[b] = a
-    tgt_depth = _depths(tgt)
-    src_body = bone_mapping.classify(mapping_rig(src.obj))
-    tgt_body = bone_mapping.classify(mapping_rig(tgt.obj))
+    src_body = bone_mapping.classify(pose_channels.armature_mapping_rig(src.obj))
+    tgt_body = bone_mapping.classify(pose_channels.armature_mapping_rig(tgt.obj))
     # The hips are the body's root for proportions and height; a game rig's floor root above them is
     # carried apart (floor_root=), never mapped like a body bone.
-    target_root, target_floor_bone = _body_roots(tgt, tgt_body, {b for _, b in pairs_idx}, tgt_depth)
+    target_root, target_floor_bone = _body_roots(tgt, tgt_body, {b for _, b in pairs_idx}, _depths(tgt))
     if target_root is None:
         raise ValueError(f"the bone map drives only the floor root of '{tgt.obj.name}'; map its hips too")
     source_root = int(bone_map_idx[target_root])
@@ -584,46 +639,84 @@ def plan(source, target, bone_map=None, frame_range=None, root: str = "scaled", 
     if target_floor_bone is not None:
         bone_map_idx[target_floor_bone] = -1
     pairs_idx = [(a, b) for a, b in pairs_idx if b != target_floor_bone]
+    return _Rigs(src, tgt, src_body, tgt_body, source_pose, target_pose, target_basis, target_locations,
+                 bone_map_idx, pairs_idx, (source_root, target_root), (source_floor_bone, target_floor_bone))
 
+
+@dataclass
+class _Fit:
+    """How the source's motion is laid on the target: the turn between their armature spaces, Blender's up
+    in each, each rig's floor and leg length (its own units), and the scales between them."""
+    space: np.ndarray
+    up: np.ndarray
+    source_up: np.ndarray
+    floors: tuple        # (source, target) heights along up
+    heights: tuple       # (source, target) leg lengths
+    scale: float         # target leg length / source leg length
+    unit_scale: float    # source object scale / target object scale
+    target_scale: float  # the target object's scale
+
+
+def _fit(rigs: _Rigs, clip: _Clip, align_facing: bool, source_floor, target_floor) -> _Fit:
+    src, tgt = rigs.src, rigs.tgt
+    source_root, target_root = rigs.roots
     _, source_scale = _world_rotation_scale(src.obj)
     _, target_scale = _world_rotation_scale(tgt.obj)
-    space, up, source_up = _placement((src, src_body, source_pose, source_rotations, source_heads, source_root),
-                                      (tgt, tgt_body, target_pose, target_root), pairs_idx, align_facing)
-    source_floor_height = _floor_height(src, src_body, source_up, source_floor, source_heads)
-    target_floor_height = _floor_height(tgt, tgt_body, up, target_floor)
-    source_height = _leg_length(src, src_body, source_pose, source_up, source_root, source_heads,
+    space, up, source_up = _placement(
+        (src, rigs.src_body, rigs.source_pose, clip.rotations, clip.heads, source_root),
+        (tgt, rigs.tgt_body, rigs.target_pose, target_root), rigs.pairs_idx, align_facing)
+    source_floor_height = _floor_height(src, rigs.src_body, source_up, source_floor, clip.heads)
+    target_floor_height = _floor_height(tgt, rigs.tgt_body, up, target_floor)
+    source_height = _leg_length(src, rigs.src_body, rigs.source_pose, source_up, source_root, clip.heads,
                                 floor=source_floor_height)
     # The target's own action (whatever is assigned now) never sets its proportions: a zero pose's feet
     # take a tenth of thigh + shin there (root_motion.leg_length).
-    target_height = _leg_length(tgt, tgt_body, target_pose, up, target_root)
+    target_height = _leg_length(tgt, rigs.tgt_body, rigs.target_pose, up, target_root)
     if not (source_height > 1e-9 and target_height > 1e-9):
         raise ValueError("the root stands at the lowest point of a rig: no leg length to scale the motion by")
-    scale = target_height / source_height
-    plant_feet = _planting(plant_feet, (src, src_body), (tgt, tgt_body))
-    # The source's contacts, needed to plant feet or to put them on the floor, need only the source's pose:
-    # found here while the native retarget runs beside (it releases the GIL).
-    wants_feet = plant_feet or (floor_fit != "off" and root != "none")
-    feet = (_feet(src, src_body), _feet(tgt, tgt_body)) if wants_feet else (None, None)
-    source_aims, target_aims = _bone_aims(src, tgt, [int(v) for v in bone_map_idx])
-    with ThreadPoolExecutor(max_workers=1) as beside:
-        retargeted = beside.submit(
-            native.retarget, src.rig, tgt.rig, source_rotations,
-            np.ascontiguousarray(source_heads[:, 3 * source_root:3 * source_root + 3]), [int(v) for v in bone_map_idx],
-            source_match=np.ascontiguousarray(source_pose.rotations), source_match_root=source_pose.heads[source_root],
-            target_match_basis=np.ascontiguousarray(target_basis), target_match_location=target_locations[target_root],
-            source_root=source_root, target_root=target_root, space=space, scale=scale,
-            unit_scale=source_scale / target_scale,
-            vertical_offset=target_height - source_scale / target_scale * source_height, root_motion=root,
-            ground_bones=list(range(len(tgt.bones))) if ground else [], up=up,
-            source_floor=source_floor_height, target_floor=target_floor_height,
-            source_aims=source_aims, target_aims=target_aims)
-        found = None if None in feet else contacts.find_contacts(
-            src.obj, src.bones, src.rig, source_basis, source_locations, feet[0], contact_settings,
-            fps=bvh.frame_rate(action), posed=(source_rotations, source_heads),
-            floor=_armature_height_to_world(src.obj, source_floor_height))
-        with native_state.blender_frames(frames):
-            rotations, root_locations = retargeted.result()
-    _share_twist(tgt, tgt_body, rotations, {b for _, b in pairs_idx})
+    return _Fit(space, up, source_up, (source_floor_height, target_floor_height), (source_height, target_height),
+                target_height / source_height, source_scale / target_scale, target_scale)
+
+
+def _retarget_clip(rigs: _Rigs, clip: _Clip, fit: _Fit, root, ground, source_feet, contact_settings):
+    """(rotations, root locations, the source's contacts or None): the native retarget of the whole clip,
+    on a worker thread (it releases the GIL) while the source's contacts are found here."""
+    native = native_state.native()
+    src, tgt = rigs.src, rigs.tgt
+    source_root, target_root = rigs.roots
+    source_aims, target_aims = _bone_aims(src, tgt, [int(v) for v in rigs.bone_map])
+
+    def retarget_clip():
+        with native_state.blender_frames(clip.frames):
+            return native.retarget(
+                src.rig, tgt.rig, clip.rotations,
+                np.ascontiguousarray(clip.heads[:, 3 * source_root:3 * source_root + 3]),
+                [int(v) for v in rigs.bone_map], source_match=np.ascontiguousarray(rigs.source_pose.rotations),
+                source_match_root=rigs.source_pose.heads[source_root],
+                target_match_basis=np.ascontiguousarray(rigs.target_basis),
+                target_match_location=rigs.target_locations[target_root], source_root=source_root,
+                target_root=target_root, space=fit.space, scale=fit.scale, unit_scale=fit.unit_scale,
+                vertical_offset=fit.heights[1] - fit.unit_scale * fit.heights[0], root_motion=root,
+                ground_bones=list(range(len(tgt.bones))) if ground else [], up=fit.up,
+                source_floor=fit.floors[0], target_floor=fit.floors[1], source_aims=source_aims,
+                target_aims=target_aims)
+
+    def source_contacts():
+        return None if source_feet is None else contacts.find_contacts(
+            src.obj, src.bones, src.rig, clip.basis, clip.locations, source_feet, contact_settings, fps=clip.fps,
+            posed=(clip.rotations, clip.heads), floor=_armature_height_to_world(src.obj, fit.floors[0]))
+
+    (rotations, root_locations), found = worker_thread.beside(retarget_clip, source_contacts)
+    return rotations, root_locations, found
+
+
+def _place_roots(rigs: _Rigs, clip: _Clip, fit: _Fit, rotations, root_locations, root, floor_root,
+                 root_smoothing):
+    """The target's location channels (frames, 3B): the hips' from the retarget, and a floor root's motion
+    (floor_root: FLOOR_ROOTS); returns them, the located bones and what the floor root did."""
+    tgt = rigs.tgt
+    source_floor_bone, target_floor_bone = rigs.floor_bones
+    target_root = rigs.roots[1]
     locations = np.zeros((rotations.shape[0], 3 * len(tgt.bones)))
     locations[:, 3 * target_root:3 * target_root + 3] = root_locations
     located = [target_root]
@@ -632,59 +725,44 @@ def plan(source, target, bone_map=None, frame_range=None, root: str = "scaled", 
         if mode == "copy" and source_floor_bone is None:
             mode = "still"  # nothing to copy: the hips carry the motion
         else:
-            source_motion = (source_rotations[:, 4 * source_floor_bone:4 * source_floor_bone + 4],
-                             source_heads[:, 3 * source_floor_bone:3 * source_floor_bone + 3],
-                             source_pose.rotations[source_floor_bone], source_pose.heads[source_floor_bone]) \
-                if source_floor_bone is not None else None
-            _move_floor_root(native, tgt, target_pose, rotations, locations, target_floor_bone, target_root, mode,
-                             source_motion, space, scale, root, root_smoothing * bvh.frame_rate(action))
+            source_motion = (clip.rotations[:, 4 * source_floor_bone:4 * source_floor_bone + 4],
+                             clip.heads[:, 3 * source_floor_bone:3 * source_floor_bone + 3],
+                             rigs.source_pose.rotations[source_floor_bone],
+                             rigs.source_pose.heads[source_floor_bone]) if source_floor_bone is not None else None
+            _move_floor_root(native_state.native(), tgt, rigs.target_pose, rotations, locations, target_floor_bone,
+                             target_root, mode, source_motion, fit.space, fit.scale, root, root_smoothing * clip.fps)
             located.append(target_floor_bone)
+    return locations, located, mode
 
-    feet_lift = None
-    if found is not None and root != "none" and floor_fit != "off":
-        height_scale = source_scale / target_scale if root == "offset" else scale
-        feet_lift = target_scale * _stand_on_floor(
-            native, (src, src_body, source_rotations, source_heads, source_up, source_floor_height),
-            (tgt, tgt_body, up, target_floor_height), rotations, locations, target_root, found, height_scale,
-            target_height, bvh.frame_rate(action))
-    planted = pending = None
-    # The legs' solve plants the feet, and puts right what the hips' lift leaves (feet the legs' proportions
-    # keep off the floor); without planting it runs only where that is more than a twentieth of a percent of
-    # the leg, so that a retarget between alike legs keeps every bone's direction exactly.
-    if floor_fit != "legs":
-        feet_lift = None
-    legs_solve = found is not None and (plant_feet or (
-        feet_lift is not None and np.abs(feet_lift).max(initial=0.0) > 5e-4 * target_scale * target_height))
-    if legs_solve:
-        planted = _plant_feet(tgt, feet[1], found if plant_feet else np.zeros_like(found), frames, rotations,
-                              locations, target_root, contact_settings, bvh.frame_rate(action), beside=defer_solve,
-                              heights=feet_lift, hips_move=plant_feet)
+
+def _plan_keys(rigs: _Rigs, clip: _Clip, pairs, scale, pose, located, mode, planted, plant_feet,
+               defer_solve) -> Plan:
+    """The Plan of the target's keys; with planted feet, their solve pending (started beside, defer_solve)
+    or resolved here. pose: the target's (rotations, locations), which the feet's solve writes into."""
+    tgt = rigs.tgt
+    source_root, target_root = rigs.roots
+    rotations, locations = pose
+    keyed, pending = set(), None
     if planted is not None:
         keyed = {tgt.index(b) for f in planted[2] for b in (f.thigh, f.shin, f.foot)} | {target_root}
         keyer = pose_channels.rotation_keyer(tgt.obj, [tgt.names[b] for b in sorted(keyed)])
         pending = _PlantedFeet(planted[0], planted[1], {tgt.names[b] for b in keyed}, lambda: _target_channels(
-            tgt, rotations, target_basis, bone_map_idx, located, locations, keyed, keyed, keyer=keyer)[0])
+            tgt, rotations, rigs.target_basis, rigs.bone_map, located, locations, keyed, keyed, keyer=keyer)[0])
         if defer_solve:
             pending.start()  # beside the rest of the plan and apply()'s writing
-    else:
-        keyed = set()
     # Bones the feet's solve may change get a key per frame even where the plain retarget keeps them still.
-    moving, still = _target_channels(tgt, rotations, target_basis, bone_map_idx, located, locations,
+    moving, still = _target_channels(tgt, rotations, rigs.target_basis, rigs.bone_map, located, locations,
                                      keyed=keyed, placeholders=True)
-    plan_ = Plan(tgt.obj, frames, *moving, src.obj.name, pairs, *still, leg_ratio=scale,
-                 hips=(src.names[source_root], tgt.names[target_root]),
-                 floor_roots=(src.names[source_floor_bone] if source_floor_bone is not None else None,
-                              tgt.names[target_floor_bone] if target_floor_bone is not None else None), floor_root=mode,
-                 feet=planted[2] if planted and plant_feet else None,
-                 contacts=planted[3] if planted and plant_feet else None,
-                 frame_rate=bvh.frame_rate(action))
+    floor_bones = tuple(side.names[b] if b is not None else None for side, b in zip((rigs.src, tgt), rigs.floor_bones))
+    plan_ = Plan(tgt.obj, clip.frames, *moving, rigs.src.obj.name, pairs, *still, leg_ratio=scale,
+                 hips=(rigs.src.names[source_root], tgt.names[target_root]), floor_roots=floor_bones,
+                 floor_root=mode, feet=planted[2] if planted and plant_feet else None,
+                 contacts=planted[3] if planted and plant_feet else None, frame_rate=clip.fps)
     plan_.pending = pending
     plan_.pose = (rotations, locations)
     if not defer_solve:
         plan_.resolve()
-    if not (np.all(np.isfinite(plan_.values)) and np.all(np.isfinite(plan_.still_values))):
-        raise ValueError("the retargeted motion is not finite; check the rigs' rest poses")
-    return plan_  # a pending feet's solve is checked when it completes (contacts.cleanup and write_keys)
+    return plan_
 
 
 def _foot_heights(side: _Side, body, rotations, heads, up, column=None) -> np.ndarray:
@@ -825,8 +903,8 @@ def _plant_feet(tgt: _Side, tgt_feet, found, frames, rotations, locations, targe
 
 def _depths(side: _Side) -> list[int]:
     depth = [0] * len(side.bones)
-    for i, bone in enumerate(side.bones):
-        depth[i] = depth[side.index(bone.parent.name)] + 1 if bone.parent else 0
+    for i, parent in enumerate(pose_channels.parent_indices(side.bones)):
+        depth[i] = depth[parent] + 1 if parent >= 0 else 0
     return depth
 
 
@@ -849,11 +927,10 @@ def _move_floor_root(native, tgt: _Side, target_pose: _Pose, rotations, location
         track = root_motion.copy_track(*source_motion, space, target_pose.rotations[floor],
                                        target_pose.heads[floor], scale, horizontal=root in ("scaled", "offset"),
                                        vertical=root != "none")
-    parent = lambda b: tgt.index(tgt.bones[b].parent.name) if tgt.bones[b].parent else -1  # noqa: E731
-    rest = root_motion.FloorRootRest(floor, parent(floor), hips, parent(hips),
-                                     _rest_rotations(tgt),
-                                     np.array([b.head_local for b in tgt.bones], dtype=np.float64))
-    root_parent = parent(floor)
+    parent = pose_channels.parent_indices(tgt.bones)
+    rest = root_motion.FloorRootRest(floor, parent[floor], hips, parent[hips], _rest_rotations(tgt),
+                                     pose_channels.heads(tgt.bones))
+    root_parent = parent[floor]
     parent_pose = None if root_parent < 0 else (block(posed_rotations, root_parent, 4),
                                                 block(posed_heads, root_parent, 3))
 
@@ -934,8 +1011,7 @@ def _write(target, action, plan_: Plan) -> None:
             plan_.resolve()
             animdata.write_keys(target, action, plan_.channels, plan_.frames, plan_.values)
         _write_unsolved(target, action, plan_)
-    if plan_.frame_rate > 0:
-        action[bvh.FRAME_RATE] = plan_.frame_rate
+    animdata.record_frame_rate(action, plan_.frame_rate)
 
 
 def _write_unsolved(target, action, plan_: Plan) -> None:
@@ -1003,31 +1079,34 @@ def retarget(source, target, bone_map=None, frame_range=None, root: str = "scale
     imported_source = _imported_source_option(imported_source, bvh_source)
     if target is not None and getattr(target, "type", None) == 'ARMATURE':
         _check_editable(target)
-    imported = None
-    if isinstance(source, (str, os.PathLike)):
-        imported = _import_source(source, target, bvh_scale)
-        source = imported.obj
+    options = dict(bone_map=bone_map, frame_range=frame_range, root=root, source_match=source_match,
+                   match_frame=match_frame, target_match=target_match, ground=ground, align_facing=align_facing,
+                   floor_root=floor_root, root_smoothing=root_smoothing, plant_feet=plant_feet,
+                   contact_settings=contact_settings, source_floor=source_floor, target_floor=target_floor,
+                   floor_fit=floor_fit)
+    imported = _import_source(source, target, bvh_scale) if isinstance(source, (str, os.PathLike)) else None
     try:
-        options = dict(bone_map=bone_map, frame_range=frame_range, root=root, source_match=source_match,
-                       match_frame=match_frame, target_match=target_match, ground=ground,
-                       align_facing=align_facing, floor_root=floor_root, root_smoothing=root_smoothing,
-                       plant_feet=plant_feet, contact_settings=contact_settings, source_floor=source_floor,
-                       target_floor=target_floor, floor_fit=floor_fit)
-        action = _retarget_controls(source, target, controls, limbs, control_map, keys, reduce, action_name,
-                                    overwrite, progress, options)
+        action = _retarget_controls(imported.obj if imported else source, target, controls, limbs, control_map, keys,
+                                    reduce, action_name, overwrite, progress, options)
         if action is None:
-            if keys != "every":
-                raise ValueError("keys='source' is for control rigs; a plain retarget keys every frame")
-            action = apply(plan(source, target, defer_solve=True, **options), action_name=action_name,
-                           overwrite=overwrite)
-            if reduce:
-                resampling.reduce_keys(target)
+            action = _retarget_bones(imported.obj if imported else source, target, keys, reduce, action_name,
+                                     overwrite, options)
     except BaseException:
         if imported is not None:
             imported.remove()
         raise
     if imported is not None:
         imported.finish(imported_source)
+    return action
+
+
+def _retarget_bones(source, target, keys, reduce, action_name, overwrite, options):
+    """The action keyed on target's mapped bones themselves."""
+    if keys != "every":
+        raise ValueError("keys='source' is for control rigs; a plain retarget keys every frame")
+    action = apply(plan(source, target, defer_solve=True, **options), action_name=action_name, overwrite=overwrite)
+    if reduce:
+        resampling.reduce_keys(target)
     return action
 
 
@@ -1105,22 +1184,11 @@ def _retarget_controls(source, target, controls, limbs, control_map, keys, reduc
 def _stand_as_tall_as(obj, other) -> None:
     """Scale obj (uniformly, as an object) so that its rest pose stands as tall as other's."""
     def height(o):
-        points = np.empty((2, 3 * len(o.data.bones)))
-        o.data.bones.foreach_get("head_local", points[0])
-        o.data.bones.foreach_get("tail_local", points[1])
         world = np.array(o.matrix_world)
-        z = (points.reshape(-1, 3) @ world[:3, :3].T + world[:3, 3])[:, 2]
+        z = (pose_channels.rest_points(o.data) @ world[:3, :3].T + world[:3, 3])[:, 2]
         return float(np.ptp(z))
 
     mine, theirs = height(obj), height(other)
     if mine > 0 and theirs > 0:
         obj.scale = obj.scale * (theirs / mine)
         bpy.context.view_layer.update()
-
-
-def remove_armature(obj) -> None:
-    action, armature = animdata.assigned_action(obj), obj.data
-    bpy.data.objects.remove(obj)
-    bpy.data.armatures.remove(armature)
-    if action is not None and action.users == 0:
-        bpy.data.actions.remove(action)

@@ -2,14 +2,14 @@
 the speed it was captured at and is not cut at the scene's end frame."""
 import math
 
+from ..blender import animdata
 from ..core import frame_rates
-from . import bvh
 
 
 def from_clip(scene, action) -> tuple[float, int, int]:
-    """Sets the scene's rate to the action's recorded one (bvh.frame_rate: as captured, else the scene's
+    """Sets the scene's rate to the action's recorded one (animdata.frame_rate: as captured, else the scene's
     own) as Blender keeps it, and its range to the action's keys; returns (fps, start, end)."""
-    rate = bvh.frame_rate(action)
+    rate = animdata.frame_rate(action)
     scene.render.fps, scene.render.fps_base = frame_rates.scene_rate(1.0 / rate)
     first, last = action.frame_range
     scene.frame_start, scene.frame_end = math.floor(first), math.ceil(last)

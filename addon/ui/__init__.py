@@ -30,7 +30,7 @@ def register():
     for menu in keys.MENUS:
         getattr(bpy.types, menu).append(keys.menu_keys)
     bpy.types.VIEW3D_MT_pose.append(contacts.menu_pose)
-    ik_live.register()
+    ik_live.register(ik.live_settings)
 
 
 def unregister():

@@ -3,7 +3,7 @@ batch's report as a list sorted by what needs a look, a row's figures under it (
 import bpy
 from bpy.props import CollectionProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty, StringProperty
 
-from . import common
+from . import common, retarget
 from ..features import batch
 
 EXPORT_ITEMS = (("NONE", "Keep Actions", "Only the actions in this file"),
@@ -128,11 +128,9 @@ class MOTIONKIT_UL_batch_report(bpy.types.UIList):
         return [], positions
 
 
-class MOTIONKIT_PT_retarget_batch(common.SidebarPanel, bpy.types.Panel):
+class MOTIONKIT_PT_retarget_batch(retarget.RetargetSubPanel, bpy.types.Panel):
     """A folder of clips onto the target, and the report of the last batch."""
     bl_label = "Library"
-    bl_idname = "MOTIONKIT_PT_retarget_batch"
-    bl_parent_id = "MOTIONKIT_PT_retarget"
 
     def draw(self, context):
         settings = context.scene.motionkit_batch

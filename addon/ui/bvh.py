@@ -137,12 +137,7 @@ class _FileOptions:
         return operator is not None and operator.bl_idname == cls.operator_class.__name__
 
     def draw(self, context):
-        layout = common.split_layout(self.layout)
-        operator = context.space_data.active_operator
-        for heading, props in self.groups:
-            col = layout.column(heading=heading)
-            for prop, label in props:
-                col.prop(operator, prop, **({} if label is None else {"text": label}))
+        common.draw_groups(common.split_layout(self.layout), context.space_data.active_operator, self.groups)
 
 
 class MOTIONKIT_PT_import_bvh_transform(_FileOptions, bpy.types.Panel):

@@ -129,6 +129,16 @@ def split_layout(layout):
     return layout
 
 
+def draw_groups(layout, holder, groups) -> None:
+    """Columns of the holder's properties under headings: groups is ((heading or "", (property or
+    (property, label), ...)), ...)."""
+    for heading, props in groups:
+        col = layout.column(heading=heading)
+        for prop in props:
+            name, label = (prop, None) if isinstance(prop, str) else prop
+            col.prop(holder, name, **({} if label is None else {"text": label}))
+
+
 def draw_frame_range(layout, holder, toggle: str, heading: str, frames_when: bool = True) -> None:
     """A checkbox under a heading and, when it is `frames_when`, the holder's frame_start and frame_end."""
     col = layout.column(heading=heading)

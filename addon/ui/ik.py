@@ -85,8 +85,9 @@ class MOTIONKIT_PG_ik(bpy.types.PropertyGroup):
                            description="Lambda of damped least squares; 0 picks one from the rig's size")
     regularization: FloatProperty(name="Smoothing", default=0.0, min=0.0, max=1e3, precision=5,
                                   description="The posture prior: the pull towards the input pose (natural "
-                                              "defaults) or the previous frame's; 0 picks 0.03 for a humanoid, "
-                                              "else 0.0001")
+                                              f"defaults) or the previous frame's; 0 picks "
+                                              f"{ik.NATURAL_REGULARIZATION:g} for a humanoid, else "
+                                              f"{ik.PLAIN_REGULARIZATION:g}")
     root_translation: BoolProperty(name="Move", default=True, description="The root's location is solved")
     root_rotation: BoolProperty(name="Rotate", default=True, description="The root's rotation is solved")
     use_limits: BoolProperty(name="Limits", default=True,
@@ -101,6 +102,10 @@ class MOTIONKIT_PG_ik(bpy.types.PropertyGroup):
 
     def effector_list(self) -> list:
         return [e.effector() for e in self.effectors if e.bone]
+
+    def live_settings(self) -> ik_live.LiveSettings | None:
+        """What Live IK re-solves with, or None while Live is off."""
+        return ik_live.LiveSettings(self.effector_list(), self.method, self.options()) if self.live else None
 
     def options(self) -> dict:
         return {"root_translation": self.root_translation, "root_rotation": self.root_rotation,
@@ -192,6 +197,9 @@ class MOTIONKIT_UL_ik_effectors(bpy.types.UIList):
 
 
 class _IkPanel(common.SidebarPanel):
+    """A panel under the IK panel, shown for an armature (Blender names each panel after its class)."""
+    bl_parent_id = "MOTIONKIT_PT_ik"
+
     @classmethod
     def poll(cls, context):
         return _armature(context) is not None
@@ -200,7 +208,6 @@ class _IkPanel(common.SidebarPanel):
 class MOTIONKIT_PT_ik(common.SidebarPanel, bpy.types.Panel):
     """The effectors, the active one's settings, Solve and Live."""
     bl_label = "Full-body IK"
-    bl_idname = "MOTIONKIT_PT_ik"
 
     def draw(self, context):
         layout = self.layout
@@ -245,8 +252,6 @@ class MOTIONKIT_PT_ik(common.SidebarPanel, bpy.types.Panel):
 
 class MOTIONKIT_PT_ik_solver(_IkPanel, bpy.types.Panel):
     bl_label = "Solver"
-    bl_idname = "MOTIONKIT_PT_ik_solver"
-    bl_parent_id = "MOTIONKIT_PT_ik"
     bl_options = {'DEFAULT_CLOSED'}
 
     def draw(self, context):
@@ -257,18 +262,13 @@ class MOTIONKIT_PT_ik_solver(_IkPanel, bpy.types.Panel):
         col.prop(settings, "max_iterations")
         col.prop(settings, "damping")
         col.prop(settings, "regularization")
-        col = layout.column(heading="Root")
-        col.prop(settings, "root_translation")
-        col.prop(settings, "root_rotation")
-        col = layout.column(heading="Joints")
-        col.prop(settings, "use_limits")
+        common.draw_groups(layout, settings, (("Root", ("root_translation", "root_rotation")),
+                                              ("Joints", ("use_limits",))))
 
 
 class MOTIONKIT_PT_ik_natural(_IkPanel, bpy.types.Panel):
     """Natural defaults and balance: what they are on this rig, and their settings."""
     bl_label = "Natural Defaults"
-    bl_idname = "MOTIONKIT_PT_ik_natural"
-    bl_parent_id = "MOTIONKIT_PT_ik"
     bl_options = {'DEFAULT_CLOSED'}
 
     def draw(self, context):
@@ -296,8 +296,6 @@ class MOTIONKIT_PT_ik_natural(_IkPanel, bpy.types.Panel):
 
 class MOTIONKIT_PT_ik_bake(_IkPanel, bpy.types.Panel):
     bl_label = "Bake"
-    bl_idname = "MOTIONKIT_PT_ik_bake"
-    bl_parent_id = "MOTIONKIT_PT_ik"
 
     def draw(self, context):
         settings = _armature(context).motionkit_ik
@@ -320,6 +318,11 @@ EFFECTORS = common.editable_list(common.EditableList(
 classes = (MOTIONKIT_PG_ik_effector, MOTIONKIT_PG_ik_defaults, MOTIONKIT_PG_ik, MOTIONKIT_OT_ik_solve,
            MOTIONKIT_OT_ik_bake, MOTIONKIT_UL_ik_effectors, MOTIONKIT_PT_ik, MOTIONKIT_PT_ik_solver,
            MOTIONKIT_PT_ik_natural, MOTIONKIT_PT_ik_bake)
+
+
+def live_settings(obj) -> ik_live.LiveSettings | None:
+    """An armature's Live IK settings from its property group (features.ik_live asks through this)."""
+    return obj.motionkit_ik.live_settings()
 
 
 def register_properties():

@@ -9,6 +9,7 @@ from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProp
 from bpy_extras.io_utils import ExportHelper, ImportHelper
 
 from . import common, contacts as contact_ui
+from ..blender import pose_channels
 from ..core import bone_mapping, display_names
 from ..features import bvh, control_rigs, retargeting, scene_timing
 
@@ -116,8 +117,8 @@ def _source_ready(settings) -> str:
 
 def _source_rig(settings):
     if settings.source_kind == 'BVH':
-        return bvh.mapping_rig(bpy.path.abspath(settings.bvh_path))
-    return retargeting.mapping_rig(settings.source)
+        return bvh.file_mapping_rig(bpy.path.abspath(settings.bvh_path))
+    return pose_channels.armature_mapping_rig(settings.source)
 
 
 def _poll_rigs(cls, context) -> bool:
@@ -197,7 +198,7 @@ class MOTIONKIT_OT_bone_map_auto(bpy.types.Operator):
 
     def execute(self, context):
         return _fill_map(self, context, lambda settings: bone_mapping.auto_map(
-            _source_rig(settings), retargeting.mapping_rig(settings.target)))
+            _source_rig(settings), pose_channels.armature_mapping_rig(settings.target)))
 
 
 def _scheme_items(self, context):
@@ -223,7 +224,7 @@ class MOTIONKIT_OT_bone_map_scheme(bpy.types.Operator):
 
     def execute(self, context):
         return _fill_map(self, context, lambda settings: bone_mapping.map_from_presets(
-            _source_rig(settings), self.source_scheme, retargeting.mapping_rig(settings.target), self.target_scheme))
+            _source_rig(settings), self.source_scheme, pose_channels.armature_mapping_rig(settings.target), self.target_scheme))
 
 
 class MOTIONKIT_OT_bone_map_save(bpy.types.Operator, ExportHelper):
@@ -315,7 +316,6 @@ def _labelled(layout, text):
 
 class MOTIONKIT_PT_retarget(common.SidebarPanel, bpy.types.Panel):
     bl_label = "Retarget"
-    bl_idname = "MOTIONKIT_PT_retarget"
 
     def draw(self, context):
         settings = context.scene.motionkit_retarget
@@ -337,11 +337,14 @@ class MOTIONKIT_PT_retarget(common.SidebarPanel, bpy.types.Panel):
         layout.operator("motionkit.retarget", icon='ARMATURE_DATA')
 
 
-class MOTIONKIT_PT_retarget_map(common.SidebarPanel, bpy.types.Panel):
+class RetargetSubPanel(common.SidebarPanel):
+    """A panel under the Retarget panel (Blender names each panel after its class)."""
+    bl_parent_id = "MOTIONKIT_PT_retarget"
+
+
+class MOTIONKIT_PT_retarget_map(RetargetSubPanel, bpy.types.Panel):
     """The bone map: names side by side, the shared prefixes said once, the picked pair's fields below."""
     bl_label = "Bone Map"
-    bl_idname = "MOTIONKIT_PT_retarget_map"
-    bl_parent_id = "MOTIONKIT_PT_retarget"
 
     def draw(self, context):
         settings = context.scene.motionkit_retarget
@@ -373,11 +376,9 @@ class MOTIONKIT_PT_retarget_map(common.SidebarPanel, bpy.types.Panel):
             _draw_bone_field(col, item, "target", settings.target, "Target Bone")
 
 
-class MOTIONKIT_PT_retarget_controls(common.SidebarPanel, bpy.types.Panel):
+class MOTIONKIT_PT_retarget_controls(RetargetSubPanel, bpy.types.Panel):
     """What the target is (a control rig MotionKit recognises, or bones), and how its limbs are keyed."""
     bl_label = "Controls"
-    bl_idname = "MOTIONKIT_PT_retarget_controls"
-    bl_parent_id = "MOTIONKIT_PT_retarget"
 
     def draw(self, context):
         settings = context.scene.motionkit_retarget
@@ -397,10 +398,8 @@ class MOTIONKIT_PT_retarget_controls(common.SidebarPanel, bpy.types.Panel):
         layout.prop(settings, "control_map", text="")
 
 
-class MOTIONKIT_PT_retarget_options(common.SidebarPanel, bpy.types.Panel):
+class MOTIONKIT_PT_retarget_options(RetargetSubPanel, bpy.types.Panel):
     bl_label = "Options"
-    bl_idname = "MOTIONKIT_PT_retarget_options"
-    bl_parent_id = "MOTIONKIT_PT_retarget"
 
     def draw(self, context):
         settings = context.scene.motionkit_retarget
@@ -416,23 +415,14 @@ class MOTIONKIT_PT_retarget_options(common.SidebarPanel, bpy.types.Panel):
         col.prop(settings, "floor_root")
         if settings.floor_root == "extract":
             col.prop(settings, "root_smoothing")
-        col = layout.column(heading="Feet")
-        col.prop(settings, "ground")
-        col.prop(settings, "floor_fit")
-        col = layout.column(heading="Motion")
-        col.prop(settings, "align_facing")
+        common.draw_groups(layout, settings, (("Feet", ("ground", "floor_fit")), ("Motion", ("align_facing",))))
         common.draw_frame_range(layout, settings, "use_frame_range", "Source")
-        col = layout.column(heading="Scene")
-        col.prop(settings, "scene_from_clip")
-        col = layout.column(heading="Action")
-        col.prop(settings, "overwrite")
+        common.draw_groups(layout, settings, (("Scene", ("scene_from_clip",)), ("Action", ("overwrite",))))
 
 
-class MOTIONKIT_PT_retarget_feet(common.SidebarPanel, bpy.types.Panel):
+class MOTIONKIT_PT_retarget_feet(RetargetSubPanel, bpy.types.Panel):
     """Planted feet: contacts detected on the source and held on the target; their thresholds."""
     bl_label = "Plant Feet"
-    bl_idname = "MOTIONKIT_PT_retarget_feet"
-    bl_parent_id = "MOTIONKIT_PT_retarget"
     bl_options = {'DEFAULT_CLOSED'}
 
     def draw_header(self, context):

@@ -7,7 +7,6 @@ from . import common
 
 class MOTIONKIT_PT_main(common.SidebarPanel, bpy.types.Panel):
     bl_label = "MotionKit"
-    bl_idname = "MOTIONKIT_PT_main"
 
     def draw(self, context):
         layout = self.layout

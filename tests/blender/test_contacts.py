@@ -325,9 +325,9 @@ def test_the_rolled_knee_angles_are_derived_exactly(contacts):
     q = rng.normal(size=(2000, 4))
     q /= np.linalg.norm(q, axis=1, keepdims=True)
     for roll in (0.3, -1.2, 2.9):
-        derived = contacts._rolled(contacts._swing_twist(q), roll)
+        derived = contacts._rolled(contacts.rotation_channels.ik_swing_twist(q), roll)
         rolled = contacts._mul(contacts._mul(contacts._about_y(-roll), q), contacts._about_y(roll))
-        direct = contacts._swing_twist(rolled)
+        direct = contacts.rotation_channels.ik_swing_twist(rolled)
         gap = np.abs(derived - direct)
         gap[:, 1] = np.minimum(gap[:, 1], 2 * np.pi - gap[:, 1])  # the twist wraps at +-pi
         assert gap.max() < 1e-12

@@ -12,6 +12,7 @@ Poses are read after frame_set from the depsgraph (pose_bone.matrix), not from t
 import importlib
 import math
 
+import balance
 import bpy
 import numpy as np
 import pytest
@@ -35,7 +36,7 @@ def subject(mk, walk60, name):
         spec = getattr(characters, {"MixamoT": "MIXAMO_T", "RigifyA": "RIGIFY_A", "UnrealA": "UNREAL_A"}[name])
         obj = generate.build_armature(spec)
         generate.add_walk(obj, spec, mk.animdata)
-    labels = module(mk, "core.bone_mapping").classify(module(mk, "blender.pose_channels").mapping_rig(obj))
+    labels = module(mk, "core.bone_mapping").classify(module(mk, "blender.pose_channels").armature_mapping_rig(obj))
     return obj, labels
 
 
@@ -152,11 +153,11 @@ def support_inside(ik_defaults, heads, tails, names, obj, labels, mass):
     masses = np.array([mass[order.index(n)] for n in names])
     out = []
     for f in range(len(heads)):
-        com = ik_defaults.centre_of_mass(heads[f], tails[f], masses)
+        com = balance.centre_of_mass(heads[f], tails[f], masses)
         points = np.vstack([heads[f, sorted(feet_bones)], tails[f, sorted(feet_bones)]])
-        polygon = ik_defaults.support_polygon(points)
-        side, ahead = ik_defaults.plane_axes([0.0, 0.0, 1.0])
-        out.append(ik_defaults.inside_distance(polygon, [com @ side, com @ ahead]))
+        polygon = balance.support_polygon(points)
+        side, ahead = balance.plane_axes([0.0, 0.0, 1.0])
+        out.append(balance.inside_distance(polygon, [com @ side, com @ ahead]))
     return np.array(out)
 
 

@@ -245,7 +245,7 @@ def _world_leg(obj, feet):
 
 
 def _move_origin_to_hips(mk, obj):
-    hips = obj.data.bones[mk.bone_mapping.classify(mk.retargeting.mapping_rig(obj)).hips].head_local.copy()
+    hips = obj.data.bones[mk.bone_mapping.classify(mk.pose_channels.armature_mapping_rig(obj)).hips].head_local.copy()
     obj.data.transform(Matrix.Translation(-hips))
     obj.matrix_world = obj.matrix_world @ Matrix.Translation(hips)
 
@@ -517,7 +517,7 @@ def test_twist_bones_share_their_limbs_twist(mk, walk60):
     target = generate.build_armature(characters.UNREAL_A)
     made = _with_twist_bones(target)
     action = mk.retarget(source, target, plant_feet=False)
-    body = mk.bone_mapping.classify(mk.retargeting.mapping_rig(target))
+    body = mk.bone_mapping.classify(mk.pose_channels.armature_mapping_rig(target))
     assert set(body.twists) == set(made)
     rest = {n: target.data.bones[n].matrix_local.to_3x3() for n in target.data.bones.keys()}
     worst, turned = 0.0, 0.0

@@ -1,9 +1,7 @@
-"""core/ik_defaults.py without Blender: the natural defaults on a hand-built humanoid, the mass model,
-and the support polygon against scipy."""
+"""core/ik_defaults.py without Blender: the natural defaults on a hand-built humanoid and the mass model."""
 import numpy as np
 import pytest
 from core import bone_mapping, ik_defaults
-from scipy.spatial import ConvexHull
 
 
 def humanoid():
@@ -96,25 +94,3 @@ def test_edited_settings_and_unknown_ones(body):
     assert np.degrees(np.max(edited.limit_max[b] - edited.limit_min[b])) == pytest.approx(90.0)
     with pytest.raises(ValueError, match="unknown natural-default settings: knee"):
         ik_defaults.NaturalDefaults.from_dict({"knee": 1})
-
-
-def test_support_polygon_and_inside_distance_against_scipy():
-    rng = np.random.default_rng(4)
-    for _ in range(50):
-        points = np.c_[rng.normal(size=(8, 2)), rng.normal(size=8)]
-        polygon = ik_defaults.support_polygon(points)
-        side, ahead = ik_defaults.plane_axes([0.0, 0.0, 1.0])
-        flat = np.stack([points @ side, points @ ahead], axis=1)
-        hull = ConvexHull(flat)
-        assert len(polygon) == len(hull.vertices)
-        assert ConvexHull(polygon).volume == pytest.approx(hull.volume, rel=1e-12)
-        p = rng.normal(size=2)
-        # scipy's facets: normal . x + offset <= 0 inside; the distance inside is -max of those.
-        expected = -np.max(hull.equations[:, :2] @ p + hull.equations[:, 2])
-        assert ik_defaults.inside_distance(polygon, p) == pytest.approx(expected, abs=1e-12)
-
-
-def test_centre_of_mass():
-    heads = np.array([[0.0, 0, 0], [0, 0, 1]])
-    tails = np.array([[0.0, 0, 1], [0, 0, 3]])
-    assert ik_defaults.centre_of_mass(heads, tails, np.array([1.0, 3.0])) == pytest.approx([0, 0, 1.625])

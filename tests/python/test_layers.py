@@ -55,3 +55,36 @@ def test_the_layers_are_all_there_is():
     assert top == ["__init__.py"]
     assert {d for d in os.listdir(ADDON) if os.path.isdir(os.path.join(ADDON, d)) and d != "__pycache__"} \
         == set(LAYERS)
+
+
+def _ui_properties():
+    """The properties ui/ registers on Blender's types (bpy.types.Scene.motionkit_retarget = ...)."""
+    names = set()
+    for path in _modules("ui"):
+        for node in ast.walk(ast.parse(open(path, encoding="utf-8").read(), path)):
+            if isinstance(node, ast.Assign):
+                for target in node.targets:
+                    if isinstance(target, ast.Attribute) and ast.unparse(target.value).startswith("bpy.types."):
+                        names.add(target.attr)
+    return names
+
+
+@pytest.mark.parametrize("layer", LAYERS[:-1])
+def test_no_layer_below_ui_reads_the_uis_properties(layer):
+    """The UI's property groups are the UI's: features/ take settings objects the UI builds from them."""
+    registered = _ui_properties()
+    assert "motionkit_ik" in registered  # the check itself sees what ui/ registers
+    for path in _modules(layer):
+        tree = ast.parse(open(path, encoding="utf-8").read(), path)
+        read = {node.attr for node in ast.walk(tree) if isinstance(node, ast.Attribute)} | \
+            {node.value for node in ast.walk(tree) if isinstance(node, ast.Constant) and isinstance(node.value, str)}
+        assert not read & registered, f"{os.path.relpath(path, ADDON)} reads {sorted(read & registered)}"
+
+
+@pytest.mark.parametrize("layer", [layer for layer in LAYERS if layer != "blender"])
+def test_only_blender_reads_or_writes_blender_data_in_bulk(layer):
+    """foreach_get and foreach_set, Blender's bulk access, appear in blender/ only."""
+    for path in _modules(layer):
+        tree = ast.parse(open(path, encoding="utf-8").read(), path)
+        bulk = {node.attr for node in ast.walk(tree) if isinstance(node, ast.Attribute)} & {"foreach_get", "foreach_set"}
+        assert not bulk, f"{os.path.relpath(path, ADDON)} calls {sorted(bulk)}"
