@@ -211,7 +211,7 @@ def ik_solve(
     mass: npt.NDArray[np.float64] | None = None,
     method: Literal["dls", "pinv", "transpose", "ccd"] = "dls",
     max_iterations: int = 64,
-    tolerance: float = 1e-5,
+    tolerance: float = 0.0,
     max_step: float = 0.3,
     damping: float = 0.0,
     regularization: float = 1e-4,

@@ -205,7 +205,7 @@ def plan(obj, effectors, frame_range=None, method: str = "dls", *, root_translat
                 [native.IkEffector(names.index(e.bone), name=e.label(), weight=float(e.weight), position=e.position,
                                    orientation=e.orientation, pin=e.pin) for e in effectors],
                 method=method, max_iterations=max_iterations,
-                tolerance=float(tolerance if tolerance is not None else 1e-5 * height),
+                tolerance=float(tolerance or 0.0),
                 damping=damping, regularization=regularization, reference=reference,
                 root_translation=root_translation, root_rotation=root_rotation,
                 size=float(np.linalg.norm(np.ptp(rest, axis=0))), priorities=priorities, balance=balance,
@@ -503,7 +503,7 @@ def solve(armature, effectors, frame_range=None, method: str = "dls", *, new_act
     current one: the other bones keep their motion) or, with new_action=False,
     in the current action. method: "dls", "pinv", "transpose" or "ccd".
     options: root_translation, root_rotation (default True: the hips may
-    move), max_iterations, tolerance (default 1e-5 of the rig's size),
+    move), max_iterations, tolerance (default 3e-7 of the rig's size),
     damping, regularization, use_limits (the bones' IK limits, default True),
     reference ("previous" or "input"), priorities (default True), natural
     ("auto", True or False: a humanoid's natural defaults), balance (None:

@@ -172,7 +172,7 @@ void BindIk(py::module_& m) {
         "excluded"_a.noconvert() = py::none(), "stretch"_a.noconvert() = py::none(),
         "scale_range"_a.noconvert() = py::none(), "soft"_a.noconvert() = py::none(),
         "stage"_a = py::none(), "mass"_a.noconvert() = py::none(), "method"_a = "dls", "max_iterations"_a = 64,
-        "tolerance"_a = 1e-5, "max_step"_a = 0.3, "damping"_a = 0.0, "regularization"_a = 1e-4,
+        "tolerance"_a = 0.0, "max_step"_a = 0.3, "damping"_a = 0.0, "regularization"_a = 1e-4,
         "reference"_a = "previous", "orientation_scale"_a = 0.0, "root_translation"_a = false,
         "root_rotation"_a = false, "warm_start"_a = true, "threads"_a = 0, "size"_a = 0.0, "priorities"_a = true,
         "balance"_a = false, "up"_a = std::array<double, 3>{{0.0, 0.0, 1.0}}, "balance_margin"_a = 0.0,
@@ -205,7 +205,7 @@ void BindIk(py::module_& m) {
         balance_margin in from its edges (0: 0.005 of the rig's size).
 
         method: "dls" (damped least squares), "pinv", "transpose" or "ccd".
-        tolerance: armature units; max_step: radians per joint per iteration;
+        tolerance: armature units (0: 3e-7 of the rig's size); max_step: radians per joint per iteration;
         damping: 0 picks 1e-3 of the rig's size; regularization: the pull
         towards the reference ("previous": the previous frame's solution,
         "input": the frame's input pose); orientation_scale: armature units

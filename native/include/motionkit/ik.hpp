@@ -70,7 +70,10 @@ enum class IkReference { kPrevious, kInput };
 struct IkOptions {
   IkMethod method = IkMethod::kDls;
   int max_iterations = 64;
-  double tolerance = 1e-5;       // stop when every effector's error (armature units) is below
+  // Stop when every effector's error (armature units) is below; 0 picks 3e-7 of the rig's size (0.7 um
+  // on a person in a T pose): a reachable target is met to what Blender's float keys can hold, while
+  // a warm-started frame of smooth targets still ends after one or two steps.
+  double tolerance = 0.0;
   double max_step = 0.3;         // radians per joint per iteration
   double damping = 0.0;          // lambda; 0 picks 1e-3 of the rig's size
   double regularization = 1e-4;  // mu, towards the reference pose

@@ -39,7 +39,7 @@ void SizeSecondPass(const Model& m, SecondPass& s) {
 }  // namespace
 
 Data::Data(const Model& m) {
-  for (Pose* p : {&input, &current, &trial, &reference, &warm.last, &warm.earlier, &fallback.pose, &ccd.best,
+  for (Pose* p : {&input, &current, &trial, &reference, &warm.last, &warm.earlier, &warm.ended, &fallback.pose, &ccd.best,
                   &ccd.previous, &correction.pose}) {
     *p = MakePose(m);
   }

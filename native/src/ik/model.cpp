@@ -290,7 +290,7 @@ Model::Model(const IkClipJob& job_in, std::vector<int> ids_in)
   lambda = options.damping > 0 ? options.damping : 1e-3 * size;
   ls = options.orientation_scale > 0 ? options.orientation_scale : 0.1 * size;
   mu = options.regularization;
-  tolerance = options.tolerance;
+  tolerance = options.tolerance > 0 ? options.tolerance : 3e-7 * size;
   priorities = options.priorities && options.method == IkMethod::kDls;
   pin_tolerance = priorities ? std::min(tolerance, 1e-7 * size) : tolerance;
   for (int id : ids) pinned = pinned || At(job.effectors, id).pin;

@@ -48,7 +48,9 @@ constexpr double kSettled = 1e-5;
 // The clip's second pass low-passes the first's corrections with a Gaussian
 // of this many frames (see SolveSmoothed): a pop spread over about five frames.
 constexpr double kSmoothSigma = 2.0;
-constexpr int kSmoothIterations = 8;  // the second pass's steps a frame, before its settling and polish
+// The second pass's steps a frame, before its settling and polish: from the smoothed pose a reachable
+// target takes a few; one that the first pass only just reached (a limb at a limit) takes more.
+constexpr int kSmoothIterations = 32;
 constexpr double kPriorGain = 0.2;
 // With priorities, the levels' rows are scaled so that the merit a step must
 // lower ranks them as the priorities do (a pin's error costs a hundred times a

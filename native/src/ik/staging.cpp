@@ -48,6 +48,34 @@ void FallBackToPinnedPose(const Model& m, Data& d, const Cost& cost) {
   ForwardKinematics(m, d.current, d.fk);
 }
 
+// A warm start carries the last frame's posture on; near a joint limit that
+// posture can hold the limb in a corner from which a target, reachable from
+// elsewhere, is not reached (the limb's solve ends against the limit). The
+// frame's input, which the limits always admit, is the other start: the
+// nearer of the two ends is kept.
+int SolveAgainFromInput(const Model& m, Data& d, int budget, Cost& cost) {
+  if (!(m.options.warm_start && d.warm.have_last) || m.options.method == IkMethod::kCcd) return 0;
+  d.warm.ended = d.current;
+  d.current.root = d.input.root;
+  for (int jo = 0; jo < static_cast<int>(m.joints.size()); ++jo) {
+    const Joint& j = At(m.joints, jo);
+    At(d.current.basis, j.bone) = At(d.input.basis, j.bone);
+    At(d.current.scale, j.bone) = 1.0;
+    ClampJoint(m, d, jo, d.current);
+  }
+  const int iterations = SolveJacobian(m, d, budget);
+  ForwardKinematics(m, d.current, d.fk);
+  const Cost cold = EvaluateCost(m, d, d.fk, d.buffers.residual.data());
+  if (cold.worst < cost.worst && cold.pins <= std::max(cost.pins, m.pin_tolerance)) {
+    cost = cold;
+    return iterations;
+  }
+  std::swap(d.current, d.warm.ended);
+  ForwardKinematics(m, d.current, d.fk);
+  cost = EvaluateCost(m, d, d.fk, d.buffers.residual.data());
+  return iterations;
+}
+
 }  // namespace
 
 // Recruitment: the joints of stage 0 first; while a target (or the balance)
@@ -69,9 +97,12 @@ int SolveStaged(const Model& m, Data& d) {
   for (d.stage = 0; d.stage < m.stages; d.stage = d.stage == 0 && m.stages > 1 ? m.stages - 1 : m.stages) {
     if (d.stage > 0) CarryLaterStages(m, d);
     last = SolveJacobian(m, d, max_iterations - reserve);
-    iterations += last;
     ForwardKinematics(m, d.current, d.fk);
-    const Cost cost = EvaluateCost(m, d, d.fk, d.buffers.residual.data());
+    Cost cost = EvaluateCost(m, d, d.fk, d.buffers.residual.data());
+    if (d.stage == 0 && cost.worst > m.tolerance && last < max_iterations - reserve) {
+      last += SolveAgainFromInput(m, d, max_iterations - reserve - last, cost);
+    }
+    iterations += last;
     if (cost.worst <= m.tolerance && cost.balance <= m.tolerance) break;
   }
   d.stage = std::min(d.stage, m.stages - 1);  // the stage that ended it: its holds and balance for the polish
