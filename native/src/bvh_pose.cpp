@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "motionkit/rotation.hpp"
+#include "so3.hpp"
 
 namespace motionkit {
 namespace {
@@ -45,14 +46,14 @@ Status CheckCommon(const Skeleton& skeleton, const ConstMatrixView& bone_rest,
                         std::to_string(bone_rest.rows()) + " x " + std::to_string(bone_rest.cols()));
   }
   for (Eigen::Index j = 0; j < joints; ++j) {
-    const double norm = bone_rest.row(j).norm();
-    if (!skeleton.joints[static_cast<std::size_t>(j)].end_site && !(std::abs(norm - 1.0) < 1e-6)) {
+    if (!skeleton.joints[static_cast<std::size_t>(j)].end_site &&
+        !internal::IsUnitQuaternion(QuatAt(bone_rest, j, 0), 1e-6)) {
       return Status::Fail("bvh pose: rest orientation of '" +
                           skeleton.joints[static_cast<std::size_t>(j)].name +
                           "' is not a unit quaternion");
     }
   }
-  if (!(std::abs(conversion.norm() - 1.0) < 1e-6)) {  // float32 sources (mathutils) welcome
+  if (!internal::IsUnitQuaternion(conversion, 1e-6)) {  // float32 sources (mathutils) welcome
     return Status::Fail("bvh pose: the axis conversion is not a unit quaternion");
   }
   if (!(std::isfinite(scale) && scale > 0.0)) {
@@ -198,7 +199,7 @@ Status PoseToBvhJob::Validate() const {
         return Status::Fail("bvh pose: frame " + std::to_string(f) + ", bone '" + joint.name +
                             "' has a non-finite rotation or location");
       }
-      if (!(rotations.row(f).segment<4>(4 * jj).norm() > 1e-12)) {
+      if (!internal::IsRotationQuaternion(rotations.row(f).segment<4>(4 * jj))) {
         return Status::Fail("bvh pose: frame " + std::to_string(f) + ", bone '" + joint.name +
                             "' has a zero quaternion");
       }

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <string>
 
+#include "so3.hpp"
+
 namespace motionkit {
 namespace {
 
@@ -74,7 +76,7 @@ Status KeyReductionJob::Validate() const {
                             ") is not finite");
       }
     }
-    if (mode == KeyToleranceMode::kQuaternion && !(values.row(j).norm() > 1e-12)) {
+    if (mode == KeyToleranceMode::kQuaternion && !internal::IsRotationQuaternion(values.row(j))) {
       return Status::Fail("key reduction: quaternion of sample " + std::to_string(j) + " (time " +
                           std::to_string(times[j]) + ") is zero");
     }

@@ -6,6 +6,8 @@
 #include <string>
 #include <vector>
 
+#include "so3.hpp"
+
 namespace motionkit {
 
 namespace {
@@ -263,7 +265,7 @@ Status RetargetJob::Validate() const {
   if (!(std::isfinite(options.source_floor) && std::isfinite(options.target_floor))) {
     return Status::Fail("retarget: the floors' heights must be finite");
   }
-  if (!options.space.coeffs().allFinite() || std::abs(options.space.norm() - 1.0) > 1e-6) {
+  if (!internal::IsUnitQuaternion(options.space, 1e-6)) {
     return Status::Fail("retarget: the space rotation must be a unit quaternion");
   }
   if (!source_match_root.allFinite() || !target_match_location.allFinite()) {
@@ -312,21 +314,18 @@ Status RetargetJob::Validate() const {
   }
   if (mapped == 0) return Status::Fail("retarget: the bone map maps no bone (no common bones)");
   for (int b = 0; b < nt; ++b) {
-    const Eigen::Quaterniond q = QuatAt(target_match_basis, 0, b);
-    if (!q.coeffs().allFinite() || !(q.norm() > 1e-12)) {
+    if (!internal::IsRotationQuaternion(QuatAt(target_match_basis, 0, b))) {
       return Status::Fail("retarget: the target match pose of " + Bone(target, b) + " is not a rotation");
     }
   }
   for (int a = 0; a < ns; ++a) {
-    const Eigen::Quaterniond q = QuatAt(source_match, 0, a);
-    if (!q.coeffs().allFinite() || !(q.norm() > 1e-12)) {
+    if (!internal::IsRotationQuaternion(QuatAt(source_match, 0, a))) {
       return Status::Fail("retarget: the source match pose of " + Bone(source, a) + " is not a rotation");
     }
   }
   for (Eigen::Index f = 0; f < frames; ++f) {
     for (int a = 0; a < ns; ++a) {
-      const Eigen::Quaterniond q = QuatAt(source_rotations, f, a);
-      if (!q.coeffs().allFinite() || !(q.norm() > 1e-12)) {
+      if (!internal::IsRotationQuaternion(QuatAt(source_rotations, f, a))) {
         return Status::Fail("retarget: source bone " + Bone(source, a) + " has no valid rotation at frame index " +
                             std::to_string(f));
       }

@@ -290,7 +290,7 @@ Status RotationInterpolateJob::Validate() const {
       return Status::Fail("rotation interpolation: quaternion of key " + Where(i) + " (time " +
                           std::to_string(times[i]) + ") is not finite");
     }
-    if (!(q.norm() > 1e-12)) {
+    if (!internal::IsRotationQuaternion(q)) {  // finite, so only a zero one fails here
       return Status::Fail("rotation interpolation: quaternion of key " + Where(i) + " (time " +
                           std::to_string(times[i]) + ") is zero");
     }
