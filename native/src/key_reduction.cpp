@@ -5,6 +5,7 @@
 #include <string>
 
 #include "so3.hpp"
+#include "time_checks.hpp"
 
 namespace motionkit {
 namespace {
@@ -60,14 +61,9 @@ Status KeyReductionJob::Validate() const {
                         std::to_string(tolerance));
   }
   for (Eigen::Index j = 0; j < m; ++j) {
-    if (!std::isfinite(times[j])) {
-      return Status::Fail("key reduction: time of sample " + std::to_string(j) + " is not finite");
-    }
-    if (j > 0 && !(times[j] > times[j - 1])) {
-      return Status::Fail("key reduction: sample times must increase strictly, but sample " +
-                          std::to_string(j) + " (" + std::to_string(times[j]) +
-                          ") does not come after sample " + std::to_string(j - 1) + " (" +
-                          std::to_string(times[j - 1]) + ")");
+    if (Status s = internal::CheckTimeAt(times.data(), j, "key reduction: ", {"time of sample", "sample times", "sample"});
+        !s) {
+      return s;
     }
     for (Eigen::Index c = 0; c < d; ++c) {
       if (!std::isfinite(values(j, c))) {
