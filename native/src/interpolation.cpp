@@ -105,7 +105,7 @@ Status CheckCurve(const std::string& where, Interpolant kind, const CurveKeys& k
   const bool scalar = k.d == 1;
   auto component = [scalar](Index j) { return scalar ? std::string() : ", component " + Str(j); };
   for (Index i = 0; i < k.n; ++i) {
-    if (Status s = internal::CheckTimeAt(k.t, i, where, internal::kKeyTimes); !s) return s;
+    if (!internal::TimeInOrder(k.t, i)) return internal::TimeOrderFailure(k.t, i, where, internal::kKeyTimes);
     for (Index j = 0; j < k.d; ++j) {
       if (!std::isfinite(k.y_at(i, j))) {
         return Status::Fail(where + "value of key " + Str(i) + " (time " + Str(k.t[i]) + ")" +

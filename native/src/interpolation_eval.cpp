@@ -33,25 +33,28 @@ inline double HornerSlope(const double* c, double u) {
   return c[1] + u * (2.0 * c[2] + u * (3.0 * c[3]));
 }
 
-// Where EvaluateCubic writes: sample s's component j at out[s * os + j] (and its derivative in dout, when
-// asked), from the segments' power-basis coefficients.
+// Where EvaluateCubic writes: sample s's component j at out[s * os() + j] (and its derivative in dout, when
+// asked), from the segments' power-basis coefficients. The scalar case's sizes and strides are constants,
+// so that the compiler vectorises its loops over samples.
 template <bool kScalar>
 struct CubicSamples {
   const CurveKeys& keys;
   const double* coeffs;
   double* out;
-  Index os;
+  Index out_stride;
   double* dout;  // null: no derivatives
-  Index ds;
+  Index dout_stride;
 
   Index components() const { return kScalar ? 1 : keys.d; }
+  Index os() const { return kScalar ? 1 : out_stride; }
+  Index ds() const { return kScalar ? 1 : dout_stride; }
   const double* Segment(Index k, Index j) const { return coeffs + (k * components() + j) * 4; }
 
   // Outside the keys (and everywhere for one key): hold the end value, flat.
   void Hold(Index s, Index key) const {
     for (Index j = 0; j < components(); ++j) {
-      out[s * os + j] = keys.y_at(key, j);
-      if (dout) dout[s * ds + j] = 0.0;
+      out[s * os() + j] = keys.y_at(key, j);
+      if (dout) dout[s * ds() + j] = 0.0;
     }
   }
 
@@ -59,16 +62,16 @@ struct CubicSamples {
   void OnLast(Index s) const {
     const Index n = keys.n;
     for (Index j = 0; j < components(); ++j) {
-      out[s * os + j] = keys.y_at(n - 1, j);
-      if (dout) dout[s * ds + j] = HornerSlope(Segment(n - 2, j), keys.t[n - 1] - keys.t[n - 2]);
+      out[s * os() + j] = keys.y_at(n - 1, j);
+      if (dout) dout[s * ds() + j] = HornerSlope(Segment(n - 2, j), keys.t[n - 1] - keys.t[n - 2]);
     }
   }
 
   void InSegment(Index s, Index k, double u) const {
     for (Index j = 0; j < components(); ++j) {
       const double* c = Segment(k, j);
-      out[s * os + j] = Horner(c, u);
-      if (dout) dout[s * ds + j] = HornerSlope(c, u);
+      out[s * os() + j] = Horner(c, u);
+      if (dout) dout[s * ds() + j] = HornerSlope(c, u);
     }
   }
 
@@ -119,13 +122,13 @@ struct CubicSamples {
       const double c0 = c[0], c1 = c[1], c2 = c[2], c3 = c[3];
       for (Index i = s; i < end; ++i) {
         const double u = x[i] - tk;
-        out[i * os + j] = c0 + u * (c1 + u * (c2 + u * c3));
+        out[i * os() + j] = c0 + u * (c1 + u * (c2 + u * c3));
       }
       if (dout) {
         const double e1 = 2.0 * c2, e2 = 3.0 * c3;
         for (Index i = s; i < end; ++i) {
           const double u = x[i] - tk;
-          dout[i * ds + j] = c1 + u * (e1 + u * e2);
+          dout[i * ds() + j] = c1 + u * (e1 + u * e2);
         }
       }
     }
@@ -175,7 +178,7 @@ void SteppedCoefficients(const CurveKeys& keys, double* coeffs) {
 template <bool kScalar>
 void EvaluateCubic(const CurveKeys& keys, const double* coeffs, const double* x, Index m,
                    bool sorted, double* out, Index out_stride, double* dout, Index dout_stride) {
-  const CubicSamples<kScalar> samples{keys, coeffs, out, kScalar ? 1 : out_stride, dout, kScalar ? 1 : dout_stride};
+  const CubicSamples<kScalar> samples{keys, coeffs, out, out_stride, dout, dout_stride};
   if (keys.n == 1) {
     for (Index s = 0; s < m; ++s) samples.Hold(s, 0);
   } else if (sorted) {

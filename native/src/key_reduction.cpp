@@ -61,9 +61,8 @@ Status KeyReductionJob::Validate() const {
                         std::to_string(tolerance));
   }
   for (Eigen::Index j = 0; j < m; ++j) {
-    if (Status s = internal::CheckTimeAt(times.data(), j, "key reduction: ", {"time of sample", "sample times", "sample"});
-        !s) {
-      return s;
+    if (!internal::TimeInOrder(times.data(), j)) {
+      return internal::TimeOrderFailure(times.data(), j, "key reduction: ", {"time of sample", "sample times", "sample"});
     }
     for (Eigen::Index c = 0; c < d; ++c) {
       if (!std::isfinite(values(j, c))) {

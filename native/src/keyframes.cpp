@@ -19,9 +19,8 @@ Status KeyframeCoJob::Validate() const {
                         std::to_string(co.cols()));
   }
   for (Eigen::Index i = 0; i < n; ++i) {
-    if (Status s = internal::CheckTimeAt(frames.data(), i, "keyframes: ", {"frame time at key", "frame times", "key"});
-        !s) {
-      return s;
+    if (!internal::TimeInOrder(frames.data(), i)) {
+      return internal::TimeOrderFailure(frames.data(), i, "keyframes: ", {"frame time at key", "frame times", "key"});
     }
   }
   // Row-major input: scan row by row, which is contiguous.

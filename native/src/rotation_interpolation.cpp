@@ -278,8 +278,8 @@ Status RotationInterpolateJob::Validate() const {
                         std::to_string(quats.cols()));
   }
   for (Eigen::Index i = 0; i < n; ++i) {
-    if (Status s = internal::CheckTimeAt(times.data(), i, "rotation interpolation: ", internal::kKeyTimes); !s) {
-      return s;
+    if (!internal::TimeInOrder(times.data(), i)) {
+      return internal::TimeOrderFailure(times.data(), i, "rotation interpolation: ", internal::kKeyTimes);
     }
     const Eigen::Vector4d q = quats.row(i).transpose();
     if (!q.allFinite()) {

@@ -19,17 +19,20 @@ struct TimeNames {
   const char* entry;     // "key", "sample"
 };
 
-// times[i] is finite and, past the first, later than times[i - 1].
-inline Status CheckTimeAt(const double* times, Eigen::Index i, const std::string& prefix, const TimeNames& names) {
+// times[i] is finite and, past the first, later than times[i - 1]. Checked on every key: kept to two
+// comparisons, the message built only on failure (TimeOrderFailure).
+inline bool TimeInOrder(const double* times, Eigen::Index i) {
+  return std::isfinite(times[i]) && (i == 0 || times[i] > times[i - 1]);
+}
+
+// Why times[i] is not in order, for a time TimeInOrder refused.
+inline Status TimeOrderFailure(const double* times, Eigen::Index i, const std::string& prefix, const TimeNames& names) {
   if (!std::isfinite(times[i])) {
     return Status::Fail(prefix + names.one_time + " " + std::to_string(i) + " is not finite");
   }
-  if (i > 0 && !(times[i] > times[i - 1])) {
-    return Status::Fail(prefix + names.times + " must increase strictly, but " + names.entry + " " +
-                        std::to_string(i) + " (" + std::to_string(times[i]) + ") does not come after " + names.entry +
-                        " " + std::to_string(i - 1) + " (" + std::to_string(times[i - 1]) + ")");
-  }
-  return Status::Ok();
+  return Status::Fail(prefix + names.times + " must increase strictly, but " + names.entry + " " + std::to_string(i) +
+                      " (" + std::to_string(times[i]) + ") does not come after " + names.entry + " " +
+                      std::to_string(i - 1) + " (" + std::to_string(times[i - 1]) + ")");
 }
 
 inline constexpr TimeNames kKeyTimes{"time of key", "key times", "key"};
