@@ -298,13 +298,6 @@ class _testing:
     @staticmethod
     def format_bvh(skeleton: Skeleton, motion: Motion) -> str: ...
     @staticmethod
-    def forward_kinematics(
-        skeleton: Skeleton,
-        values: npt.NDArray[np.float64],
-        threads: int = 0,
-    ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
-        """Whole-clip FK: (positions, orientations); threads=0 shares the frames among all cores."""
-    @staticmethod
     def blender_euler_mode(order: str) -> str: ...
     @staticmethod
     def interpolate_curves(

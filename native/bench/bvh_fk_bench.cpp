@@ -11,7 +11,7 @@
 #include <string>
 #include <thread>
 
-#include "motionkit/bvh_fk.hpp"
+#include "bvh_fk.hpp"
 
 namespace motionkit::internal {
 // fk.cpp: false forces the baseline (SSE2) path on a machine with AVX2.

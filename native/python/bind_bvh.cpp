@@ -1,4 +1,4 @@
-// Skeletons, BVH files, whole-clip FK and the BVH <-> pose conversion.
+// Skeletons, BVH files and the BVH <-> pose conversion.
 #include <pybind11/eigen.h>
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
@@ -14,7 +14,6 @@
 #include "bindings.hpp"
 #include "motionkit/bvh.hpp"
 #include "motionkit/bvh_pose.hpp"
-#include "motionkit/bvh_fk.hpp"
 #include "motionkit/skeleton.hpp"
 
 namespace py = pybind11;
@@ -86,9 +85,113 @@ Skeleton MakeSkeleton(const std::vector<std::string>& names, const std::vector<i
   return skeleton;
 }
 
-}  // namespace
+// Files may carry names that are not UTF-8; Blender's names must be.
+py::list SkeletonNames(const Skeleton& s) {
+  py::list out;
+  for (const Joint& j : s.joints) {
+    out.append(py::reinterpret_steal<py::str>(
+        PyUnicode_DecodeUTF8(j.name.data(), static_cast<py::ssize_t>(j.name.size()), "replace")));
+  }
+  return out;
+}
 
-void BindBvh(py::module_& m) {
+py::array_t<std::int32_t> SkeletonParents(const Skeleton& s) {
+  py::array_t<std::int32_t> out(static_cast<py::ssize_t>(s.joints.size()));
+  auto view = out.mutable_unchecked<1>();
+  for (std::size_t i = 0; i < s.joints.size(); ++i) view(static_cast<py::ssize_t>(i)) = s.joints[i].parent;
+  return out;
+}
+
+RowMatrixXd SkeletonOffsets(const Skeleton& s) {
+  RowMatrixXd out(static_cast<Eigen::Index>(s.joints.size()), 3);
+  for (std::size_t i = 0; i < s.joints.size(); ++i) out.row(static_cast<Eigen::Index>(i)) = s.joints[i].offset.transpose();
+  return out;
+}
+
+py::array_t<bool> SkeletonEndSites(const Skeleton& s) {
+  py::array_t<bool> out(static_cast<py::ssize_t>(s.joints.size()));
+  auto view = out.mutable_unchecked<1>();
+  for (std::size_t i = 0; i < s.joints.size(); ++i) view(static_cast<py::ssize_t>(i)) = s.joints[i].end_site;
+  return out;
+}
+
+std::vector<int> SkeletonFirstChannels(const Skeleton& s) {
+  std::vector<int> out;
+  for (const Joint& j : s.joints) out.push_back(j.first_channel);
+  return out;
+}
+
+std::vector<std::vector<std::string>> SkeletonChannels(const Skeleton& s) {
+  std::vector<std::vector<std::string>> out;
+  for (const Joint& j : s.joints) {
+    std::vector<std::string> names;
+    for (int c = 0; c < j.channel_count; ++c) names.emplace_back(ChannelName(j.channels[static_cast<std::size_t>(c)]));
+    out.push_back(std::move(names));
+  }
+  return out;
+}
+
+Motion MakeMotion(Eigen::Ref<const RowMatrixXd> values, double frame_time) {
+  Motion motion;
+  motion.values = values;
+  motion.frame_time = frame_time;
+  return motion;
+}
+
+// The file is read and parsed without the GIL.
+py::tuple ReadBvhFile(const std::string& path) {
+  Skeleton skeleton;
+  Motion motion;
+  {
+    py::gil_scoped_release release;
+    const std::string text = ReadFile(path);
+    ReadBvh(text, path, &skeleton, &motion);
+  }
+  return py::make_tuple(std::move(skeleton), std::move(motion));
+}
+
+py::tuple ParseBvhText(const std::string& text, const std::string& source) {
+  Skeleton skeleton;
+  Motion motion;
+  {
+    py::gil_scoped_release release;
+    ReadBvh(text, source, &skeleton, &motion);
+  }
+  return py::make_tuple(std::move(skeleton), std::move(motion));
+}
+
+void WriteBvhFile(const std::string& path, const Skeleton& skeleton, const Motion& motion) {
+  py::gil_scoped_release release;
+  const std::string text = WriteBvh(skeleton, motion);
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  if (!out || !out.write(text.data(), static_cast<std::streamsize>(text.size()))) {
+    throw Error(path + ": cannot write the file");
+  }
+}
+
+py::tuple BvhToPose(const Skeleton& skeleton, Eigen::Ref<const RowMatrixXd> values,
+                    Eigen::Ref<const RowMatrixXd> bone_rest, const QuaternionArg& conversion, double scale) {
+  const Eigen::Index frames = values.rows(), joints = static_cast<Eigen::Index>(skeleton.joints.size());
+  Output<> rotations(frames, 4 * joints), locations(frames, 3 * joints);
+  BvhToPoseJob job(skeleton, values, bone_rest, rotations.view, locations.view);
+  job.conversion = ToQuaternion(conversion);
+  job.scale = scale;
+  RunWithoutGil(job);
+  return py::make_tuple(rotations.array, locations.array);
+}
+
+DoubleArray PoseToBvh(const Skeleton& skeleton, Eigen::Ref<const RowMatrixXd> rotations,
+                      Eigen::Ref<const RowMatrixXd> locations, Eigen::Ref<const RowMatrixXd> bone_rest,
+                      const QuaternionArg& conversion, double scale) {
+  Output<> values(rotations.rows(), skeleton.channel_count);
+  PoseToBvhJob job(skeleton, rotations, locations, bone_rest, values.view);
+  job.conversion = ToQuaternion(conversion);
+  job.scale = scale;
+  RunWithoutGil(job);
+  return values.array;
+}
+
+void BindSkeleton(py::module_& m) {
   py::class_<Skeleton>(m, "Skeleton", R"pbdoc(
     Joints in depth-first order (parents before children), end sites included.
     Build one from a BVH file (read_bvh) or from arrays (Skeleton(names, ...)).
@@ -101,180 +204,52 @@ void BindBvh(py::module_& m) {
         channels: per joint a list of BVH channel names ("Xposition", ..., "Zrotation").
       )pbdoc")
       .def("__len__", [](const Skeleton& s) { return s.joints.size(); })
-      .def_property_readonly("names", [](const Skeleton& s) {
-        // Files may carry names that are not UTF-8; Blender's names must be.
-        py::list out;
-        for (const Joint& j : s.joints) {
-          out.append(py::reinterpret_steal<py::str>(
-              PyUnicode_DecodeUTF8(j.name.data(), static_cast<py::ssize_t>(j.name.size()), "replace")));
-        }
-        return out;
-      }, "Joint names; bytes that are not UTF-8 read as U+FFFD.")
-      .def_property_readonly("parents", [](const Skeleton& s) {
-        py::array_t<std::int32_t> out(static_cast<py::ssize_t>(s.joints.size()));
-        auto view = out.mutable_unchecked<1>();
-        for (std::size_t i = 0; i < s.joints.size(); ++i) view(static_cast<py::ssize_t>(i)) = s.joints[i].parent;
-        return out;
-      })
-      .def_property_readonly("offsets", [](const Skeleton& s) {
-        RowMatrixXd out(static_cast<Eigen::Index>(s.joints.size()), 3);
-        for (std::size_t i = 0; i < s.joints.size(); ++i) out.row(static_cast<Eigen::Index>(i)) = s.joints[i].offset.transpose();
-        return out;
-      })
-      .def_property_readonly("end_sites", [](const Skeleton& s) {
-        py::array_t<bool> out(static_cast<py::ssize_t>(s.joints.size()));
-        auto view = out.mutable_unchecked<1>();
-        for (std::size_t i = 0; i < s.joints.size(); ++i) view(static_cast<py::ssize_t>(i)) = s.joints[i].end_site;
-        return out;
-      })
+      .def_property_readonly("names", &SkeletonNames, "Joint names; bytes that are not UTF-8 read as U+FFFD.")
+      .def_property_readonly("parents", &SkeletonParents)
+      .def_property_readonly("offsets", &SkeletonOffsets)
+      .def_property_readonly("end_sites", &SkeletonEndSites)
       .def_property_readonly("channel_count", [](const Skeleton& s) { return s.channel_count; })
-      .def_property_readonly("first_channels", [](const Skeleton& s) {
-        std::vector<int> out;
-        for (const Joint& j : s.joints) out.push_back(j.first_channel);
-        return out;
-      })
-      .def_property_readonly("channels", [](const Skeleton& s) {
-        std::vector<std::vector<std::string>> out;
-        for (const Joint& j : s.joints) {
-          std::vector<std::string> names;
-          for (int c = 0; c < j.channel_count; ++c) names.emplace_back(ChannelName(j.channels[static_cast<std::size_t>(c)]));
-          out.push_back(std::move(names));
-        }
-        return out;
-      }, "Per joint, its channel names in file order.")
+      .def_property_readonly("first_channels", &SkeletonFirstChannels)
+      .def_property_readonly("channels", &SkeletonChannels, "Per joint, its channel names in file order.")
       .def("find", &Skeleton::Find, "name"_a, "Index of the named joint, or -1.");
+}
 
+void BindMotion(py::module_& m) {
   py::class_<Motion>(m, "Motion", "Frames of BVH channel values (degrees for rotations).")
-      .def(py::init([](Eigen::Ref<const RowMatrixXd> values, double frame_time) {
-             Motion motion;
-             motion.values = values;
-             motion.frame_time = frame_time;
-             return motion;
-           }),
-           "values"_a, "frame_time"_a)
+      .def(py::init(&MakeMotion), "values"_a, "frame_time"_a)
       .def_readonly("frame_time", &Motion::frame_time)
       .def_property_readonly("frames", &Motion::frames)
       .def_property_readonly(
           "values", [](Motion& motion) -> Eigen::Ref<RowMatrixXd> { return motion.values; },
           py::return_value_policy::reference_internal,
           "float64 (frames, channels), a view into the motion (no copy).");
+}
 
-  m.def(
-      "read_bvh",
-      [](const std::string& path) {
-        Skeleton skeleton;
-        Motion motion;
-        {
-          py::gil_scoped_release release;
-          const std::string text = ReadFile(path);
-          ReadBvh(text, path, &skeleton, &motion);
-        }
-        return py::make_tuple(std::move(skeleton), std::move(motion));
-      },
-      "path"_a, R"pbdoc(
+}  // namespace
+
+void BindBvh(py::module_& m) {
+  BindSkeleton(m);
+  BindMotion(m);
+  m.def("read_bvh", &ReadBvhFile, "path"_a, R"pbdoc(
         Read a BVH file: (Skeleton, Motion). Malformed files raise MotionKitError
         with "path:line:column: what (saw 'token')".
       )pbdoc");
-
-  py::module_ testing = TestingModule(m);
-  testing.def(
-      "parse_bvh",
-      [](const std::string& text, const std::string& source) {
-        Skeleton skeleton;
-        Motion motion;
-        {
-          py::gil_scoped_release release;
-          ReadBvh(text, source, &skeleton, &motion);
-        }
-        return py::make_tuple(std::move(skeleton), std::move(motion));
-      },
-      "text"_a, "source"_a = "<string>", "Parse BVH text; like read_bvh.");
-
-  testing.def("format_bvh", &WriteBvh, "skeleton"_a, "motion"_a,
-        py::call_guard<py::gil_scoped_release>(),
-        "BVH text that read_bvh/parse_bvh gives back exactly.");
-
-  m.def(
-      "write_bvh",
-      [](const std::string& path, const Skeleton& skeleton, const Motion& motion) {
-        py::gil_scoped_release release;
-        const std::string text = WriteBvh(skeleton, motion);
-        std::ofstream out(path, std::ios::binary | std::ios::trunc);
-        if (!out || !out.write(text.data(), static_cast<std::streamsize>(text.size()))) {
-          throw Error(path + ": cannot write the file");
-        }
-      },
-      "path"_a, "skeleton"_a, "motion"_a, "Write a BVH file.");
-
-  testing.def(
-      "forward_kinematics",
-      [](const Skeleton& skeleton, Eigen::Ref<const RowMatrixXd> values, int threads) {
-        const Eigen::Index frames = values.rows(), joints = static_cast<Eigen::Index>(skeleton.joints.size());
-        py::array_t<double, py::array::c_style> positions({frames, 3 * joints}), orientations({frames, 4 * joints});
-        Eigen::Map<RowMatrixXd> positions_view(positions.mutable_data(), frames, 3 * joints);
-        Eigen::Map<RowMatrixXd> orientations_view(orientations.mutable_data(), frames, 4 * joints);
-        ForwardKinematicsJob job(skeleton, values, positions_view, orientations_view);
-        job.threads = threads;
-        {
-          py::gil_scoped_release release;
-          job.Run();
-        }
-        return py::make_tuple(positions, orientations);
-      },
-      "skeleton"_a, "values"_a.noconvert(), "threads"_a = 0, R"pbdoc(
-        Whole-clip forward kinematics: values (frames, channels) to (positions
-        (frames, 3 * joints) world x y z, orientations (frames, 4 * joints)
-        world w x y z). End sites included.
-        threads: how many threads may share the frames; 0 (the default) uses
-        every core, 1 stays on the calling thread. The numbers are the same
-        either way; short clips use fewer threads.
-      )pbdoc");
-
-  m.def(
-      "bvh_to_pose",
-      [](const Skeleton& skeleton, Eigen::Ref<const RowMatrixXd> values,
-         Eigen::Ref<const RowMatrixXd> bone_rest, const QuaternionArg& conversion, double scale) {
-        const Eigen::Index frames = values.rows(), joints = static_cast<Eigen::Index>(skeleton.joints.size());
-        py::array_t<double, py::array::c_style> rotations({frames, 4 * joints}), locations({frames, 3 * joints});
-        Eigen::Map<RowMatrixXd> rotations_view(rotations.mutable_data(), frames, 4 * joints);
-        Eigen::Map<RowMatrixXd> locations_view(locations.mutable_data(), frames, 3 * joints);
-        BvhToPoseJob job(skeleton, values, bone_rest, rotations_view, locations_view);
-        job.conversion = ToQuaternion(conversion);
-        job.scale = scale;
-        {
-          py::gil_scoped_release release;
-          job.Run();
-        }
-        return py::make_tuple(rotations, locations);
-      },
-      "skeleton"_a, "values"_a.noconvert(), "bone_rest"_a.noconvert(), "conversion"_a, "scale"_a,
-      R"pbdoc(
+  m.def("write_bvh", &WriteBvhFile, "path"_a, "skeleton"_a, "motion"_a, "Write a BVH file.");
+  m.def("bvh_to_pose", &BvhToPose, "skeleton"_a, "values"_a.noconvert(), "bone_rest"_a.noconvert(), "conversion"_a,
+        "scale"_a, R"pbdoc(
         BVH channels to Blender pose channels.
         bone_rest: (joints, 4) rest orientation w x y z of each bone in armature space.
         conversion: w x y z rotation from BVH space to armature space; scale: BVH units to metres.
         Returns (rotations (frames, 4 * joints) pose quaternions, locations (frames, 3 * joints)).
       )pbdoc");
+  m.def("pose_to_bvh", &PoseToBvh, "skeleton"_a, "rotations"_a.noconvert(), "locations"_a.noconvert(),
+        "bone_rest"_a.noconvert(), "conversion"_a, "scale"_a,
+        "The inverse of bvh_to_pose: BVH channel values (frames, channels), continuous Euler angles.");
 
-  m.def(
-      "pose_to_bvh",
-      [](const Skeleton& skeleton, Eigen::Ref<const RowMatrixXd> rotations,
-         Eigen::Ref<const RowMatrixXd> locations, Eigen::Ref<const RowMatrixXd> bone_rest,
-         const QuaternionArg& conversion, double scale) {
-        const Eigen::Index frames = rotations.rows(), channels = skeleton.channel_count;
-        py::array_t<double, py::array::c_style> values({frames, channels});
-        Eigen::Map<RowMatrixXd> view(values.mutable_data(), frames, channels);
-        PoseToBvhJob job(skeleton, rotations, locations, bone_rest, view);
-        job.conversion = ToQuaternion(conversion);
-        job.scale = scale;
-        {
-          py::gil_scoped_release release;
-          job.Run();
-        }
-        return values;
-      },
-      "skeleton"_a, "rotations"_a.noconvert(), "locations"_a.noconvert(), "bone_rest"_a.noconvert(),
-      "conversion"_a, "scale"_a,
-      "The inverse of bvh_to_pose: BVH channel values (frames, channels), continuous Euler angles.");
+  py::module_ testing = TestingModule(m);
+  testing.def("parse_bvh", &ParseBvhText, "text"_a, "source"_a = "<string>", "Parse BVH text; like read_bvh.");
+  testing.def("format_bvh", &WriteBvh, "skeleton"_a, "motion"_a, py::call_guard<py::gil_scoped_release>(),
+              "BVH text that read_bvh/parse_bvh gives back exactly.");
 }
 
 }  // namespace motionkit::python

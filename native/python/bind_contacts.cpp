@@ -23,12 +23,10 @@ py::tuple FootTargets(const ConstMatrixView& points, const BoolArray& contacts, 
   const Eigen::Index frames = points.rows(), count = contacts.shape(1);
   const Eigen::Map<const Eigen::Matrix<bool, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> contact_view(
       contacts.data(), contacts.shape(0), count);
-  DoubleArray targets({frames, points.cols()}), weights({frames, count});
-  Eigen::Map<RowMatrixXd> targets_view(targets.mutable_data(), frames, points.cols());
-  Eigen::Map<RowMatrixXd> weights_view(weights.mutable_data(), frames, count);
-  FootTargetsJob job(points, contact_view, blend_frames, std::move(rigid_pairs), targets_view, weights_view);
-  ValidateAndRun(job);
-  return py::make_tuple(targets, weights);
+  Output<> targets(frames, points.cols()), weights(frames, count);
+  FootTargetsJob job(points, contact_view, blend_frames, std::move(rigid_pairs), targets.view, weights.view);
+  RunWithoutGil(job);
+  return py::make_tuple(targets.array, weights.array);
 }
 
 }  // namespace

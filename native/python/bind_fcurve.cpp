@@ -19,15 +19,11 @@ void BindFCurve(py::module_& m) {
          Eigen::Ref<const Eigen::VectorXi> key_offsets, Eigen::Ref<const Eigen::VectorXi> linear_extrapolation,
          Eigen::Ref<const Eigen::VectorXd> times) {
         const Eigen::Index curves = std::max<Eigen::Index>(key_offsets.size() - 1, 0);
-        py::array_t<double, py::array::c_style> values({curves, times.size()});
-        Eigen::Map<RowMatrixXd> view(values.mutable_data(), curves, times.size());
+        Output<> values(curves, times.size());
         FCurveEvaluateJob job(co, handle_left, handle_right, interpolation, key_offsets, linear_extrapolation,
-                              times, view);
-        {
-          py::gil_scoped_release release;
-          job.Run();
-        }
-        return values;
+                              times, values.view);
+        RunWithoutGil(job);
+        return values.array;
       },
       "co"_a.noconvert(), "handle_left"_a.noconvert(), "handle_right"_a.noconvert(), "interpolation"_a.noconvert(),
       "key_offsets"_a.noconvert(), "linear_extrapolation"_a.noconvert(), "times"_a.noconvert(),

@@ -81,13 +81,9 @@ InterpolationOptions Options(const char* where, Interpolant kind, const Loose& s
   return options;
 }
 
-py::array_t<double> Like(const py::array& values, py::ssize_t rows, py::ssize_t cols) {
-  if (values.ndim() == 1) return py::array_t<double>(rows);
-  return py::array_t<double>({rows, cols});
-}
-
-Eigen::Map<RowMatrixXd> Out(py::array_t<double>& a, Eigen::Index rows, Eigen::Index cols) {
-  return Eigen::Map<RowMatrixXd>(a.mutable_data(), rows, cols);
+// An output shaped as the values are: (rows,) for 1-D values (one component), else (rows, cols).
+Output<> Like(const py::array& values, Eigen::Index rows, Eigen::Index cols) {
+  return values.ndim() == 1 ? Output<>(rows) : Output<>(rows, cols);
 }
 
 py::object Interpolate(const Exact& times, const Exact& values, const Exact& eval_times,
@@ -100,15 +96,13 @@ py::object Interpolate(const Exact& times, const Exact& values, const Exact& eva
   const MapVector x = Vector(where, "eval_times", eval_times);
   const InterpolationOptions options =
       Options(where, Kind(kind), slopes, end_slopes, y.cols(), tension, continuity, bias);
-  py::array_t<double> samples = Like(values, x.size(), y.cols());
-  py::array_t<double> derivatives = Like(values, derivative ? x.size() : 0, y.cols());
-  Eigen::Map<RowMatrixXd> samples_view = Out(samples, x.size(), y.cols());
-  Eigen::Map<RowMatrixXd> derivatives_view = Out(derivatives, derivative ? x.size() : 0, y.cols());
-  InterpolateJob job(t, y, options, x, samples_view);
-  if (derivative) job.derivatives.emplace(derivatives_view);
-  ValidateAndRun(job);
-  if (derivative) return py::make_tuple(samples, derivatives);
-  return py::object(samples);
+  Output<> samples = Like(values, x.size(), y.cols());
+  Output<> derivatives = Like(values, derivative ? x.size() : 0, y.cols());
+  InterpolateJob job(t, y, options, x, samples.view);
+  if (derivative) job.derivatives.emplace(derivatives.view);
+  RunWithoutGil(job);
+  if (derivative) return py::make_tuple(samples.array, derivatives.array);
+  return py::object(samples.array);
 }
 
 py::tuple HermiteForm(const Exact& times, const Exact& values, const std::string& kind,
@@ -119,13 +113,11 @@ py::tuple HermiteForm(const Exact& times, const Exact& values, const std::string
   const MapMatrix y = Matrix(where, "values", values);
   const InterpolationOptions options =
       Options(where, Kind(kind), slopes, end_slopes, y.cols(), tension, continuity, bias);
-  py::array_t<double> slopes_in = Like(values, y.rows(), y.cols());
-  py::array_t<double> slopes_out = Like(values, y.rows(), y.cols());
-  Eigen::Map<RowMatrixXd> in_view = Out(slopes_in, y.rows(), y.cols());
-  Eigen::Map<RowMatrixXd> out_view = Out(slopes_out, y.rows(), y.cols());
-  HermiteFormJob job(t, y, options, in_view, out_view);
-  ValidateAndRun(job);
-  return py::make_tuple(slopes_in, slopes_out);
+  Output<> slopes_in = Like(values, y.rows(), y.cols());
+  Output<> slopes_out = Like(values, y.rows(), y.cols());
+  HermiteFormJob job(t, y, options, slopes_in.view, slopes_out.view);
+  RunWithoutGil(job);
+  return py::make_tuple(slopes_in.array, slopes_out.array);
 }
 
 py::object InterpolateCurves(const py::array& offsets, const Exact& times, const Exact& values,
@@ -153,16 +145,12 @@ py::object InterpolateCurves(const py::array& offsets, const Exact& times, const
   const MapVector x = Vector(where, "eval_times", eval_times);
   const InterpolationOptions options =
       Options(where, Kind(kind), slopes, end_slopes, curves, tension, continuity, bias);
-  py::array_t<double> samples({static_cast<py::ssize_t>(curves), static_cast<py::ssize_t>(x.size())});
-  py::array_t<double> derivatives(
-      {static_cast<py::ssize_t>(derivative ? curves : 0), static_cast<py::ssize_t>(x.size())});
-  Eigen::Map<RowMatrixXd> samples_view = Out(samples, curves, x.size());
-  Eigen::Map<RowMatrixXd> derivatives_view = Out(derivatives, derivative ? curves : 0, x.size());
-  InterpolateCurvesJob job(starts, t, y, options, x, samples_view);
-  if (derivative) job.derivatives.emplace(derivatives_view);
-  ValidateAndRun(job);
-  if (derivative) return py::make_tuple(samples, derivatives);
-  return py::object(samples);
+  Output<> samples(curves, x.size()), derivatives(derivative ? curves : 0, x.size());
+  InterpolateCurvesJob job(starts, t, y, options, x, samples.view);
+  if (derivative) job.derivatives.emplace(derivatives.view);
+  RunWithoutGil(job);
+  if (derivative) return py::make_tuple(samples.array, derivatives.array);
+  return py::object(samples.array);
 }
 
 }  // namespace

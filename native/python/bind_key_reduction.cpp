@@ -31,19 +31,16 @@ py::tuple ReduceKeys(const ConstVectorView& times, const ConstMatrixView& values
     throw Error("unknown Euler order '" + euler_order + "'; expected XYZ, XZY, YXZ, YZX, ZXY or ZYX");
   }
   const py::ssize_t m = times.size(), d = values.cols();
-  py::array_t<std::int64_t> indices(m);
-  py::array_t<double> slopes_in({m, d}), slopes_out({m, d});
-  Eigen::Map<Eigen::Matrix<std::int64_t, Eigen::Dynamic, 1>> indices_view(indices.mutable_data(), m);
-  Eigen::Map<RowMatrixXd> in_view(slopes_in.mutable_data(), m, d);
-  Eigen::Map<RowMatrixXd> out_view(slopes_out.mutable_data(), m, d);
-  KeyReductionJob job(times, values, tolerance, indices_view, in_view, out_view);
+  OutputVector<std::int64_t> indices(m);
+  Output<> slopes_in(m, d), slopes_out(m, d);
+  KeyReductionJob job(times, values, tolerance, indices.view, slopes_in.view, slopes_out.view);
   job.mode = Mode(mode_text);
   job.euler_order = *order;
   job.stride = stride;
-  ValidateAndRun(job);
+  RunWithoutGil(job);
   const py::slice keys(0, static_cast<py::ssize_t>(job.key_count), 1);
-  return py::make_tuple(indices[keys].attr("copy")(), slopes_in[keys].attr("copy")(),
-                        slopes_out[keys].attr("copy")());
+  return py::make_tuple(indices.array[keys].attr("copy")(), slopes_in.array[keys].attr("copy")(),
+                        slopes_out.array[keys].attr("copy")());
 }
 
 }  // namespace

@@ -43,12 +43,10 @@ py::tuple Retarget(const RigModel& source, const RigModel& target, const ConstMa
   const auto motion = ParseRootMotion(root_motion);
   if (!motion) throw Error("unknown root motion '" + root_motion + "'; expected scaled, in_place, offset or none");
   const Eigen::Index frames = source_rotations.rows(), bones = target.size();
-  DoubleArray rotations({frames, 4 * bones}), root_locations({frames, Eigen::Index{3}});
-  RowMap rotations_view(rotations.mutable_data(), frames, 4 * bones);
-  RowMap root_view(root_locations.mutable_data(), frames, 3);
+  Output<> rotations(frames, 4 * bones), root_locations(frames, 3);
   RetargetJob job(source, target, source_rotations, source_root_heads,
                   AsRow(source_match, source.size(), 4, "source_match"),
-                  AsRow(target_match_basis, bones, 4, "target_match_basis"), rotations_view, root_view);
+                  AsRow(target_match_basis, bones, 4, "target_match_basis"), rotations.view, root_locations.view);
   job.source_match_root = source_match_root;
   job.target_match_location = target_match_location;
   job.bone_map = bone_map;
@@ -65,8 +63,8 @@ py::tuple Retarget(const RigModel& source, const RigModel& target, const ConstMa
   job.options.target_floor = target_floor;
   if (source_aims) job.source_aims = *source_aims;
   if (target_aims) job.target_aims = *target_aims;
-  ValidateAndRun(job);
-  return py::make_tuple(rotations, root_locations);
+  RunWithoutGil(job);
+  return py::make_tuple(rotations.array, root_locations.array);
 }
 
 }  // namespace

@@ -22,12 +22,10 @@ namespace {
 py::tuple ArmaturePose(const RigModel& rig, const ConstMatrixView& basis_rotations,
                        const ConstMatrixView& basis_locations) {
   const Eigen::Index frames = basis_rotations.rows(), bones = rig.size();
-  DoubleArray rotations({frames, 4 * bones}), heads({frames, 3 * bones});
-  RowMap rotations_view(rotations.mutable_data(), frames, 4 * bones);
-  RowMap heads_view(heads.mutable_data(), frames, 3 * bones);
-  ArmaturePoseJob job(rig, basis_rotations, basis_locations, rotations_view, heads_view);
-  ValidateAndRun(job);
-  return py::make_tuple(rotations, heads);
+  Output<> rotations(frames, 4 * bones), heads(frames, 3 * bones);
+  ArmaturePoseJob job(rig, basis_rotations, basis_locations, rotations.view, heads.view);
+  RunWithoutGil(job);
+  return py::make_tuple(rotations.array, heads.array);
 }
 
 }  // namespace

@@ -30,16 +30,15 @@ void BindRotation(py::module_& m) {
       [](Eigen::Ref<const RowMatrixXd> angles, const std::string& order_text) {
         const EulerOrder order = Order(order_text);
         if (angles.cols() != 3) throw Error("euler_to_quaternion: angles must be (n, 3)");
-        py::array_t<double, py::array::c_style> quaternions({angles.rows(), Eigen::Index{4}});
-        Eigen::Map<RowMatrixXd> out(quaternions.mutable_data(), angles.rows(), 4);
+        Output<> quaternions(angles.rows(), 4);
         {
           py::gil_scoped_release release;
           for (Eigen::Index i = 0; i < angles.rows(); ++i) {
             const Eigen::Quaterniond q = EulerToQuaternion(angles.row(i).transpose(), order);
-            out.row(i) << q.w(), q.x(), q.y(), q.z();
+            quaternions.view.row(i) << q.w(), q.x(), q.y(), q.z();
           }
         }
-        return quaternions;
+        return quaternions.array;
       },
       "angles"_a.noconvert(), "order"_a,
       R"pbdoc(
@@ -53,15 +52,14 @@ void BindRotation(py::module_& m) {
          const Eigen::VectorXd& previous, int threads) {
         const EulerOrder order = Order(order_text);
         const Eigen::Index columns = 3 * (quaternions.cols() / 4);
-        py::array_t<double, py::array::c_style> angles({quaternions.rows(), columns});
-        Eigen::Map<RowMatrixXd> out(angles.mutable_data(), quaternions.rows(), columns);
+        Output<> angles(quaternions.rows(), columns);
         Status status = Status::Ok();
         {
           py::gil_scoped_release release;
-          status = QuaternionsToEulers(quaternions, order, out, continuous, previous, threads);
+          status = QuaternionsToEulers(quaternions, order, angles.view, continuous, previous, threads);
         }
         status.ThrowIfFailed();
-        return angles;
+        return angles.array;
       },
       "quaternions"_a.noconvert(), "order"_a, "continuous"_a = true, "previous"_a = Eigen::VectorXd(),
       "threads"_a = 0,

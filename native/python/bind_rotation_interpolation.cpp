@@ -54,35 +54,30 @@ py::object InterpolateRotations(const ConstVectorView& times, const ConstMatrixV
   const std::optional<CastingArray> c = PerKey(continuity, "continuity");
   const std::optional<CastingArray> b = PerKey(bias, "bias");
   const py::ssize_t m = eval_times.size();
-  CastingArray out({m, py::ssize_t{4}});
-  CastingArray velocity({want_velocity ? m : py::ssize_t{0}, py::ssize_t{3}});
-  RowMap out_view(out.mutable_data(), m, 4);
-  RowMap velocity_view(velocity.mutable_data(), velocity.shape(0), 3);
-  RotationInterpolateJob job(times, quats, eval_times, out_view, velocity_view,
-                             KeyTcb(View(t), View(c), View(b)));
+  Output<> out(m, 4), velocity(want_velocity ? m : 0, 3);
+  RotationInterpolateJob job(times, quats, eval_times, out.view, velocity.view, KeyTcb(View(t), View(c), View(b)));
   job.options.kind = *kind;
   job.options.euler_order = Order(euler_order);
-  ValidateAndRun(job);
-  if (want_velocity) return py::make_tuple(out, velocity);
-  return py::object(std::move(out));
+  RunWithoutGil(job);
+  if (want_velocity) return py::make_tuple(out.array, velocity.array);
+  return py::object(std::move(out.array));
 }
 
-CastingArray SlerpMany(const QuaternionArg& q0, const QuaternionArg& q1, const ConstVectorView& u) {
+DoubleArray SlerpMany(const QuaternionArg& q0, const QuaternionArg& q1, const ConstVectorView& u) {
   const Eigen::Quaterniond a = ToQuaternion(q0), b = ToQuaternion(q1);
   if (!q0.allFinite() || !q1.allFinite() || !(q0.norm() > 1e-12) || !(q1.norm() > 1e-12)) {
     throw Error("slerp: q0 and q1 must be finite and not zero");
   }
   if (!u.allFinite()) throw Error("slerp: u must be finite");
-  CastingArray out({u.size(), Eigen::Index{4}});
-  RowMap view(out.mutable_data(), u.size(), 4);
+  Output<> out(u.size(), 4);
   {
     py::gil_scoped_release release;
     for (Eigen::Index j = 0; j < u.size(); ++j) {
       const Eigen::Quaterniond q = Slerp(a, b, u[j]);
-      view.row(j) << q.w(), q.x(), q.y(), q.z();
+      out.view.row(j) << q.w(), q.x(), q.y(), q.z();
     }
   }
-  return out;
+  return out.array;
 }
 
 }  // namespace
@@ -122,8 +117,7 @@ void BindRotationInterpolation(py::module_& m) {
       "slerp",
       [](const QuaternionArg& q0, const QuaternionArg& q1, double u) {
         const Eigen::VectorXd one = Eigen::VectorXd::Constant(1, u);
-        CastingArray out = SlerpMany(q0, q1, one);
-        return CastingArray(out.attr("reshape")(4));
+        return DoubleArray(SlerpMany(q0, q1, one).attr("reshape")(4));
       },
       "q0"_a, "q1"_a, "u"_a, "The same for one u: float64 (4,).");
 }

@@ -5,6 +5,8 @@
 #include <pybind11/pybind11.h>
 
 #include <Eigen/Geometry>
+#include <utility>
+#include <vector>
 
 #include "motionkit/types.hpp"
 
@@ -14,7 +16,6 @@ namespace motionkit::python {
 using DoubleArray = pybind11::array_t<double, pybind11::array::c_style>;
 using BoolArray = pybind11::array_t<bool, pybind11::array::c_style>;
 using IntArray = pybind11::array_t<int, pybind11::array::c_style>;
-using RowMap = Eigen::Map<RowMatrixXd>;
 
 // Small fixed-size arguments (a quaternion, a point) are taken as views, never as plain fixed-size
 // matrices: pybind11 2.13's caster for those (Debian 13's) move-assigns an uninitialised temporary into
@@ -27,11 +28,33 @@ inline Eigen::Quaterniond ToQuaternion(const QuaternionArg& wxyz) {
   return Eigen::Quaterniond(wxyz[0], wxyz[1], wxyz[2], wxyz[3]);
 }
 
-// The bindings' one way of running a job: validated with the GIL held (a failure is a MotionKitError
-// naming the place), then run without it, so that other Python threads go on meanwhile.
+// An output a binding allocates and returns: the numpy array (C order) and the view the job writes into
+// it, so that nothing is copied on the way out. Output<T>(rows, cols) is (rows, cols) to numpy as to the
+// job; Output<T>(rows) is (rows,) to numpy and a column to the job; OutputVector<T>(rows) the same for
+// jobs that take a vector.
+template <class T, class Matrix>
+class OutputArray {
+ public:
+  OutputArray(Eigen::Index rows, Eigen::Index cols) : OutputArray({rows, cols}, rows, cols) {}
+  explicit OutputArray(Eigen::Index rows) : OutputArray({rows}, rows, 1) {}
+
+  pybind11::array_t<T, pybind11::array::c_style> array;
+  Eigen::Map<Matrix> view;
+
+ private:
+  OutputArray(std::vector<pybind11::ssize_t> shape, Eigen::Index rows, Eigen::Index cols)
+      : array(std::move(shape)), view(array.mutable_data(), rows, cols) {}
+};
+template <class T = double>
+using Output = OutputArray<T, Eigen::Matrix<T, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>;
+template <class T>
+using OutputVector = OutputArray<T, Eigen::Matrix<T, Eigen::Dynamic, 1>>;
+
+// The bindings' one way of running a job, once its outputs are allocated: without the GIL, so that other
+// Python threads go on meanwhile. Run() validates first and throws Error having written nothing, which
+// reaches Python as MotionKitError once the GIL is back.
 template <class Job>
-void ValidateAndRun(Job& job) {
-  job.Validate().ThrowIfFailed();
+void RunWithoutGil(Job& job) {
   pybind11::gil_scoped_release release;
   job.Run();
 }

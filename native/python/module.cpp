@@ -27,14 +27,10 @@ std::uintptr_t DataAddress(const motionkit::ConstMatrixView& a) {
 
 py::array_t<float, py::array::c_style> KeyframeCo(const motionkit::ConstVectorView& frames,
                                                   const motionkit::ConstMatrixView& values) {
-  py::array_t<float, py::array::c_style> co({values.rows(), 2 * frames.size()});
-  Eigen::Map<motionkit::RowMatrixXf> view(co.mutable_data(), values.rows(), 2 * frames.size());
-  motionkit::KeyframeCoJob job(frames, values, view);
-  {
-    py::gil_scoped_release release;
-    job.Run();
-  }
-  return co;
+  motionkit::python::Output<float> co(values.rows(), 2 * frames.size());
+  motionkit::KeyframeCoJob job(frames, values, co.view);
+  motionkit::python::RunWithoutGil(job);
+  return co.array;
 }
 
 }  // namespace
@@ -73,8 +69,7 @@ PYBIND11_MODULE(_native, m) {
   // Functions only the tests use live apart, so that the module's own surface is what the add-on calls.
   py::module_ testing = m.def_submodule("_testing", R"pbdoc(
     Functions the test suites use to look inside the core (zero-copy checks, the
-    BVH text round trip, whole-clip BVH forward kinematics, single interpolants);
-    the add-on never calls them.
+    BVH text round trip, single interpolants); the add-on never calls them.
   )pbdoc");
 
   testing.def("data_address", &DataAddress, "array"_a.noconvert(),

@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "motionkit/rotation.hpp"
+#include "so3.hpp"
 
 namespace motionkit {
 namespace {
@@ -45,14 +46,14 @@ Status CheckCommon(const Skeleton& skeleton, const ConstMatrixView& bone_rest,
                         std::to_string(bone_rest.rows()) + " x " + std::to_string(bone_rest.cols()));
   }
   for (Eigen::Index j = 0; j < joints; ++j) {
-    const double norm = bone_rest.row(j).norm();
-    if (!skeleton.joints[static_cast<std::size_t>(j)].end_site && !(std::abs(norm - 1.0) < 1e-6)) {
+    if (!skeleton.joints[static_cast<std::size_t>(j)].end_site &&
+        !internal::IsUnitQuaternion(QuatAt(bone_rest, j, 0), 1e-6)) {
       return Status::Fail("bvh pose: rest orientation of '" +
                           skeleton.joints[static_cast<std::size_t>(j)].name +
                           "' is not a unit quaternion");
     }
   }
-  if (!(std::abs(conversion.norm() - 1.0) < 1e-6)) {  // float32 sources (mathutils) welcome
+  if (!internal::IsUnitQuaternion(conversion, 1e-6)) {  // float32 sources (mathutils) welcome
     return Status::Fail("bvh pose: the axis conversion is not a unit quaternion");
   }
   if (!(std::isfinite(scale) && scale > 0.0)) {
@@ -61,8 +62,34 @@ Status CheckCommon(const Skeleton& skeleton, const ConstMatrixView& bone_rest,
   return Status::Ok();
 }
 
+// Per joint, B_i^-1 C (from BVH space to the bone's rest frame) and its inverse C^-1 B_i: the constant
+// halves of the maps between a joint's channels and its bone's pose, computed once rather than per frame.
+struct RestConversions {
+  std::vector<Eigen::Quaterniond> to_bone, to_bvh;
+};
+
+RestConversions ConvertRests(const ConstMatrixView& bone_rest, const Eigen::Quaterniond& conversion) {
+  const Eigen::Quaterniond c = conversion.normalized();
+  const auto joints = static_cast<std::size_t>(bone_rest.rows());
+  RestConversions rests{std::vector<Eigen::Quaterniond>(joints), std::vector<Eigen::Quaterniond>(joints)};
+  for (std::size_t j = 0; j < joints; ++j) {
+    const Eigen::Quaterniond b = QuatAt(bone_rest, static_cast<Eigen::Index>(j), 0).normalized();
+    rests.to_bone[j] = b.conjugate() * c;
+    rests.to_bvh[j] = c.conjugate() * b;
+  }
+  return rests;
+}
+
 std::string Shape(Eigen::Index rows, Eigen::Index cols) {
   return std::to_string(rows) + " x " + std::to_string(cols);
+}
+
+// `what` (an input or output of the jobs) shaped rows x cols, else a failure saying which shape it has.
+template <class Matrix>
+Status CheckShape(const char* what, const Matrix& m, Eigen::Index rows, Eigen::Index cols) {
+  if (m.rows() == rows && m.cols() == cols) return Status::Ok();
+  return Status::Fail(std::string("bvh pose: ") + what + " must be " + Shape(rows, cols) + ", got " +
+                      Shape(m.rows(), m.cols()));
 }
 
 }  // namespace
@@ -76,14 +103,8 @@ Status BvhToPoseJob::Validate() const {
                         " columns but the skeleton has " + std::to_string(skeleton.channel_count) +
                         " channels");
   }
-  if (rotations.rows() != frames || rotations.cols() != 4 * joints) {
-    return Status::Fail("bvh pose: rotations must be " + Shape(frames, 4 * joints) + ", got " +
-                        Shape(rotations.rows(), rotations.cols()));
-  }
-  if (locations.rows() != frames || locations.cols() != 3 * joints) {
-    return Status::Fail("bvh pose: locations must be " + Shape(frames, 3 * joints) + ", got " +
-                        Shape(locations.rows(), locations.cols()));
-  }
+  if (Status s = CheckShape("rotations", rotations, frames, 4 * joints); !s) return s;
+  if (Status s = CheckShape("locations", locations, frames, 3 * joints); !s) return s;
   for (Eigen::Index f = 0; f < frames; ++f) {
     for (const Joint& joint : skeleton.joints) {
       for (int c = 0; c < joint.channel_count; ++c) {
@@ -100,18 +121,11 @@ Status BvhToPoseJob::Validate() const {
 
 void BvhToPoseJob::Run() {
   Validate().ThrowIfFailed();
-  const Eigen::Quaterniond c = conversion.normalized();
-  // Per joint, the constant halves of M_i = (B_i^-1 C) R_i (C^-1 B_i) and the
-  // location map s B_i^-1 C: computed once, not per frame.
+  // M_i = (B_i^-1 C) R_i (C^-1 B_i), and the location map s B_i^-1 C.
+  const RestConversions rests = ConvertRests(bone_rest, conversion);
   const std::size_t joints = skeleton.joints.size();
-  std::vector<Eigen::Quaterniond> left(joints), right(joints);
   std::vector<Eigen::Matrix3d> to_location(joints);
-  for (std::size_t j = 0; j < joints; ++j) {
-    const Eigen::Quaterniond b = QuatAt(bone_rest, static_cast<Eigen::Index>(j), 0).normalized();
-    left[j] = b.conjugate() * c;
-    right[j] = c.conjugate() * b;
-    to_location[j] = scale * left[j].toRotationMatrix();
-  }
+  for (std::size_t j = 0; j < joints; ++j) to_location[j] = scale * rests.to_bone[j].toRotationMatrix();
   for (Eigen::Index f = 0; f < values.rows(); ++f) {
     const double* row = values.row(f).data();
     double* rot_out = rotations.row(f).data();
@@ -155,7 +169,7 @@ void BvhToPoseJob::Run() {
         }
         w = nw; x = nx; y = ny; z = nz;
       }
-      Eigen::Quaterniond m = left[j] * Eigen::Quaterniond(w, x, y, z) * right[j];
+      Eigen::Quaterniond m = rests.to_bone[j] * Eigen::Quaterniond(w, x, y, z) * rests.to_bvh[j];
       const double sign = m.w() < 0.0 ? -1.0 : 1.0;  // one hemisphere: continuous curves
       q_out[0] = sign * m.w();
       q_out[1] = sign * m.x();
@@ -179,14 +193,8 @@ Status PoseToBvhJob::Validate() const {
     return Status::Fail("bvh pose: rotations must have " + std::to_string(4 * joints) +
                         " columns, got " + std::to_string(rotations.cols()));
   }
-  if (locations.rows() != frames || locations.cols() != 3 * joints) {
-    return Status::Fail("bvh pose: locations must be " + Shape(frames, 3 * joints) + ", got " +
-                        Shape(locations.rows(), locations.cols()));
-  }
-  if (values.rows() != frames || values.cols() != skeleton.channel_count) {
-    return Status::Fail("bvh pose: values must be " + Shape(frames, skeleton.channel_count) +
-                        ", got " + Shape(values.rows(), values.cols()));
-  }
+  if (Status s = CheckShape("locations", locations, frames, 3 * joints); !s) return s;
+  if (Status s = CheckShape("values", values, frames, skeleton.channel_count); !s) return s;
   for (Eigen::Index f = 0; f < frames; ++f) {
     for (std::size_t j = 0; j < skeleton.joints.size(); ++j) {
       const auto jj = static_cast<Eigen::Index>(j);
@@ -198,7 +206,7 @@ Status PoseToBvhJob::Validate() const {
         return Status::Fail("bvh pose: frame " + std::to_string(f) + ", bone '" + joint.name +
                             "' has a non-finite rotation or location");
       }
-      if (!(rotations.row(f).segment<4>(4 * jj).norm() > 1e-12)) {
+      if (!internal::IsRotationQuaternion(rotations.row(f).segment<4>(4 * jj))) {
         return Status::Fail("bvh pose: frame " + std::to_string(f) + ", bone '" + joint.name +
                             "' has a zero quaternion");
       }
@@ -209,19 +217,14 @@ Status PoseToBvhJob::Validate() const {
 
 void PoseToBvhJob::Run() {
   Validate().ThrowIfFailed();
-  const Eigen::Quaterniond c = conversion.normalized();
-  // Per joint, the constant halves of R_i = (C^-1 B_i) M_i (B_i^-1 C) and the
-  // location map C^-1 B_i / s, computed once rather than per frame.
+  // R_i = (C^-1 B_i) M_i (B_i^-1 C), and the location map C^-1 B_i / s.
+  const RestConversions rests = ConvertRests(bone_rest, conversion);
   const std::size_t joints = skeleton.joints.size();
-  std::vector<Eigen::Quaterniond> left(joints), right(joints);
   std::vector<Eigen::Matrix3d> to_translation(joints);
   std::vector<EulerOrder> orders(joints);
   std::vector<int> rotation_counts(joints);
   for (std::size_t j = 0; j < joints; ++j) {
-    const Eigen::Quaterniond b = QuatAt(bone_rest, static_cast<Eigen::Index>(j), 0).normalized();
-    left[j] = c.conjugate() * b;
-    right[j] = b.conjugate() * c;
-    to_translation[j] = left[j].toRotationMatrix() / scale;
+    to_translation[j] = rests.to_bvh[j].toRotationMatrix() / scale;
     orders[j] = JointEulerOrder(skeleton.joints[j], &rotation_counts[j]);
   }
   // Previous frame's angles per joint, for continuity; the first frame is
@@ -236,7 +239,7 @@ void PoseToBvhJob::Run() {
       if (joint.end_site || joint.channel_count == 0) continue;
       const auto jj = static_cast<Eigen::Index>(j);
       const Eigen::Quaterniond m = QuatAt(rotations, f, jj).normalized();
-      const Eigen::Quaterniond r = left[j] * m * right[j];
+      const Eigen::Quaterniond r = rests.to_bvh[j] * m * rests.to_bone[j];
       const Eigen::Vector3d l = locations.row(f).segment<3>(3 * jj).transpose();
       const Eigen::Vector3d t = joint.offset + to_translation[j] * l;
       Eigen::Vector3d angles = Eigen::Vector3d::Zero();

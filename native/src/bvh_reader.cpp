@@ -239,13 +239,14 @@ class BvhParser {
          std::string_view(p, static_cast<std::size_t>(TokenEnd(p) - p)));
   }
 
-  std::string JointLabel(int index) const {
-    const Joint& joint = joints_[static_cast<std::size_t>(index)];
+  // A joint as messages name it; one being read may not be in joints_ yet.
+  std::string JointLabel(const Joint& joint) const {
     if (joint.end_site) {
       return "the End Site of " + Quoted(joints_[static_cast<std::size_t>(joint.parent)].name);
     }
     return "joint " + Quoted(joint.name);
   }
+  std::string JointLabel(int index) const { return JointLabel(joints_[static_cast<std::size_t>(index)]); }
 
   // ---- Values ---------------------------------------------------------------
 
@@ -325,62 +326,71 @@ class BvhParser {
   // On ROOT, JOINT or End: reads the joint's header, OFFSET and CHANNELS,
   // pushes it on `open` and leaves the token after them in token_.
   void OpenJoint(int parent, std::vector<int>* open) {
-    const Where keyword_at = token_at_;
-    const std::string_view keyword = token_;
-    const bool end_site = keyword == "End";
-    if (static_cast<long long>(open->size()) > limits_.max_depth) {
+    CheckRoomForJoint(open->size());
+    Joint joint;
+    joint.parent = parent;
+    joint.end_site = token_ == "End";
+    const int index = static_cast<int>(joints_.size());
+    ReadJointName(index, &joint);
+    ReadJointBody(&joint);
+    joint.first_channel = channel_count_;
+    channel_count_ += joint.channel_count;
+    joints_.push_back(std::move(joint));
+    open->push_back(index);
+  }
+
+  void CheckRoomForJoint(std::size_t depth) {
+    if (static_cast<long long>(depth) > limits_.max_depth) {
       FailToken("joints nested deeper than limits.max_depth (" + std::to_string(limits_.max_depth) +
                 ")");
     }
     if (static_cast<long long>(joints_.size()) >= limits_.max_joints) {
       FailToken("more joints than limits.max_joints (" + std::to_string(limits_.max_joints) + ")");
     }
-    Joint joint;
-    joint.parent = parent;
-    joint.end_site = end_site;
-    Where name_at = keyword_at;
+  }
+
+  // From the keyword on: the joint's name (an End Site's is its parent's with "_end"), registered as
+  // joint `index`'s; a name another joint has is refused there.
+  void ReadJointName(int index, Joint* joint) {
+    const std::string_view keyword = token_;
+    Where name_at = token_at_;
     std::string_view name_token = "End Site";
-    if (end_site) {
+    if (joint->end_site) {
       Next();
       if (token_ != "Site") FailToken("expected 'Site' after 'End'");
-      joint.name = joints_[static_cast<std::size_t>(parent)].name + "_end";
+      joint->name = joints_[static_cast<std::size_t>(joint->parent)].name + "_end";
     } else {
       SkipBlanks();
       name_at = Here(p_);
       name_token = ReadName(keyword);
-      joint.name = std::string(name_token);
+      joint->name = std::string(name_token);
     }
-    const int index = static_cast<int>(joints_.size());
-    const auto [it, inserted] = names_.emplace(joint.name, index);
+    const auto [it, inserted] = names_.emplace(joint->name, index);
     if (!inserted) {
-      std::string what = "duplicate joint name " + Quoted(joint.name);
+      std::string what = "duplicate joint name " + Quoted(joint->name);
       if (joints_[static_cast<std::size_t>(it->second)].end_site) {
         what += ", already given to " + JointLabel(it->second);
       }
       Fail(name_at, what, Saw::kToken, name_token);
     }
-    // Built on failure only.
-    const auto label = [&] {
-      return end_site ? "the End Site of " + Quoted(joints_[static_cast<std::size_t>(parent)].name)
-                      : "joint " + Quoted(joint.name);
-    };
+  }
+
+  // After the name: '{', OFFSET and its three numbers, and a joint's CHANNELS; leaves the token after
+  // them in token_.
+  void ReadJointBody(Joint* joint) {
     Next();
-    if (token_ != "{") FailToken("expected '{' to open " + label());
+    if (token_ != "{") FailToken("expected '{' to open " + JointLabel(*joint));
     Next();
-    if (token_ != "OFFSET") FailToken("expected OFFSET in " + label());
+    if (token_ != "OFFSET") FailToken("expected OFFSET in " + JointLabel(*joint));
     for (int axis = 0; axis < 3; ++axis) {
       Next();
-      joint.offset[axis] = NumberToken("OFFSET");
+      joint->offset[axis] = NumberToken("OFFSET");
     }
     Next();
-    if (!end_site && token_ == "CHANNELS") {
-      ReadChannels(&joint);
+    if (!joint->end_site && token_ == "CHANNELS") {
+      ReadChannels(joint);
       Next();
     }
-    joint.first_channel = channel_count_;
-    channel_count_ += joint.channel_count;
-    joints_.push_back(std::move(joint));
-    open->push_back(index);
   }
 
   void ReadHierarchy() {

@@ -7,6 +7,7 @@
 #include <string>
 
 #include "interpolation_internal.hpp"
+#include "time_checks.hpp"
 
 namespace motionkit {
 namespace {
@@ -104,12 +105,7 @@ Status CheckCurve(const std::string& where, Interpolant kind, const CurveKeys& k
   const bool scalar = k.d == 1;
   auto component = [scalar](Index j) { return scalar ? std::string() : ", component " + Str(j); };
   for (Index i = 0; i < k.n; ++i) {
-    if (!std::isfinite(k.t[i])) return Status::Fail(where + "time of key " + Str(i) + " is not finite");
-    if (i > 0 && !(k.t[i] > k.t[i - 1])) {
-      return Status::Fail(where + "key times must increase strictly, but key " + Str(i) + " (" +
-                          Str(k.t[i]) + ") does not come after key " + Str(i - 1) + " (" +
-                          Str(k.t[i - 1]) + ")");
-    }
+    if (!internal::TimeInOrder(k.t, i)) return internal::TimeOrderFailure(k.t, i, where, internal::kKeyTimes);
     for (Index j = 0; j < k.d; ++j) {
       if (!std::isfinite(k.y_at(i, j))) {
         return Status::Fail(where + "value of key " + Str(i) + " (time " + Str(k.t[i]) + ")" +

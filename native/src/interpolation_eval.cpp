@@ -33,6 +33,108 @@ inline double HornerSlope(const double* c, double u) {
   return c[1] + u * (2.0 * c[2] + u * (3.0 * c[3]));
 }
 
+// Where EvaluateCubic writes: sample s's component j at out[s * os() + j] (and its derivative in dout, when
+// asked), from the segments' power-basis coefficients. The scalar case's sizes and strides are constants,
+// so that the compiler vectorises its loops over samples.
+template <bool kScalar>
+struct CubicSamples {
+  const CurveKeys& keys;
+  const double* coeffs;
+  double* out;
+  Index out_stride;
+  double* dout;  // null: no derivatives
+  Index dout_stride;
+
+  Index components() const { return kScalar ? 1 : keys.d; }
+  Index os() const { return kScalar ? 1 : out_stride; }
+  Index ds() const { return kScalar ? 1 : dout_stride; }
+  const double* Segment(Index k, Index j) const { return coeffs + (k * components() + j) * 4; }
+
+  // Outside the keys (and everywhere for one key): hold the end value, flat.
+  void Hold(Index s, Index key) const {
+    for (Index j = 0; j < components(); ++j) {
+      out[s * os() + j] = keys.y_at(key, j);
+      if (dout) dout[s * ds() + j] = 0.0;
+    }
+  }
+
+  // On the last key: its value exactly, the last segment's slope.
+  void OnLast(Index s) const {
+    const Index n = keys.n;
+    for (Index j = 0; j < components(); ++j) {
+      out[s * os() + j] = keys.y_at(n - 1, j);
+      if (dout) dout[s * ds() + j] = HornerSlope(Segment(n - 2, j), keys.t[n - 1] - keys.t[n - 2]);
+    }
+  }
+
+  void InSegment(Index s, Index k, double u) const {
+    for (Index j = 0; j < components(); ++j) {
+      const double* c = Segment(k, j);
+      out[s * os() + j] = Horner(c, u);
+      if (dout) dout[s * ds() + j] = HornerSlope(c, u);
+    }
+  }
+
+  // Samples in any order, each segment found by search unless it is the previous sample's (neighbours
+  // often share one).
+  void EvaluateAnyOrder(const double* x, Index m) const {
+    const Index n = keys.n;
+    const double first = keys.t[0], last = keys.t[n - 1];
+    Index k = 0;
+    for (Index s = 0; s < m; ++s) {
+      const double time = x[s];
+      if (time < first) {
+        Hold(s, 0);
+      } else if (time > last) {
+        Hold(s, n - 1);
+      } else if (time == last) {
+        OnLast(s);
+      } else {
+        if (!(keys.t[k] <= time && time < keys.t[k + 1])) {
+          k = static_cast<Index>(std::upper_bound(keys.t, keys.t + n, time) - keys.t) - 1;
+        }
+        InSegment(s, k, time - keys.t[k]);
+      }
+    }
+  }
+
+  // Sorted samples: a segment's run of samples at a time.
+  void EvaluateSorted(const double* x, Index m) const {
+    const Index n = keys.n;
+    Index s = SearchFrom<false>(x, 0, m, keys.t[0]);
+    for (Index b = 0; b < s; ++b) Hold(b, 0);
+    for (Index k = 0; k + 1 < n && s < m; ++k) {
+      const Index end = SearchFrom<false>(x, s, m, keys.t[k + 1]);
+      RunInSegment(x, k, s, end);
+      s = end;
+    }
+    const Index past = SearchFrom<true>(x, s, m, keys.t[n - 1]);
+    for (; s < past; ++s) OnLast(s);
+    for (; s < m; ++s) Hold(s, n - 1);
+  }
+
+  // Samples [s, end) in segment k. Plain loops over contiguous samples with fixed coefficients: the
+  // compiler vectorises the scalar case.
+  void RunInSegment(const double* x, Index k, Index s, Index end) const {
+    const double tk = keys.t[k];
+    for (Index j = 0; j < components(); ++j) {
+      const double* c = Segment(k, j);
+      const double c0 = c[0], c1 = c[1], c2 = c[2], c3 = c[3];
+      for (Index i = s; i < end; ++i) {
+        const double u = x[i] - tk;
+        out[i * os() + j] = c0 + u * (c1 + u * (c2 + u * c3));
+      }
+      if (dout) {
+        const double e1 = 2.0 * c2, e2 = 3.0 * c3;
+        for (Index i = s; i < end; ++i) {
+          const double u = x[i] - tk;
+          dout[i * ds() + j] = c1 + u * (e1 + u * e2);
+        }
+      }
+    }
+  }
+};
+
 }  // namespace
 
 bool IsSorted(const double* x, Index m) {
@@ -76,86 +178,14 @@ void SteppedCoefficients(const CurveKeys& keys, double* coeffs) {
 template <bool kScalar>
 void EvaluateCubic(const CurveKeys& keys, const double* coeffs, const double* x, Index m,
                    bool sorted, double* out, Index out_stride, double* dout, Index dout_stride) {
-  const Index n = keys.n;
-  const Index d = kScalar ? 1 : keys.d;
-  const Index os = kScalar ? 1 : out_stride;
-  const Index ds = kScalar ? 1 : dout_stride;
-  const double first = keys.t[0], last = keys.t[n - 1];
-
-  // Outside the keys (and everywhere for one key): hold the end value, flat.
-  auto hold = [&](Index s, Index key) {
-    for (Index j = 0; j < d; ++j) {
-      out[s * os + j] = keys.y_at(key, j);
-      if (dout) dout[s * ds + j] = 0.0;
-    }
-  };
-  // On the last key: its value exactly, the last segment's slope.
-  auto on_last = [&](Index s) {
-    for (Index j = 0; j < d; ++j) {
-      out[s * os + j] = keys.y_at(n - 1, j);
-      if (dout) {
-        dout[s * ds + j] = HornerSlope(coeffs + ((n - 2) * d + j) * 4, last - keys.t[n - 2]);
-      }
-    }
-  };
-
-  if (n == 1) {
-    for (Index s = 0; s < m; ++s) hold(s, 0);
-    return;
+  const CubicSamples<kScalar> samples{keys, coeffs, out, out_stride, dout, dout_stride};
+  if (keys.n == 1) {
+    for (Index s = 0; s < m; ++s) samples.Hold(s, 0);
+  } else if (sorted) {
+    samples.EvaluateSorted(x, m);
+  } else {
+    samples.EvaluateAnyOrder(x, m);
   }
-
-  if (!sorted) {
-    Index k = 0;  // segment of the previous sample: neighbours often share one
-    for (Index s = 0; s < m; ++s) {
-      const double time = x[s];
-      if (time < first) {
-        hold(s, 0);
-      } else if (time > last) {
-        hold(s, n - 1);
-      } else if (time == last) {
-        on_last(s);
-      } else {
-        if (!(keys.t[k] <= time && time < keys.t[k + 1])) {
-          k = static_cast<Index>(std::upper_bound(keys.t, keys.t + n, time) - keys.t) - 1;
-        }
-        const double u = time - keys.t[k];
-        for (Index j = 0; j < d; ++j) {
-          const double* c = coeffs + (k * d + j) * 4;
-          out[s * os + j] = Horner(c, u);
-          if (dout) dout[s * ds + j] = HornerSlope(c, u);
-        }
-      }
-    }
-    return;
-  }
-
-  Index s = SearchFrom<false>(x, 0, m, first);
-  for (Index b = 0; b < s; ++b) hold(b, 0);
-  for (Index k = 0; k + 1 < n && s < m; ++k) {
-    const Index end = SearchFrom<false>(x, s, m, keys.t[k + 1]);
-    const double tk = keys.t[k];
-    // Plain loops over contiguous samples with fixed coefficients: the
-    // compiler vectorises the scalar case.
-    for (Index j = 0; j < d; ++j) {
-      const double* c = coeffs + (k * d + j) * 4;
-      const double c0 = c[0], c1 = c[1], c2 = c[2], c3 = c[3];
-      for (Index i = s; i < end; ++i) {
-        const double u = x[i] - tk;
-        out[i * os + j] = c0 + u * (c1 + u * (c2 + u * c3));
-      }
-      if (dout) {
-        const double e1 = 2.0 * c2, e2 = 3.0 * c3;
-        for (Index i = s; i < end; ++i) {
-          const double u = x[i] - tk;
-          dout[i * ds + j] = c1 + u * (e1 + u * e2);
-        }
-      }
-    }
-    s = end;
-  }
-  const Index past = SearchFrom<true>(x, s, m, last);
-  for (; s < past; ++s) on_last(s);
-  for (; s < m; ++s) hold(s, n - 1);
 }
 
 template void EvaluateCubic<true>(const CurveKeys&, const double*, const double*, Index, bool,

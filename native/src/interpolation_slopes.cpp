@@ -65,6 +65,84 @@ void Secants(const CurveKeys& k, Index j, const double* dx, double* slope) {
   for (Index i = 0; i + 1 < k.n; ++i) slope[i] = (k.y_at(i + 1, j) - k.y_at(i, j)) / dx[i];
 }
 
+// Not-a-knot on two or three keys, which scipy answers in closed form: on two, the secant slope at both
+// ends; on three both conditions coincide and scipy takes the parabola through the keys, whose slopes
+// these are. False for more keys.
+bool ShortNotAKnotSlopes(const CurveKeys& k, const double* dx, double* slope, double* s) {
+  const Index n = k.n, d = k.d;
+  if (n == 2) {
+    for (Index j = 0; j < d; ++j) s[j] = s[d + j] = (k.y_at(1, j) - k.y_at(0, j)) / dx[0];
+    return true;
+  }
+  if (n != 3) return false;
+  for (Index j = 0; j < d; ++j) {
+    Secants(k, j, dx, slope);
+    const double mid = (dx[1] * slope[0] + dx[0] * slope[1]) / (dx[0] + dx[1]);
+    s[j] = 2.0 * slope[0] - mid;
+    s[d + j] = mid;
+    s[2 * d + j] = 2.0 * slope[1] - mid;
+  }
+  return true;
+}
+
+// The open splines' matrix: continuity of the second derivative inside, `kind`'s condition at the ends.
+void OpenSplineMatrix(Interpolant kind, const CurveKeys& k, const double* dx, Tridiagonal* tri) {
+  const Index n = k.n, last = n - 1;
+  for (Index i = 1; i + 1 < n; ++i) {
+    tri->sub[i] = dx[i];
+    tri->diag[i] = 2.0 * (dx[i - 1] + dx[i]);
+    tri->sup[i] = dx[i - 1];
+  }
+  tri->sub[0] = 0.0;
+  tri->sup[last] = 0.0;
+  switch (kind) {
+    case Interpolant::kNotAKnotSpline:
+      tri->diag[0] = dx[1];
+      tri->sup[0] = k.t[2] - k.t[0];
+      tri->diag[last] = dx[last - 2];
+      tri->sub[last] = k.t[last] - k.t[last - 2];
+      break;
+    case Interpolant::kClampedSpline:
+      tri->diag[0] = 1.0;
+      tri->sup[0] = 0.0;
+      tri->diag[last] = 1.0;
+      tri->sub[last] = 0.0;
+      break;
+    default:  // natural
+      tri->diag[0] = 2.0 * dx[0];
+      tri->sup[0] = dx[0];
+      tri->diag[last] = 2.0 * dx[last - 1];
+      tri->sub[last] = dx[last - 1];
+      break;
+  }
+}
+
+// The right-hand side for component j, whose secants `slope` holds.
+void OpenSplineRhs(Interpolant kind, const CurveKeys& k, const CurveExtras& extras, Index j, const double* dx,
+                   const double* slope, double* rhs) {
+  const Index n = k.n, last = n - 1;
+  for (Index i = 1; i + 1 < n; ++i) rhs[i] = 3.0 * (dx[i] * slope[i - 1] + dx[i - 1] * slope[i]);
+  switch (kind) {
+    case Interpolant::kNotAKnotSpline: {
+      const double a = k.t[2] - k.t[0];
+      rhs[0] = ((dx[0] + 2.0 * a) * dx[1] * slope[0] + dx[0] * dx[0] * slope[1]) / a;
+      const double b = k.t[last] - k.t[last - 2];
+      rhs[last] = (dx[last - 1] * dx[last - 1] * slope[last - 2] +
+                   (2.0 * b + dx[last - 1]) * dx[last - 2] * slope[last - 1]) /
+                  b;
+      break;
+    }
+    case Interpolant::kClampedSpline:
+      rhs[0] = extras.start_slope ? extras.start_slope[j] : 0.0;
+      rhs[last] = extras.end_slope ? extras.end_slope[j] : 0.0;
+      break;
+    default:
+      rhs[0] = 3.0 * (k.y_at(1, j) - k.y_at(0, j));
+      rhs[last] = 3.0 * (k.y_at(last, j) - k.y_at(last - 1, j));
+      break;
+  }
+}
+
 // Natural, clamped and not-a-knot: n x n tridiagonal (scipy's banded system).
 void OpenSplineSlopes(Interpolant kind, const CurveKeys& k, const CurveExtras& extras, double* s,
                       double* work) {
@@ -74,77 +152,12 @@ void OpenSplineSlopes(Interpolant kind, const CurveKeys& k, const CurveExtras& e
   double* rhs = slope + n;
   Tridiagonal tri{rhs + n, rhs + 2 * n, rhs + 3 * n, rhs + 4 * n, rhs + 5 * n, n};
   for (Index i = 0; i + 1 < n; ++i) dx[i] = k.t[i + 1] - k.t[i];
-  const bool not_a_knot = kind == Interpolant::kNotAKnotSpline;
-
-  if (not_a_knot && n == 2) {  // scipy: the secant slope at both ends
-    for (Index j = 0; j < d; ++j) s[j] = s[d + j] = (k.y_at(1, j) - k.y_at(0, j)) / dx[0];
-    return;
-  }
-  if (not_a_knot && n == 3) {
-    // Both not-a-knot conditions coincide: scipy takes the parabola through
-    // the three keys, whose slopes are these.
-    for (Index j = 0; j < d; ++j) {
-      Secants(k, j, dx, slope);
-      const double mid = (dx[1] * slope[0] + dx[0] * slope[1]) / (dx[0] + dx[1]);
-      s[j] = 2.0 * slope[0] - mid;
-      s[d + j] = mid;
-      s[2 * d + j] = 2.0 * slope[1] - mid;
-    }
-    return;
-  }
-
-  for (Index i = 1; i + 1 < n; ++i) {
-    tri.sub[i] = dx[i];
-    tri.diag[i] = 2.0 * (dx[i - 1] + dx[i]);
-    tri.sup[i] = dx[i - 1];
-  }
-  const Index last = n - 1;
-  tri.sub[0] = 0.0;
-  tri.sup[last] = 0.0;
-  switch (kind) {
-    case Interpolant::kNotAKnotSpline:
-      tri.diag[0] = dx[1];
-      tri.sup[0] = k.t[2] - k.t[0];
-      tri.diag[last] = dx[last - 2];
-      tri.sub[last] = k.t[last] - k.t[last - 2];
-      break;
-    case Interpolant::kClampedSpline:
-      tri.diag[0] = 1.0;
-      tri.sup[0] = 0.0;
-      tri.diag[last] = 1.0;
-      tri.sub[last] = 0.0;
-      break;
-    default:  // natural
-      tri.diag[0] = 2.0 * dx[0];
-      tri.sup[0] = dx[0];
-      tri.diag[last] = 2.0 * dx[last - 1];
-      tri.sub[last] = dx[last - 1];
-      break;
-  }
+  if (kind == Interpolant::kNotAKnotSpline && ShortNotAKnotSlopes(k, dx, slope, s)) return;
+  OpenSplineMatrix(kind, k, dx, &tri);
   tri.Factor();
-
   for (Index j = 0; j < d; ++j) {
     Secants(k, j, dx, slope);
-    for (Index i = 1; i + 1 < n; ++i) rhs[i] = 3.0 * (dx[i] * slope[i - 1] + dx[i - 1] * slope[i]);
-    switch (kind) {
-      case Interpolant::kNotAKnotSpline: {
-        const double a = k.t[2] - k.t[0];
-        rhs[0] = ((dx[0] + 2.0 * a) * dx[1] * slope[0] + dx[0] * dx[0] * slope[1]) / a;
-        const double b = k.t[last] - k.t[last - 2];
-        rhs[last] = (dx[last - 1] * dx[last - 1] * slope[last - 2] +
-                     (2.0 * b + dx[last - 1]) * dx[last - 2] * slope[last - 1]) /
-                    b;
-        break;
-      }
-      case Interpolant::kClampedSpline:
-        rhs[0] = extras.start_slope ? extras.start_slope[j] : 0.0;
-        rhs[last] = extras.end_slope ? extras.end_slope[j] : 0.0;
-        break;
-      default:
-        rhs[0] = 3.0 * (k.y_at(1, j) - k.y_at(0, j));
-        rhs[last] = 3.0 * (k.y_at(last, j) - k.y_at(last - 1, j));
-        break;
-    }
+    OpenSplineRhs(kind, k, extras, j, dx, slope, rhs);
     tri.Solve(rhs);
     for (Index i = 0; i < n; ++i) s[i * d + j] = rhs[i];
   }

@@ -4,6 +4,9 @@
 #include <cmath>
 #include <string>
 
+#include "so3.hpp"
+#include "time_checks.hpp"
+
 namespace motionkit {
 namespace {
 
@@ -58,14 +61,8 @@ Status KeyReductionJob::Validate() const {
                         std::to_string(tolerance));
   }
   for (Eigen::Index j = 0; j < m; ++j) {
-    if (!std::isfinite(times[j])) {
-      return Status::Fail("key reduction: time of sample " + std::to_string(j) + " is not finite");
-    }
-    if (j > 0 && !(times[j] > times[j - 1])) {
-      return Status::Fail("key reduction: sample times must increase strictly, but sample " +
-                          std::to_string(j) + " (" + std::to_string(times[j]) +
-                          ") does not come after sample " + std::to_string(j - 1) + " (" +
-                          std::to_string(times[j - 1]) + ")");
+    if (!internal::TimeInOrder(times.data(), j)) {
+      return internal::TimeOrderFailure(times.data(), j, "key reduction: ", {"time of sample", "sample times", "sample"});
     }
     for (Eigen::Index c = 0; c < d; ++c) {
       if (!std::isfinite(values(j, c))) {
@@ -74,7 +71,7 @@ Status KeyReductionJob::Validate() const {
                             ") is not finite");
       }
     }
-    if (mode == KeyToleranceMode::kQuaternion && !(values.row(j).norm() > 1e-12)) {
+    if (mode == KeyToleranceMode::kQuaternion && !internal::IsRotationQuaternion(values.row(j))) {
       return Status::Fail("key reduction: quaternion of sample " + std::to_string(j) + " (time " +
                           std::to_string(times[j]) + ") is zero");
     }

@@ -3,6 +3,8 @@
 #include <cmath>
 #include <string>
 
+#include "time_checks.hpp"
+
 namespace motionkit {
 
 Status KeyframeCoJob::Validate() const {
@@ -17,14 +19,8 @@ Status KeyframeCoJob::Validate() const {
                         std::to_string(co.cols()));
   }
   for (Eigen::Index i = 0; i < n; ++i) {
-    if (!std::isfinite(frames[i])) {
-      return Status::Fail("keyframes: frame time at key " + std::to_string(i) + " is not finite");
-    }
-    if (i > 0 && !(frames[i] > frames[i - 1])) {
-      return Status::Fail("keyframes: frame times must increase strictly, but key " +
-                          std::to_string(i) + " (" + std::to_string(frames[i]) +
-                          ") does not come after key " + std::to_string(i - 1) + " (" +
-                          std::to_string(frames[i - 1]) + ")");
+    if (!internal::TimeInOrder(frames.data(), i)) {
+      return internal::TimeOrderFailure(frames.data(), i, "keyframes: ", {"frame time at key", "frame times", "key"});
     }
   }
   // Row-major input: scan row by row, which is contiguous.

@@ -6,6 +6,8 @@
 #include <string>
 #include <vector>
 
+#include "so3.hpp"
+
 namespace motionkit {
 
 namespace {
@@ -221,6 +223,173 @@ class Plan {
   std::vector<Drive> drives_;
 };
 
+// Poses the target frame by frame from the plan: every bone's orientation, written as its pose basis, then
+// the root's location channel. Orientations are kept per frame in armature space (globals_), as children
+// and the root's placement read them.
+class TargetPoser {
+ public:
+  TargetPoser(RetargetJob& job, const Plan& plan)
+      : job_(job),
+        plan_(plan),
+        space_(job.options.space.normalized()),
+        space_inverse_(space_.conjugate()),
+        globals_(static_cast<std::size_t>(job.target.size())),
+        heads_(static_cast<std::size_t>(job.target.size())) {
+    std::vector<Eigen::Quaterniond> match_globals(static_cast<std::size_t>(job.target.size()));
+    for (int b = 0; b < job.target.size(); ++b) match_globals[static_cast<std::size_t>(b)] = plan.match(b);
+    PoseHeads(match_globals, job.target_match_location);
+    const int root = job.target_root;
+    target_match_root_ = root >= 0 ? heads_[static_cast<std::size_t>(root)] : Eigen::Vector3d::Zero();
+    // The target root's ancestors, top first: their heads place the root.
+    for (int b = root >= 0 ? job.target.parent(root) : -1; b >= 0; b = job.target.parent(b)) {
+      root_ancestors_.push_back(b);
+    }
+    std::reverse(root_ancestors_.begin(), root_ancestors_.end());
+  }
+
+  // How far along up the root is moved on every frame so that the lowest of the ground bones' heads and
+  // tails touches the target's floor on the first frame; 0 without ground bones.
+  double GroundLift() {
+    const RetargetOptions& options = job_.options;
+    if (options.ground_bones.empty() || job_.source_rotations.rows() == 0) return 0.0;
+    PoseFrame(0, 0.0);
+    PoseHeads(globals_, job_.root_locations.row(0).transpose());
+    double lowest = std::numeric_limits<double>::infinity();
+    for (int g : options.ground_bones) {
+      const Eigen::Vector3d head = heads_[static_cast<std::size_t>(g)];
+      const Eigen::Vector3d tail =
+          head + globals_[static_cast<std::size_t>(g)] * (job_.target.length(g) * kBoneAxis);
+      lowest = std::min({lowest, head.dot(options.up), tail.dot(options.up)});
+    }
+    return options.target_floor - lowest;
+  }
+
+  void PoseFrame(Eigen::Index f, double lift) {
+    for (int b = 0; b < job_.target.size(); ++b) PoseBoneAt(f, b);
+    if (job_.target_root < 0) {
+      job_.root_locations.row(f).setZero();
+      return;
+    }
+    job_.root_locations.row(f) = RootLocation(WantedRootHead(f, lift)).transpose();
+  }
+
+ private:
+  Eigen::Quaterniond ParentGlobal(int b) const {
+    const int p = job_.target.parent(b);
+    return p < 0 ? Eigen::Quaterniond::Identity() : globals_[static_cast<std::size_t>(p)];
+  }
+
+  // Heads of every target bone posed with orientations `globals`, the root's location channel at
+  // `root_location`.
+  void PoseHeads(const std::vector<Eigen::Quaterniond>& globals, const Eigen::Vector3d& root_location) {
+    const RigModel& target = job_.target;
+    for (int b = 0; b < target.size(); ++b) {
+      const int p = target.parent(b);
+      heads_[static_cast<std::size_t>(b)] =
+          PoseBone(target, b, p < 0 ? Eigen::Quaterniond::Identity() : globals[static_cast<std::size_t>(p)],
+                   p < 0 ? Eigen::Vector3d::Zero() : heads_[static_cast<std::size_t>(p)],
+                   Eigen::Quaterniond::Identity(), b == job_.target_root ? root_location : Eigen::Vector3d::Zero())
+              .head;
+    }
+  }
+
+  // How source bone a has turned from its match pose on frame f, in target armature space.
+  Eigen::Quaterniond SourceTurn(Eigen::Index f, int a) const {
+    return space_ * QuatAt(job_.source_rotations, f, a).normalized() * plan_.source_match_inverse(a) *
+           space_inverse_;
+  }
+
+  // Bone b's orientation on frame f (its drive), kept in globals_ and written as its pose basis.
+  void PoseBoneAt(Eigen::Index f, int b) {
+    const Drive& d = plan_.drive(b);
+    const Eigen::Quaterniond parent = ParentGlobal(b);
+    Eigen::Quaterniond g;
+    if (d.kind == Drive::kKeep) {
+      g = RestFrame(job_.target, b, parent) * plan_.match_basis(b);
+    } else {
+      const Eigen::Quaterniond rotation =
+          d.kind == Drive::kMapped ? SourceTurn(f, d.from) : SourceTurn(f, d.from).slerp(d.alpha, SourceTurn(f, d.to));
+      g = rotation * d.align;
+    }
+    g.normalize();
+    globals_[static_cast<std::size_t>(b)] = g;
+    Eigen::Quaterniond basis = RestFrame(job_.target, b, parent).conjugate() * g;
+    basis.normalize();
+    StoreContinuous(f, b, basis);
+  }
+
+  // The basis in the hemisphere of the previous frame's (the first frame's: w >= 0), so curves stay
+  // continuous.
+  void StoreContinuous(Eigen::Index f, int b, Eigen::Quaterniond basis) {
+    if (f > 0) {
+      const double* previous = job_.rotations.data() + (f - 1) * job_.rotations.outerStride() + 4 * b;
+      const double dot =
+          previous[0] * basis.w() + previous[1] * basis.x() + previous[2] * basis.y() + previous[3] * basis.z();
+      if (dot < 0) basis.coeffs() = -basis.coeffs();
+    } else if (basis.w() < 0) {
+      basis.coeffs() = -basis.coeffs();
+    }
+    StoreQuat(job_.rotations, f, b, basis);
+  }
+
+  // The root's head on frame f: horizontally the match pose's, moved as the source root moved; along up
+  // at the source root's height above its floor (as the root motion option says), plus lift.
+  Eigen::Vector3d WantedRootHead(Eigen::Index f, double lift) const {
+    const RetargetOptions& options = job_.options;
+    const Eigen::Vector3d& up = options.up;
+    Eigen::Vector3d moved = Eigen::Vector3d::Zero();
+    double height = 0.0;
+    if (job_.source_root >= 0) {
+      const Eigen::Vector3d head = job_.source_root_heads.row(f).transpose();
+      moved = space_ * (head - job_.source_match_root);
+      height = (space_ * head).dot(up) - options.source_floor;
+    }
+    const Eigen::Vector3d across = moved - moved.dot(up) * up;
+    Eigen::Vector3d wanted = target_match_root_;
+    double wanted_height = wanted.dot(up);
+    switch (options.root_motion) {
+      case RootMotion::kScaled:
+        wanted += options.scale * across;
+        wanted_height = options.target_floor + options.scale * height;
+        break;
+      case RootMotion::kInPlace:
+        wanted_height = options.target_floor + options.scale * height;
+        break;
+      case RootMotion::kOffset:
+        wanted += options.scale * across;
+        wanted_height = options.target_floor + options.unit_scale * height + options.vertical_offset;
+        break;
+      case RootMotion::kNone:
+        break;
+    }
+    wanted += (wanted_height + lift - wanted.dot(up)) * up;
+    return wanted;
+  }
+
+  // The root's location channel that puts its head at `wanted`: head = anchor + frame * location, from
+  // the root's parent as posed this frame.
+  Eigen::Vector3d RootLocation(const Eigen::Vector3d& wanted) const {
+    const RigModel& target = job_.target;
+    Eigen::Vector3d parent_head = Eigen::Vector3d::Zero();
+    for (int b : root_ancestors_) {
+      parent_head =
+          PoseBone(target, b, ParentGlobal(b), parent_head, Eigen::Quaterniond::Identity(), Eigen::Vector3d::Zero())
+              .head;
+    }
+    const PosedBone at_rest = PoseBone(target, job_.target_root, ParentGlobal(job_.target_root), parent_head,
+                                       Eigen::Quaterniond::Identity(), Eigen::Vector3d::Zero());
+    return at_rest.frame.conjugate() * (wanted - at_rest.head);
+  }
+
+  RetargetJob& job_;
+  const Plan& plan_;
+  const Eigen::Quaterniond space_, space_inverse_;
+  std::vector<Eigen::Quaterniond> globals_;  // this frame's orientations, armature space
+  std::vector<Eigen::Vector3d> heads_;
+  std::vector<int> root_ancestors_;
+  Eigen::Vector3d target_match_root_ = Eigen::Vector3d::Zero();
+};
+
 }  // namespace
 
 std::optional<RootMotion> ParseRootMotion(std::string_view text) {
@@ -263,7 +432,7 @@ Status RetargetJob::Validate() const {
   if (!(std::isfinite(options.source_floor) && std::isfinite(options.target_floor))) {
     return Status::Fail("retarget: the floors' heights must be finite");
   }
-  if (!options.space.coeffs().allFinite() || std::abs(options.space.norm() - 1.0) > 1e-6) {
+  if (!internal::IsUnitQuaternion(options.space, 1e-6)) {
     return Status::Fail("retarget: the space rotation must be a unit quaternion");
   }
   if (!source_match_root.allFinite() || !target_match_location.allFinite()) {
@@ -312,21 +481,18 @@ Status RetargetJob::Validate() const {
   }
   if (mapped == 0) return Status::Fail("retarget: the bone map maps no bone (no common bones)");
   for (int b = 0; b < nt; ++b) {
-    const Eigen::Quaterniond q = QuatAt(target_match_basis, 0, b);
-    if (!q.coeffs().allFinite() || !(q.norm() > 1e-12)) {
+    if (!internal::IsRotationQuaternion(QuatAt(target_match_basis, 0, b))) {
       return Status::Fail("retarget: the target match pose of " + Bone(target, b) + " is not a rotation");
     }
   }
   for (int a = 0; a < ns; ++a) {
-    const Eigen::Quaterniond q = QuatAt(source_match, 0, a);
-    if (!q.coeffs().allFinite() || !(q.norm() > 1e-12)) {
+    if (!internal::IsRotationQuaternion(QuatAt(source_match, 0, a))) {
       return Status::Fail("retarget: the source match pose of " + Bone(source, a) + " is not a rotation");
     }
   }
   for (Eigen::Index f = 0; f < frames; ++f) {
     for (int a = 0; a < ns; ++a) {
-      const Eigen::Quaterniond q = QuatAt(source_rotations, f, a);
-      if (!q.coeffs().allFinite() || !(q.norm() > 1e-12)) {
+      if (!internal::IsRotationQuaternion(QuatAt(source_rotations, f, a))) {
         return Status::Fail("retarget: source bone " + Bone(source, a) + " has no valid rotation at frame index " +
                             std::to_string(f));
       }
@@ -341,132 +507,9 @@ Status RetargetJob::Validate() const {
 void RetargetJob::Run() {
   Validate().ThrowIfFailed();
   const Plan plan(*this);
-  const int nt = target.size();
-  const Eigen::Index frames = source_rotations.rows();
-  const Eigen::Quaterniond space = options.space.normalized();
-  const Eigen::Quaterniond space_inverse = space.conjugate();
-
-  // Where the target root's head goes in the match pose, and its parent's frame there.
-  std::vector<Eigen::Quaterniond> globals(static_cast<std::size_t>(nt));
-  std::vector<Eigen::Vector3d> heads(static_cast<std::size_t>(nt));
-  const auto pose_heads = [&](const std::vector<Eigen::Quaterniond>& g, const Eigen::Vector3d& root_location) {
-    for (int b = 0; b < nt; ++b) {
-      const int p = target.parent(b);
-      heads[static_cast<std::size_t>(b)] =
-          PoseBone(target, b, p < 0 ? Eigen::Quaterniond::Identity() : g[static_cast<std::size_t>(p)],
-                   p < 0 ? Eigen::Vector3d::Zero() : heads[static_cast<std::size_t>(p)], Eigen::Quaterniond::Identity(),
-                   b == target_root ? root_location : Eigen::Vector3d::Zero())
-              .head;
-    }
-  };
-  std::vector<Eigen::Quaterniond> match_globals(static_cast<std::size_t>(nt));
-  for (int b = 0; b < nt; ++b) match_globals[static_cast<std::size_t>(b)] = plan.match(b);
-  pose_heads(match_globals, target_match_location);
-  const Eigen::Vector3d target_match_root =
-      target_root >= 0 ? heads[static_cast<std::size_t>(target_root)] : Eigen::Vector3d::Zero();
-
-  // The target root's ancestors, top first: their heads place the root.
-  std::vector<int> root_ancestors;
-  for (int b = target_root >= 0 ? target.parent(target_root) : -1; b >= 0; b = target.parent(b)) {
-    root_ancestors.push_back(b);
-  }
-  std::reverse(root_ancestors.begin(), root_ancestors.end());
-
-  const auto solve_frame = [&](Eigen::Index f, double lift) {
-    for (int b = 0; b < nt; ++b) {
-      const Drive& d = plan.drive(b);
-      const int p = target.parent(b);
-      const Eigen::Quaterniond parent =
-          p < 0 ? Eigen::Quaterniond::Identity() : globals[static_cast<std::size_t>(p)];
-      Eigen::Quaterniond g;
-      if (d.kind == Drive::kKeep) {
-        g = RestFrame(target, b, parent) * plan.match_basis(b);
-      } else {
-        const auto delta = [&](int a) {
-          return space * QuatAt(source_rotations, f, a).normalized() * plan.source_match_inverse(a) * space_inverse;
-        };
-        const Eigen::Quaterniond rotation =
-            d.kind == Drive::kMapped ? delta(d.from) : delta(d.from).slerp(d.alpha, delta(d.to));
-        g = rotation * d.align;
-      }
-      g.normalize();
-      globals[static_cast<std::size_t>(b)] = g;
-      Eigen::Quaterniond basis = RestFrame(target, b, parent).conjugate() * g;
-      basis.normalize();
-      if (f > 0) {
-        const double* previous = rotations.data() + (f - 1) * rotations.outerStride() + 4 * b;
-        const double dot = previous[0] * basis.w() + previous[1] * basis.x() + previous[2] * basis.y() +
-                           previous[3] * basis.z();
-        if (dot < 0) basis.coeffs() = -basis.coeffs();
-      } else if (basis.w() < 0) {
-        basis.coeffs() = -basis.coeffs();
-      }
-      StoreQuat(rotations, f, b, basis);
-    }
-    if (target_root < 0) {
-      root_locations.row(f).setZero();
-      return;
-    }
-    // The root's head: horizontally the match pose's, moved as the source
-    // root moved; along up at the source root's height above its floor.
-    const Eigen::Vector3d& up = options.up;
-    Eigen::Vector3d moved = Eigen::Vector3d::Zero();
-    double height = 0.0;
-    if (source_root >= 0) {
-      const Eigen::Vector3d head = source_root_heads.row(f).transpose();
-      moved = space * (head - source_match_root);
-      height = (space * head).dot(up) - options.source_floor;
-    }
-    const Eigen::Vector3d across = moved - moved.dot(up) * up;
-    Eigen::Vector3d wanted = target_match_root;
-    double wanted_height = wanted.dot(up);
-    switch (options.root_motion) {
-      case RootMotion::kScaled:
-        wanted += options.scale * across;
-        wanted_height = options.target_floor + options.scale * height;
-        break;
-      case RootMotion::kInPlace:
-        wanted_height = options.target_floor + options.scale * height;
-        break;
-      case RootMotion::kOffset:
-        wanted += options.scale * across;
-        wanted_height = options.target_floor + options.unit_scale * height + options.vertical_offset;
-        break;
-      case RootMotion::kNone:
-        break;
-    }
-    wanted += (wanted_height + lift - wanted.dot(up)) * up;
-    const int p = target.parent(target_root);
-    // head = anchor + frame * location, from the root's parent (posed this frame).
-    Eigen::Vector3d parent_head = Eigen::Vector3d::Zero();
-    for (int b : root_ancestors) {
-      const int bp = target.parent(b);
-      parent_head = PoseBone(target, b, bp < 0 ? Eigen::Quaterniond::Identity() : globals[static_cast<std::size_t>(bp)],
-                             parent_head, Eigen::Quaterniond::Identity(), Eigen::Vector3d::Zero())
-                        .head;
-    }
-    const PosedBone at_rest =
-        PoseBone(target, target_root, p < 0 ? Eigen::Quaterniond::Identity() : globals[static_cast<std::size_t>(p)],
-                 parent_head, Eigen::Quaterniond::Identity(), Eigen::Vector3d::Zero());
-    const Eigen::Vector3d anchor = at_rest.head;
-    const Eigen::Quaterniond frame = at_rest.frame;
-    root_locations.row(f) = (frame.conjugate() * (wanted - anchor)).transpose();
-  };
-
-  double lift = 0.0;
-  if (!options.ground_bones.empty() && frames > 0) {
-    solve_frame(0, 0.0);
-    const Eigen::Vector3d location = root_locations.row(0).transpose();
-    pose_heads(globals, location);
-    double lowest = std::numeric_limits<double>::infinity();
-    for (int g : options.ground_bones) {
-      const Eigen::Vector3d head = heads[static_cast<std::size_t>(g)];
-      const Eigen::Vector3d tail = head + globals[static_cast<std::size_t>(g)] * (target.length(g) * kBoneAxis);
-      lowest = std::min({lowest, head.dot(options.up), tail.dot(options.up)});
-    }
-    lift = options.target_floor - lowest;
-  }
-  for (Eigen::Index f = 0; f < frames; ++f) solve_frame(f, lift);
+  TargetPoser poser(*this, plan);
+  const double lift = poser.GroundLift();
+  for (Eigen::Index f = 0; f < source_rotations.rows(); ++f) poser.PoseFrame(f, lift);
 }
 
 }  // namespace motionkit

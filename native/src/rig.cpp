@@ -5,6 +5,8 @@
 #include <unordered_set>
 #include <utility>
 
+#include "so3.hpp"
+
 namespace motionkit {
 
 namespace {
@@ -60,7 +62,7 @@ Status RigModel::Validate() const {
     const Eigen::Quaterniond& q = rest(b);
     // Blender's float32 bone matrices give rest quaternions unit only to a
     // few 1e-6; they are normalised here, so only garbage is refused.
-    if (!q.coeffs().allFinite() || std::abs(q.norm() - 1.0) > 1e-3) {
+    if (!internal::IsUnitQuaternion(q, 1e-3)) {
       return Status::Fail("rig: the rest rotation of " + Bone(*this, b) + " is not a unit quaternion");
     }
     if (!head(b).allFinite()) return Status::Fail("rig: the head of " + Bone(*this, b) + " is not finite");
@@ -100,8 +102,7 @@ Status ArmaturePoseJob::Validate() const {
   }
   for (Eigen::Index f = 0; f < frames; ++f) {
     for (int b = 0; b < bones; ++b) {
-      const Eigen::Quaterniond q = QuatAt(basis_rotations, f, b);
-      bool ok = q.coeffs().allFinite() && q.norm() > 1e-12;
+      bool ok = internal::IsRotationQuaternion(QuatAt(basis_rotations, f, b));
       if (ok && basis_locations.cols() != 0) ok = basis_locations.row(f).segment<3>(3 * b).allFinite();
       if (!ok) {
         return Status::Fail("armature pose: " + Bone(rig, b) + " at frame index " + std::to_string(f) +

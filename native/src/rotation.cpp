@@ -221,7 +221,7 @@ Status QuaternionsToEulers(ConstMatrixView quaternions, EulerOrder order, Eigen:
   for (Eigen::Index c = 0; c < groups; ++c) {
     for (Eigen::Index i = 0; i < rows; ++i) {
       const Eigen::Vector4d q = quaternions.row(i).segment<4>(4 * c).transpose();
-      if (!q.allFinite() || !(q.norm() > 1e-12)) {
+      if (!internal::IsRotationQuaternion(q)) {
         return Status::Fail("quaternion_to_euler: quaternion " + std::to_string(i) +
                             (groups > 1 ? " of group " + std::to_string(c) : std::string()) +
                             " is zero or not finite");

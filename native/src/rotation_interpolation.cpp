@@ -6,6 +6,7 @@
 
 #include "quaternion_calculus.hpp"
 #include "so3.hpp"
+#include "time_checks.hpp"
 
 namespace motionkit {
 namespace {
@@ -277,20 +278,15 @@ Status RotationInterpolateJob::Validate() const {
                         std::to_string(quats.cols()));
   }
   for (Eigen::Index i = 0; i < n; ++i) {
-    if (!std::isfinite(times[i])) {
-      return Status::Fail("rotation interpolation: time of key " + Where(i) + " is not finite");
-    }
-    if (i > 0 && !(times[i] > times[i - 1])) {
-      return Status::Fail("rotation interpolation: key times must increase strictly, but key " +
-                          Where(i) + " (" + std::to_string(times[i]) + ") does not come after key " +
-                          Where(i - 1) + " (" + std::to_string(times[i - 1]) + ")");
+    if (!internal::TimeInOrder(times.data(), i)) {
+      return internal::TimeOrderFailure(times.data(), i, "rotation interpolation: ", internal::kKeyTimes);
     }
     const Eigen::Vector4d q = quats.row(i).transpose();
     if (!q.allFinite()) {
       return Status::Fail("rotation interpolation: quaternion of key " + Where(i) + " (time " +
                           std::to_string(times[i]) + ") is not finite");
     }
-    if (!(q.norm() > 1e-12)) {
+    if (!internal::IsRotationQuaternion(q)) {  // finite, so only a zero one fails here
       return Status::Fail("rotation interpolation: quaternion of key " + Where(i) + " (time " +
                           std::to_string(times[i]) + ") is zero");
     }

@@ -1,5 +1,5 @@
 // SO(3) helpers the core's sources share (internal to native/src): pi, rotation vectors and unit
-// quaternions, and the small Cholesky the IK solver's effector-space systems use.
+// quaternions, the checks that a quaternion is a rotation, and the small Cholesky the IK solver's effector-space systems use.
 //
 // A rotation vector here is the axis times the rotation's whole angle. quaternion_calculus.hpp's Log
 // and Exp are the quaternion logarithm and exponential (half the angle), another map, used by the
@@ -13,6 +13,22 @@
 namespace motionkit::internal {
 
 inline constexpr double kPi = 3.14159265358979323846;
+
+// The core's one test of a rotation given as a quaternion (Eigen's, or four numbers w x y z in any
+// order). A unit quaternion: finite and of length 1 to within `tolerance`, which each caller sets by
+// where its numbers come from (float32 sources such as Blender's bone matrices are unit only to a few
+// 1e-6). NaN fails, since it compares false.
+inline bool IsUnitQuaternion(const Eigen::Quaterniond& q, double tolerance) {
+  return q.coeffs().allFinite() && std::abs(q.norm() - 1.0) <= tolerance;
+}
+
+// A rotation once normalised: finite and not zero. Callers that take quaternions of any length (and
+// normalise them) refuse only these.
+template <class Derived>
+inline bool IsRotationQuaternion(const Eigen::MatrixBase<Derived>& wxyz) {
+  return wxyz.allFinite() && wxyz.norm() > 1e-12;
+}
+inline bool IsRotationQuaternion(const Eigen::Quaterniond& q) { return IsRotationQuaternion(q.coeffs()); }
 
 // Rotation vector (axis times the full angle) -> unit quaternion.
 inline Eigen::Quaterniond FromRotationVector(const Eigen::Vector3d& v) {

@@ -1,9 +1,10 @@
-"""BVH import and export in Blender, against native FK, Blender's own evaluation
-and (on 4.3 and 5.2) Blender's own BVH importer."""
+"""BVH import and export in Blender, against a numpy FK reference (tests/common/bvh_reference.py),
+Blender's own evaluation and (on 4.3 and 5.2) Blender's own BVH importer."""
 import os
 
 import bpy
 import bvh_cases
+import bvh_reference
 import numpy as np
 import pytest
 import shared_data
@@ -27,13 +28,12 @@ def shared_files(shared_dir):
     return shared_data.bvh_files(os.path.join(shared_dir, "data", "bvh"))
 
 
-def native_world(native, path, axis_forward='-Z', axis_up='Y', scale=1.0):
-    """World joint positions (frames, joints, 3) from native FK, in Blender's frame."""
+def reference_world(native, path, axis_forward='-Z', axis_up='Y', scale=1.0):
+    """World joint positions (frames, joints, 3) from the FK reference, in Blender's frame."""
     skeleton, motion = native.read_bvh(path)
-    frames, joints = motion.frames, len(skeleton)
-    positions, _ = native._testing.forward_kinematics(skeleton, np.ascontiguousarray(motion.values))
+    positions, _ = bvh_reference.forward_kinematics(skeleton, motion.values)
     conv = np.array(axis_conversion(from_forward=axis_forward, from_up=axis_up)) * scale
-    return skeleton, positions.reshape(frames, joints, 3) @ conv.T
+    return skeleton, positions @ conv.T
 
 
 def height(world):
@@ -54,7 +54,7 @@ def blender_heads(obj, names, frames, frame_start=1):
 
 def check_import_against_fk(mk, native, path, **options):
     obj, action = mk.bvh.load(path, mk.bvh.ImportOptions(**options))
-    skeleton, world = native_world(native, path, options.get("axis_forward", '-Z'),
+    skeleton, world = reference_world(native, path, options.get("axis_forward", '-Z'),
                                    options.get("axis_up", 'Y'), options.get("scale", 1.0))
     joints = [j for j, end in enumerate(skeleton.end_sites) if not end]
     names = [skeleton.names[j] for j in joints]
@@ -137,7 +137,7 @@ def test_import_equals_blenders_own_importer(mk, native, tmp_path, shared_dir):
         ours, _ = mk.bvh.load(path)
         theirs = builtin_import(path)
         names = [b.name for b in ours.data.bones]
-        skeleton, world = native_world(native, path)
+        skeleton, world = reference_world(native, path)
         frames = range(world.shape[0])
         np.testing.assert_allclose(blender_heads(ours, names, frames),
                                    blender_heads(theirs, names, frames),

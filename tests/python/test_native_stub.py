@@ -124,5 +124,5 @@ def test_classes_have_the_stubs_attributes_and_constructors(native, stub):
 def test_thread_counts_default_to_every_core_as_in_cpp(native):
     """threads=0 (every core) in each binding that takes a thread count, as the C++ jobs' own default
     (tests/native: IkOptions.DefaultThreadCountIsEveryCoreAsInPython)."""
-    for function in (native.ik_solve, native.quaternion_to_euler, native._testing.forward_kinematics):
+    for function in (native.ik_solve, native.quaternion_to_euler):
         assert "threads: int = 0" in function.__doc__.splitlines()[0], function.__name__

@@ -1,4 +1,4 @@
-#include "motionkit/bvh_fk.hpp"
+#include "bvh_fk.hpp"
 
 #include <algorithm>
 #include <cmath>

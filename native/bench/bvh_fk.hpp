@@ -1,4 +1,5 @@
-// BVH's forward kinematics of a whole clip in one call (docs/bvh.md), with its own SIMD path; a rig's
+// BVH's forward kinematics of a whole clip in one call, with its own SIMD path. Built for the tests and
+// the benchmarks only: the BVH importer needs pose channels, not world positions (docs/bvh.md). A rig's
 // (Blender armature's) forward kinematics is rig.hpp's PoseBone:
 //   Q_i = Q_p(i) R_i,   p_i = p_p(i) + Q_p(i) t_i
 // where R_i composes the joint's rotation channels in file order and t_i is
