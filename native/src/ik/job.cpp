@@ -164,7 +164,7 @@ Status IkClipJob::Validate() const {
   for (Eigen::Index f = 0; f < input_rotations.rows(); ++f) {
     for (int b = 0; b < bones; ++b) {
       const Eigen::Quaterniond q = QuatAt(input_rotations, f, b);
-      if (!q.coeffs().allFinite() || !(q.norm() > 1e-12)) {
+      if (!internal::IsRotationQuaternion(q)) {
         return fail("bone '" + rig.name(b) + "' has a zero or non-finite input rotation at " + FrameIndex(f));
       }
     }
@@ -182,7 +182,7 @@ Status IkClipJob::Validate() const {
       }
       if (e.orientation) {
         const Eigen::Quaterniond q = QuatAt(target_orientations, f, i);
-        if (!q.coeffs().allFinite() || !(q.norm() > 1e-12)) {
+        if (!internal::IsRotationQuaternion(q)) {
           return fail(EffectorName(e, static_cast<std::size_t>(i)) +
                       " has a zero or non-finite target orientation at " + FrameIndex(f));
         }
