@@ -1,4 +1,4 @@
-"""Full-body IK that looks human (issue 16), checked in a real Blender with its own evaluation.
+"""Full-body IK that looks human (natural defaults), checked in a real Blender with its own evaluation.
 
 On walk60 and on each sample character, with the walk playing under the IK:
 - a hand target within 90 % of the arm's reach moves the arm and clavicle only (every other bone turns
@@ -16,6 +16,7 @@ import bpy
 import numpy as np
 import pytest
 from mathutils import Vector
+from rotations import matrix_angles
 
 SUBJECTS = ["walk60", "MixamoT", "RigifyA", "UnrealA"]
 FRAMES = (1, 30)
@@ -231,7 +232,9 @@ def test_a_target_passing_in_and_out_of_reach_does_not_pop(mk, walk60, name):
 
 
 def test_a_rig_that_is_not_a_humanoid_gets_no_defaults(mk):
-    """A chain of five bones: no bone map, so no stages, limits or balance; the solve is as before."""
+    """A chain of five bones: no bone map, so no stages, limits or balance: the solve with natural "auto"
+    poses the chain exactly as natural=False does, both poses applied and read back from Blender's
+    evaluation (pose_bone.matrix after a depsgraph update)."""
     arm = bpy.data.armatures.new("chain")
     obj = bpy.data.objects.new("chain", arm)
     bpy.context.scene.collection.objects.link(obj)
@@ -245,11 +248,27 @@ def test_a_rig_that_is_not_a_humanoid_gets_no_defaults(mk):
         parent = bone
     bpy.ops.object.mode_set(mode='OBJECT')
     assert mk.ik.natural_defaults(obj) is None
+    effectors = [mk.ik.Effector("link4", target=(0.5, 0.0, 1.0))]
     with pytest.raises(ValueError, match="not recognised as a humanoid"):
-        mk.ik.plan(obj, [mk.ik.Effector("link4", target=(0.5, 0.0, 1.0))], natural=True)
-    plan = mk.ik.plan(obj, [mk.ik.Effector("link4", target=(0.5, 0.0, 1.0))])
+        mk.ik.plan(obj, effectors, natural=True)
+
+    def posed(natural):
+        for pose_bone in obj.pose.bones:
+            pose_bone.location, pose_bone.rotation_quaternion = (0, 0, 0), (1, 0, 0, 0)
+        plan = mk.ik.plan(obj, effectors, natural=natural)
+        mk.ik.apply_pose(plan)
+        bpy.context.view_layer.update()
+        return plan, np.array([np.array(b.matrix) for b in obj.pose.bones]), tuple(obj.pose.bones["link4"].tail)
+
+    plan, auto, tip = posed("auto")
     assert plan.joints is None and not plan.balance
-    assert plan.result.errors.max() < 1e-4
+    _, off, _ = posed(False)
+    turn = np.degrees(matrix_angles(auto, off))
+    moved = np.linalg.norm(auto[:, :3, 3] - off[:, :3, 3], axis=1)
+    print(f"\nnot a humanoid: natural auto against off: bones turned {turn.max():.2e} deg, heads {moved.max():.2e} m "
+          f"apart; tip {np.linalg.norm(np.subtract(tip, (0.5, 0.0, 1.0))):.2e} m from the target")
+    assert turn.max() < 1e-3 and moved.max() < 1e-6
+    assert np.linalg.norm(np.subtract(tip, (0.5, 0.0, 1.0))) < 1e-4
 
 
 def test_the_defaults_are_editable_through_the_api(mk, walk60):

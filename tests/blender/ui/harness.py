@@ -7,8 +7,8 @@ would see it.
 A scenario is a generator of steps: each `yield` lets Blender run its event loop and redraw for a
 moment (a number: that many seconds). Before a screenshot a scenario waits for what it is to show (a
 region redrawn, a popup on screen, a property set) with wait_until and the polls built on it, never for a
-fixed time: a slow machine only waits longer, up to the poll's timeout, which fails the scenario. What the scenario finds is printed as `UI <key> <json>` lines for
-test_ui.py, which also fails on any Python error printed after the `MOTIONKIT-UI-READY` marker.
+fixed time: a slow machine only waits longer, up to the poll's timeout, which fails the scenario. What
+the scenario finds is printed as `UI <key> <json>` lines for test_ui.py, which also fails on any Python error printed after the `MOTIONKIT-UI-READY` marker.
 """
 from __future__ import annotations
 
