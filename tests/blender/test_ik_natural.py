@@ -199,15 +199,25 @@ def test_out_of_reach_the_pins_hold_the_arm_points_and_the_body_keeps_its_balanc
     assert past <= math.radians(0.05)
 
 
+# Per subject, the largest amount (degrees) by which a bone's turn from one frame to the next changes
+# faster than in the input, measured on Blender 3.4: the test holds each to its own figure plus POP_SLACK.
+POP_MEASURED = {
+    "walk60": 1.80,   # lShoulder 2.363 against the input's 0.563
+    "MixamoT": 5.38,  # mixamorig:LeftArm 6.161 against 0.782
+    "RigifyA": 3.37,  # upper_arm.L 4.151 against 0.782
+    "UnrealA": 3.67,  # lowerarm_l 3.887 against 0.214
+}
+POP_SLACK = 0.5
+
+
 @pytest.mark.parametrize("name", SUBJECTS)
 def test_a_target_passing_in_and_out_of_reach_does_not_pop(mk, walk60, name):
     """The target sweeps from 70 % to 140 % of the reach and back over 60 frames, the feet pinned and
     the balance on. A pop is the pose jumping from one frame to the next: a bone's turn between frames
-    changing suddenly. Before the clip's second pass the upper arm's did by up to 50 degrees (walk60,
-    MixamoT). What is left is the bend a constraint asks for as it takes hold, rounded by the second
-    pass (the arm straightening at the reach limit, the hips answering the balance as a pinned walking
-    foot moves the support polygon's edge by centimetres a frame): measured 1.4 to 6.0 degrees beyond
-    the input's own (3.4, 4.3 and 5.2 differ by a degree or two), held to 8."""
+    changing suddenly, beyond what the input's own turn does. What is left is the bend a constraint asks for
+    as it takes hold, rounded by the clip's second pass (the arm straightening at the reach limit, the hips
+    answering the balance as a pinned walking foot moves the support polygon's edge by centimetres a
+    frame): each subject is held to its measured figure (POP_MEASURED) plus POP_SLACK degrees."""
     obj, labels = subject(mk, walk60, name)
     joints = mk.ik.natural_defaults(obj)
     frames = np.arange(1, 61)
@@ -225,10 +235,10 @@ def test_a_target_passing_in_and_out_of_reach_does_not_pop(mk, walk60, name):
 
     solved, given = jerk(basis), jerk(basis0)
     worst = int(np.argmax(solved - given))
-    print(f"\n{name}: target in and out of reach: largest change of a bone's turn from frame to frame "
-          f"{solved.max():.3f} deg (input {given.max():.3f}; {names[worst]} {solved[worst]:.3f} against "
-          f"{given[worst]:.3f})")
-    assert (solved - given).max() <= 8.0
+    print(f"\n{name}: target in and out of reach: a bone's turn from frame to frame changes at most "
+          f"{solved[worst] - given[worst]:.3f} deg faster than the input's ({names[worst]} {solved[worst]:.3f} "
+          f"against {given[worst]:.3f}; held to {POP_MEASURED[name]} + {POP_SLACK})")
+    assert (solved - given).max() <= POP_MEASURED[name] + POP_SLACK
 
 
 def test_a_rig_that_is_not_a_humanoid_gets_no_defaults(mk):
