@@ -202,8 +202,9 @@ def open_tab(region_, panel: str, win=None):
 # ---------------------------------------------------------------------------------------------------------
 # Pixels
 
-def screenshot(path: str, win=None) -> np.ndarray:
-    """The window as the X server shows it (RGBA floats, rows from the top), also saved to path.
+def screenshot(path: str | None, win=None) -> np.ndarray:
+    """The window as the X server shows it (RGBA floats, rows from the top), also saved to path (unless
+    None: the polls below look at many and save the one they settle on).
 
     Taken with xwd from the X server, as a person's screen grabber would: Blender's own screen.screenshot
     reads its GL front buffer, which Blender 4.3 and 5.2 on mesa's llvmpipe under Xvfb return black."""
@@ -218,7 +219,8 @@ def screenshot(path: str, win=None) -> np.ndarray:
     screen = _xwd_pixels(out.stdout)
     top = screen.shape[0] - (win.y + win.height)
     pixels = screen[max(top, 0):top + win.height, max(win.x, 0):win.x + win.width]
-    save_png(pixels, path)
+    if path is not None:
+        save_png(pixels, path)
     return pixels
 
 
@@ -288,8 +290,9 @@ def settled_screenshot(path: str, win=None, timeout: float = 10.0):
     last = None
     for _ in range(int(timeout / 0.2)):
         yield 0.2
-        now = screenshot(path, win)
+        now = screenshot(None, win)
         if last is not None and changed_box(last, now) is None:
+            save_png(now, path)
             return now
         last = now
     raise AssertionError(f"the window kept changing for {timeout:g} s ({path})")
@@ -301,24 +304,28 @@ def popup_shown(before: np.ndarray, path: str, win=None, timeout: float = 10.0):
     box = last = after = None
     for _ in range(int(timeout / 0.2)):
         yield 0.2
-        after = screenshot(path, win)
+        after = screenshot(None, win)
         box = changed_box(before, after)
         if box is not None and box == last:
+            save_png(after, path)
             return after, box
         last = box
     raise AssertionError(f"no popup stood still on screen within {timeout:g} s ({path}): {box}")
 
 
-def popup_gone(before: np.ndarray, box, path: str, win=None, timeout: float = 10.0):
+def popup_gone(before: np.ndarray, box, what: str, win=None, timeout: float = 10.0):
     """A scenario step (`yield from`): takes screenshots until where the popup stood (box, from popup_shown)
     shows what it showed in `before` again."""
     top, left, bottom, right = box
 
     def gone():
-        after = screenshot(path, win)
+        after = screenshot(None, win)
         return np.abs(after[top:bottom, left:right, :3] - before[top:bottom, left:right, :3]).max() <= 0.02
 
-    yield from wait_until(gone, f"the popup to close ({path})", timeout, step=0.2)
+    # The event loop handles the key that closes the popup first: a screenshot's redraw while the popup
+    # still has its key waiting blocks Blender 3.4.
+    yield 0.2
+    yield from wait_until(gone, f"the popup to close ({what})", timeout, step=0.2)
 
 
 def not_blank(pixels: np.ndarray) -> dict:

@@ -136,7 +136,7 @@ def steps():
             operator('INVOKE_DEFAULT')
         _, box = yield from popup_words(name, before)
         harness.key('ESC', x=view.x + view.width // 2, y=view.y + view.height // 2)
-        yield from harness.popup_gone(before, box, shot(name + "-closed"))
+        yield from harness.popup_gone(before, box, name)
 
     # Redo panels: the last operation's settings in the viewport's corner.
     with harness.override(area_=view):
@@ -205,7 +205,7 @@ def steps():
             bpy.ops.wm.call_menu(name=menu)
         _, box = yield from popup_words(name, before)
         harness.key('ESC', x=where.x + where.width // 2, y=where.y + where.height // 2)
-        yield from harness.popup_gone(before, box, shot(name + "-closed"))
+        yield from harness.popup_gone(before, box, name)
 
     # A Rigify rig as the retarget's target: the Controls sub-panel says what it is, its arms' and legs'
     # FK/IK choice active.
