@@ -18,6 +18,7 @@ BVH = os.path.join(os.path.dirname(ROOT), "shared", "data", "bvh")
 CLIPS = sorted(os.path.relpath(p, BVH) for p in glob.glob(os.path.join(BVH, "*.bvh"))
                + glob.glob(os.path.join(BVH, "more", "*.bvh")))
 MM = {"more/bandai_dash_normal_001.bvh": 0.1}  # armature units per millimetre (that file is in cm)
+POP_ALLOWANCE = 5.0  # millimetres a frame, see check_plant
 
 
 @pytest.fixture(scope="module")
@@ -28,6 +29,17 @@ def contacts(mk):
 @pytest.fixture(scope="module")
 def pose_channels(mk):
     return importlib.import_module(mk.__name__ + ".blender.pose_channels")
+
+
+def test_the_real_captures_are_there():
+    """The captures test_plant_holds_every_contact_on_real_capture runs on: none found fails under CI=true
+    (the parametrised test would be skipped unseen), and skips elsewhere."""
+    if CLIPS:
+        return
+    message = f"no .bvh files under {BVH}"
+    if os.environ.get("CI") == "true":
+        pytest.fail(message + ", and CI=true requires them")
+    pytest.skip(message)
 
 
 def load(mk, path, name=None):
@@ -127,11 +139,19 @@ def check_plant(mk, contacts, pose_channels, obj, clip, mm):
         if name != report.bones[0]:
             assert np.max(np.abs(loc_after[:, 3 * j:3 * j + 3] - loc_before[:, 3 * j:3 * j + 3])) <= 1e-9, name
 
-    # No popping: the largest frame-to-frame joint move at most 1.5 times the input's.
-    plain_move = np.max(np.linalg.norm(np.diff(plain, axis=0), axis=-1))
-    after_move = np.max(np.linalg.norm(np.diff(after, axis=0), axis=-1))
-    ratio = after_move / plain_move
-    assert ratio <= 1.5, f"{clip}: largest joint move {ratio:.3f} x the input's"
+    # No popping: each joint's (each bone's head and tail) largest frame-to-frame move at most 1.5 times the
+    # input's own largest for that joint, and POP_ALLOWANCE millimetres (the hips' shift, which every joint
+    # above them carries, is spread over the blend frames: measured up to 3.6 mm a frame beyond 1.5 times
+    # the input's, walk_and_turn_left's spine).
+    plain_move = np.max(np.linalg.norm(np.diff(plain, axis=0), axis=-1), axis=0)
+    after_move = np.max(np.linalg.norm(np.diff(after, axis=0), axis=-1), axis=0)
+    excess = after_move - (1.5 * plain_move + POP_ALLOWANCE * mm)
+    worst_joint = np.unravel_index(np.argmax(excess), excess.shape)
+    moving = plain_move > mm
+    ratio = float(np.max(after_move[moving] / plain_move[moving]))  # for the print: joints the input moves
+    assert excess.max() <= 0.0, (f"{clip}: {names[worst_joint[0]]} {('head', 'tail')[worst_joint[1]]} moves "
+                                 f"{after_move[worst_joint] / mm:.2f} mm a frame, the input "
+                                 f"{plain_move[worst_joint] / mm:.2f} mm")
 
     # No knee bends backwards: its signed flexion about the plain clip's knee axis never goes below the
     # plain clip's least (nor below 0 where the plain never straightens).
@@ -159,7 +179,7 @@ def check_plant(mk, contacts, pose_channels, obj, clip, mm):
     stored = contacts.read_contacts(obj, obj.animation_data.action, feet, frames)
     assert np.array_equal(stored, report.contacts)
     print(f"\n{clip}: {len(frames)} frames, contacts {[len(r) for r in report.intervals]}, worst slide "
-          f"{worst / mm:.4f} mm, max joint move ratio {ratio:.3f}, cleanup {report.seconds * 1000:.1f} ms "
+          f"{worst / mm:.4f} mm, max joint move ratio {ratio:.3f} (excess over 1.5x {float(np.max(after_move - 1.5 * plain_move)) / mm:.2f} mm), cleanup {report.seconds * 1000:.1f} ms "
           f"(solve {report.solve_seconds * 1000:.1f} ms, {report.iterations} iterations), plant() "
           f"{elapsed * 1000:.1f} ms, knees {report.knee_axes}, max IK error {report.max_error.max() / mm:.4f} mm")
 
@@ -277,7 +297,8 @@ def test_frame_range_holds_contacts_there_only_and_keeps_the_rest(mk, contacts, 
 
 
 def test_source_contacts_kept_on_a_retarget(mk, contacts, pose_channels, walk60):
-    """The retarget's call: contacts found on the source, the target cleaned with them."""
+    """The retarget's call: contacts found on the source, the target cleaned with them; the cleaned pose keyed
+    and evaluated by Blender (frame_set, the pose bones' tails in world space) holds each contact to 1 mm."""
     source, source_action = load(mk, walk60, "source")
     target = generate.build_armature(characters.RIGIFY_A)
     mk.retarget(source, target)
@@ -296,11 +317,21 @@ def test_source_contacts_kept_on_a_retarget(mk, contacts, pose_channels, walk60)
     rot, loc, report = contacts.cleanup(target, bones, rig, frames, rotations, locations, feet, found, None,
                                         fps=60)
     assert report.source == "given" and np.array_equal(report.contacts, found)
-    points, _ = contacts.foot_points(target, bones, rig, rot, loc, feet)
+    names = [b.name for b in bones]
+    channels, values = pose_channels.rotation_keys(target, names, rot)
+    channels += [(f"{pose_channels.bone_path(n)}.location", k) for n in names for k in range(3)]
+    values = np.vstack([values, loc.T])
+    mk.animdata.write_keys(target, action, channels, frames, values)
+    after, evaluated_names = evaluated(target, frames)
+    point_bones = [b for foot in feet for b in (foot.shin, foot.foot)]
+    worst = 0.0
     for p, runs in enumerate(report.intervals):
+        j = evaluated_names.index(point_bones[p])
         for first, last in runs:
-            track = points[int(first - frames[0]):int(last - frames[0]) + 1, p]
-            assert np.max(np.linalg.norm(track - track[0], axis=1)) < 1e-3
+            track = after[int(first - frames[0]):int(last - frames[0]) + 1, j, 1]
+            worst = max(worst, float(np.max(np.linalg.norm(track - track[0], axis=1))))
+    print(f"\nsource contacts on {target.name}: worst slide {1000 * worst:.4f} mm in Blender's evaluation")
+    assert worst < 1e-3
 
 
 def test_operator_fixes_sliding_and_reports_errors(mk, walk60):

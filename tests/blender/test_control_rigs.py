@@ -12,8 +12,10 @@ import pytest
 
 import rigify_rig
 from pointing import pointing_pairs
+from rotations import matrix_angles
 
 DEGREE = np.radians(1.0)
+REDUCED_TURN = 0.3  # degrees, measured 0.278 (Blender 3.4): see test_keys_on_source_frames_and_reduced
 CLIPS = ("bvh/walk60.bvh", "bvh/more/walk_and_turn_left.bvh")
 
 
@@ -73,17 +75,45 @@ def _angles(a, b):
     return np.arccos(np.clip(np.sum(a * b, axis=-1), -1.0, 1.0))
 
 
-def _deform_targets(mk, control_rigs, source, rig, **options):
+def _standing(obj, names):
+    """Each named bone's armature-space matrix (4, 4) with every bone at rest in its pose (no action): where
+    the rig stands a deform bone when its controls are at rest, which may be turned against the bone's own
+    rest (a Copy Transforms from a control rolled against it)."""
+    data = obj.animation_data
+    action = data.action if data else None
+    if data:
+        data.action = None
+    for pose_bone in obj.pose.bones:
+        pose_bone.matrix_basis.identity()
+    bpy.context.view_layer.update()
+    out = {n: np.array(obj.pose.bones[n].matrix) for n in names}
+    if data:
+        data.action = action
+    return out
+
+
+def _as_standing(obj, standing, name, m):
+    """The retarget's matrices m (frames, 4, 4) for a deform bone, posed from its rest, as the rig stands
+    that bone: m @ rest^-1 @ standing."""
+    rest = np.array(obj.data.bones[name].matrix_local)
+    return m @ (np.linalg.inv(rest) @ standing[name])
+
+
+def _deform_targets(mk, control_rigs, source, rig, standing=None, **options):
     """What the retarget engine poses the deform skeleton into (the same engine as any retarget), as
-    armature-space matrices (frames, bones, 4, 4) by name."""
+    armature-space matrices (frames, bones, 4, 4) by name; standing (from _standing): as the rig stands
+    its deform bones."""
     skeleton = control_rigs.DeformSkeleton(rig, control_rigs.find_map(rig))
     plan = mk.retargeting.plan(source, skeleton, **options)
     plan.resolve()
     rig_native, bones = mk.pose_channels.native_rig(skeleton.data)
     rotations, heads = mk.native().armature_pose(rig_native, *[np.ascontiguousarray(a) for a in plan.pose])
     names = [b.name for b in bones]
-    return plan, {n: mk.control_rig.matrices(rotations[:, 4 * i:4 * i + 4], heads[:, 3 * i:3 * i + 3])
-                  for i, n in enumerate(names)}
+    out = {n: mk.control_rig.matrices(rotations[:, 4 * i:4 * i + 4], heads[:, 3 * i:3 * i + 3])
+           for i, n in enumerate(names)}
+    if standing is not None:
+        out = {n: _as_standing(rig, standing, n, m) if n in standing else m for n, m in out.items()}
+    return plan, out
 
 
 def _keyed_bones(obj):
@@ -103,8 +133,9 @@ def _source_object(name):
 @pytest.mark.parametrize("clip", CLIPS)
 def test_rigify_deform_bones_follow_the_retarget(mk, control_rigs, rig, shared_dir, clip, controls):
     """FK, and legs in IK (auto): after Blender evaluates the rig on every frame, each mapped DEF bone points
-    where the retarget engine put it (within 0.5 degrees, measured far less), keys are on controls only, and
-    planted feet hold still (1 mm) through each contact."""
+    where the retarget engine put it (within 0.5 degrees), keys are on controls only, and planted feet hold
+    still (1 mm) through each contact. Directions, not whole rotations: Rigify's twist bones share a limb's
+    roll between its DEF segments (whole rotations are checked on the hand-made rig below)."""
     path = _clip(shared_dir, clip)
     action = mk.retarget(path, rig, controls=controls)
     source = _source_object(os.path.splitext(os.path.basename(path))[0])
@@ -174,7 +205,7 @@ def test_rigify_deform_bones_point_as_the_source_bones_do(mk, rig, shared_dir, c
 
 def test_switching_fk_ik_in_rigify_keeps_the_pose(mk, control_rigs, rig, shared_dir):
     """Both modes are keyed: flipping a limb's IK_FK switch (Rigify's slider) after the retarget leaves every
-    DEF bone where it was (within 0.5 degrees)."""
+    DEF bone pointing where it was (within 0.5 degrees)."""
     mk.retarget(_clip(shared_dir, "bvh/walk60.bvh"), rig, controls="auto", plant_feet=False)
     names = ["DEF-thigh.L", "DEF-shin.L", "DEF-foot.L", "DEF-upper_arm.R", "DEF-forearm.R", "DEF-hand.R"]
     frames = np.arange(1, 183, 3)
@@ -200,20 +231,22 @@ def test_switching_fk_ik_in_rigify_keeps_the_pose(mk, control_rigs, rig, shared_
 
 def test_keys_on_source_frames_and_reduced(mk, rig, shared_dir):
     """keys='source' keys the frames the source has keys on (a BVH: all of them); reduce=True leaves fewer
-    keys that stay within the reduction's tolerance (0.1 degree per control, so the deform bones within 1)."""
+    keys that stay within the reduction's tolerance (0.1 degree per control): on every frame the deform bones
+    at the ends of the chains (where the controls' errors add up) turn within REDUCED_TURN of the full keys."""
     path = _clip(shared_dir, "bvh/walk60.bvh")
     mk.retarget(path, rig, controls="fk", keys="source", plant_feet=False)
-    full = _evaluated(rig, np.arange(1, 183, 5), ["DEF-hand.L", "DEF-foot.R", "DEF-spine.006"])
+    frames = np.arange(1, 183)
+    full = _evaluated(rig, frames, ["DEF-hand.L", "DEF-foot.R", "DEF-spine.006"])
     curve = next(fc for fc in mk.animdata.fcurves(rig.animation_data.action, rig)
                  if fc.data_path == 'pose.bones["upper_arm_fk.L"].rotation_quaternion')
     assert len(curve.keyframe_points) == 182
     mk.retarget(path, rig, controls="fk", reduce=True, plant_feet=False)
     curve = next(fc for fc in mk.animdata.fcurves(rig.animation_data.action, rig)
                  if fc.data_path == 'pose.bones["upper_arm_fk.L"].rotation_quaternion')
-    reduced = _evaluated(rig, np.arange(1, 183, 5), ["DEF-hand.L", "DEF-foot.R", "DEF-spine.006"])
-    worst = np.degrees(_angles(_directions(full), _directions(reduced)).max())
+    reduced = _evaluated(rig, frames, ["DEF-hand.L", "DEF-foot.R", "DEF-spine.006"])
+    worst = np.degrees(matrix_angles(full, reduced).max())
     print(f"\nreduced: upper_arm_fk.L {len(curve.keyframe_points)} keys of 182, deform bones within {worst:.3f} deg")
-    assert len(curve.keyframe_points) < 120 and worst < 1.0
+    assert len(curve.keyframe_points) < 120 and worst < REDUCED_TURN
 
 
 def test_errors_name_the_problem_and_change_nothing(mk, control_rigs, rig, rigify_file, shared_dir):
@@ -268,12 +301,14 @@ def _hand_made_rig(walk):
 
 
 def test_generic_json_map_on_a_hand_made_control_rig(mk, control_rigs, shared_dir, tmp_path):
-    """Any control rig a JSON map describes: controls rolled against their deform bones, constraints between;
-    the deform bones end where the retarget engine puts them, keys only on the controls."""
+    """Any control rig a JSON map describes: controls rolled a quarter turn against their deform bones,
+    constraints between; the deform bones end where the retarget engine puts them, their whole rotation
+    (a roll error shows there, not in a bone's direction) and their heads, keys only on the controls."""
     path = _clip(shared_dir, "bvh/walk60.bvh")
     walk, _ = mk.bvh.load(path)
     target, data = _hand_made_rig(walk)
     target.location = (1.5, 0, 0)
+    standing = _standing(target, [b.name for b in walk.data.bones])
     map_file = tmp_path / "handmade.json"
     map_file.write_text(json.dumps(data), encoding="utf-8")
     assert control_rigs.find_map(target) is None  # not recognised without its map
@@ -287,9 +322,10 @@ def test_generic_json_map_on_a_hand_made_control_rig(mk, control_rigs, shared_di
     rotations, heads = mk.native().armature_pose(rig_native, *[np.ascontiguousarray(a) for a in plan.pose])
     names = [b.name for b in bones]
     got = _evaluated(target, plan.frames, names)
-    want = np.stack([mk.control_rig.matrices(rotations[:, 4 * i:4 * i + 4], heads[:, 3 * i:3 * i + 3])
-                     for i in range(len(names))], axis=1)
-    worst = np.degrees(_angles(_directions(got), _directions(want)).max())
+    want = np.stack([_as_standing(target, standing, n, mk.control_rig.matrices(rotations[:, 4 * i:4 * i + 4],
+                                                                             heads[:, 3 * i:3 * i + 3]))
+                     for i, n in enumerate(names)], axis=1)
+    worst = np.degrees(matrix_angles(got, want).max())
     drift = np.max(np.linalg.norm(got[..., :3, 3] - want[..., :3, 3], axis=-1))
     print(f"\nhand-made control rig: deform bones within {worst:.5f} deg and {drift * 1000:.4f} mm")
     assert worst < 0.5 and drift < 1e-3

@@ -1,4 +1,4 @@
-"""Full-body IK that looks human (issue 16), checked in a real Blender with its own evaluation.
+"""Full-body IK that looks human (natural defaults), checked in a real Blender with its own evaluation.
 
 On walk60 and on each sample character, with the walk playing under the IK:
 - a hand target within 90 % of the arm's reach moves the arm and clavicle only (every other bone turns
@@ -17,6 +17,7 @@ import bpy
 import numpy as np
 import pytest
 from mathutils import Vector
+from rotations import matrix_angles
 
 SUBJECTS = ["walk60", "MixamoT", "RigifyA", "UnrealA"]
 FRAMES = (1, 30)
@@ -199,15 +200,25 @@ def test_out_of_reach_the_pins_hold_the_arm_points_and_the_body_keeps_its_balanc
     assert past <= math.radians(0.05)
 
 
+# Per subject, the largest amount (degrees) by which a bone's turn from one frame to the next changes
+# faster than in the input, measured on Blender 3.4: the test holds each to its own figure plus POP_SLACK.
+POP_MEASURED = {
+    "walk60": 1.80,   # lShoulder 2.363 against the input's 0.563
+    "MixamoT": 5.38,  # mixamorig:LeftArm 6.161 against 0.782
+    "RigifyA": 3.37,  # upper_arm.L 4.151 against 0.782
+    "UnrealA": 3.67,  # lowerarm_l 3.887 against 0.214
+}
+POP_SLACK = 0.5
+
+
 @pytest.mark.parametrize("name", SUBJECTS)
 def test_a_target_passing_in_and_out_of_reach_does_not_pop(mk, walk60, name):
     """The target sweeps from 70 % to 140 % of the reach and back over 60 frames, the feet pinned and
     the balance on. A pop is the pose jumping from one frame to the next: a bone's turn between frames
-    changing suddenly. Before the clip's second pass the upper arm's did by up to 50 degrees (walk60,
-    MixamoT). What is left is the bend a constraint asks for as it takes hold, rounded by the second
-    pass (the arm straightening at the reach limit, the hips answering the balance as a pinned walking
-    foot moves the support polygon's edge by centimetres a frame): measured 1.4 to 6.0 degrees beyond
-    the input's own (3.4, 4.3 and 5.2 differ by a degree or two), held to 8."""
+    changing suddenly, beyond what the input's own turn does. What is left is the bend a constraint asks for
+    as it takes hold, rounded by the clip's second pass (the arm straightening at the reach limit, the hips
+    answering the balance as a pinned walking foot moves the support polygon's edge by centimetres a
+    frame): each subject is held to its measured figure (POP_MEASURED) plus POP_SLACK degrees."""
     obj, labels = subject(mk, walk60, name)
     joints = mk.ik.natural_defaults(obj)
     frames = np.arange(1, 61)
@@ -225,14 +236,16 @@ def test_a_target_passing_in_and_out_of_reach_does_not_pop(mk, walk60, name):
 
     solved, given = jerk(basis), jerk(basis0)
     worst = int(np.argmax(solved - given))
-    print(f"\n{name}: target in and out of reach: largest change of a bone's turn from frame to frame "
-          f"{solved.max():.3f} deg (input {given.max():.3f}; {names[worst]} {solved[worst]:.3f} against "
-          f"{given[worst]:.3f})")
-    assert (solved - given).max() <= 8.0
+    print(f"\n{name}: target in and out of reach: a bone's turn from frame to frame changes at most "
+          f"{solved[worst] - given[worst]:.3f} deg faster than the input's ({names[worst]} {solved[worst]:.3f} "
+          f"against {given[worst]:.3f}; held to {POP_MEASURED[name]} + {POP_SLACK})")
+    assert (solved - given).max() <= POP_MEASURED[name] + POP_SLACK
 
 
 def test_a_rig_that_is_not_a_humanoid_gets_no_defaults(mk):
-    """A chain of five bones: no bone map, so no stages, limits or balance; the solve is as before."""
+    """A chain of five bones: no bone map, so no stages, limits or balance: the solve with natural "auto"
+    poses the chain exactly as natural=False does, both poses applied and read back from Blender's
+    evaluation (pose_bone.matrix after a depsgraph update)."""
     arm = bpy.data.armatures.new("chain")
     obj = bpy.data.objects.new("chain", arm)
     bpy.context.scene.collection.objects.link(obj)
@@ -246,11 +259,27 @@ def test_a_rig_that_is_not_a_humanoid_gets_no_defaults(mk):
         parent = bone
     bpy.ops.object.mode_set(mode='OBJECT')
     assert mk.ik.natural_defaults(obj) is None
+    effectors = [mk.ik.Effector("link4", target=(0.5, 0.0, 1.0))]
     with pytest.raises(ValueError, match="not recognised as a humanoid"):
-        mk.ik.plan(obj, [mk.ik.Effector("link4", target=(0.5, 0.0, 1.0))], natural=True)
-    plan = mk.ik.plan(obj, [mk.ik.Effector("link4", target=(0.5, 0.0, 1.0))])
+        mk.ik.plan(obj, effectors, natural=True)
+
+    def posed(natural):
+        for pose_bone in obj.pose.bones:
+            pose_bone.location, pose_bone.rotation_quaternion = (0, 0, 0), (1, 0, 0, 0)
+        plan = mk.ik.plan(obj, effectors, natural=natural)
+        mk.ik.apply_pose(plan)
+        bpy.context.view_layer.update()
+        return plan, np.array([np.array(b.matrix) for b in obj.pose.bones]), tuple(obj.pose.bones["link4"].tail)
+
+    plan, auto, tip = posed("auto")
     assert plan.joints is None and not plan.balance
-    assert plan.result.errors.max() < 1e-4
+    _, off, _ = posed(False)
+    turn = np.degrees(matrix_angles(auto, off))
+    moved = np.linalg.norm(auto[:, :3, 3] - off[:, :3, 3], axis=1)
+    print(f"\nnot a humanoid: natural auto against off: bones turned {turn.max():.2e} deg, heads {moved.max():.2e} m "
+          f"apart; tip {np.linalg.norm(np.subtract(tip, (0.5, 0.0, 1.0))):.2e} m from the target")
+    assert turn.max() < 1e-3 and moved.max() < 1e-6
+    assert np.linalg.norm(np.subtract(tip, (0.5, 0.0, 1.0))) < 1e-4
 
 
 def test_the_defaults_are_editable_through_the_api(mk, walk60):

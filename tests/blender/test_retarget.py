@@ -1,6 +1,6 @@
 """motionkit.retarget in a real Blender, checked against Blender's own evaluation (depsgraph pose matrices).
 
-The done-means of the retargeting issue: the brief's lab check both ways
+The brief's lab check both ways
 (T-pose walk60 onto an A-pose copy and back, world joints to 1e-6 of the
 height), random bone rolls (directions to 0.01 deg), walk60 onto each sample
 character (mapped directions to 0.1 deg, foot heights scaled by the leg
@@ -617,7 +617,7 @@ def test_the_feet_solve_beside_the_key_writing_gives_the_same_keys_and_fails_cle
 def test_a_bvh_source_stands_as_tall_as_the_target_and_goes_as_asked(mk, walk60, shared_dir):
     """A file retargeted straight from its path: the helper armature is sized to the target ("auto"; a
     centimetre file would stand 100 times too tall) or by a given scale, the keys are the same either way,
-    and the helper is kept, hidden or removed as asked (UI issue, item 5)."""
+    and the helper is kept, hidden or removed as asked."""
     target = generate.build_armature(characters.MIXAMO_T)
     bandai = os.path.join(shared_dir, "data", "bvh", "more", "bandai_dash_normal_001.bvh")
 

@@ -270,7 +270,7 @@ def expected(src, tgt, extra_pairs):
 
 
 def body_labels(body):
-    """Everything classify labelled before it knew fingers."""
+    """Everything classify labels but the fingers."""
     return (body.hips, body.spine, body.neck, body.head, body.limbs, body.root)
 
 
@@ -571,7 +571,7 @@ def test_fingers_follow_their_hand_where_names_and_positions_disagree():
 def test_finger_names(name, finger, segment, metacarpal):
     found = bm._finger_name(name)
     assert (found.finger, found.segment, found.metacarpal) == (finger, segment, metacarpal)
-    assert bm.name_info(name).helper  # so the shape rules leave the fingers out, as before
+    assert bm.name_info(name).helper  # so the shape rules leave the fingers out
 
 
 @pytest.mark.parametrize("name", [

@@ -166,13 +166,26 @@ def test_pole_positions_lie_in_the_limb_plane_on_the_bent_side():
     bend *= (RNG.uniform(0.05, 0.5, size=(n, 1)) / np.linalg.norm(bend, axis=1, keepdims=True))
     lower = (upper + end) / 2 + bend
     fallback = RNG.normal(size=(n, 3))
-    pole = cr.pole_positions(upper, lower, end, fallback, 0.7)
+    distance, bias = 0.7, 1e-3
+    pole = cr.pole_positions(upper, lower, end, fallback, distance, bias)
     normal = np.cross(end - upper, lower - upper)
     normal /= np.linalg.norm(normal, axis=1, keepdims=True)
     off_plane = np.abs(np.sum((pole - lower) * normal, axis=1))
-    assert np.max(off_plane) < 0.7 * 1e-3 * 3 / 0.05  # the straight-limb bias, bounded by the bend
-    assert np.allclose(np.linalg.norm(pole - lower, axis=1), 0.7)
+    # Per sample: the straight-limb bias (bias x the limb's length, sideways) against this sample's bend
+    # tilts the pole out of the plane by at most bias * length / (|bend| - bias * length).
+    length = np.linalg.norm(end - upper, axis=1)
+    tilt = bias * length / (np.linalg.norm(bend, axis=1) - bias * length)
+    assert np.max(off_plane / (distance * tilt)) <= 1 + 1e-9
+    assert np.allclose(np.linalg.norm(pole - lower, axis=1), distance)
     assert np.all(np.sum((pole - lower) * bend, axis=1) > 0)
-    # A straight limb keeps a plane: the fallback's.
-    straight = cr.pole_positions(upper, (upper + end) / 2, end, fallback, 0.7)
-    assert np.all(np.isfinite(straight))
+    # A straight limb keeps a plane: the one through the limb and the fallback, on the fallback's side,
+    # square to the limb.
+    straight = cr.pole_positions(upper, (upper + end) / 2, end, fallback, distance, bias)
+    out = straight - (upper + end) / 2
+    axis = (end - upper) / length[:, None]
+    plane_normal = np.cross(axis, fallback)
+    plane_normal /= np.linalg.norm(plane_normal, axis=1, keepdims=True)
+    assert np.abs(np.sum(out * plane_normal, axis=1)).max() < 1e-12 * distance
+    assert np.abs(np.sum(out * axis, axis=1)).max() < 1e-12 * distance
+    assert np.all(np.sum(out * fallback, axis=1) > 0)
+    assert np.allclose(np.linalg.norm(out, axis=1), distance)
