@@ -51,8 +51,9 @@ void FallBackToPinnedPose(const Model& m, Data& d, const Cost& cost) {
 // A warm start carries the last frame's posture on; near a joint limit that
 // posture can hold the limb in a corner from which a target, reachable from
 // elsewhere, is not reached (the limb's solve ends against the limit). The
-// frame's input, which the limits always admit, is the other start: the
-// nearer of the two ends is kept.
+// frame's input, which the limits always admit, is the other start, kept
+// only when it meets the targets: a target out of reach from both stays
+// where the warm start left it, so that it does not pop between the two.
 int SolveAgainFromInput(const Model& m, Data& d, int budget, Cost& cost) {
   if (!(m.options.warm_start && d.warm.have_last) || m.options.method == IkMethod::kCcd) return 0;
   d.warm.ended = d.current;
@@ -66,7 +67,7 @@ int SolveAgainFromInput(const Model& m, Data& d, int budget, Cost& cost) {
   const int iterations = SolveJacobian(m, d, budget);
   ForwardKinematics(m, d.current, d.fk);
   const Cost cold = EvaluateCost(m, d, d.fk, d.buffers.residual.data());
-  if (cold.worst < cost.worst && cold.pins <= std::max(cost.pins, m.pin_tolerance)) {
+  if (cold.worst <= m.tolerance && cold.balance <= m.tolerance && cold.pins <= std::max(cost.pins, m.pin_tolerance)) {
     cost = cold;
     return iterations;
   }

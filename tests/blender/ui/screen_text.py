@@ -5,21 +5,6 @@ from __future__ import annotations
 import re
 
 
-_ELLIPSIS = re.compile(r"\u2026|\.\.\.")
-
-
-def is_cut(word: str) -> bool:
-    """Whether a read word shows Blender's mark of a cut label: an ellipsis, "\u2026" or "...". A label
-    cut by a letter or two would otherwise pass as a slip of the reading ("Iteratio..." as "Iterations")."""
-    return bool(_ELLIPSIS.search(word))
-
-
-def cut_words(words) -> list[str]:
-    """The read words (dicts or plain strings) that carry an ellipsis."""
-    texts = [w if isinstance(w, str) else w["text"] for w in words]
-    return [t for t in texts if is_cut(t)]
-
-
 def _norm(word: str) -> str:
     return re.sub(r"[^0-9a-z]", "", word.lower())
 
@@ -50,8 +35,8 @@ def _distance(a: str, b: str) -> int:
 def find_words(words: list[dict], phrase: str, slips: int | None = None) -> list[dict]:
     """The read words that make up phrase: consecutive words of one line whose letters and digits, joined,
     differ from the phrase's by at most one letter in five whole ones (OCR misreads a letter now and then, 'BYH'
-    or 'Onentation', and splits or joins words at '_' or spaces; 'Live: On' is not 'Live: Off'). A word with
-    an ellipsis is never part of a match: Blender cut that label.
+    or 'Onentation', and splits or joins words at '_' or spaces; a label Blender cut loses its end and gains
+    dots, 'Live: On' is not 'Live: Off').
     [] when the phrase is not on screen whole. slips: the letters allowed to differ, instead."""
     wanted = _norm(phrase)
     if not wanted:
@@ -62,8 +47,6 @@ def find_words(words: list[dict], phrase: str, slips: int | None = None) -> list
         for i in range(len(line)):
             joined = ""
             for j in range(i, len(line)):
-                if is_cut(line[j]["text"]):
-                    break
                 joined += names[j]
                 if len(joined) > len(wanted) + 3:
                     break
