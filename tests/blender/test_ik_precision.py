@@ -34,14 +34,14 @@ def toe_tails(obj, toes, frames):
     return out
 
 
-def walk_in_place(obj, action):
+def walk_in_place(obj, action, animdata):
     """Holds the root's horizontal location at its first key: the toes then stay within a metre of the
     origin, where Blender's float keys and matrices round a position to well under a micrometre (at the
     clip's farthest, four metres out, they round it by up to one)."""
     root = obj.data.bones[0]
     # The root's location channel is in its own rest frame: the axis nearest the armature's Z is up.
     up = int(np.argmax(np.abs(np.array(root.matrix_local.to_3x3())[2])))
-    for fcurve in action.fcurves:
+    for fcurve in animdata.fcurves(action, obj):
         if fcurve.data_path == f'pose.bones["{root.name}"].location' and fcurve.array_index != up:
             co = np.empty(2 * len(fcurve.keyframe_points))
             fcurve.keyframe_points.foreach_get("co", co)
@@ -52,10 +52,10 @@ def walk_in_place(obj, action):
             fcurve.update()
 
 
-def shifted_copy(action, frames):
+def shifted_copy(obj, action, frames, animdata):
     """A copy of action whose keys play `frames` earlier."""
     copy = action.copy()
-    for fcurve in copy.fcurves:
+    for fcurve in animdata.fcurves(copy, obj):
         co = np.empty(2 * len(fcurve.keyframe_points))
         fcurve.keyframe_points.foreach_get("co", co)
         co[0::2] -= frames
@@ -71,14 +71,14 @@ def shifted_copy(action, frames):
 
 @pytest.mark.parametrize("natural, first, last", [(False, 1, 300), (True, 101, 300)],
                          ids=["plain", "natural"])
-def test_toes_on_their_own_paths_are_met_to_a_micrometre(mk, turning_walk, natural, first, last):
+def test_toes_on_their_own_paths_are_met_to_a_micrometre(mk, animdata, turning_walk, natural, first, last):
     obj, action = mk.bvh.load(turning_walk, scale=1.0)
     toes = [bone.name for bone in obj.data.bones if "Toe" in bone.name]
     assert len(toes) == 2, toes
-    walk_in_place(obj, action)
+    walk_in_place(obj, action, animdata)
     frames = np.arange(first, last + 1)
     targets = toe_tails(obj, toes, frames)
-    obj.animation_data.action = shifted_copy(action, SHIFT)
+    animdata.assign(obj, shifted_copy(obj, action, SHIFT, animdata))
     mk.ik.solve(obj, [mk.ik.Effector(toe, target=targets[:, k]) for k, toe in enumerate(toes)], (first, last),
                 natural=natural)
     errors = np.linalg.norm(toe_tails(obj, toes, frames) - targets, axis=2).max(axis=1)
