@@ -11,6 +11,7 @@ import bpy
 import numpy as np
 import pytest
 from mathutils import Vector
+from walker import still_walker
 from rotations import quaternion_angles
 
 LAB_TOLERANCE = 0.01  # metres, the brief's pass mark
@@ -24,18 +25,6 @@ ELBOW_STEP_BEYOND_INPUT = 19.5
 @pytest.fixture()
 def ik(mk):
     return mk.ik
-
-
-def still_walker(mk, walk60, name="walker"):
-    """walk60's skeleton standing in its rest (T) pose, no action."""
-    obj, action = mk.bvh.load(walk60, name=name)
-    obj.animation_data.action = None
-    bpy.data.actions.remove(action)
-    for pose_bone in obj.pose.bones:
-        pose_bone.location = (0, 0, 0)
-        pose_bone.rotation_quaternion = (1, 0, 0, 0)
-    bpy.context.view_layer.update()
-    return obj
 
 
 def tail(obj, bone):

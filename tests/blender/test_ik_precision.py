@@ -13,6 +13,7 @@ import bpy
 import numpy as np
 import pytest
 from mathutils import Vector
+from walker import still_walker
 
 REACHED = 1e-6  # metres
 SHIFT = 15  # frames between the input pose and the targets' capture pose
@@ -90,13 +91,7 @@ def test_toes_on_their_own_paths_are_met_to_a_micrometre(mk, animdata, turning_w
 
 @pytest.mark.parametrize("natural", [False, True], ids=["plain", "natural"])
 def test_an_arm_chain_meets_its_target_as_near_as_blenders_constraint(mk, walk60, natural):
-    obj, action = mk.bvh.load(walk60, name="walker")
-    obj.animation_data.action = None
-    bpy.data.actions.remove(action)
-    for pose_bone in obj.pose.bones:
-        pose_bone.location = (0, 0, 0)
-        pose_bone.rotation_quaternion = (1, 0, 0, 0)
-    bpy.context.view_layer.update()
+    obj = still_walker(mk, walk60)
     goal = bpy.data.objects.new("Goal", None)
     bpy.context.scene.collection.objects.link(goal)
     # In front of the chest and below the shoulder: within the arm's reach and a person's joint ranges.
