@@ -7,7 +7,8 @@ bench/retarget.py's humanoid at rest, four effectors (hands and feet, each to
 an empty at its tail), root from the pose. An empty is moved 3 mm, the
 depsgraph updated, and motionkit's live re-solve (ik_live.solve_live: read the
 pose, the limits and the targets, solve natively, write the pose) timed; the
-median and worst of --moves moves are printed. It writes the pose, not keys: no key-writing floor
+median and worst of --moves moves are printed (building the settings from the panel's
+properties, as the handler does on each update, included). It writes the pose, not keys: no key-writing floor
 applies (bench/harness.py).
 """
 from __future__ import annotations
@@ -28,7 +29,7 @@ import retarget as rig_bench  # noqa: E402
 def main() -> None:
     args, mk = harness.start("ik_live.py", __doc__,
                              lambda parser: parser.add_argument("--moves", type=int, default=50))
-    live = __import__(mk.__name__ + ".features.ik_live", fromlist=["solve_live"])
+    live = __import__(mk.__name__ + ".features.ik_live", fromlist=["solve_live", "LiveSettings"])
     obj = rig_bench.build_rig("Rig", 60, target=False)
     goals = []
     for bone, _ in ik_bench.EFFECTORS:
@@ -44,7 +45,10 @@ def main() -> None:
         goals[0].location.x += 0.003
         bpy.context.view_layer.update()
         start = time.perf_counter()
-        live.solve_live(obj)
+        # As the handler does on each update: the settings from the panel's properties, then the re-solve.
+        settings = live.LiveSettings(obj.motionkit_ik.effector_list(), obj.motionkit_ik.method,
+                                     obj.motionkit_ik.options())
+        live.solve_live(obj, settings)
         times.append(time.perf_counter() - start)
     print(f"\nBlender {bpy.app.version_string}: live IK re-solve, 60 bones, 4 effectors: median "
           f"{1000 * harness.median(times):.2f} ms, worst {1000 * max(times):.2f} ms over {args.moves} moves")
