@@ -57,13 +57,8 @@ void FallBackToPinnedPose(const Model& m, Data& d, const Cost& cost) {
 int SolveAgainFromInput(const Model& m, Data& d, int budget, Cost& cost) {
   if (!(m.options.warm_start && d.warm.have_last) || m.options.method == IkMethod::kCcd) return 0;
   d.warm.ended = d.current;
-  d.current.root = d.input.root;
-  for (int jo = 0; jo < static_cast<int>(m.joints.size()); ++jo) {
-    const Joint& j = At(m.joints, jo);
-    At(d.current.basis, j.bone) = At(d.input.basis, j.bone);
-    At(d.current.scale, j.bone) = 1.0;
-    ClampJoint(m, d, jo, d.current);
-  }
+  d.current = d.input;
+  ClampJoints(m, d, d.current);
   const int iterations = SolveJacobian(m, d, budget);
   ForwardKinematics(m, d.current, d.fk);
   const Cost cold = EvaluateCost(m, d, d.fk, d.buffers.residual.data());
