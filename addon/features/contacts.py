@@ -635,7 +635,7 @@ def _solve_call(part: _SolvePart, solve: _LegSolve, targets, frames, report, *, 
                  np.ascontiguousarray(solve.hip_loc), np.ascontiguousarray(targets.reshape(count, -1)),
                  np.zeros((count, 0)), part.effectors)
     options = dict(limit_min=solve.limit_min, limit_max=solve.limit_max, excluded=excluded,
-                   **{"method": "dls", "max_iterations": 64, "tolerance": 1e-5 * part.size, "reference": "input",
+                   **{"method": "dls", "max_iterations": 64, "reference": "input",
                       **_SOLVE_OPTIONS},
                    root_translation=hips_move, root_rotation=False, warm_start=False, size=part.size,
                    threads=threads)

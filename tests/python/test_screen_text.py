@@ -3,7 +3,7 @@ import os
 import sys
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "blender", "ui"))
-from screen_text import find_words, missing  # noqa: E402
+from screen_text import cut_words, find_words, missing  # noqa: E402
 
 
 def line(*texts, y=100):
@@ -13,6 +13,24 @@ def line(*texts, y=100):
 def test_a_label_cut_by_blender_is_not_found():
     assert missing(line("Source", "Ar..."), ["Source Armature"]) == ["Source Armature"]
     assert missing(line("Regularis..."), ["Regularisation"]) == ["Regularisation"]
+
+
+def test_an_ellipsis_marks_a_cut_label_however_little_is_cut():
+    """One or two letters cut would pass as a slip of the reading; the ellipsis says Blender cut it."""
+    assert missing(line("Iteratio\u2026"), ["Iterations"]) == ["Iterations"]
+    assert missing(line("Iteration..."), ["Iterations"]) == ["Iterations"]
+    assert missing(line("Natural", "Default..."), ["Natural Defaults"]) == ["Natural Defaults"]
+    assert missing(line("Iterations"), ["Iterations"]) == []
+    assert [w for w, _ in cut_words(line("Solver", "Iteratio\u2026", "Dam...ing", "Move", "Sm..g"))] == \
+        ["Iteratio\u2026", "Dam...ing", "Sm..g"]
+    assert cut_words(["(.bvh)", "Key.", "1.00"]) == []
+
+
+def test_a_cut_word_is_read_with_its_neighbours_on_its_line():
+    """tesseract splits a name cut in the middle at the ellipsis or an underscore: "lowe..." "torso"."""
+    words = line("lowe...", "torso") + line("Spine2", y=80)
+    assert cut_words(words) == [("lowe...", ["lowe...", "lowe...torso"])]
+    assert cut_words(line("pelv", "...rback")) == [("...rback", ["...rback", "pelv...rback"])]
 
 
 def test_a_state_is_not_mistaken_for_another():

@@ -5,8 +5,10 @@ tesseract, so that a label Blender cut ("Regularis...") or a list row with no na
 would see it.
 
 A scenario is a generator of steps: each `yield` lets Blender run its event loop and redraw for a
-moment (a number: that many seconds). What the scenario finds is printed as `UI <key> <json>` lines for
-test_ui.py, which also fails on any Python error printed after the `MOTIONKIT-UI-READY` marker.
+moment (a number: that many seconds). Before a screenshot a scenario waits for what it is to show (a
+region redrawn, a popup on screen, a property set) with wait_until and the polls built on it, never for a
+fixed time: a slow machine only waits longer, up to the poll's timeout, which fails the scenario. What
+the scenario finds is printed as `UI <key> <json>` lines for test_ui.py, which also fails on any Python error printed after the `MOTIONKIT-UI-READY` marker.
 """
 from __future__ import annotations
 
@@ -44,6 +46,10 @@ def start(zip_path: str):
     prefs.view.show_splash = False
     prefs.view.use_save_prompt = False
     prefs.filepaths.use_auto_save_temporary_files = False
+    # A menu opens under the pointer, on its first item; where that is a sub-menu (the Key menus'
+    # Transform) it would open over the menu while the scenario waits for the picture to stand still, and
+    # Escape would then close only the sub-menu.
+    prefs.view.open_sublevel_delay = 40
     module = install_addon.install(zip_path)
     print(READY, file=sys.stderr, flush=True)
     print(READY, flush=True)
@@ -69,6 +75,20 @@ def run(steps) -> None:
         return 0.2 if wait is None else float(wait)
 
     bpy.app.timers.register(step, first_interval=0.5, persistent=True)
+
+
+def wait_until(condition, what: str, timeout: float = 10.0, step: float = 0.1, required: bool = True):
+    """A scenario step (`yield from`): lets Blender run until condition() is true. After timeout seconds an
+    AssertionError naming `what`, or, with required=False, it goes on (the caller reports what it sees)."""
+    for _ in range(max(1, int(round(timeout / step)))):
+        if condition():
+            return True
+        yield step
+    if condition():
+        return True
+    if required:
+        raise AssertionError(f"waited {timeout:g} s for {what}")
+    return False
 
 
 # ---------------------------------------------------------------------------------------------------------
@@ -146,14 +166,17 @@ def watch_category(category: str) -> str:
     return name
 
 
+def redrawn(panel: str, timeout: float = 10.0):
+    """A scenario step (`yield from`): waits until Blender draws the sidebar tab whose watcher is `panel`
+    again, after whatever the scenario just changed."""
+    DRAWN.discard(panel)
+    yield from wait_until(lambda: panel in DRAWN, f"the sidebar to redraw ({panel})", timeout)
+
+
 def show_sidebar(view):
     """Opens the 3D view's sidebar, as N does, and waits until it has slid open (a scenario step)."""
     view.spaces[0].show_region_ui = True
-    for _ in range(40):
-        yield 0.25
-        if region(view, 'UI').width > 150:
-            return
-    raise AssertionError(f"the sidebar did not open: {region(view, 'UI').width} pixels wide")
+    yield from wait_until(lambda: region(view, 'UI').width > 150, "the sidebar to open", timeout=10.0, step=0.25)
 
 
 def open_tab(region_, panel: str, win=None):
@@ -183,13 +206,13 @@ def open_tab(region_, panel: str, win=None):
 # ---------------------------------------------------------------------------------------------------------
 # Pixels
 
-def screenshot(path: str, win=None) -> np.ndarray:
-    """The window as the X server shows it (RGBA floats, rows from the top), also saved to path.
+def screenshot(path: str | None, win=None) -> np.ndarray:
+    """The window as the X server shows it (RGBA floats, rows from the top), also saved to path (unless
+    None: the polls below look at many and save the one they settle on).
 
     Taken with xwd from the X server, as a person's screen grabber would: Blender's own screen.screenshot
     reads its GL front buffer, which Blender 4.3 and 5.2 on mesa's llvmpipe under Xvfb return black."""
     win = win or window()
-    os.makedirs(os.path.dirname(path), exist_ok=True)
     # Draw and swap now: what the last events changed is otherwise on screen only at Blender's next redraw,
     # which llvmpipe may not have reached yet.
     with bpy.context.temp_override(window=win):  # a file browser's temporary screen cannot be overridden
@@ -199,7 +222,8 @@ def screenshot(path: str, win=None) -> np.ndarray:
     screen = _xwd_pixels(out.stdout)
     top = screen.shape[0] - (win.y + win.height)
     pixels = screen[max(top, 0):top + win.height, max(win.x, 0):win.x + win.width]
-    save_png(pixels, path)
+    if path is not None:
+        save_png(pixels, path)
     return pixels
 
 
@@ -232,6 +256,7 @@ def load_png(path: str) -> np.ndarray:
 
 
 def save_png(pixels: np.ndarray, path: str) -> None:
+    os.makedirs(os.path.dirname(path), exist_ok=True)
     h, w = pixels.shape[:2]
     image = bpy.data.images.new("motionkit-ui-crop", w, h, alpha=True)
     try:
@@ -252,6 +277,68 @@ def crop(pixels: np.ndarray, box) -> np.ndarray:
 
 def box_of(region_) -> tuple:
     return (region_.x, region_.y, region_.width, region_.height)
+
+
+def changed_box(before: np.ndarray, after: np.ndarray):
+    """(top, left, bottom, right) in rows from the top of where the pixels differ, or None."""
+    changed = np.argwhere(np.abs(after[..., :3] - before[..., :3]).max(axis=2) > 0.02)
+    if not len(changed):
+        return None
+    (top, left), (bottom, right) = changed.min(axis=0), changed.max(axis=0) + 1
+    return int(top), int(left), int(bottom), int(right)
+
+
+def settled_screenshot(path: str, win=None, timeout: float = 10.0):
+    """A scenario step (`yield from`): takes screenshots until two running are the same (what the last
+    events changed is drawn, nothing is sliding); returns the last."""
+    last = None
+    for _ in range(int(timeout / 0.2)):
+        yield 0.2
+        now = screenshot(None, win)
+        if last is not None and changed_box(last, now) is None:
+            save_png(now, path)
+            return now
+        last = now
+    raise AssertionError(f"the window kept changing for {timeout:g} s ({path})")
+
+
+def popup_shown(before: np.ndarray, path: str, win=None, timeout: float = 10.0):
+    """A scenario step (`yield from`): takes screenshots until a popup stands drawn (the box where they
+    differ from `before` is there and the same in two shots running); returns (pixels, box)."""
+    box = last = after = None
+    # The status bar's hints change with the pointer and the popup: never part of the popup's box. It lies
+    # below every other area (3.4 does not list it among the screen's areas).
+    win = win or window()
+    rows = before.shape[0] - min(a.y for a in win.screen.areas if a.type != 'STATUSBAR')
+    for _ in range(int(timeout / 0.2)):
+        yield 0.2
+        after = screenshot(None, win)
+        box = changed_box(before[:rows], after[:rows])
+        if box is not None and box == last:
+            save_png(after, path)
+            return after, box
+        last = box
+    raise AssertionError(f"no popup stood still on screen within {timeout:g} s ({path}): {box}")
+
+
+def popup_gone(before: np.ndarray, box, path: str, win=None, timeout: float = 10.0):
+    """A scenario step (`yield from`): takes screenshots until where the popup stood (box, from popup_shown)
+    shows what it showed in `before` again; on a timeout the last is saved at path for a person to see."""
+    top, left, bottom, right = box
+    last = [None]
+
+    def gone():
+        last[0] = screenshot(None, win)
+        return changed_box(before[top:bottom, left:right], last[0][top:bottom, left:right]) is None
+
+    # The event loop handles the key that closes the popup first: a screenshot's redraw while the popup
+    # still has its key waiting blocks Blender 3.4.
+    yield 0.2
+    if not (yield from wait_until(gone, "", timeout, step=0.2, required=False)):
+        save_png(last[0], path)
+        still = changed_box(before[top:bottom, left:right], last[0][top:bottom, left:right])
+        raise AssertionError(f"the popup did not close within {timeout:g} s: {path} differs from before at "
+                             f"{still} within its box {box}")
 
 
 def not_blank(pixels: np.ndarray) -> dict:

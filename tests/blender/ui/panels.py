@@ -46,21 +46,15 @@ def open_closed_panels(view, headers):
         found = harness.find_words(words, header, slips=0)  # the Solver header, not the Solve button
         assert found, f"no '{header}' header on screen"
         yield from harness.click(found[0]["x"], found[0]["y"])
-        for _ in range(12):
-            yield 0.5
-            if harness.find_words(read_sidebar("sidebar-opening", view), inside):
-                break
-        else:
-            raise AssertionError(f"'{header}' did not open: no '{inside}' on screen")
+        yield from harness.wait_until(lambda: harness.find_words(read_sidebar("sidebar-opening", view), inside),
+                                      f"'{header}' to open ('{inside}' on screen)", timeout=6.0, step=0.5)
 
 
 def popup_words(name, before, win=None):
-    """The words of what a popup added to the window: the box where the pixels changed since `before`."""
-    import numpy as np
-    after = harness.screenshot(shot(name + "-window"), win)
-    changed = np.argwhere(np.abs(after[..., :3] - before[..., :3]).max(axis=2) > 0.02)
-    assert len(changed), f"{name}: nothing appeared"
-    (top, left), (bottom, right) = changed.min(axis=0), changed.max(axis=0) + 1
+    """A scenario step (`yield from`): waits for the popup, returns the words of what it added to the window
+    (the box where the pixels changed since `before`) and the box."""
+    after, box = yield from harness.popup_shown(before, shot(name + "-window"), win)
+    top, left, bottom, right = box
     part = after[top:bottom, left:right]
     harness.save_png(part, shot(name))
     height = after.shape[0]
@@ -71,7 +65,27 @@ def popup_words(name, before, win=None):
     again = harness.ocr(part, (left, height - bottom, right - left, bottom - top), scale=2)
     harness.report(f"{name}.words-again", harness.plain(again))
     harness.report(f"{name}.blank", harness.not_blank(part))
-    return words
+    return words, box
+
+
+def redo_panel_open(view, name, title, last):
+    """A scenario step (`yield from`): waits for the redo panel's folded header (title read in it), clicks
+    it open, waits until its last option (last) is read, and reports what it shows. Blender 3.4 sizes the
+    region for the open panel from the start, so only the pixels say when it has opened."""
+    def hud():
+        return next((r for r in view.regions if r.type == 'HUD' and r.width > 1 and r.height > 1), None)
+
+    def reads(label):
+        return hud() is not None and harness.find_words(harness.read_region(shot(name), hud())[0], label)
+
+    yield from harness.wait_until(lambda: reads(title), f"{name}: the redo panel's header", timeout=8.0, step=0.3)
+    region_ = hud()
+    yield from harness.click(region_.x + region_.width // 2, region_.y + region_.height // 2)
+    yield from harness.wait_until(lambda: reads(last), f"{name}: '{last}' in the open redo panel", timeout=8.0,
+                                  step=0.3, required=False)
+    words, blank = harness.read_region(shot(name), hud())
+    harness.report(f"{name}.words", harness.plain(words))
+    harness.report(f"{name}.blank", blank)
 
 
 def steps():
@@ -82,14 +96,15 @@ def steps():
     yield from harness.show_sidebar(view)
     yield from harness.open_tab(harness.region(view, 'UI'), watch)
     yield from open_closed_panels(view, (("Plant Feet", "Height In"), ("Solver", "Iterations")))
-    yield 0.3
+    yield from harness.redrawn(watch)
     read_sidebar("sidebar-object", view)
     pairs = bpy.context.scene.motionkit_retarget.pairs
     prefixes = [mk.core.display_names.shared_prefix(getattr(p, side) for p in pairs) for side in ("source", "target")]
     harness.report("bone_map.rows", [[mk.core.display_names.strip(p.source, prefixes[0]),
                                       mk.core.display_names.strip(p.target, prefixes[1])] for p in pairs[:6]])
+    harness.report("bone_map.sources", [mk.core.display_names.strip(p.source, prefixes[0]) for p in pairs])
 
-    # Item 3: a click on a row picks that effector, whatever part of the row it lands on, and changes
+    # A click on a row picks that effector, whatever part of the row it lands on, and changes
     # nothing else; the box below then names it.
     words = harness.read_region(shot("sidebar-rows"), harness.region(view, 'UI'))[0]
     header = harness.find_words(words, "Effectors (mixamorig:*)")
@@ -100,7 +115,9 @@ def steps():
         side = harness.region(view, 'UI')
         x = min(row[0]["x"] + 90, side.x + side.width - 70)
         yield from harness.click(x, row[0]["y"])
-    yield 0.4
+        yield from harness.wait_until(lambda: target.motionkit_ik.active_effector != 0, "the clicked row to be active",
+                                      timeout=3.0, required=False)
+    yield from harness.redrawn(watch)
     harness.report("effector.clicked_row_found", bool(row))
     harness.report("effector.active", target.motionkit_ik.active_effector)
     harness.report("effector.pins_unchanged", pins_before == [e.pin for e in target.motionkit_ik.effectors])
@@ -113,7 +130,9 @@ def steps():
     harness.report("live.off_readable", bool(live))
     if live:
         yield from harness.click(live[0]["x"], live[0]["y"])
-    yield 0.5
+        yield from harness.wait_until(lambda: target.motionkit_ik.live, "Live to turn on", timeout=3.0,
+                                      required=False)
+    yield from harness.redrawn(watch)
     harness.report("live.on_after_click", target.motionkit_ik.live)
     words = read_sidebar("sidebar-live", view)
     harness.report("live.on_readable", bool(harness.find_words(words, "Live: On")))
@@ -123,7 +142,7 @@ def steps():
     with harness.override(area_=view):
         bpy.ops.object.posemode_toggle()
         bpy.ops.pose.select_all(action='SELECT')
-    yield 0.5
+    yield from harness.redrawn(watch)
     yield from open_closed_panels(view, (("Plant Feet", "Height In"), ("Solver", "Iterations")))
     read_sidebar("sidebar-pose", view)
 
@@ -132,14 +151,12 @@ def steps():
                            ("dialog-reduce", bpy.ops.motionkit.reduce_keys),
                            ("dialog-schemes", bpy.ops.motionkit.bone_map_scheme)):
         harness.move(view.x + view.width // 2, view.y + view.height // 2)
-        yield 0.2
-        before = harness.screenshot(shot(name + "-before"))
+        before = yield from harness.settled_screenshot(shot(name + "-before"))
         with harness.override(area_=view):
             operator('INVOKE_DEFAULT')
-        yield 0.6
-        popup_words(name, before)
+        _, box = yield from popup_words(name, before)
         harness.key('ESC', x=view.x + view.width // 2, y=view.y + view.height // 2)
-        yield 0.4
+        yield from harness.popup_gone(before, box, shot(name + "-not-closed"))
 
     # Redo panels: the last operation's settings in the viewport's corner.
     with harness.override(area_=view):
@@ -147,19 +164,14 @@ def steps():
     for obj in bpy.context.view_layer.objects:
         obj.select_set(obj == objects["capture"])
     bpy.context.view_layer.objects.active = objects["capture"]
-    for name, operator in (("redo-reduce", bpy.ops.motionkit.reduce_keys),
-                           ("redo-resample", bpy.ops.motionkit.resample_keys)):
+    for name, operator, title, last in (("redo-reduce", bpy.ops.motionkit.reduce_keys, "Reduce Keys",
+                                         "Samples per Frame"),
+                                        ("redo-resample", bpy.ops.motionkit.resample_keys, "Resample Keys",
+                                         "Output")):
         with harness.override(area_=view):
             result = operator('EXEC_DEFAULT', True)
         harness.report(f"{name}.result", sorted(result))
-        yield 0.8
-        hud = harness.region(view, 'HUD')
-        yield from harness.click(hud.x + hud.width // 2, hud.y + hud.height // 2)  # open it, as its header does
-        yield 0.6
-        hud = harness.region(view, 'HUD')
-        words, blank = harness.read_region(shot(name), hud)
-        harness.report(f"{name}.words", harness.plain(words))
-        harness.report(f"{name}.blank", blank)
+        yield from redo_panel_open(view, name, title, last)
 
     # File browsers: import and export, each option group in its sub-panel.
     for name, operator in (("browser-import", bpy.ops.motionkit.import_bvh),
@@ -183,7 +195,8 @@ def steps():
         harness.report(f"{name}.words", harness.plain(words))
         harness.report(f"{name}.blank", blank)
         harness.key('ESC', win=browser, x=files.x + files.width // 2, y=files.y + files.height // 2)
-        yield 1.0
+        yield from harness.wait_until(lambda: not any(a.type == 'FILE_BROWSER' for w in bpy.context.window_manager.windows
+                                                      for a in w.screen.areas), f"{name}: the browser to close")
 
     # Menus: File > Import, and each animation editor's Key menu.
     menus = [("menu-import", None, "TOPBAR_MT_file_import")]
@@ -196,16 +209,13 @@ def steps():
         if ui_type is not None:
             timeline.ui_type = ui_type
             where = timeline
-        yield 0.5
         harness.move(where.x + where.width // 2, where.y + where.height // 2)
-        yield 0.2
-        before = harness.screenshot(shot(name + "-before"))
+        before = yield from harness.settled_screenshot(shot(name + "-before"))
         with harness.override(area_=where):
             bpy.ops.wm.call_menu(name=menu)
-        yield 0.6
-        popup_words(name, before)
+        _, box = yield from popup_words(name, before)
         harness.key('ESC', x=where.x + where.width // 2, y=where.y + where.height // 2)
-        yield 0.4
+        yield from harness.popup_gone(before, box, shot(name + "-not-closed"))
 
     # A Rigify rig as the retarget's target: the Controls sub-panel says what it is, its arms' and legs'
     # FK/IK choice active.
@@ -215,7 +225,7 @@ def steps():
         rig, _ = rigify_rig.generate()
     bpy.context.scene.motionkit_retarget.target = rig
     harness.report("rigify.described", mk.control_rigs.describe(rig))
-    yield 1.0
+    yield from harness.redrawn(watch)
     read_sidebar("sidebar-rigify", view)
 
 

@@ -5,6 +5,34 @@ from __future__ import annotations
 import re
 
 
+# Blender's ellipsis glyph, as tesseract reads it: the glyph itself, three dots or two.
+_ELLIPSIS = re.compile(r"\u2026|\.\.")
+
+
+def is_cut(word: str) -> bool:
+    """Whether a read word shows Blender's mark of a cut label: an ellipsis. A label cut by a letter or two
+    would otherwise pass as a slip of the reading ("Iteratio..." as "Iterations")."""
+    return bool(_ELLIPSIS.search(word))
+
+
+def cut_words(words) -> list[tuple[str, list[str]]]:
+    """Each read word that carries an ellipsis, with its readings joined to the word before and after it on
+    its line (tesseract may split a name cut in the middle at the ellipsis or an underscore: "lowe..."
+    "torso"): (word, [word, before + word, word + after]). words: dicts with positions or plain strings
+    (read in order, as one line)."""
+    if words and isinstance(words[0], str):
+        words = [{"text": w, "x": i, "y": 0} for i, w in enumerate(words)]
+    out = []
+    for line in _lines(words):
+        texts = [w["text"] for w in line]
+        for i, text in enumerate(texts):
+            if is_cut(text):
+                joined = [text] + ([texts[i - 1] + text] if i else []) + \
+                         ([text + texts[i + 1]] if i + 1 < len(texts) else [])
+                out.append((text, joined))
+    return out
+
+
 def _norm(word: str) -> str:
     return re.sub(r"[^0-9a-z]", "", word.lower())
 
@@ -35,8 +63,8 @@ def _distance(a: str, b: str) -> int:
 def find_words(words: list[dict], phrase: str, slips: int | None = None) -> list[dict]:
     """The read words that make up phrase: consecutive words of one line whose letters and digits, joined,
     differ from the phrase's by at most one letter in five whole ones (OCR misreads a letter now and then, 'BYH'
-    or 'Onentation', and splits or joins words at '_' or spaces; a label Blender cut loses its end and gains
-    dots, 'Live: On' is not 'Live: Off').
+    or 'Onentation', and splits or joins words at '_' or spaces; 'Live: On' is not 'Live: Off'). A word with
+    an ellipsis is never part of a match: Blender cut that label.
     [] when the phrase is not on screen whole. slips: the letters allowed to differ, instead."""
     wanted = _norm(phrase)
     if not wanted:
@@ -47,6 +75,8 @@ def find_words(words: list[dict], phrase: str, slips: int | None = None) -> list
         for i in range(len(line)):
             joined = ""
             for j in range(i, len(line)):
+                if is_cut(line[j]["text"]):
+                    break
                 joined += names[j]
                 if len(joined) > len(wanted) + 3:
                     break

@@ -95,7 +95,8 @@ def steps():
     live = harness.find_words(words, "Live: Off")
     assert live, "no 'Live: Off' button on screen"
     yield from harness.click(live[0]["x"], live[0]["y"])
-    yield 0.8
+    yield from harness.wait_until(lambda: hero.motionkit_ik.live and hand_to_goal() < 1e-3,
+                                  "Live to turn on and reach the goal", timeout=5.0, required=False)
     harness.report("ik.live_on", hero.motionkit_ik.live)
     harness.report("ik.reached", hand_to_goal())
 
@@ -103,21 +104,25 @@ def steps():
     with harness.override():
         bpy.ops.wm.save_as_mainfile(filepath=path)
         bpy.ops.wm.open_mainfile(filepath=path)
-    yield 1.0
+    yield from harness.wait_until(lambda: "MixamoT" in bpy.data.objects and "Goal" in bpy.data.objects,
+                                  "the saved file to open", timeout=10.0)
     hero, goal = bpy.data.objects["MixamoT"], bpy.data.objects["Goal"]
     harness.report("reopen.live_on", hero.motionkit_ik.live)
 
     select_only(goal)
     before = goal.location.copy()
     run(bpy.ops.transform.translate, value=(-0.05, 0.1, 0.08))
-    yield 0.8
+    yield from harness.wait_until(lambda: hand_to_goal() < 1e-3, "the hand to follow the goal", timeout=5.0,
+                                  required=False)
     harness.report("move.goal_moved", (goal.location - before).length)
     harness.report("move.reached", hand_to_goal())
     harness.read_region(os.path.join(out, "session-moved.png"), harness.region(view(), 'WINDOW'))
 
     with harness.override(area_=view()):
         bpy.ops.ed.undo()
-    yield 1.0
+    yield from harness.wait_until(lambda: (bpy.data.objects["Goal"].location - before).length < 1e-6
+                                  and hand_to_goal() < 1e-3, "the undo to put goal and hand back", timeout=5.0,
+                                  required=False)
     goal = bpy.data.objects["Goal"]
     harness.report("undo.goal_back", (goal.location - before).length)
     harness.report("undo.reached", hand_to_goal())
