@@ -176,6 +176,7 @@ def redrawn(panel: str, timeout: float = 10.0):
 def show_sidebar(view):
     """Opens the 3D view's sidebar, as N does, and waits until it has slid open (a scenario step)."""
     view.spaces[0].show_region_ui = True
+    yield 0.25  # drawn once before its size counts: a region not yet drawn has no tabs to set
     yield from wait_until(lambda: region(view, 'UI').width > 150, "the sidebar to open", timeout=10.0, step=0.25)
 
 
@@ -187,7 +188,10 @@ def open_tab(region_, panel: str, win=None):
     prop = bpy.types.Region.bl_rna.properties.get("active_panel_category")
     if prop is not None and not prop.is_readonly:
         DRAWN.clear()
-        region_.active_panel_category = panel.rsplit("_", 1)[1]
+        try:
+            region_.active_panel_category = panel.rsplit("_", 1)[1]
+        except AttributeError:  # 4.3 lists it as writable but refuses it: its tabs are clicked instead
+            pass
         for _ in range(10):
             yield 0.2
             if panel in DRAWN:
@@ -302,29 +306,38 @@ def settled_screenshot(path: str, win=None, timeout: float = 10.0):
     raise AssertionError(f"the window kept changing for {timeout:g} s ({path})")
 
 
+def _above_status_bar(win) -> int:
+    """Rows of the window (from the top) above its status bar, whose hints change with the pointer and a
+    popup by themselves. It lies below every other area (3.4 does not list it among the screen's areas)."""
+    return win.height - min(a.y for a in win.screen.areas if a.type != 'STATUSBAR')
+
+
 def popup_shown(before: np.ndarray, path: str, win=None, timeout: float = 10.0):
     """A scenario step (`yield from`): takes screenshots until a popup stands drawn (the box where they
-    differ from `before` is there and the same in two shots running); returns (pixels, box)."""
+    differ from `before` above the status bar is there and the same in two shots running); returns (pixels,
+    box). A box that reaches the status bar goes on to the window's bottom: a menu may cover it."""
     box = last = after = None
-    # The status bar's hints change with the pointer and the popup: never part of the popup's box. It lies
-    # below every other area (3.4 does not list it among the screen's areas).
     win = win or window()
-    rows = before.shape[0] - min(a.y for a in win.screen.areas if a.type != 'STATUSBAR')
+    rows = _above_status_bar(win)
     for _ in range(int(timeout / 0.2)):
         yield 0.2
         after = screenshot(None, win)
         box = changed_box(before[:rows], after[:rows])
         if box is not None and box == last:
             save_png(after, path)
-            return after, box
+            top, left, bottom, right = box
+            return after, (top, left, after.shape[0] if bottom >= rows else bottom, right)
         last = box
     raise AssertionError(f"no popup stood still on screen within {timeout:g} s ({path}): {box}")
 
 
 def popup_gone(before: np.ndarray, box, path: str, win=None, timeout: float = 10.0):
     """A scenario step (`yield from`): takes screenshots until where the popup stood (box, from popup_shown)
-    shows what it showed in `before` again; on a timeout the last is saved at path for a person to see."""
+    shows what it showed in `before` again, above the status bar; on a timeout the last is saved at path
+    for a person to see."""
+    win = win or window()
     top, left, bottom, right = box
+    bottom = min(bottom, _above_status_bar(win))
     last = [None]
 
     def gone():
