@@ -47,8 +47,8 @@ def filter(targets, kind: str = "butterworth", *, cutoff: float = filter_plan.MA
     """
     native = native_state.native()
     settings = FilterSettings(kind, cutoff, order, sigma, size, min_cutoff, beta, d_cutoff)
-    if keys not in dict(filter_plan.KEYS):
-        raise ValueError(f"unknown keys {keys!r}; expected one of {list(dict(filter_plan.KEYS))}")
+    if keys not in [k[0] for k in filter_plan.KEYS]:
+        raise ValueError(f"unknown keys {keys!r}; expected one of {[k[0] for k in filter_plan.KEYS]}")
     if channels not in _KINDS:
         raise ValueError(f"unknown channels {channels!r}; expected one of {list(_KINDS)}")
     work = []
