@@ -22,19 +22,21 @@ import bpy
 from .blender import animdata, pose_channels
 from .core import bone_mapping, control_rig, foot_contacts, rotation_channels
 from .core.native_state import native
-from .features import batch, batch_workers, bvh, cli, contacts, control_rigs, ik, resampling, retargeting, scene_timing
+from .features import batch, batch_workers, bvh, cli, contacts, control_rigs, filters, ik, resampling, retargeting, \
+    scene_timing
+from .features.filters import filter  # noqa: A004  (motionkit.filter, as the API names it)
 from .features.resampling import reduce_keys, resample
 from .features.batch import retarget_files
 from .features.retargeting import retarget
 from . import ui
 
-__all__ = ["animdata", "batch", "batch_workers", "bone_mapping", "cli", "bvh", "contacts", "control_rig", "control_rigs", "foot_contacts", "ik",
+__all__ = ["animdata", "batch", "batch_workers", "bone_mapping", "cli", "bvh", "contacts", "control_rig", "control_rigs", "filter", "filters", "foot_contacts", "ik",
            "native", "pose_channels", "reduce_keys", "resample", "resampling", "retarget", "retarget_files",
            "retargeting", "rotation_channels", "scene_timing"]
 
 # The public modules answer at the package's top as well (`from motionkit.ik import Effector`, `import
 # motionkit.bvh`), wherever the layers keep them, so that scripts do not depend on the add-on's layout.
-for _module in (animdata, batch, batch_workers, bone_mapping, bvh, cli, contacts, control_rig, control_rigs, foot_contacts, ik,
+for _module in (animdata, batch, batch_workers, bone_mapping, bvh, cli, contacts, control_rig, control_rigs, filters, foot_contacts, ik,
                 pose_channels, resampling, retargeting, rotation_channels, scene_timing):
     sys.modules.setdefault(f"{__package__}.{_module.__name__.rsplit('.', 1)[1]}", _module)
 del _module

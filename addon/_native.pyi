@@ -288,6 +288,35 @@ def evaluate_fcurves(
     times: npt.NDArray[np.float64],
 ) -> npt.NDArray[np.float64]: ...
 
+# Filters (native/python/bind_filters.cpp). kind is one of "butterworth",
+# "gaussian", "median", "one_euro"; each reads only its own keywords.
+def filter_channels(
+    values: npt.NDArray[np.float64],
+    kind: str,
+    fps: float,
+    *,
+    cutoff: float = 7.0,
+    order: int = 4,
+    sigma: float = 1.0,
+    size: int = 5,
+    min_cutoff: float = 1.0,
+    beta: float = 0.0,
+    d_cutoff: float = 1.0,
+) -> npt.NDArray[np.float64]: ...
+def filter_rotations(
+    quaternions: npt.NDArray[np.float64],
+    kind: str,
+    fps: float,
+    *,
+    cutoff: float = 7.0,
+    order: int = 4,
+    sigma: float = 1.0,
+    size: int = 5,
+    min_cutoff: float = 1.0,
+    beta: float = 0.0,
+    d_cutoff: float = 1.0,
+) -> npt.NDArray[np.float64]: ...
+
 # Functions only the tests use (native/python: the _testing submodule), written as a namespace so that
 # this one stub holds the module.
 class _testing:

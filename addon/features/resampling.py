@@ -30,7 +30,7 @@ _SMOOTH_ROTATIONS = {"squad", "catmull-rom", "euler-catmull-rom", "axis-angle-ca
 
 
 @dataclass
-class _Write:
+class KeyWrite:
     """One group's new keys, computed and checked, waiting to be written."""
     channels: list
     frames: np.ndarray
@@ -39,7 +39,7 @@ class _Write:
     handles: animdata.Handles | None
 
 
-def _target(target):
+def target_action(target):
     """(object, action) from an object or an action that some object plays."""
     if isinstance(target, bpy.types.Action):
         for obj in bpy.data.objects:
@@ -54,7 +54,7 @@ def _target(target):
     return target, action
 
 
-def _groups(obj, action, bones) -> list[ChannelGroup]:
+def channel_groups(obj, action, bones) -> list[ChannelGroup]:
     owners = None if bones is None else {pose_channels.bone_path(b) for b in bones}
 
     def euler_mode_of(owner):
@@ -72,7 +72,7 @@ def _groups(obj, action, bones) -> list[ChannelGroup]:
     return resample_plan.group_channels(triples, euler_mode_of)
 
 
-def _channels(obj, group: ChannelGroup) -> tuple[list, np.ndarray]:
+def channels_of_group(obj, group: ChannelGroup) -> tuple[list, np.ndarray]:
     """Every channel of the group (present or not) and each one's static value."""
     holder = obj.path_resolve(group.owner) if group.owner else obj
     static = np.atleast_1d(np.asarray(getattr(holder, group.prop) if group.prop else
@@ -93,7 +93,7 @@ def _keys(obj, action, group: ChannelGroup) -> tuple[list, np.ndarray, np.ndarra
     """The group's channels, its key times (union over its curves) and every channel there, (n, size)."""
     reads = {index: animdata.read_keys(fcurve) for index, fcurve in group.curves.items()}
     frames = [f for f, _ in reads.values()]
-    channels, static = _channels(obj, group)
+    channels, static = channels_of_group(obj, group)
     same = all(f.shape == frames[0].shape and np.array_equal(f, frames[0]) for f in frames)
     times = frames[0].astype(np.float64) if same else np.unique(np.concatenate(frames)).astype(np.float64)
     values = np.tile(static, (times.size, 1))
@@ -102,7 +102,7 @@ def _keys(obj, action, group: ChannelGroup) -> tuple[list, np.ndarray, np.ndarra
             if channel.index in reads:
                 values[:, row] = reads[channel.index][1]
     else:
-        values = _sample(obj, action, channels, static, times)
+        values = sample_channels(obj, action, channels, static, times)
     return channels, times, values
 
 
@@ -117,7 +117,7 @@ def _key_range(fcurve) -> tuple[float, float]:
     return points[0].co[0], points[-1].co[0]
 
 
-def _sample(obj, action, channels, static, times) -> np.ndarray:
+def sample_channels(obj, action, channels, static, times) -> np.ndarray:
     """The channels as Blender evaluates them at times, (n, size); a channel without a curve holds static."""
     return np.ascontiguousarray(animdata.sample(action, obj, channels, times, static)[0].T)
 
@@ -233,12 +233,12 @@ def _handles(frames, values, slopes) -> animdata.Handles:
     return animdata.Handles(*resample_plan.bezier_handles(frames, values, slopes_in, slopes_out))
 
 
-def _targets(targets) -> list:
+def target_actions(targets) -> list:
     """[(object, action)] from one object or action, or a list of them, each once."""
     items = targets if isinstance(targets, (list, tuple, set)) else [targets]
     pairs = []
     for item in items:
-        pair = _target(item)
+        pair = target_action(item)
         if all(pair[0] != seen[0] for seen in pairs):
             pairs.append(pair)
     if not pairs:
@@ -246,7 +246,7 @@ def _targets(targets) -> list:
     return pairs
 
 
-def _bones_of(bones, obj):
+def bones_of(bones, obj):
     return bones.get(obj.name) if isinstance(bones, dict) else bones
 
 
@@ -271,7 +271,7 @@ def resample(targets, step: float | None = None, fps: float | None = None, *, ro
     leaves every action and the scene as they were.
     """
     native = native_state.native()
-    pairs = _targets(targets)
+    pairs = target_actions(targets)
     scene = scene or bpy.context.scene
     valid_scalar = [item[0] for item in resample_plan.SCALAR_INTERPOLANTS]
     valid_rotation = [item[0] for item in resample_plan.ROTATION_INTERPOLANTS]
@@ -289,7 +289,7 @@ def resample(targets, step: float | None = None, fps: float | None = None, *, ro
 
     work = []
     for obj, action in pairs:
-        groups = _groups(obj, action, _bones_of(bones, obj))
+        groups = channel_groups(obj, action, bones_of(bones, obj))
         if not groups:
             raise ValueError(f"'{obj.name}' has no keys to resample" + (" on the selected bones" if bones else ""))
         work.append((obj, action, groups))
@@ -316,7 +316,7 @@ def resample(targets, step: float | None = None, fps: float | None = None, *, ro
                     progress(done, total)
                 done += 1
                 writes.append(future.result())
-            _check_finite(obj, writes)
+            check_finite(obj, writes)
             planned.append((obj, action, writes))
     for obj, action, writes in planned:
         for write in writes:
@@ -332,9 +332,9 @@ def resample(targets, step: float | None = None, fps: float | None = None, *, ro
     return [action for _, action, _ in planned]
 
 
-def _resample_group(native, channels, group, times, values, grid, scalar, rotation, output, tcb) -> _Write:
+def _resample_group(native, channels, group, times, values, grid, scalar, rotation, output, tcb) -> KeyWrite:
     if times.size == 1:
-        return _Write(channels, times, np.ascontiguousarray(values.T), 'LINEAR', None)
+        return KeyWrite(channels, times, np.ascontiguousarray(values.T), 'LINEAR', None)
     own_grid = resample_plan.segment_grid(grid, float(times[0]), float(times[-1]))
     if group.kind == 'rotation':
         new, interpolation, slopes = _resample_rotation(native, group, times, values, own_grid,
@@ -344,10 +344,10 @@ def _resample_group(native, channels, group, times, values, grid, scalar, rotati
                                                       scalar, output, tcb)
     values_t = np.ascontiguousarray(new.T)
     handles = _handles(own_grid, values_t, (slopes[0].T, slopes[1].T)) if slopes is not None else None
-    return _Write(channels, own_grid, values_t, interpolation, handles)
+    return KeyWrite(channels, own_grid, values_t, interpolation, handles)
 
 
-def _check_finite(obj, writes) -> None:
+def check_finite(obj, writes) -> None:
     for write in writes:
         arrays = [write.values] + ([write.handles.left_values, write.handles.right_values]
                                    if write.handles is not None else [])
@@ -380,7 +380,7 @@ def reduce_keys(targets, tolerance: float = 1e-3, rotation_tolerance: float = np
     ValueError leaves every action as it was.
     """
     native = native_state.native()
-    pairs = _targets(targets)
+    pairs = target_actions(targets)
     if not (np.isfinite(tolerance) and tolerance > 0 and np.isfinite(rotation_tolerance)
             and rotation_tolerance > 0):
         raise ValueError("reduce_keys: tolerances must be positive")
@@ -388,7 +388,7 @@ def reduce_keys(targets, tolerance: float = 1e-3, rotation_tolerance: float = np
         raise ValueError("reduce_keys: samples_per_frame must be an integer from 1 to 64")
     work = []
     for obj, action in pairs:
-        groups = _groups(obj, action, _bones_of(bones, obj))
+        groups = channel_groups(obj, action, bones_of(bones, obj))
         if not groups:
             raise ValueError(f"'{obj.name}' has no keys to reduce")
         for group in groups:
@@ -410,7 +410,7 @@ def reduce_keys(targets, tolerance: float = 1e-3, rotation_tolerance: float = np
             writes.append(_reduce_group(native, obj, action, group, tolerance, rotation_tolerance,
                                         samples_per_frame))
             after += writes[-1].values.size
-        _check_finite(obj, writes)
+        check_finite(obj, writes)
         planned.append((obj, action, writes))
     for obj, action, writes in planned:
         for write in writes:
@@ -418,8 +418,8 @@ def reduce_keys(targets, tolerance: float = 1e-3, rotation_tolerance: float = np
     return before, after
 
 
-def _reduce_group(native, obj, action, group, tolerance, rotation_tolerance, samples_per_frame) -> _Write:
-    channels, static = _channels(obj, group)
+def _reduce_group(native, obj, action, group, tolerance, rotation_tolerance, samples_per_frame) -> KeyWrite:
+    channels, static = channels_of_group(obj, group)
     reads = [animdata.read_keys(fcurve)[0] for fcurve in group.curves.values()]
     first = min(float(f[0]) for f in reads)
     last = max(float(f[-1]) for f in reads)
@@ -427,7 +427,7 @@ def _reduce_group(native, obj, action, group, tolerance, rotation_tolerance, sam
     times = first + np.arange(count, dtype=np.float64) / samples_per_frame
     if last - times[-1] > 1e-9:
         times = np.append(times, last)
-    values = _sample(obj, action, channels, static, times)
+    values = sample_channels(obj, action, channels, static, times)
     kind, order, tol = "absolute", "XYZ", tolerance
     columns = np.arange(values.shape[1])
     if group.kind == 'rotation':
@@ -450,4 +450,4 @@ def _reduce_group(native, obj, action, group, tolerance, rotation_tolerance, sam
     frames = times[indices]
     values_t = np.ascontiguousarray(values[indices].T)
     handles = _handles(frames, values_t, (slopes_in.T, slopes_out.T))
-    return _Write(channels, frames, values_t, 'BEZIER', handles)
+    return KeyWrite(channels, frames, values_t, 'BEZIER', handles)

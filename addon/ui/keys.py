@@ -1,4 +1,4 @@
-"""Resample Keys and Reduce Keys: Graph Editor and Dope Sheet Key menus, and the MotionKit tab."""
+"""Resample, Reduce and Filter Keys: Graph Editor and Dope Sheet Key menus, and the MotionKit tab."""
 import math
 
 import bpy
@@ -6,8 +6,8 @@ from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty
 
 from . import common
 from ..blender import animdata
-from ..core import resample_plan
-from ..features import resampling
+from ..core import filter_plan, resample_plan
+from ..features import filters, resampling
 
 
 def _targets(context):
@@ -117,14 +117,60 @@ class MOTIONKIT_OT_reduce_keys(_KeysOperator, bpy.types.Operator):
             lambda counts: f"Reduced {counts[0]} keys to {counts[1]}")
 
 
+class MOTIONKIT_OT_filter_keys(_KeysOperator, bpy.types.Operator):
+    """Filter the motion: low-pass, Gaussian, median or One-Euro, rotations on the quaternion sphere (MotionKit)"""
+    bl_idname = "motionkit.filter_keys"
+    bl_label = "Filter Keys"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    kind: EnumProperty(name="Filter", items=filter_plan.FILTERS, default="butterworth")
+    cutoff: FloatProperty(name="Cut-off", description="Hz, in the action's own frame rate",
+                          default=filter_plan.MAYA_CUTOFF_HZ, min=1e-3, max=1e4)
+    order: IntProperty(name="Order", default=4, min=1, max=8)
+    sigma: FloatProperty(name="Sigma", description="Frames", default=1.0, min=1e-3, max=1e3)
+    size: IntProperty(name="Window", description="Frames, odd", default=5, min=3, max=101, step=2)
+    min_cutoff: FloatProperty(name="Min Cut-off", description="Hz, when still", default=1.0, min=1e-3, max=1e3)
+    beta: FloatProperty(name="Speed Coefficient", description="How fast the cut-off rises with speed",
+                        default=0.0, min=0.0, max=1e3)
+    d_cutoff: FloatProperty(name="Speed Cut-off", description="Hz, of the speed estimate", default=1.0,
+                            min=1e-3, max=1e3)
+    keys: EnumProperty(name="Keys", items=filter_plan.KEYS, default="EVERY_FRAME")
+    channels: EnumProperty(name="Channels", items=filter_plan.CHANNELS, default="ALL")
+    use_range: BoolProperty(name="Scene Range", default=False, description="Only the scene's frame range")
+
+    _PARAMETERS = {"butterworth": ("cutoff", "order"), "gaussian": ("sigma",), "median": ("size",),
+                   "one_euro": ("min_cutoff", "beta", "d_cutoff"), "euler": ()}
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        layout.prop(self, "kind")
+        for name in self._PARAMETERS[self.kind]:
+            layout.prop(self, name)
+        layout.prop(self, "channels")
+        layout.prop(self, "keys")
+        layout.prop(self, "use_range")
+
+    def execute(self, context):
+        scene = context.scene
+        frame_range = (scene.frame_start, scene.frame_end) if self.use_range else None
+        size = self.size if self.size % 2 else self.size + 1
+        return self.run(context, lambda objects, bones, progress: filters.filter(
+            objects, self.kind, cutoff=self.cutoff, order=self.order, sigma=self.sigma, size=size,
+            min_cutoff=self.min_cutoff, beta=self.beta, d_cutoff=self.d_cutoff, bones=bones,
+            frame_range=frame_range, keys=self.keys, channels=self.channels, progress=progress),
+            lambda report: f"Filtered {report.curves} curves ({report.keys_before} keys, now {report.keys_after})")
+
+
 def menu_keys(self, context):
     layout = self.layout
     layout.separator()
     layout.operator(MOTIONKIT_OT_resample_keys.bl_idname, text="Resample Keys [MotionKit]")
     layout.operator(MOTIONKIT_OT_reduce_keys.bl_idname, text="Reduce Keys [MotionKit]")
+    layout.operator(MOTIONKIT_OT_filter_keys.bl_idname, text="Filter Keys [MotionKit]")
 
 
 MENUS = ("GRAPH_MT_key", "DOPESHEET_MT_key")
 
 
-classes = (MOTIONKIT_OT_resample_keys, MOTIONKIT_OT_reduce_keys)
+classes = (MOTIONKIT_OT_resample_keys, MOTIONKIT_OT_reduce_keys, MOTIONKIT_OT_filter_keys)

@@ -26,4 +26,6 @@ class MOTIONKIT_PT_main(common.SidebarPanel, bpy.types.Panel):
         row = layout.row(align=True)
         row.operator("motionkit.resample_keys", text="Resample", icon='IPO_BEZIER')
         row.operator("motionkit.reduce_keys", text="Reduce", icon='IPO_LINEAR')
+        row = layout.row(align=True)
+        row.operator("motionkit.filter_keys", text="Filter", icon='SMOOTHCURVE')
         layout.operator("motionkit.fix_foot_sliding", icon='CON_FLOOR')

@@ -72,5 +72,6 @@ void BindRig(pybind11::module_& m);
 void BindRetarget(pybind11::module_& m);
 void BindIk(pybind11::module_& m);
 void BindContacts(pybind11::module_& m);
+void BindFilters(pybind11::module_& m);
 
 }  // namespace motionkit::python

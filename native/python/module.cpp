@@ -101,4 +101,5 @@ PYBIND11_MODULE(_native, m) {
   motionkit::python::BindRetarget(m);
   motionkit::python::BindIk(m);
   motionkit::python::BindContacts(m);
+  motionkit::python::BindFilters(m);
 }
