@@ -96,7 +96,8 @@ def test_every_surface_draws_without_a_python_error(panels):
     assert panels["problems"] == [], panels["problems"]
 
 
-SCREENS = ("sidebar-object", "sidebar-pose", "dialog-resample", "dialog-reduce", "dialog-schemes", "redo-reduce",
+SCREENS = ("sidebar-object", "sidebar-pose", "dialog-resample", "dialog-reduce", "dialog-schemes", "dialog-filter",
+           "redo-reduce",
            "redo-resample", "browser-import", "browser-export", "menu-import", "menu-graph-key",
            "menu-dopesheet-key", "sidebar-rigify")
 
@@ -111,7 +112,7 @@ def test_screenshots_are_not_blank(panels, name):
 
 SIDEBAR_LABELS = (
     # MotionKit
-    "Motion Capture (BVH)", "Import", "Export", "Keys", "Resample", "Reduce", "Fix Foot Sliding",
+    "Motion Capture (BVH)", "Import", "Export", "Keys", "Resample", "Reduce", "Filter", "Fix Foot Sliding",
     # Retarget, Bone Map, Options, Plant Feet
     "Armature", "File", "Source", "Target", "Retarget", "Bone Map", "Load", "Save", "Auto-map", "Schemes",
     "Source Bone", "Target Bone", "Options", "Match Poses", "Rest pose", "Root Motion", "Scaled", "Floor Root",
@@ -193,6 +194,8 @@ DIALOG_LABELS = {
                         "Output"),
     "dialog-reduce": ("Reduce Keys", "Tolerance", "Rotation Tolerance", "Samples per Frame"),
     "dialog-schemes": ("Map by Schemes", "Source Scheme", "Target Scheme"),
+    "dialog-filter": ("Filter Keys", "Filter", "Butterworth", "Cut-off", "Order", "Channels", "Keys", "Every Frame",
+                      "Scene Range"),
     "redo-reduce": ("Reduce Keys", "Tolerance", "Rotation Tolerance", "Samples per Frame"),
     "redo-resample": ("Resample Keys", "Timing", "Frame Rate", "Change Rate", "Location/Scale", "Rotation",
                       "Output"),
@@ -221,11 +224,12 @@ def test_file_browsers_group_options_in_sub_panels(panels, name):
 
 def test_menus_name_motionkit_in_blenders_capitalisation(panels):
     """File > Import reads 'Motion Capture (.bvh) [MotionKit]'; the Key menus of the Graph Editor
-    and the Dope Sheet hold Resample Keys and Reduce Keys."""
+    and the Dope Sheet hold Resample, Reduce and Filter Keys."""
     assert unread(panels, "menu-import", ["Motion Capture (.bvh) [MotionKit]"]) == []
     assert "Capture" in [w["text"] for w in panels["menu-import.words"]]
     for menu in ("menu-graph-key", "menu-dopesheet-key"):
-        assert unread(panels, menu, ["Resample Keys [MotionKit]", "Reduce Keys [MotionKit]"]) == []
+        assert unread(panels, menu, ["Resample Keys [MotionKit]", "Reduce Keys [MotionKit]",
+                                     "Filter Keys [MotionKit]"]) == []
 
 
 @pytest.fixture(scope="module")

@@ -149,7 +149,8 @@ def steps():
     # Dialogs, as a click on their buttons opens them.
     for name, operator in (("dialog-resample", bpy.ops.motionkit.resample_keys),
                            ("dialog-reduce", bpy.ops.motionkit.reduce_keys),
-                           ("dialog-schemes", bpy.ops.motionkit.bone_map_scheme)):
+                           ("dialog-schemes", bpy.ops.motionkit.bone_map_scheme),
+                           ("dialog-filter", bpy.ops.motionkit.filter_keys)):
         harness.move(view.x + view.width // 2, view.y + view.height // 2)
         before = yield from harness.settled_screenshot(shot(name + "-before"))
         with harness.override(area_=view):
