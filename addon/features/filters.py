@@ -16,8 +16,8 @@ import numpy as np
 from ..blender import animdata
 from ..core import filter_plan, native_state
 from ..core.filter_plan import FilterSettings
-from .resampling import KeyWrite, bones_of, channel_groups, channels_of_group, check_finite, sample_channels, \
-    target_actions
+from .resampling import KeyWrite, bones_of, channel_groups, channels_of_group, plan_group_writes, sample_channels, \
+    target_actions, write_planned
 
 _KINDS = {"ALL": ('rotation', 'vector', 'scalar'), "ROTATION": ('rotation',), "LOCATION": ('vector',)}
 
@@ -51,7 +51,7 @@ def filter(targets, kind: str = "butterworth", *, cutoff: float = filter_plan.MA
         raise ValueError(f"unknown keys {keys!r}; expected one of {[k[0] for k in filter_plan.KEYS]}")
     if channels not in _KINDS:
         raise ValueError(f"unknown channels {channels!r}; expected one of {list(_KINDS)}")
-    work = []
+    work, rates = [], {}
     for obj, action in target_actions(targets):
         fps = animdata.frame_rate(action)
         settings.check(fps, f"'{action.name}'")
@@ -59,23 +59,12 @@ def filter(targets, kind: str = "butterworth", *, cutoff: float = filter_plan.MA
         groups = [g for g in groups if not animdata.holds_every_key(next(iter(g.curves.values())))]
         if not groups:
             raise ValueError(f"'{obj.name}' has no keys to filter" + (" on the selected bones" if bones else ""))
-        work.append((obj, action, fps, groups))
-    total = sum(len(groups) for *_, groups in work)
-    planned, before, after, done = [], 0, 0, 0
-    for obj, action, fps, groups in work:
-        writes = []
-        for group in groups:
-            if progress is not None:
-                progress(done, total)
-            done += 1
-            before += sum(len(fcurve.keyframe_points) for fcurve in group.curves.values())
-            writes.append(_filter_group(native, obj, action, group, settings, fps, frame_range, keys))
-            after += writes[-1].values.size
-        check_finite(obj, writes)
-        planned.append((obj, action, writes))
-    for obj, action, writes in planned:
-        for write in writes:
-            animdata.write_keys(obj, action, write.channels, write.frames, write.values, write.interpolation)
+        work.append((obj, action, groups))
+        rates[obj.name] = fps
+    planned, before, after = plan_group_writes(
+        work, lambda obj, action, group: _filter_group(native, obj, action, group, settings, rates[obj.name],
+                                                       frame_range, keys), progress)
+    write_planned(planned)
     return FilterReport(sum(len(w.channels) for *_, ws in planned for w in ws), before, after,
                         [action for _, action, _ in planned])
 

@@ -318,10 +318,7 @@ def resample(targets, step: float | None = None, fps: float | None = None, *, ro
                 writes.append(future.result())
             check_finite(obj, writes)
             planned.append((obj, action, writes))
-    for obj, action, writes in planned:
-        for write in writes:
-            animdata.write_keys(obj, action, write.channels, write.frames, write.values,
-                                write.interpolation, write.handles)
+    write_planned(planned)
     if timing.scene_fps is not None:
         _set_scene_rate(scene, timing)
         # The actions' frames now count the new rate's frames: a capture's recorded rate (animdata.FRAME_RATE,
@@ -397,9 +394,19 @@ def reduce_keys(targets, tolerance: float = 1e-3, rotation_tolerance: float = np
                     raise ValueError(f"{fcurve.data_path}[{fcurve.array_index}] has F-curve modifiers: "
                                      "apply or remove them before reducing its keys")
         work.append((obj, action, groups))
+    planned, before, after = plan_group_writes(
+        work, lambda obj, action, group: _reduce_group(native, obj, action, group, tolerance, rotation_tolerance,
+                                                       samples_per_frame), progress)
+    write_planned(planned)
+    return before, after
+
+
+def plan_group_writes(work, compute, progress) -> tuple[list, int, int]:
+    """Each group's new keys, computed and checked before anything is written: work [(object, action,
+    groups)], compute(object, action, group) -> KeyWrite, progress(done, total) or None. Returns
+    ([(object, action, writes)], keys before, keys after)."""
     total = sum(len(groups) for _, _, groups in work)
-    before = after = done = 0
-    planned = []
+    planned, before, after, done = [], 0, 0, 0
     for obj, action, groups in work:
         writes = []
         for group in groups:
@@ -407,15 +414,19 @@ def reduce_keys(targets, tolerance: float = 1e-3, rotation_tolerance: float = np
                 progress(done, total)
             done += 1
             before += sum(len(fcurve.keyframe_points) for fcurve in group.curves.values())
-            writes.append(_reduce_group(native, obj, action, group, tolerance, rotation_tolerance,
-                                        samples_per_frame))
+            writes.append(compute(obj, action, group))
             after += writes[-1].values.size
         check_finite(obj, writes)
         planned.append((obj, action, writes))
+    return planned, before, after
+
+
+def write_planned(planned) -> None:
+    """Writes what plan_group_writes computed, in bulk."""
     for obj, action, writes in planned:
         for write in writes:
-            animdata.write_keys(obj, action, write.channels, write.frames, write.values, 'BEZIER', write.handles)
-    return before, after
+            animdata.write_keys(obj, action, write.channels, write.frames, write.values, write.interpolation,
+                                write.handles)
 
 
 def _reduce_group(native, obj, action, group, tolerance, rotation_tolerance, samples_per_frame) -> KeyWrite:

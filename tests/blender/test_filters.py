@@ -5,6 +5,7 @@ import math
 import bpy
 import numpy as np
 import pytest
+from keyed_objects import animated_empty
 from scipy import ndimage, signal
 from scipy.spatial.transform import Rotation
 
@@ -15,15 +16,6 @@ FPS = 30
 def scene_rate():
     scene = bpy.context.scene
     scene.render.fps, scene.render.fps_base = FPS, 1.0
-
-
-def _animated_empty(animdata, frames, location, name="Mover"):
-    obj = bpy.data.objects.new(name, None)
-    bpy.context.scene.collection.objects.link(obj)
-    action = animdata.new_action(f"{name}Action")
-    animdata.assign(obj, action)
-    animdata.write_keys(obj, action, [("location", k, "Object Transforms") for k in range(3)], frames, location)
-    return obj, action
 
 
 def _evaluated(animdata, obj, path, size, frames):
@@ -56,7 +48,7 @@ def test_locations_are_filtered_as_scipy_filters_them(mk, animdata, kind, option
     float32 in Blender: 1e-5 of a metre)."""
     frames = np.arange(1, 241, dtype=np.float64)
     location = _f32(_noisy_walk(frames.size))
-    obj, action = _animated_empty(animdata, frames, location.T)
+    obj, action = animated_empty(animdata, frames, location.T)
     report = mk.filter(obj, kind, **options)
     assert report.curves == 3 and report.keys_after == 3 * frames.size
     got = _evaluated(animdata, obj, "location", 3, frames)
@@ -163,7 +155,7 @@ def test_original_keys_and_a_frame_range(mk, animdata):
     """keys='ORIGINAL' keeps the key frames; a frame range leaves the keys outside it as they were."""
     frames = np.arange(1, 241, 3, dtype=np.float64)
     location = _f32(_noisy_walk(frames.size, seed=5))
-    obj, action = _animated_empty(animdata, frames, location.T)
+    obj, action = animated_empty(animdata, frames, location.T)
     mk.filter(obj, "gaussian", sigma=1.5, keys="ORIGINAL", frame_range=(60, 150))
     for k in range(3):
         got_frames, got = animdata.read_keys(animdata.find_fcurve(action, obj, "location", k))
@@ -209,7 +201,7 @@ def _all_keys(animdata, obj):
 ])
 def test_bad_settings_name_the_problem_and_change_nothing(mk, animdata, options, message):
     frames = np.arange(1, 61, dtype=np.float64)
-    obj, _ = _animated_empty(animdata, frames, _noisy_walk(frames.size).T)
+    obj, _ = animated_empty(animdata, frames, _noisy_walk(frames.size).T)
     before = _all_keys(animdata, obj)
     with pytest.raises(ValueError, match=message):
         mk.filter(obj, **options)
@@ -220,7 +212,7 @@ def test_bad_settings_name_the_problem_and_change_nothing(mk, animdata, options,
 def test_the_operator_filters_the_selected_objects_and_reports_errors(mk, animdata):
     frames = np.arange(1, 121, dtype=np.float64)
     location = _f32(_noisy_walk(frames.size, seed=9))
-    obj, action = _animated_empty(animdata, frames, location.T)
+    obj, action = animated_empty(animdata, frames, location.T)
     obj.select_set(True)
     bpy.context.view_layer.objects.active = obj
     with pytest.raises(RuntimeError, match="Nyquist"):

@@ -5,6 +5,7 @@ import math
 import bpy
 import numpy as np
 import pytest
+from keyed_objects import animated_empty
 
 SCALAR_EXACT = ["catmull-rom", "centripetal", "chordal", "kochanek-bartels", "natural", "clamped",
                 "not-a-knot", "monotone", "periodic"]
@@ -13,15 +14,6 @@ ROTATION_KINDS = ["squad", "slerp", "catmull-rom", "kochanek-bartels"]
 
 def _float32(values):
     return np.asarray(values, dtype=np.float32).astype(np.float64)
-
-
-def _animated_empty(animdata, frames, location, name="Mover"):
-    obj = bpy.data.objects.new(name, None)
-    bpy.context.scene.collection.objects.link(obj)
-    action = animdata.new_action(f"{name}Action")
-    animdata.assign(obj, action)
-    animdata.write_keys(obj, action, [("location", k, "Object Transforms") for k in range(3)], frames, location)
-    return obj, action
 
 
 def _keys(animdata, action, obj, path, index):
@@ -71,7 +63,7 @@ def test_exact_keys_make_blender_draw_the_native_curve(mk, animdata, native, kin
     location += rng.normal(scale=0.05, size=location.shape)
     if kind == "periodic":
         location[:, -1] = location[:, 0]
-    obj, action = _animated_empty(animdata, frames, location)
+    obj, action = animated_empty(animdata, frames, location)
     tcb = {"tension": 0.3, "bias": -0.2} if kind == "kochanek-bartels" else {}
     mk.resample(obj, step=2.0, scalar=kind, output='EXACT', **tcb)
 
@@ -108,7 +100,7 @@ def test_exact_keys_make_blender_draw_the_native_curve(mk, animdata, native, kin
 def test_linear_and_stepped_use_blenders_own_key_types(mk, animdata, native, kind, interpolation):
     frames = np.arange(1.0, 31.0)
     location = np.vstack([np.sin(frames / 4.0), np.cos(frames / 5.0), frames / 10.0])
-    obj, action = _animated_empty(animdata, frames, location)
+    obj, action = animated_empty(animdata, frames, location)
     mk.resample(obj, step=3.0, scalar=kind)
     fcurve, new_frames, new_values = _keys(animdata, action, obj, "location", 0)
     assert {p.interpolation for p in fcurve.keyframe_points} == {interpolation}
@@ -224,7 +216,7 @@ def test_new_frame_rate_rescales_keys_and_the_scene(mk, animdata):
     scene.frame_start, scene.frame_end = 1, 121
     frames = np.arange(1.0, 122.0)
     location = np.vstack([np.sin(frames / 10.0), frames / 60.0, np.zeros_like(frames)])
-    obj, action = _animated_empty(animdata, frames, location)
+    obj, action = animated_empty(animdata, frames, location)
     try:
         mk.resample(obj, fps=24.0, change_scene_rate=True, scalar="natural")
         _, new_frames, y = _keys(animdata, action, obj, "location", 1)
@@ -239,7 +231,7 @@ def test_new_frame_rate_rescales_keys_and_the_scene(mk, animdata):
 def test_bad_requests_change_nothing(mk, animdata):
     frames = np.arange(1.0, 101.0)
     location = np.vstack([np.sin(frames), np.cos(frames), frames])
-    obj, action = _animated_empty(animdata, frames, location)
+    obj, action = animated_empty(animdata, frames, location)
     before = [animdata.read_keys(f) for f in animdata.fcurves(action, obj)]
     for kwargs, message in [({"step": 2.0, "scalar": "polynomial"}, "Runge"),
                             ({"step": -1.0}, "frame step must be positive"),
@@ -253,7 +245,7 @@ def test_bad_requests_change_nothing(mk, animdata):
 
 def test_operator_reports_errors_and_resamples_selected_objects(mk, animdata):
     frames = np.arange(1.0, 101.0)
-    obj, action = _animated_empty(animdata, frames, np.vstack([np.sin(frames), np.cos(frames), frames]))
+    obj, action = animated_empty(animdata, frames, np.vstack([np.sin(frames), np.cos(frames), frames]))
     obj.select_set(True)
     bpy.context.view_layer.objects.active = obj
     with pytest.raises(RuntimeError, match="Runge"):
@@ -276,7 +268,7 @@ def test_operator_reports_errors_and_resamples_selected_objects(mk, animdata):
 def test_reduce_keys_stays_within_tolerance(mk, animdata, native):
     frames = np.arange(1.0, 401.0)
     location = np.vstack([np.sin(frames / 15.0), 0.2 * np.cos(frames / 7.0), frames / 100.0])
-    obj, action = _animated_empty(animdata, frames, location)
+    obj, action = animated_empty(animdata, frames, location)
     dense = np.arange(1.0, 400.0 + 1e-9, 0.1)
     original = np.array([[animdata.find_fcurve(action, obj, "location", k).evaluate(t) for t in dense]
                          for k in range(3)])
