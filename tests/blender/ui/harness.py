@@ -306,6 +306,20 @@ def settled_screenshot(path: str, win=None, timeout: float = 10.0):
     raise AssertionError(f"the window kept changing for {timeout:g} s ({path})")
 
 
+def popup_box(before: np.ndarray, after: np.ndarray):
+    """(top, left, bottom, right) of a popup that appeared between two screenshots, or None: the rows and
+    then the columns where most pixels changed. A popup changes nearly every pixel it covers; a viewport
+    redrawn beside it (its anti-aliasing starting again) changes only thin outlines, which stay out."""
+    changed = np.abs(after[..., :3] - before[..., :3]).max(axis=2) > 0.02
+    per_row = changed.sum(axis=1)
+    if not per_row.any():
+        return None
+    rows = np.flatnonzero(per_row >= 0.5 * per_row.max())
+    per_column = changed[rows[0]:rows[-1] + 1].sum(axis=0)
+    columns = np.flatnonzero(per_column >= 0.5 * per_column.max())
+    return int(rows[0]), int(columns[0]), int(rows[-1]) + 1, int(columns[-1]) + 1
+
+
 def _above_status_bar(win) -> int:
     """Rows of the window (from the top) above its status bar, whose hints change with the pointer and a
     popup by themselves. It lies below every other area (3.4 does not list it among the screen's areas)."""
@@ -322,7 +336,7 @@ def popup_shown(before: np.ndarray, path: str, win=None, timeout: float = 10.0):
     for _ in range(int(timeout / 0.2)):
         yield 0.2
         after = screenshot(None, win)
-        box = changed_box(before[:rows], after[:rows])
+        box = popup_box(before[:rows], after[:rows])
         if box is not None and box == last:
             save_png(after, path)
             top, left, bottom, right = box
