@@ -19,7 +19,9 @@ from ..core.filter_plan import FilterSettings
 from .resampling import KeyWrite, bones_of, channel_groups, channels_of_group, plan_group_writes, sample_channels, \
     target_actions, write_planned
 
-_KINDS = {"ALL": ('rotation', 'vector', 'scalar'), "ROTATION": ('rotation',), "LOCATION": ('vector',)}
+# Which channel groups each `channels` choice takes: scale is a vector too, but not a location.
+_CHOSEN = {"ALL": lambda group: True, "ROTATION": lambda group: group.kind == 'rotation',
+           "LOCATION": lambda group: group.prop in ("location", "delta_location")}
 
 
 @dataclass
@@ -49,13 +51,13 @@ def filter(targets, kind: str = "butterworth", *, cutoff: float = filter_plan.MA
     settings = FilterSettings(kind, cutoff, order, sigma, size, min_cutoff, beta, d_cutoff)
     if keys not in [k[0] for k in filter_plan.KEYS]:
         raise ValueError(f"unknown keys {keys!r}; expected one of {[k[0] for k in filter_plan.KEYS]}")
-    if channels not in _KINDS:
-        raise ValueError(f"unknown channels {channels!r}; expected one of {list(_KINDS)}")
+    if channels not in _CHOSEN:
+        raise ValueError(f"unknown channels {channels!r}; expected one of {list(_CHOSEN)}")
     work, rates = [], {}
     for obj, action in target_actions(targets):
         fps = animdata.frame_rate(action)
         settings.check(fps, f"'{action.name}'")
-        groups = [g for g in channel_groups(obj, action, bones_of(bones, obj)) if g.kind in _KINDS[channels]]
+        groups = [g for g in channel_groups(obj, action, bones_of(bones, obj)) if _CHOSEN[channels](g)]
         groups = [g for g in groups if not animdata.holds_every_key(next(iter(g.curves.values())))]
         if not groups:
             raise ValueError(f"'{obj.name}' has no keys to filter" + (" on the selected bones" if bones else ""))
