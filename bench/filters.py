@@ -204,8 +204,8 @@ def main() -> None:
     results = run_ways(mk, animdata, obj, source, args, "ALL")
     found_all = check_agreement(animdata, obj, results)
     print_rows(f"all {curves}", results, args)
-    for label, agreement in (("location curves alone", found), ("every curve", found_all)):
-        print(f"\nFiltering the {label}: largest difference from MotionKit on location curves: Python loop "
+    for label, agreement in (("the location curves alone", found), ("every curve", found_all)):
+        print(f"\nFiltering {label}: largest difference from MotionKit on location curves: Python loop "
               f"{agreement['python']:.2e} m" + (f"; Blender {agreement['blender inside']:.2e} m a second from the "
                                                  f"ends, {agreement['blender ends']:.2e} m at the ends"
                                                  if "blender inside" in agreement else ""))
