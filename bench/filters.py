@@ -84,7 +84,8 @@ def has_blender_butterworth() -> bool:
 
 
 def run_ways(mk, animdata, obj, source, args, channels: str) -> dict:
-    """{way: (median seconds, the action of its last run)} for each way this Blender has, filtering every
+    """{way: (median wall seconds, median CPU seconds of the process's threads, the action of its last run)}
+    for each way this Blender has, filtering every
     curve (channels 'ALL') or the location curves alone ('LOCATION')."""
     b, a = signal.butter(args.order, args.cutoff, fs=FPS)
 
@@ -119,7 +120,7 @@ def run_ways(mk, animdata, obj, source, args, channels: str) -> dict:
         ways["blender"] = (blender_way, select_keys)
     results = {}
     for name, (run, prepare) in ways.items():
-        seconds, action = [], None
+        seconds, cpu, action = [], [], None
         for _ in range(args.repeat):
             if action is not None:  # each run starts from the same scene, not one full of earlier copies
                 bpy.data.actions.remove(action)
@@ -127,10 +128,11 @@ def run_ways(mk, animdata, obj, source, args, channels: str) -> dict:
             animdata.assign(obj, action)
             if prepare is not None:
                 prepare(action)
-            started = time.perf_counter()
+            started, started_cpu = time.perf_counter(), time.process_time()
             run(action)
             seconds.append(time.perf_counter() - started)
-        results[name] = (harness.median(seconds), action)
+            cpu.append(time.process_time() - started_cpu)
+        results[name] = (harness.median(seconds), harness.median(cpu), action)
     return results
 
 
@@ -142,12 +144,12 @@ def curve_values(animdata, obj, action, prop: str) -> np.ndarray:
 
 def check_agreement(animdata, obj, results) -> dict:
     """The largest differences on location curves (metres), after checking them against round-off."""
-    ours = curve_values(animdata, obj, results["motionkit"][1], ".location")
-    found = {"python": float(np.abs(ours - curve_values(animdata, obj, results["python"][1], ".location")).max())}
+    ours = curve_values(animdata, obj, results["motionkit"][-1], ".location")
+    found = {"python": float(np.abs(ours - curve_values(animdata, obj, results["python"][-1], ".location")).max())}
     if found["python"] > ROUND_OFF:
         raise SystemExit(f"filters: MotionKit and the Python loop differ by {found['python']:.2e} m")
     if "blender" in results:
-        difference = np.abs(ours - curve_values(animdata, obj, results["blender"][1], ".location"))
+        difference = np.abs(ours - curve_values(animdata, obj, results["blender"][-1], ".location"))
         found["blender inside"] = float(difference[:, FPS:-FPS].max())
         found["blender ends"] = float(difference.max())
         if found["blender inside"] > ROUND_OFF:
@@ -159,21 +161,22 @@ def check_agreement(animdata, obj, results) -> dict:
 def sphere_against_components(animdata, obj, results) -> float:
     """The largest angle (degrees) between MotionKit's rotations, filtered on the sphere, and the Python
     loop's, filtered component by component and normalised."""
-    ours = curve_values(animdata, obj, results["motionkit"][1], ".rotation_quaternion").T.reshape(-1, 4)
-    theirs = curve_values(animdata, obj, results["python"][1], ".rotation_quaternion").T.reshape(-1, 4)
+    ours = curve_values(animdata, obj, results["motionkit"][-1], ".rotation_quaternion").T.reshape(-1, 4)
+    theirs = curve_values(animdata, obj, results["python"][-1], ".rotation_quaternion").T.reshape(-1, 4)
     theirs /= np.linalg.norm(theirs, axis=1, keepdims=True)
     ours /= np.linalg.norm(ours, axis=1, keepdims=True)
     return float(np.degrees(2 * np.arccos(np.clip(np.abs(np.einsum("ij,ij->i", ours, theirs)), 0, 1))).max())
 
 
 def print_rows(label: str, results: dict, args) -> None:
-    ours = results["motionkit"][0]
-    rows = [("motionkit.filter" + (", rotations on the sphere" if label.startswith("all") else ""), ours)]
+    ours, ours_cpu, _ = results["motionkit"]
+    rows = [("motionkit.filter" + (", rotations on the sphere" if label.startswith("all") else ""), "motionkit")]
     if "blender" in results:
-        rows.append((f"graph.butterworth_smooth, filter_order {args.order // 2}", results["blender"][0]))
-    rows.append(("per-curve foreach_get + filtfilt + foreach_set + update", results["python"][0]))
-    for way, seconds in rows:
-        print(f"| {label} | {way} | {seconds:.3f} | {seconds / ours:.2f}x |")
+        rows.append((f"graph.butterworth_smooth, filter_order {args.order // 2}", "blender"))
+    rows.append(("per-curve foreach_get + filtfilt + foreach_set + update", "python"))
+    for way, name in rows:
+        seconds, cpu, _ = results[name]
+        print(f"| {label} | {way} | {seconds:.3f} | {seconds / ours:.2f}x | {cpu:.3f} | {cpu / ours_cpu:.2f}x |")
 
 
 def main() -> None:
@@ -194,12 +197,12 @@ def main() -> None:
 
     print(f"\nBlender {bpy.app.version_string}: {args.bones} bones, {curves} F-curves x {args.frames:,} keys at "
           f"{FPS} fps, Butterworth {args.cutoff:g} Hz order {args.order} (medians of {args.repeat})")
-    print("| curves | way | seconds | time / MotionKit's |")
-    print("|---|---|---:|---:|")
+    print("| curves | way | wall s | / MotionKit's | CPU s | / MotionKit's |")
+    print("|---|---|---:|---:|---:|---:|")
     locations = run_ways(mk, animdata, obj, source, args, "LOCATION")
     found = check_agreement(animdata, obj, locations)
     print_rows(f"{3 * args.bones} location", locations, args)
-    for _, action in locations.values():
+    for *_, action in locations.values():
         bpy.data.actions.remove(action)
     results = run_ways(mk, animdata, obj, source, args, "ALL")
     found_all = check_agreement(animdata, obj, results)
@@ -213,7 +216,7 @@ def main() -> None:
           f"{sphere_against_components(animdata, obj, results):.3f} degrees at most")
     ours = results["motionkit"][0]
     source_curves = list(animdata.fcurves(source, obj))
-    channels, frames, values, _ = harness.curve_keys(animdata, results["motionkit"][1], obj)
+    channels, frames, values, _ = harness.curve_keys(animdata, results["motionkit"][-1], obj)
     harness.print_floors("filter", ours, harness.floors(animdata, obj, source_curves, channels, frames, values),
                          sum(len(f.keyframe_points) for f in source_curves), values.size)
 
