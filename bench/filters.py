@@ -70,12 +70,14 @@ class GraphEditor:
         self.area = max(window.screen.areas, key=lambda area: area.width * area.height)
         self.kept_type = self.area.type
         self.area.type = 'GRAPH_EDITOR'
-        space = self.area.spaces.active
-        space.dopesheet.show_only_selected = False
+        self.space = self.area.spaces.active
+        self.kept_only_selected = self.space.dopesheet.show_only_selected
+        self.space.dopesheet.show_only_selected = False
         region = next(r for r in self.area.regions if r.type == 'WINDOW')
-        return dict(window=window, screen=window.screen, area=self.area, region=region, space_data=space)
+        return dict(window=window, screen=window.screen, area=self.area, region=region, space_data=self.space)
 
     def __exit__(self, *exc):
+        self.space.dopesheet.show_only_selected = self.kept_only_selected
         self.area.type = self.kept_type
 
 
