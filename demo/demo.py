@@ -30,6 +30,7 @@ import rigify_rig  # noqa: E402
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import contacts_plot  # noqa: E402
+import filters_plot  # noqa: E402
 import feet_fingers  # noqa: E402
 import ik_reach  # noqa: E402
 import interpolant_plot  # noqa: E402
@@ -199,6 +200,43 @@ def contacts_figure(motionkit, source, target, path: str) -> None:
     print(f"demo: wrote {path}")
 
 
+def filters_figure(motionkit, mocap: str, path: str, bone: str = "lKnee", degrees: float = 1.5,
+                   cutoff: float = 6.0) -> None:
+    """out/filters.png: walk60 with noise on every bone's rotation, filtered by a Butterworth low-pass on the
+    sphere; on an armature of its own, removed afterwards."""
+    animdata = motionkit.animdata
+    obj, action = motionkit.bvh.load(mocap, name="walk60 noisy")
+    frames = animdata.read_keys(animdata.fcurves(action, obj)[0])[0].astype(np.float64)
+
+    def rotation(name):
+        """(frames, 4): as Blender evaluates the bone's curves at the capture's frames (a filter writes
+        its keys at the action's own rate)."""
+        channels = [(f'pose.bones["{name}"].rotation_quaternion', k) for k in range(4)]
+        return animdata.sample(action, obj, channels, frames)[0].T
+
+    rng = np.random.default_rng(2)
+    captured = rotation(bone)
+    for name in obj.pose.bones.keys():
+        if animdata.find_fcurve(action, obj, f'pose.bones["{name}"].rotation_quaternion', 0) is None:
+            continue
+        q = rotation(name)
+        noisy = filters_plot.multiply(q, filters_plot.noise(rng, len(q), degrees))
+        animdata.write_keys(obj, action, [(f'pose.bones["{name}"].rotation_quaternion', k, name) for k in range(4)],
+                            frames, noisy.T)
+    noisy = rotation(bone)
+    motionkit.filter(obj, "butterworth", cutoff=cutoff, order=4)
+    filtered = rotation(bone)
+    fps = animdata.frame_rate(action)
+    armature = obj.data
+    bpy.data.objects.remove(obj)
+    bpy.data.armatures.remove(armature)
+    bpy.data.actions.remove(action)
+    filters_plot.plot(path, frames, fps, captured, noisy, filtered,
+                      f"walk60.bvh, {bone} with {degrees:g}° of noise on every rotation: "
+                      f"Butterworth {cutoff:g} Hz, order 4, on the sphere")
+    print(f"demo: wrote {path}")
+
+
 def raise_hand(motionkit, obj, labels: dict):
     """Full-body IK over the retargeted walk: both feet pinned where the walk puts them, the left
     hand up to a ball above the head; the hips are free to move."""
@@ -338,6 +376,7 @@ def main() -> None:
         animated += [walker] + row
         animated.append(rigify_character(motionkit, walker, 3.25, FRONT + 0.9, labels, "walk60.bvh"))
         contacts_figure(motionkit, walker, row[-1], os.path.join(out, "contacts.png"))
+        filters_figure(motionkit, mocap, os.path.join(out, "filters.png"))
         before = resample_inputs(motionkit, walker, action)
     else:
         print(f"demo: {mocap} is absent, so the motion-capture row is left out")
