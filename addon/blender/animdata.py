@@ -256,6 +256,36 @@ def write_keys(id_data: bpy.types.ID, action: bpy.types.Action, channels: Iterab
     return written
 
 
+def set_key_values(id_data: bpy.types.ID, action: bpy.types.Action, channels: Iterable, values) -> None:
+    """New values for the keys already on the channels' curves, in their order: values (len(channels), n),
+    n each curve's key count. Frames, interpolation and handle types stay, and each key's handles move with
+    it, so a FREE or ALIGNED curve keeps its shape about the new value. A missing curve, a count that
+    differs or a non-finite value raises ValueError before any curve changes."""
+    channels = [c if isinstance(c, Channel) else Channel(*c) for c in channels]
+    values = np.asarray(values, dtype=np.float64)
+    curves = fcurves(action, id_data)
+    found = [curves.find(channel.data_path, index=channel.index) for channel in channels]
+    for channel, fcurve, row in zip(channels, found, values):
+        if fcurve is None or len(fcurve.keyframe_points) != row.size:
+            raise ValueError(f"set_key_values on {id_data.name}: {channel} has "
+                             f"{'no curve' if fcurve is None else len(fcurve.keyframe_points)} keys, "
+                             f"not {row.size}")
+        if not np.all(np.isfinite(row)):
+            raise ValueError(f"set_key_values on {id_data.name}: {channel} would get a non-finite value")
+    for fcurve, row in zip(found, values):
+        points = fcurve.keyframe_points
+        keys = _co_view(points)
+        moved = {prop: _read_co(points, keys, prop).reshape(-1, 2) for prop in _POINT_FLOATS}
+        shift = (row - moved["co"][:, 1]).astype(np.float32)
+        for prop, co in moved.items():
+            co[:, 1] = row if prop == "co" else co[:, 1] + shift
+            if keys is not None:
+                keys.view(np.float32)[:, _POINT_FLOATS[prop]] = co
+            else:
+                points.foreach_set(prop, co.reshape(-1))
+        fcurve.update()
+
+
 # Interpolation and handle types are one byte in each key. Blender 4.x and
 # later copy a uint8 buffer straight into the keys (an int32 buffer goes
 # through RNA key by key, an order of magnitude slower: docs/benchmarks.md,

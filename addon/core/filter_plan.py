@@ -70,6 +70,19 @@ class FilterSettings:
             raise ValueError(f"{where}: One-Euro needs min_cutoff > 0, beta >= 0 and d_cutoff > 0")
 
 
+def grid_step(scene_fps: float, fps: float) -> float:
+    """Scene frames between two samples at the keys' own rate fps. File formats round their frame time (a
+    BVH's 0.016667 s is 59.9988 fps against a 60 fps scene), so a step within a thousandth of a whole
+    number of frames, or of one over a whole number, is taken as that: the samples then fall on the keys
+    and the last key is not lost to drift."""
+    step = scene_fps / fps
+    candidates = [float(round(step))] + ([1.0 / round(1.0 / step)] if step < 1.0 else [])
+    for candidate in candidates:
+        if candidate > 0.0 and abs(step - candidate) <= 1e-3 * step:
+            return candidate
+    return step
+
+
 def sample_frames(first: float, last: float, step: float) -> np.ndarray:
     """The frames a channel is filtered on: first, first + step, ... up to last (within a thousandth)."""
     count = int(np.floor((last - first) / step + 1e-3)) + 1
@@ -81,19 +94,33 @@ def at_frames(samples: np.ndarray, filtered: np.ndarray, frames: np.ndarray) -> 
     return np.stack([np.interp(frames, samples, column) for column in filtered.T], axis=1)
 
 
-def filter_values(native, kind: str, mode: str, values: np.ndarray, settings: FilterSettings, fps: float,
-                  what: str) -> np.ndarray:
-    """One channel group's values (n, size) filtered. kind: 'rotation' (in rotation mode `mode`), 'vector'
-    or 'scalar'. Rotations are filtered as unit quaternions on the sphere and come back in mode, continuous
-    from the first row; the Euler filter only makes Euler angles continuous and leaves the rest as it is."""
-    values = np.ascontiguousarray(values, dtype=np.float64)
-    if kind != 'rotation':
-        if settings.kind == "euler":
-            return values
-        return native.filter_channels(values, settings.kind, fps, **settings.native_options())
-    if settings.kind == "euler" and mode not in rotation_channels.EULER_MODES:
-        return values
-    q = rotation_channels.to_quaternions(native, mode, values, what)
-    if settings.kind != "euler":
-        q = native.filter_rotations(np.ascontiguousarray(q), settings.kind, fps, **settings.native_options())
-    return rotation_channels.from_quaternions(native, mode, q, previous=values[0])
+def filter_groups(native, groups: list, settings: FilterSettings, fps: float, frames: np.ndarray) -> list:
+    """Channel groups sampled on the same frames, filtered together: every rotation in one native call, on
+    the quaternion sphere, and every other channel in another, so a clip costs two calls whatever its bone
+    count. groups: [(kind, mode, values (n, size), what)], kind 'rotation' (in rotation mode `mode`),
+    'vector' or 'scalar'. Returns each group's values filtered, rotations back in their mode, continuous
+    from their first row; the Euler filter only makes Euler angles continuous. ValueError names the group
+    and frame of a value that is not finite."""
+    out = [np.ascontiguousarray(values, dtype=np.float64) for _, _, values, _ in groups]
+    for (_, _, _, what), values in zip(groups, out):
+        bad = np.argwhere(~np.isfinite(values))
+        if bad.size:
+            raise ValueError(f"{what}[{bad[0][1]}] is not finite at frame {frames[bad[0][0]]:g}")
+    plain = [i for i, group in enumerate(groups) if group[0] != 'rotation']
+    turned = [i for i, group in enumerate(groups) if group[0] == 'rotation'
+              and (settings.kind != "euler" or group[1] in rotation_channels.EULER_MODES)]
+    if plain and settings.kind != "euler":
+        stacked = native.filter_channels(np.ascontiguousarray(np.hstack([out[i] for i in plain])), settings.kind,
+                                         fps, **settings.native_options())
+        ends = np.cumsum([out[i].shape[1] for i in plain])
+        for i, end in zip(plain, ends):
+            out[i] = stacked[:, end - out[i].shape[1]:end]
+    if turned:
+        q = np.hstack([rotation_channels.to_quaternions(native, groups[i][1], out[i], groups[i][3], frames)
+                       for i in turned])
+        if settings.kind != "euler":
+            q = native.filter_rotations(np.ascontiguousarray(q), settings.kind, fps, **settings.native_options())
+        for k, i in enumerate(turned):
+            bone = np.ascontiguousarray(q[:, 4 * k:4 * k + 4])
+            out[i] = rotation_channels.from_quaternions(native, groups[i][1], bone, previous=out[i][0])
+    return out

@@ -53,7 +53,7 @@ def filter(targets, kind: str = "butterworth", *, cutoff: float = filter_plan.MA
         raise ValueError(f"unknown keys {keys!r}; expected one of {[k[0] for k in filter_plan.KEYS]}")
     if channels not in _CHOSEN:
         raise ValueError(f"unknown channels {channels!r}; expected one of {list(_CHOSEN)}")
-    work, rates = [], {}
+    work, clips = [], {}
     for obj, action in target_actions(targets):
         fps = animdata.frame_rate(action)
         settings.check(fps, f"'{action.name}'")
@@ -62,39 +62,98 @@ def filter(targets, kind: str = "butterworth", *, cutoff: float = filter_plan.MA
         if not groups:
             raise ValueError(f"'{obj.name}' has no keys to filter" + (" on the selected bones" if bones else ""))
         work.append((obj, action, groups))
-        rates[obj.name] = fps
+        clips[obj.name, action.name] = _ClipFilter(native, settings, fps, frame_range, keys, groups)
     planned, before, after = plan_group_writes(
-        work, lambda obj, action, group: _filter_group(native, obj, action, group, settings, rates[obj.name],
-                                                       frame_range, keys), progress)
+        work, lambda obj, action, group: clips[obj.name, action.name].write_of(obj, action, group), progress)
     write_planned(planned)
     return FilterReport(sum(len(w.channels) for *_, ws in planned for w in ws), before, after,
                         [action for _, action, _ in planned])
 
 
-def _filter_group(native, obj, action, group, settings, fps, frame_range, keys) -> KeyWrite:
-    """The group's new keys: filtered inside the range, as they were outside it."""
+@dataclass
+class _GroupFrames:
+    """A channel group's keys and the frames it is filtered on."""
+    group: object
+    channels: list
+    static: np.ndarray
+    key_frames: np.ndarray  # every curve's, when they all share them (shared), else their union
+    key_values: np.ndarray | None  # (curves, keys) as they are, when shared
+    shared: bool
+    first: float
+    last: float
+    samples: np.ndarray
+
+
+class _ClipFilter:
+    """Filters a whole clip the first time one of its groups is asked for: the groups that share sample
+    frames go through the native filters together (filter_plan.filter_groups), two calls a clip."""
+
+    def __init__(self, native, settings, fps, frame_range, keys, groups):
+        self.native, self.settings, self.fps, self.frame_range, self.keys = native, settings, fps, frame_range, keys
+        self.groups, self.writes = groups, None
+
+    def write_of(self, obj, action, group) -> KeyWrite:
+        if self.writes is None:
+            self.writes = self._filter_clip(obj, action, self.groups)
+        return self.writes[id(group)]
+
+    def _filter_clip(self, obj, action, groups) -> dict:
+        render = bpy.context.scene.render
+        step = filter_plan.grid_step(render.fps / render.fps_base, self.fps)
+        plans = [_group_frames(obj, group, self.frame_range, step) for group in groups]
+        writes, grids = {}, {}
+        for plan in plans:
+            if plan.samples.size < 2:
+                values = sample_channels(obj, action, plan.channels, plan.static, plan.key_frames)
+                writes[id(plan.group)] = KeyWrite(plan.channels, plan.key_frames, np.ascontiguousarray(values.T),
+                                                  'BEZIER', None)
+            else:
+                grids.setdefault((plan.samples[0], plan.samples.size), []).append(plan)
+        for same_grid in grids.values():
+            samples = same_grid[0].samples
+            values = sample_channels(obj, action, [c for p in same_grid for c in p.channels],
+                                     np.concatenate([p.static for p in same_grid]), samples)
+            ends = np.cumsum([len(p.channels) for p in same_grid])
+            blocks = [(p.group.kind, p.group.mode, values[:, end - len(p.channels):end], p.group.data_path)
+                      for p, end in zip(same_grid, ends)]
+            try:
+                filtered = filter_plan.filter_groups(self.native, blocks, self.settings, self.fps, samples)
+            except (ValueError, self.native.MotionKitError) as ex:
+                raise ValueError(f"{obj.name}: {ex}") from None
+            for plan, values_of_group in zip(same_grid, filtered):
+                writes[id(plan.group)] = _group_write(obj, action, plan, values_of_group, self.keys)
+        return writes
+
+
+def _group_frames(obj, group, frame_range, step) -> _GroupFrames:
     channels, static = channels_of_group(obj, group)
-    key_frames = np.unique(np.concatenate([animdata.read_keys(fc)[0] for fc in group.curves.values()]))
+    reads = [animdata.read_keys(fcurve) for fcurve in group.curves.values()]
+    shared = all(f.shape == reads[0][0].shape and np.array_equal(f, reads[0][0]) for f, _ in reads)
+    key_frames = (reads[0][0] if shared else np.unique(np.concatenate([f for f, _ in reads]))).astype(np.float64)
     first, last = float(key_frames[0]), float(key_frames[-1])
     if frame_range is not None:
         first, last = max(first, float(frame_range[0])), min(last, float(frame_range[1]))
-    step = (bpy.context.scene.render.fps / bpy.context.scene.render.fps_base) / fps
-    samples = filter_plan.sample_frames(first, last, step)
-    inside = (key_frames >= first - 1e-6) & (key_frames <= last + 1e-6)
-    if samples.size < 2:
-        frames = key_frames
-        values = sample_channels(obj, action, channels, static, frames)
-        return KeyWrite(channels, frames, np.ascontiguousarray(values.T), 'BEZIER', None)
-    values = sample_channels(obj, action, channels, static, samples)
-    try:
-        filtered = filter_plan.filter_values(native, group.kind, group.mode, values, settings, fps,
-                                             group.data_path)
-    except native.MotionKitError as ex:
-        raise ValueError(f"{obj.name}: {group.label()}: {ex}") from None
-    new_frames = samples if keys == "EVERY_FRAME" else key_frames[inside]
+    return _GroupFrames(group, channels, static, key_frames, np.stack([v for _, v in reads]) if shared else None,
+                        shared, first, last, filter_plan.sample_frames(first, last, step))
+
+
+def _group_write(obj, action, plan: _GroupFrames, filtered, keys) -> KeyWrite:
+    """The group's new keys: filtered inside the range, as they were outside it. Where the keys stay where
+    they are (the original keys, or a key already on every sample frame), only their values change, in
+    place: their interpolation and handle types stay, and nothing is deleted and rebuilt."""
+    frames, samples = plan.key_frames, plan.samples
+    inside = (frames >= plan.first - 1e-6) & (frames <= plan.last + 1e-6)
+    on_samples = inside.sum() == samples.size and np.allclose(frames[inside], samples, rtol=0.0, atol=1e-4)
+    if plan.shared and (keys == "ORIGINAL" or on_samples):
+        present = [row for row, channel in enumerate(plan.channels) if channel.index in plan.group.curves]
+        values = plan.key_values.astype(np.float64)
+        values[:, inside] = filter_plan.at_frames(samples, filtered[:, present], frames[inside]).T
+        return KeyWrite([plan.channels[row] for row in present], frames, values, 'BEZIER', None, in_place=True)
+    new_frames = samples if keys == "EVERY_FRAME" else frames[inside]
     new_values = filtered if keys == "EVERY_FRAME" else filter_plan.at_frames(samples, filtered, new_frames)
-    kept = key_frames[~inside]
-    frames = np.concatenate([kept[kept < first], new_frames, kept[kept > last]])
-    kept_values = sample_channels(obj, action, channels, static, kept) if kept.size else np.empty((0, len(channels)))
-    values = np.concatenate([kept_values[kept < first], new_values, kept_values[kept > last]])
-    return KeyWrite(channels, frames, np.ascontiguousarray(values.T), 'BEZIER', None)
+    kept = frames[~inside]
+    all_frames = np.concatenate([kept[kept < plan.first], new_frames, kept[kept > plan.last]])
+    kept_values = (sample_channels(obj, action, plan.channels, plan.static, kept) if kept.size
+                   else np.empty((0, len(plan.channels))))
+    values = np.concatenate([kept_values[kept < plan.first], new_values, kept_values[kept > plan.last]])
+    return KeyWrite(plan.channels, all_frames, np.ascontiguousarray(values.T), 'BEZIER', None)

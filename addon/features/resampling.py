@@ -31,12 +31,14 @@ _SMOOTH_ROTATIONS = {"squad", "catmull-rom", "euler-catmull-rom", "axis-angle-ca
 
 @dataclass
 class KeyWrite:
-    """One group's new keys, computed and checked, waiting to be written."""
+    """One group's new keys, computed and checked, waiting to be written. in_place: the channels' curves
+    keep their keys (at frames) and take the new values (animdata.set_key_values)."""
     channels: list
     frames: np.ndarray
     values: np.ndarray
     interpolation: str
     handles: animdata.Handles | None
+    in_place: bool = False
 
 
 def target_action(target):
@@ -425,8 +427,11 @@ def write_planned(planned) -> None:
     """Writes what plan_group_writes computed, in bulk."""
     for obj, action, writes in planned:
         for write in writes:
-            animdata.write_keys(obj, action, write.channels, write.frames, write.values, write.interpolation,
-                                write.handles)
+            if write.in_place:
+                animdata.set_key_values(obj, action, write.channels, write.values)
+            else:
+                animdata.write_keys(obj, action, write.channels, write.frames, write.values, write.interpolation,
+                                    write.handles)
 
 
 def _reduce_group(native, obj, action, group, tolerance, rotation_tolerance, samples_per_frame) -> KeyWrite:

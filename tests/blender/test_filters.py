@@ -170,6 +170,41 @@ def test_original_keys_and_a_frame_range(mk, animdata):
         assert np.max(np.abs(got[~outside] - location[~outside, k])) > 1e-4
 
 
+def test_a_capture_keeps_every_key_frame_and_its_last_frame(mk, animdata, walk60):
+    """walk60's rounded frame time (0.016667 s: 59.9988 fps in a 60 fps scene) must not drift the samples off
+    its keys: every curve keeps its key frames, the last one included, and takes filtered values there."""
+    obj, _ = mk.bvh.load(walk60, update_scene_fps=True)
+    action = animdata.assigned_action(obj)
+    before = {(fc.data_path, fc.array_index): animdata.read_keys(fc) for fc in animdata.fcurves(action, obj)}
+    mk.filter(obj, "butterworth", cutoff=6.0, order=4)
+    for fcurve in animdata.fcurves(action, obj):
+        frames, values = animdata.read_keys(fcurve)
+        old_frames, old_values = before[fcurve.data_path, fcurve.array_index]
+        assert np.array_equal(frames, old_frames), fcurve.data_path
+        assert np.all(np.isfinite(values)) and abs(values[-1] - old_values[-1]) < 0.2, fcurve.data_path
+    assert np.array_equal(frames, np.arange(1, 183, dtype=np.float32))
+
+
+def test_original_keys_keep_their_handles_shape(mk, animdata):
+    """Filtering the original keys moves each key's value and its handles with it: FREE handles keep their
+    offsets from the key, and the interpolation stays what the animator set."""
+    frames = np.arange(1, 61, 4, dtype=np.float64)
+    obj, action = animated_empty(animdata, frames, _f32(_noisy_walk(frames.size, seed=7)).T)
+    curve = animdata.find_fcurve(action, obj, "location", 0)
+    for point in curve.keyframe_points:
+        point.handle_left_type = point.handle_right_type = 'FREE'
+        point.handle_left = (point.co[0] - 1.0, point.co[1] + 0.05)
+        point.handle_right = (point.co[0] + 1.0, point.co[1] - 0.02)
+    curve.keyframe_points[3].interpolation = 'LINEAR'
+    mk.filter(obj, "gaussian", sigma=1.0, keys="ORIGINAL")
+    points = curve.keyframe_points
+    assert points[3].interpolation == 'LINEAR' and points[0].handle_left_type == 'FREE'
+    for point in points:
+        assert point.handle_left[1] - point.co[1] == pytest.approx(0.05, abs=1e-6)
+        assert point.handle_right[1] - point.co[1] == pytest.approx(-0.02, abs=1e-6)
+        assert point.handle_right[0] - point.co[0] == pytest.approx(1.0, abs=1e-6)
+
+
 def test_euler_discontinuities_are_repaired_without_changing_a_pose(mk, animdata):
     frames = np.arange(1, 61, dtype=np.float64)
     obj = _bone_rig(("XYZ",))

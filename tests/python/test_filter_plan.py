@@ -30,6 +30,12 @@ def test_good_settings_pass():
         FilterSettings(kind).check(30.0, "'Walk'")
 
 
+def test_a_rounded_frame_time_keeps_the_samples_on_the_keys():
+    assert filter_plan.grid_step(60.0, 1.0 / 0.016667) == 1.0  # a BVH's 59.9988 fps in a 60 fps scene
+    assert filter_plan.grid_step(30.0, 120.0 * 0.99999) == 0.25
+    assert filter_plan.grid_step(24.0, 30.0) == 0.8  # a real difference of rates stays
+
+
 def test_frames_sampled_at_the_keys_rate():
     assert np.array_equal(filter_plan.sample_frames(1.0, 5.0, 1.0), [1, 2, 3, 4, 5])
     assert np.allclose(filter_plan.sample_frames(1.0, 3.0, 0.4), [1.0, 1.4, 1.8, 2.2, 2.6, 3.0])
@@ -44,7 +50,8 @@ def test_values_at_original_keys_between_samples_are_linear():
 def test_euler_repair_keeps_rotations_and_makes_angles_continuous(native):
     angles = np.zeros((6, 3))
     angles[:, 2] = [0.0, 1.0, 2.0, 3.0 - 2 * math.pi, 4.0 - 2 * math.pi, 5.0 - 2 * math.pi]
-    out = filter_plan.filter_values(native, 'rotation', 'XYZ', angles, FilterSettings("euler"), 30.0, "r")
+    out, = filter_plan.filter_groups(native, [('rotation', 'XYZ', angles, "r")], FilterSettings("euler"), 30.0,
+                                     np.arange(6.0))
     assert np.allclose(out[:, 2], [0, 1, 2, 3, 4, 5])
     assert np.allclose(out[:, :2], 0.0)
 
@@ -53,6 +60,32 @@ def test_a_rotation_group_comes_back_in_its_mode_continuous_from_its_first_row(n
     frames = 90
     angle = np.linspace(0.0, 4.0 * math.pi, frames)  # two whole turns about Z at constant speed
     values = np.stack([np.zeros(frames), np.zeros(frames), angle], axis=1)
-    out = filter_plan.filter_values(native, 'rotation', 'XYZ', values, FilterSettings("gaussian", sigma=2.0),
-                                    30.0, "r")
+    out, = filter_plan.filter_groups(native, [('rotation', 'XYZ', values, "r")],
+                                     FilterSettings("gaussian", sigma=2.0), 30.0, np.arange(float(frames)))
     assert np.allclose(out, values, atol=1e-9)
+
+
+def test_groups_filtered_together_equal_each_filtered_alone(native):
+    rng = np.random.default_rng(3)
+    frames = np.arange(1.0, 121.0)
+    location = np.cumsum(rng.normal(0, 0.01, (120, 3)), axis=0)
+    turn = np.stack([0.3 * np.sin(frames / 9), 0.2 * np.cos(frames / 7), 0.01 * frames], axis=1)
+    turn += rng.normal(0, 0.02, turn.shape)
+    q = np.hstack([np.cos(0.4 + 0.01 * frames)[:, None], np.zeros((120, 1)), np.sin(0.4 + 0.01 * frames)[:, None],
+                   np.zeros((120, 1))])
+    groups = [('vector', '', location, "loc"), ('rotation', 'ZXY', turn, "rot"), ('scalar', '', location[:, :1], "s"),
+              ('rotation', 'QUATERNION', q, "q")]
+    settings = FilterSettings("butterworth", cutoff=4.0)
+    together = filter_plan.filter_groups(native, groups, settings, 30.0, frames)
+    for group, got in zip(groups, together):
+        alone, = filter_plan.filter_groups(native, [group], settings, 30.0, frames)
+        assert np.allclose(got, alone, atol=1e-12)
+    assert not np.allclose(together[0], location, atol=1e-3)
+
+
+def test_a_value_that_is_not_finite_is_named_with_its_frame(native):
+    values = np.zeros((10, 3))
+    values[4, 1] = np.nan
+    with pytest.raises(ValueError, match=r"loc\[1\] is not finite at frame 5"):
+        filter_plan.filter_groups(native, [('vector', '', values, "loc")], FilterSettings(), 30.0,
+                                  np.arange(1.0, 11.0))
