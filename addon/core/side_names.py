@@ -3,7 +3,8 @@
 A name carries a side marker, checked in this order, the first that applies counting:
 - a single L, R, l or r after a separator (. _ - or a space) at the end: `hand.L`, `upperarm_l`, `foot R`,
   also before a `.001` style number, as Blender numbers copies (`thigh.L.001`);
-- the same letter before a separator at the start: `L_hand`, `r_foot`, `L.arm`;
+- the same letter before a separator at the start: `L_hand`, `r_foot`, `L.arm`, or a lower-case l or r
+  before a capital, as BVH captures name joints: `lHip`, `rShoulder`;
 - the same letter between two separators, as 3ds Max's Biped names bones: `Bip01 L Thigh`;
 - the word Left or Right, spelt `Left`, `left` or `LEFT` (or Right alike), anywhere: `mixamorig:LeftHand`,
   `hand_left`, `LEFT_ARM`. The word stands alone so that `Bright`, `Leftover` or `UPRIGHT` carry none:
@@ -34,7 +35,7 @@ def flip_name(name: str) -> str:
     base, tail = (name[:number.start()], name[number.start():]) if number else (name, "")
     if len(base) > 1 and base[-2] in SEPARATORS and base[-1] in _LETTER:
         return base[:-1] + _LETTER[base[-1]] + tail
-    if len(name) > 1 and name[1] in SEPARATORS and name[0] in _LETTER:
+    if len(name) > 1 and name[0] in _LETTER and (name[1] in SEPARATORS or (name[0].islower() and name[1].isupper())):
         return _LETTER[name[0]] + name[1:]
     letter = _INNER_LETTER.search(base)
     if letter is not None:
