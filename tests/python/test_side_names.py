@@ -9,13 +9,14 @@ FLIPS = [
     ("foot.l", "foot.r"), ("foot_L", "foot_R"), ("shin-L", "shin-R"), ("arm L", "arm R"),
     ("thigh.L.001", "thigh.R.001"), ("finger_r.012", "finger_l.012"),
     ("L_hand", "R_hand"), ("r_foot", "l_foot"), ("L.arm", "R.arm"), ("l.arm", "r.arm"),
+    ("lHip", "rHip"), ("rTorso_Clavicle", "lTorso_Clavicle"),
     ("mixamorig:LeftHandIndex1", "mixamorig:RightHandIndex1"), ("mixamorig:RightUpLeg", "mixamorig:LeftUpLeg"),
     ("LeftArm", "RightArm"), ("hand_left", "hand_right"), ("right_toe", "left_toe"), ("HandRight", "HandLeft"),
     ("LEFT_ARM", "RIGHT_ARM"), ("ARM_RIGHT", "ARM_LEFT"), ("leftHand", "rightHand"),
     ("Left", "Right"), ("Bip01 L Thigh", "Bip01 R Thigh"),
 ]
 CENTRES = ["hips", "Spine1", "mixamorig:Hips", "head", "Bright", "Leftover", "UPRIGHT", "upright", "root.001",
-           "L", "Lamp", "Rig"]
+           "L", "Lamp", "Rig", "RootJoint", "lowerback_torso", "LHand"]
 
 
 @pytest.mark.parametrize("name, partner", FLIPS)
