@@ -90,14 +90,14 @@ def _key(mk, animdata, obj, seed=1, root_x=0.0, frames=FRAMES):
 
 
 def _posed(obj, frames):
-    """Blender's evaluation: heads (frames, bones, 3) and orientations (frames, bones, 3, 3) in armature
-    space, by bone name order of obj.pose.bones."""
-    heads, turns = [], []
+    """Blender's evaluation: heads and tails (frames, 2 bones, 3: every head, then every tail) and
+    orientations (frames, bones, 3, 3) in armature space, in the order of obj.pose.bones."""
+    points, turns = [], []
     for f in frames:
         bpy.context.scene.frame_set(int(f))
-        heads.append([tuple(pb.head) for pb in obj.pose.bones])
+        points.append([tuple(pb.head) for pb in obj.pose.bones] + [tuple(pb.tail) for pb in obj.pose.bones])
         turns.append([np.array(pb.matrix.to_3x3()) for pb in obj.pose.bones])
-    return np.array(heads), np.array(turns)
+    return np.array(points), np.array(turns)
 
 
 def _names(obj):
@@ -119,10 +119,15 @@ def _curves(animdata, obj, action):
     return {(fc.data_path, fc.array_index): fc for fc in animdata.fcurves(action, obj)}
 
 
-def _reflection_error(before, after, partners, reflect=REFLECT_X, skip=()):
-    """The worst distance between each bone's head after and its partner's head before, reflected."""
-    want = before[:, partners] @ reflect.T
-    keep = [b for b in range(len(partners)) if b not in skip]
+def _reflection_error(before, after, partners, reflect=REFLECT_X, skip=(), tails=True):
+    """The worst distance between each bone's head (and tail) after and its partner's before, reflected;
+    before and after as _posed gives them. tails=False: heads only (bones whose rests differ from their
+    partners' in length or direction put their tails elsewhere)."""
+    count = len(partners)
+    columns = list(partners) + [count + p for p in partners]  # the partner's head, then its tail
+    want = before[:, columns] @ reflect.T
+    keep = [b for b in range(count) if b not in skip]
+    keep += [count + b for b in keep] if tails else []
     return float(np.max(np.linalg.norm(after[:, keep] - want[:, keep], axis=-1)))
 
 
@@ -196,7 +201,9 @@ def test_rolls_and_rests_that_are_not_mirror_images(mk, animdata, side_names):
     partners = _partner_columns(side_names, names)
     rests = np.array([np.array(obj.data.bones[n].matrix_local.to_3x3()) for n in names])
     skip = {names.index("prop")}
-    assert _reflection_error(before, after, partners, skip=skip) < 1e-5
+    assert _reflection_error(before, after, partners, skip=skip, tails=False) < 1e-5
+    bent = skip | {names.index("forearm.L"), names.index("forearm.R")}  # their tails are not mirror images
+    assert _reflection_error(before, after, partners, skip=bent) < 1e-5
     for b, p in enumerate(partners):
         if b in skip:
             continue
