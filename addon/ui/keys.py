@@ -163,7 +163,7 @@ class MOTIONKIT_OT_filter_keys(_KeysOperator, bpy.types.Operator):
 
 
 class MOTIONKIT_OT_mirror_action(bpy.types.Operator):
-    """Mirror the active armature's action left <-> right into a new action, bones paired by their side markers (MotionKit)"""
+    """Mirror the active armature's action left <-> right into a new action, bones paired by side (MotionKit)"""
     bl_idname = "motionkit.mirror_action"
     bl_label = "Mirror Action"
     bl_options = {'REGISTER', 'UNDO'}
