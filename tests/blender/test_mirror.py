@@ -277,6 +277,16 @@ def test_the_plane_can_be_moved_or_given(mk, animdata):
         assert after[0, hand] == pytest.approx(before[0, partner] * [-1, 1, 1] + [1.0, 0, 0], abs=1e-5)
 
 
+def test_a_frame_range_mirrors_those_frames_only(mk, animdata):
+    obj = _body()
+    _key(mk, animdata, obj, seed=8, frames=np.array([1.0, 4.0, 9.0, 15.0]))
+    calls = []
+    report = mk.mirror(obj, frame_range=(3, 12), progress=lambda done, total: calls.append((done, total)))
+    keys = {tuple(k.co[0] for k in fc.keyframe_points) for fc in animdata.fcurves(animdata.assigned_action(obj), obj)}
+    assert keys == {(3.0, 4.0, 9.0, 12.0)} and report.frames == 4  # the range's ends and the keys inside it
+    assert calls and calls[0] == (0, 2)
+
+
 def _snapshot(animdata, obj):
     """Every action's keys as obj would play them."""
     return {a.name: {(fc.data_path, fc.array_index): tuple(k.co[1] for k in fc.keyframe_points)
