@@ -25,13 +25,14 @@ from .core.native_state import native
 from .features import batch, batch_workers, bvh, cli, contacts, control_rigs, filters, ik, resampling, retargeting, \
     scene_timing
 from .features.filters import filter  # noqa: A004  (motionkit.filter, as the API names it)
+from .features.mirror import mirror
 from .features.resampling import reduce_keys, resample
 from .features.batch import retarget_files
 from .features.retargeting import retarget
 from . import ui
 
 __all__ = ["animdata", "batch", "batch_workers", "bone_mapping", "cli", "bvh", "contacts", "control_rig", "control_rigs", "filter", "filters", "foot_contacts", "ik",
-           "native", "pose_channels", "reduce_keys", "resample", "resampling", "retarget", "retarget_files",
+           "mirror", "native", "pose_channels", "reduce_keys", "resample", "resampling", "retarget", "retarget_files",
            "retargeting", "rotation_channels", "scene_timing"]
 
 # The public modules answer at the package's top as well (`from motionkit.ik import Effector`, `import

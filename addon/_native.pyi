@@ -156,6 +156,19 @@ def retarget(
     target_aims: npt.NDArray[np.float64] | None = None,
 ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
 
+# Mirroring a clip across a plane (native/python/bind_mirror.cpp).
+def mirror(
+    source: Rig,
+    target: Rig,
+    basis_rotations: npt.NDArray[np.float64],
+    basis_locations: npt.NDArray[np.float64],
+    partners: list[int],
+    kept: list[int],
+    *,
+    normal: npt.ArrayLike = ...,
+    point: npt.ArrayLike = ...,
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
+
 # Full-body inverse kinematics (native/python/bind_ik.cpp).
 class IkEffector:
     """One effector of ik_solve: its bone's tail reaches a target, or with pin holds where the input has it."""

@@ -96,13 +96,7 @@ class MOTIONKIT_OT_export_bvh(bpy.types.Operator, ExportHelper):
 
     @classmethod
     def poll(cls, context):
-        if not common.poll_native(cls):
-            return False
-        obj = context.active_object
-        if obj is None or obj.type != 'ARMATURE':
-            cls.poll_message_set("Make an armature the active object")
-            return False
-        return True
+        return common.poll_active_armature(cls, context) is not None
 
     def execute(self, context):
         scene = context.scene

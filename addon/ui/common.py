@@ -87,6 +87,18 @@ def poll_native(operator_class) -> bool:
     return True
 
 
+def poll_active_armature(operator_class, context):
+    """For an operator's poll: the active armature object, or None with the reason shown (the core not
+    usable, or no armature active)."""
+    if not poll_native(operator_class):
+        return None
+    obj = context.active_object
+    if obj is None or obj.type != 'ARMATURE':
+        operator_class.poll_message_set("Make an armature the active object")
+        return None
+    return obj
+
+
 def draw_status(layout, compact: bool = False) -> None:
     """Draws the core's versions (compact: only MotionKit's, for the sidebar's width), or the reason it did
     not load, in a UI layout."""

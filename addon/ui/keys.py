@@ -1,13 +1,13 @@
-"""Resample, Reduce and Filter Keys: Graph Editor and Dope Sheet Key menus, and the MotionKit tab."""
+"""Resample, Reduce, Filter Keys and Mirror Action: Graph Editor and Dope Sheet Key menus, and the MotionKit tab."""
 import math
 
 import bpy
-from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty
+from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, StringProperty
 
 from . import common
 from ..blender import animdata
 from ..core import filter_plan, resample_plan
-from ..features import filters, resampling
+from ..features import filters, mirror, resampling
 
 
 def _targets(context):
@@ -162,15 +162,68 @@ class MOTIONKIT_OT_filter_keys(_KeysOperator, bpy.types.Operator):
             lambda report: f"Filtered {report.curves} curves ({report.keys_before} keys, now {report.keys_after})")
 
 
+class MOTIONKIT_OT_mirror_action(bpy.types.Operator):
+    """Mirror the active armature's action left <-> right into a new action, bones paired by side (MotionKit)"""
+    bl_idname = "motionkit.mirror_action"
+    bl_label = "Mirror Action"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    plane: EnumProperty(name="Plane", items=[(axis, f"{axis} = Offset", f"The armature's {axis} = offset plane")
+                                             for axis in mirror.PLANES], default="X")
+    plane_offset: FloatProperty(name="Offset", description="Where the plane crosses its axis, armature units",
+                                default=0.0, subtype='DISTANCE')
+    target: StringProperty(name="Onto", description="Another armature with the same bone names that plays the "
+                           "mirrored action (empty: the active armature itself)")
+    action_name: StringProperty(name="Action", description="The new action's name (empty: the action's, "
+                                "with ' Mirrored')")
+    use_range: BoolProperty(name="Scene Range", default=False, description="Only the scene's frame range")
+
+    @classmethod
+    def poll(cls, context):
+        obj = common.poll_active_armature(cls, context)
+        if obj is None:
+            return False
+        if animdata.assigned_action(obj) is None:
+            cls.poll_message_set(f"'{obj.name}' has no action to mirror")
+            return False
+        return True
+
+    def invoke(self, context, event):
+        return context.window_manager.invoke_props_dialog(self)
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        layout.prop(self, "plane")
+        layout.prop(self, "plane_offset")
+        layout.prop_search(self, "target", bpy.data, "objects")
+        layout.prop(self, "action_name")
+        layout.prop(self, "use_range")
+
+    def execute(self, context):
+        scene = context.scene
+        target = bpy.data.objects.get(self.target) if self.target else None
+        if self.target and target is None:
+            self.report({'ERROR'}, f"There is no object named '{self.target}'")
+            return {'CANCELLED'}
+        return common.run(self, context, lambda progress: mirror.mirror(
+            context.active_object, plane=self.plane, plane_offset=self.plane_offset, target=target,
+            action_name=self.action_name or None,
+            frame_range=(scene.frame_start, scene.frame_end) if self.use_range else None, progress=progress),
+            lambda report: f"Mirrored into '{report.action}': {len(report.pairs)} pairs, "
+                           f"{len(report.centre)} centre bones, {len(report.kept_local)} kept local")
+
+
 def menu_keys(self, context):
     layout = self.layout
     layout.separator()
     layout.operator(MOTIONKIT_OT_resample_keys.bl_idname, text="Resample Keys [MotionKit]")
     layout.operator(MOTIONKIT_OT_reduce_keys.bl_idname, text="Reduce Keys [MotionKit]")
     layout.operator(MOTIONKIT_OT_filter_keys.bl_idname, text="Filter Keys [MotionKit]")
+    layout.operator(MOTIONKIT_OT_mirror_action.bl_idname, text="Mirror Action [MotionKit]")
 
 
 MENUS = ("GRAPH_MT_key", "DOPESHEET_MT_key")
 
 
-classes = (MOTIONKIT_OT_resample_keys, MOTIONKIT_OT_reduce_keys, MOTIONKIT_OT_filter_keys)
+classes = (MOTIONKIT_OT_resample_keys, MOTIONKIT_OT_reduce_keys, MOTIONKIT_OT_filter_keys, MOTIONKIT_OT_mirror_action)

@@ -28,4 +28,5 @@ class MOTIONKIT_PT_main(common.SidebarPanel, bpy.types.Panel):
         row.operator("motionkit.reduce_keys", text="Reduce", icon='IPO_LINEAR')
         row = layout.row(align=True)
         row.operator("motionkit.filter_keys", text="Filter", icon='SMOOTHCURVE')
+        row.operator("motionkit.mirror_action", text="Mirror", icon='MOD_MIRROR')
         layout.operator("motionkit.fix_foot_sliding", icon='CON_FLOOR')

@@ -73,5 +73,6 @@ void BindRetarget(pybind11::module_& m);
 void BindIk(pybind11::module_& m);
 void BindContacts(pybind11::module_& m);
 void BindFilters(pybind11::module_& m);
+void BindMirror(pybind11::module_& m);
 
 }  // namespace motionkit::python

@@ -102,4 +102,5 @@ PYBIND11_MODULE(_native, m) {
   motionkit::python::BindIk(m);
   motionkit::python::BindContacts(m);
   motionkit::python::BindFilters(m);
+  motionkit::python::BindMirror(m);
 }

@@ -315,21 +315,7 @@ class TargetPoser {
     globals_[static_cast<std::size_t>(b)] = g;
     Eigen::Quaterniond basis = RestFrame(job_.target, b, parent).conjugate() * g;
     basis.normalize();
-    StoreContinuous(f, b, basis);
-  }
-
-  // The basis in the hemisphere of the previous frame's (the first frame's: w >= 0), so curves stay
-  // continuous.
-  void StoreContinuous(Eigen::Index f, int b, Eigen::Quaterniond basis) {
-    if (f > 0) {
-      const double* previous = job_.rotations.data() + (f - 1) * job_.rotations.outerStride() + 4 * b;
-      const double dot =
-          previous[0] * basis.w() + previous[1] * basis.x() + previous[2] * basis.y() + previous[3] * basis.z();
-      if (dot < 0) basis.coeffs() = -basis.coeffs();
-    } else if (basis.w() < 0) {
-      basis.coeffs() = -basis.coeffs();
-    }
-    StoreQuat(job_.rotations, f, b, basis);
+    StoreContinuous(job_.rotations, f, b, basis);
   }
 
   // The root's head on frame f: horizontally the match pose's, moved as the source root moved; along up

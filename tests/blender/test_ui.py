@@ -112,7 +112,8 @@ def test_screenshots_are_not_blank(panels, name):
 
 SIDEBAR_LABELS = (
     # MotionKit
-    "Motion Capture (BVH)", "Import", "Export", "Keys", "Resample", "Reduce", "Filter", "Fix Foot Sliding",
+    "Motion Capture (BVH)", "Import", "Export", "Keys", "Resample", "Reduce", "Filter", "Mirror",
+    "Fix Foot Sliding",
     # Retarget, Bone Map, Options, Plant Feet
     "Armature", "File", "Source", "Target", "Retarget", "Bone Map", "Load", "Save", "Auto-map", "Schemes",
     "Source Bone", "Target Bone", "Options", "Match Poses", "Rest pose", "Root Motion", "Scaled", "Floor Root",
@@ -224,12 +225,12 @@ def test_file_browsers_group_options_in_sub_panels(panels, name):
 
 def test_menus_name_motionkit_in_blenders_capitalisation(panels):
     """File > Import reads 'Motion Capture (.bvh) [MotionKit]'; the Key menus of the Graph Editor
-    and the Dope Sheet hold Resample, Reduce and Filter Keys."""
+    and the Dope Sheet hold Resample, Reduce, Filter Keys and Mirror Action."""
     assert unread(panels, "menu-import", ["Motion Capture (.bvh) [MotionKit]"]) == []
     assert "Capture" in [w["text"] for w in panels["menu-import.words"]]
     for menu in ("menu-graph-key", "menu-dopesheet-key"):
         assert unread(panels, menu, ["Resample Keys [MotionKit]", "Reduce Keys [MotionKit]",
-                                     "Filter Keys [MotionKit]"]) == []
+                                     "Filter Keys [MotionKit]", "Mirror Action [MotionKit]"]) == []
 
 
 @pytest.fixture(scope="module")

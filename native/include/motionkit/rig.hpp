@@ -85,6 +85,21 @@ inline PosedBone PoseBone(const RigModel& rig, int b, const Eigen::Quaterniond& 
   return out;
 }
 
+// PoseBone backwards (unit parent scale): the pose channels that put bone b at orientation `global` with
+// its head at `head`, under its parent posed at (parent, parent_head).
+struct BoneChannels {
+  Eigen::Quaterniond basis;
+  Eigen::Vector3d location;
+};
+
+inline BoneChannels UnposeBone(const RigModel& rig, int b, const Eigen::Quaterniond& parent,
+                               const Eigen::Vector3d& parent_head, const Eigen::Quaterniond& global,
+                               const Eigen::Vector3d& head) {
+  const Eigen::Quaterniond frame = RestFrame(rig, b, parent);
+  const Eigen::Vector3d anchor = parent_head + parent * rig.offset(b);
+  return {(frame.conjugate() * global).normalized(), frame.conjugate() * (head - anchor)};
+}
+
 // Pose channels of every bone and frame to armature-space orientations and
 // heads. Caller-owned buffers; Run() allocates nothing.
 //   basis_rotations: frames x 4B, any non-zero length (normalised)
@@ -125,6 +140,19 @@ inline void StoreQuat(Eigen::Ref<RowMatrixXd>& m, Eigen::Index row, Eigen::Index
   p[1] = q.x();
   p[2] = q.y();
   p[3] = q.z();
+}
+
+// Stores q in the hemisphere of row f - 1's quaternion of the same bone (row 0: w >= 0), so that each
+// bone's curves stay continuous from frame to frame.
+inline void StoreContinuous(Eigen::Ref<RowMatrixXd>& m, Eigen::Index f, Eigen::Index bone, Eigen::Quaterniond q) {
+  if (f > 0) {
+    const double* previous = m.data() + (f - 1) * m.outerStride() + 4 * bone;
+    const double dot = previous[0] * q.w() + previous[1] * q.x() + previous[2] * q.y() + previous[3] * q.z();
+    if (dot < 0) q.coeffs() = -q.coeffs();
+  } else if (q.w() < 0) {
+    q.coeffs() = -q.coeffs();
+  }
+  StoreQuat(m, f, bone, q);
 }
 
 }  // namespace motionkit
