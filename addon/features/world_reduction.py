@@ -59,19 +59,19 @@ def _world_scale(obj) -> float:
     return scale
 
 
-def _pose_slot(obj, bone_index, group) -> tuple[int, int] | None:
-    """(bone, group 0 rotation / 1 location / 2 scale) when the channel group poses a bone, else None."""
-    for name, b in bone_index.items():
-        if group.owner != pose_channels.bone_path(name):
-            continue
-        pose_bone = obj.pose.bones[name]
-        if group.prop == rotation_channels.channel_property(pose_bone.rotation_mode)[0]:
-            return b, 0
-        if group.prop == "location" and not pose_bone.bone.use_connect:
-            return b, 1
-        if group.prop == "scale":
-            return b, 2
+def _pose_slot(obj, bone_paths, group) -> tuple[int, int] | None:
+    """(bone, group 0 rotation / 1 location / 2 scale) when the channel group poses a bone, else None;
+    bone_paths: {data path of a pose bone: (name, index)}."""
+    if group.owner not in bone_paths:
         return None
+    name, b = bone_paths[group.owner]
+    pose_bone = obj.pose.bones[name]
+    if group.prop == rotation_channels.channel_property(pose_bone.rotation_mode)[0]:
+        return b, 0
+    if group.prop == "location" and not pose_bone.bone.use_connect:
+        return b, 1
+    if group.prop == "scale":
+        return b, 2
     return None
 
 
@@ -103,9 +103,9 @@ def plan(native, obj, action, groups, distance, axis_length, samples_per_frame) 
     _check_inheritance(obj)
     scale = _world_scale(obj)
     rig, bones = pose_channels.native_rig(obj.data)
-    bone_index = {bone.name: b for b, bone in enumerate(bones)}
+    bone_paths = {pose_channels.bone_path(bone.name): (bone.name, b) for b, bone in enumerate(bones)}
     # Every curve that poses a bone counts, selected or not.
-    posing = [(group, _pose_slot(obj, bone_index, group)) for group in channel_groups(obj, action, None)]
+    posing = [(group, _pose_slot(obj, bone_paths, group)) for group in channel_groups(obj, action, None)]
     posing = [(group, slot) for group, slot in posing if slot is not None]
     selected = {(group.owner, group.prop) for group in groups}
     if not any((group.owner, group.prop) in selected for group, _ in posing):

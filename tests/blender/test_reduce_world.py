@@ -99,8 +99,9 @@ def test_mixamo_punch_stays_within_a_millimetre(mk, animdata, shared_dir, capsys
 
 def _mixed_modes(mk, animdata, obj, action):
     """walk60 with some bones turned to Euler and axis-angle rotation modes, their curves rewritten."""
-    from motionkit.blender import pose_channels
-    modes = {"lHip": 'XYZ', "lKnee": 'ZXY', "rHip": 'AXIS_ANGLE', "rKnee": 'YZX', "lowerback_torso": 'AXIS_ANGLE', "lShoulder": 'YXZ'}
+    pose_channels = mk.pose_channels
+    modes = {"lHip": 'XYZ', "lKnee": 'ZXY', "rHip": 'AXIS_ANGLE', "rKnee": 'YZX', "lowerback_torso": 'AXIS_ANGLE',
+             "lShoulder": 'YXZ'}
     names = [name for name in modes if name in obj.pose.bones]
     assert len(names) >= 4, [b.name for b in obj.pose.bones]
     frames = frames_of(action).astype(np.float64)
