@@ -92,7 +92,15 @@ struct Trial {
   bool passed = false;
   Eigen::Index key_points = 0;
   GroupFit groups[kGroups];
-  std::vector<Affine> global;  // per sample
+  std::vector<Affine> local, global;  // per sample
+};
+
+// What a tolerance search checks: every point of the bone's subtree within
+// limit, its descendants posed by `below` ([j * bones + c] local poses).
+struct SearchBound {
+  double start_k;
+  double limit;
+  const std::vector<Affine>* below;
 };
 
 class WorldReducer {
@@ -103,11 +111,12 @@ class WorldReducer {
  private:
   void PoseOriginal();
   void MeasureReach();
-  void ReduceBone(int b);
-  void RunTrial(int b, double k, Trial& trial);
-  double SubtreeError(int b, Eigen::Index j, const Affine& posed, double limit);
-  void PropagateUnchanged(int b);
+  double ReduceBone(int b, const SearchBound& bound);
+  void RunTrial(int b, double k, const SearchBound& bound, Trial& trial);
+  double SubtreeError(int b, Eigen::Index j, const Affine& posed, const SearchBound& bound);
+  void PoseSubtree(int b);
   void StoreBest(int b, const Trial& best);
+  bool Reducible(int b) const { return Reduced(b, 0) || Reduced(b, 1) || Reduced(b, 2); }
   bool Reduced(int b, int g) const { return job_.group_ranges(kGroups * b + g, 0) >= 0; }
   double Budget(int b) const;
 
@@ -119,7 +128,8 @@ class WorldReducer {
   std::vector<int> depth_, height_;
   std::vector<std::vector<Eigen::Vector3d>> points_;  // per bone, in its own frame
   std::vector<Affine> original_local_, original_;  // sample-major: [j * bones + b]
-  std::vector<Affine> reduced_;                    // bones done so far, as reduced
+  std::vector<Affine> reduced_local_, reduced_;    // bones done so far, as reduced
+  std::vector<double> chosen_k_;
   std::vector<double> reach_;
   std::vector<Affine> scratch_;                    // a subtree's poses at one sample
   RowMatrixXd values_;                             // one bone's channels in a trial, m x 10
@@ -167,6 +177,7 @@ void WorldReducer::PoseOriginal() {
                              : original_local_[at];
     }
   }
+  reduced_local_ = original_local_;
   reduced_ = original_;
 }
 
@@ -193,11 +204,24 @@ void WorldReducer::Run() {
   job_.keys.setZero();
   job_.slopes_in.setZero();
   job_.slopes_out.setZero();
+  // First pass: each bone within its share of the distance, its descendants
+  // as they were.
+  chosen_k_.assign(static_cast<std::size_t>(bones_), 0.0);
   for (int b = 0; b < bones_; ++b) {
-    if (Reduced(b, 0) || Reduced(b, 1) || Reduced(b, 2)) {
-      ReduceBone(b);
+    if (Reducible(b)) {
+      chosen_k_[b] = ReduceBone(b, {1.0, Budget(b), &original_local_});
     } else {
-      PropagateUnchanged(b);
+      PoseSubtree(b);
+    }
+  }
+  // Second pass: the errors seldom add up as the shares allow, so each bone
+  // is loosened as far as its subtree, as now reduced, stays within the
+  // whole distance. Its current k passes that check, so nothing gets worse.
+  for (int b = 0; b < bones_; ++b) {
+    if (!Reducible(b)) continue;
+    chosen_k_[b] = ReduceBone(b, {chosen_k_[b], job_.distance, &reduced_local_});
+    for (int c : subtree_[b]) {
+      if (c != b) PoseSubtree(c);
     }
   }
   double worst = 0.0;
@@ -212,19 +236,21 @@ void WorldReducer::Run() {
   job_.worst_error = worst;
 }
 
-void WorldReducer::PropagateUnchanged(int b) {
+// Bone b's pose on every sample from its parent's reduced pose and its own
+// reduced local pose.
+void WorldReducer::PoseSubtree(int b) {
   const int p = rig_.parent(b);
-  if (p < 0) return;
   for (Eigen::Index j = 0; j < samples_; ++j) {
     const std::size_t at = static_cast<std::size_t>(j * bones_);
-    reduced_[at + b] = Compose(reduced_[at + p], original_local_[at + b]);
+    reduced_[at + b] = p >= 0 ? Compose(reduced_[at + p], reduced_local_[at + b]) : reduced_local_[at + b];
   }
 }
 
 // The largest distance of any point of b's subtree from the original at
-// sample j when b is posed at `posed` and its descendants as they were;
-// stops early once past limit.
-double WorldReducer::SubtreeError(int b, Eigen::Index j, const Affine& posed, double limit) {
+// sample j when b is posed at `posed` and its descendants by bound.below;
+// stops early once past the limit.
+double WorldReducer::SubtreeError(int b, Eigen::Index j, const Affine& posed, const SearchBound& bound) {
+  const std::vector<Affine>& below_local = *bound.below;
   const std::size_t at = static_cast<std::size_t>(j * bones_);
   const std::vector<int>& below = subtree_[b];
   double worst = 0.0;
@@ -233,17 +259,17 @@ double WorldReducer::SubtreeError(int b, Eigen::Index j, const Affine& posed, do
     if (i == 0) {
       scratch_[c] = posed;
     } else {
-      scratch_[c] = Compose(scratch_[rig_.parent(c)], original_local_[at + c]);
+      scratch_[c] = Compose(scratch_[rig_.parent(c)], below_local[at + c]);
     }
     for (const Eigen::Vector3d& p : points_[c]) {
       worst = std::max(worst, (Apply(scratch_[c], p) - Apply(original_[at + c], p)).norm());
     }
-    if (worst > limit) return worst;
+    if (worst > bound.limit) return worst;
   }
   return worst;
 }
 
-void WorldReducer::RunTrial(int b, double k, Trial& trial) {
+void WorldReducer::RunTrial(int b, double k, const SearchBound& bound, Trial& trial) {
   const int mode = job_.rotation_modes[b];
   const double budget = Budget(b);
   const double angle = reach_[b] > 0.0 ? budget / reach_[b] : budget;
@@ -274,18 +300,23 @@ void WorldReducer::RunTrial(int b, double k, Trial& trial) {
                  values_.block(first, kGroupColumn[g], n, width));
   }
   const int p = rig_.parent(b);
+  trial.local.resize(static_cast<std::size_t>(samples_));
   trial.global.resize(static_cast<std::size_t>(samples_));
   trial.passed = false;
   for (Eigen::Index j = 0; j < samples_; ++j) {
-    const Affine local = LocalPose(rig_, b, mode, values_.row(j).data());
-    const Affine posed = p >= 0 ? Compose(reduced_[static_cast<std::size_t>(j * bones_ + p)], local) : local;
-    trial.global[static_cast<std::size_t>(j)] = posed;
-    if (SubtreeError(b, j, posed, budget) > budget) return;
+    const auto at = static_cast<std::size_t>(j);
+    trial.local[at] = LocalPose(rig_, b, mode, values_.row(j).data());
+    trial.global[at] = p >= 0 ? Compose(reduced_[static_cast<std::size_t>(j * bones_ + p)], trial.local[at])
+                              : trial.local[at];
+    if (SubtreeError(b, j, trial.global[at], bound) > bound.limit) return;
   }
   trial.passed = true;
 }
 
-void WorldReducer::ReduceBone(int b) {
+// The tolerance search: from bound.start_k, doubling while trials pass or
+// halving until one does, then bisecting; the passing trial with the fewest
+// keys becomes the bone's. Returns its k.
+double WorldReducer::ReduceBone(int b, const SearchBound& bound) {
   scratch_.resize(static_cast<std::size_t>(bones_));
   Trial trials[2];
   Trial* current = &trials[0];
@@ -293,7 +324,7 @@ void WorldReducer::ReduceBone(int b) {
   best->passed = false;
   double pass = -1.0, fail = -1.0;
   const auto attempt = [&](double k) {
-    RunTrial(b, k, *current);
+    RunTrial(b, k, bound, *current);
     if (!current->passed) {
       fail = k;
       return false;
@@ -305,16 +336,17 @@ void WorldReducer::ReduceBone(int b) {
     }
     return true;
   };
-  double k = 1.0;
-  if (attempt(k)) {
+  double k = bound.start_k;
+  if (k > 0.0 && attempt(k)) {
     for (int i = 0; i < kDoublings && attempt(k *= 2.0);) ++i;
   } else {
-    for (int i = 0; i < kHalvings && !attempt(k *= 0.5);) ++i;
+    for (int i = 0; i < kHalvings && k > 0.0 && !attempt(k *= 0.5);) ++i;
     if (pass < 0.0) attempt(0.0);
   }
   for (int i = 0; i < kBisections && pass > 0.0 && fail > pass; ++i) attempt(std::sqrt(pass * fail));
   if (!best->passed) std::swap(current, best);  // k = 0 reproduces the channels: only round-off can fail it
   StoreBest(b, *best);
+  return best->k;
 }
 
 void WorldReducer::StoreBest(int b, const Trial& best) {
@@ -322,6 +354,7 @@ void WorldReducer::StoreBest(int b, const Trial& best) {
   for (int g = 0; g < kGroups; ++g) {
     if (!Reduced(b, g)) continue;
     const GroupFit& fit = best.groups[g];
+    job_.keys.col(kGroups * b + g).setZero();
     const Eigen::Index first = job_.group_ranges(kGroups * b + g, 0);
     const Eigen::Index width = GroupWidth(g, mode), column = kChannels * b + kGroupColumn[g];
     for (Eigen::Index k = 0; k < fit.count; ++k) {
@@ -332,6 +365,7 @@ void WorldReducer::StoreBest(int b, const Trial& best) {
     }
   }
   for (Eigen::Index j = 0; j < samples_; ++j) {
+    reduced_local_[static_cast<std::size_t>(j * bones_ + b)] = best.local[static_cast<std::size_t>(j)];
     reduced_[static_cast<std::size_t>(j * bones_ + b)] = best.global[static_cast<std::size_t>(j)];
   }
 }
