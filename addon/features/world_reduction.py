@@ -110,8 +110,8 @@ def plan(native, obj, action, groups, distance, axis_length, samples_per_frame) 
     selected = {(group.owner, group.prop) for group in groups}
     if not any((group.owner, group.prop) in selected for group, _ in posing):
         return {}
-    ends = np.array([animdata.read_keys(fc)[0][[0, -1]] for group, _ in posing for fc in group.curves.values()])
-    first, last = float(ends[:, 0].min()), float(ends[:, 1].max())
+    ends = {group.label(): _key_range(group) for group, _ in posing}
+    first, last = min(e[0] for e in ends.values()), max(e[1] for e in ends.values())
     count = int(np.floor((last - first) * samples_per_frame + 1e-9)) + 1
     times = first + np.arange(count, dtype=np.float64) / samples_per_frame
     static, modes, columns = _static_channels(obj, bones)
@@ -121,15 +121,21 @@ def plan(native, obj, action, groups, distance, axis_length, samples_per_frame) 
     for group, (b, g) in posing:
         if (group.owner, group.prop) not in selected:
             continue
-        keyed = np.concatenate([animdata.read_keys(fc)[0] for fc in group.curves.values()])
-        begin = int(np.floor((keyed.min() - first) * samples_per_frame + 1e-6))
-        end = int(np.ceil((keyed.max() - first) * samples_per_frame - 1e-6))
+        start, stop = ends[group.label()]
+        begin = int(np.floor((start - first) * samples_per_frame + 1e-6))
+        end = int(np.ceil((stop - first) * samples_per_frame - 1e-6))
         ranges[3 * b + g] = (max(begin, 0), min(end, count - 1))
     keys, slopes_in, slopes_out, _ = native.reduce_keys_world(
         rig, times, values, modes, ranges, distance / scale, axis_length / scale, samples_per_frame)
     return {(group.owner, group.prop): _group_keys(obj, group, b, g, times, values, keys, (slopes_in, slopes_out),
                                                    columns[b], channels_of_group)
             for group, (b, g) in posing if ranges[3 * b + g, 0] >= 0}
+
+
+def _key_range(group) -> tuple[float, float]:
+    """The first and last key frame over the group's curves (keys are kept in time order)."""
+    points = [fc.keyframe_points for fc in group.curves.values()]
+    return min(p[0].co[0] for p in points), max(p[-1].co[0] for p in points)
 
 
 def _group_columns(b, g, order) -> np.ndarray:
@@ -156,6 +162,5 @@ def _group_keys(obj, group, b, g, times, values, keys, slopes, order, channels_o
     rows = np.flatnonzero(keys[:, 3 * b + g])
     channels, _ = channels_of_group(obj, group)
     cols = _group_columns(b, g, order)[:len(channels)]
-    slopes_in, slopes_out = slopes
-    return (channels, times[rows], np.ascontiguousarray(values[np.ix_(rows, cols)].T),
-            np.ascontiguousarray(slopes_in[np.ix_(rows, cols)].T), np.ascontiguousarray(slopes_out[np.ix_(rows, cols)].T))
+    taken = [np.ascontiguousarray(array[np.ix_(rows, cols)].T) for array in (values, *slopes)]
+    return (channels, times[rows], *taken)

@@ -60,10 +60,12 @@ Affine LocalPose(const RigModel& rig, int b, int mode, const double* c) {
   return Compose(rest, basis);
 }
 
+using KeyIndices = Eigen::Matrix<std::int64_t, Eigen::Dynamic, 1>;
+
 // The cubic Hermite segments KeyReductionJob fitted, evaluated at every
 // sample between the first and the last key (rows of out, relative to the
 // group's first sample).
-void EvaluateKeys(ConstVectorView times, ConstMatrixView values, const Eigen::Matrix<std::int64_t, Eigen::Dynamic, 1>& indices,
+void EvaluateKeys(ConstVectorView times, ConstMatrixView values, const KeyIndices& indices,
                   Eigen::Index count, const RowMatrixXd& slopes_in, const RowMatrixXd& slopes_out,
                   Eigen::Ref<RowMatrixXd> out) {
   out.row(0) = values.row(0);
@@ -81,7 +83,7 @@ void EvaluateKeys(ConstVectorView times, ConstMatrixView values, const Eigen::Ma
 
 // One group's fit in a trial.
 struct GroupFit {
-  Eigen::Matrix<std::int64_t, Eigen::Dynamic, 1> indices;
+  KeyIndices indices;
   RowMatrixXd slopes_in, slopes_out;
   Eigen::Index count = 0;
 };
@@ -114,7 +116,7 @@ class WorldReducer {
   double ReduceBone(int b, const SearchBound& bound);
   void RunTrial(int b, double k, const SearchBound& bound, Trial& trial);
   double SubtreeError(int b, Eigen::Index j, const Affine& posed, const SearchBound& bound);
-  void PoseSubtree(int b);
+  void PoseFromParent(int b);
   void StoreBest(int b, const Trial& best);
   bool Reducible(int b) const { return Reduced(b, 0) || Reduced(b, 1) || Reduced(b, 2); }
   bool Reduced(int b, int g) const { return job_.group_ranges(kGroups * b + g, 0) >= 0; }
@@ -211,7 +213,7 @@ void WorldReducer::Run() {
     if (Reducible(b)) {
       chosen_k_[b] = ReduceBone(b, {1.0, Budget(b), &original_local_});
     } else {
-      PoseSubtree(b);
+      PoseFromParent(b);
     }
   }
   // Second pass: the errors seldom add up as the shares allow, so each bone
@@ -221,7 +223,7 @@ void WorldReducer::Run() {
     if (!Reducible(b)) continue;
     chosen_k_[b] = ReduceBone(b, {chosen_k_[b], job_.distance, &reduced_local_});
     for (int c : subtree_[b]) {
-      if (c != b) PoseSubtree(c);
+      if (c != b) PoseFromParent(c);
     }
   }
   double worst = 0.0;
@@ -238,7 +240,7 @@ void WorldReducer::Run() {
 
 // Bone b's pose on every sample from its parent's reduced pose and its own
 // reduced local pose.
-void WorldReducer::PoseSubtree(int b) {
+void WorldReducer::PoseFromParent(int b) {
   const int p = rig_.parent(b);
   for (Eigen::Index j = 0; j < samples_; ++j) {
     const std::size_t at = static_cast<std::size_t>(j * bones_);

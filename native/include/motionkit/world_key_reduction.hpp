@@ -24,7 +24,11 @@
 // trial with the fewest keys; k = 0 (every sample a key) always passes, since
 // it reproduces b's channels and the budget grows down every chain. A leaf's
 // budget is the whole distance, so every point ends within distance of the
-// original, and each descendant keeps room for its own error.
+// original, and each descendant keeps room for its own error. A second pass,
+// parents first, runs each bone's search again from its k with the
+// descendants as reduced and the whole distance as the limit: the shares
+// assume errors that add up in a line, which they seldom do, and the bone's
+// current k passes that check, so every point stays within distance.
 #pragma once
 
 #include <Eigen/Core>
