@@ -52,6 +52,16 @@ def reduce_keys(
     euler_order: str = "XYZ",
     stride: int = 1,
 ) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
+def reduce_keys_world(
+    rig: Rig,
+    times: npt.NDArray[np.float64],
+    channels: npt.NDArray[np.float64],
+    rotation_modes: npt.NDArray[np.int32],
+    group_ranges: npt.NDArray[np.int32],
+    distance: float,
+    axis_length: float,
+    stride: int = 1,
+) -> tuple[npt.NDArray[np.bool_], npt.NDArray[np.float64], npt.NDArray[np.float64], float]: ...
 # Keyframe interpolation (native/python/bind_interpolation.cpp). kind is one of
 # "stepped", "linear", "polynomial", "natural", "clamped", "periodic",
 # "not-a-knot", "hermite", "catmull-rom", "centripetal", "chordal",

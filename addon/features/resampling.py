@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import bpy
 import numpy as np
 
+from . import world_reduction
 from ..blender import animdata, pose_channels
 from ..core import native_state, resample_plan, rotation_channels
 from ..core.resample_plan import ChannelGroup
@@ -367,22 +368,33 @@ def _set_scene_rate(scene, timing) -> None:
 
 
 def reduce_keys(targets, tolerance: float = 1e-3, rotation_tolerance: float = np.radians(0.1), *,
-                samples_per_frame: int = 4, bones=None, progress=None) -> tuple[int, int]:
+                samples_per_frame: int = 4, bones=None, progress=None, space: str = 'CHANNELS',
+                distance: float = 1e-3, axis_length: float = 0.1) -> tuple[int, int]:
     """Replace each channel group's keys by the fewest Bezier keys that stay within tolerance.
 
-    targets, bones: as for resample. tolerance: for location, scale and scalar
-    channels, in their own units; rotation_tolerance: radians, on the whole
-    rotation (not per channel; axis-angle channels: per channel). The current
-    curves are sampled samples_per_frame times per frame; the reduced curve
-    stays within tolerance at every sample, and its keys stay on whole frames
-    where the original ones were. Returns (keys before, keys after). A
-    ValueError leaves every action as it was.
+    targets, bones: as for resample. space 'CHANNELS': tolerance for
+    location, scale and scalar channels, in their own units;
+    rotation_tolerance: radians, on the whole rotation (not per channel;
+    axis-angle channels: per channel). space 'WORLD' (armatures): the pose
+    bones' keys are reduced together so that every joint (head, and the tail
+    of a bone without children) and the points axis_length along each bone's
+    three axes stay within distance of where they were (scene units, through
+    the object's scale; errors accumulating down the hierarchy included);
+    their other curves take the per-channel tolerances (world_reduction). The
+    current curves are sampled samples_per_frame times per frame; the
+    reduced curve stays within its bound at every sample, and its keys stay
+    on whole frames where the original ones were. Returns (keys before, keys
+    after). A ValueError leaves every action as it was.
     """
     native = native_state.native()
     pairs = target_actions(targets)
+    if space not in ('CHANNELS', 'WORLD'):
+        raise ValueError(f"reduce_keys: space must be 'CHANNELS' or 'WORLD', got {space!r}")
     if not (np.isfinite(tolerance) and tolerance > 0 and np.isfinite(rotation_tolerance)
             and rotation_tolerance > 0):
         raise ValueError("reduce_keys: tolerances must be positive")
+    if space == 'WORLD':
+        world_reduction.check_settings(distance, axis_length)
     if not (isinstance(samples_per_frame, int) and 1 <= samples_per_frame <= 64):
         raise ValueError("reduce_keys: samples_per_frame must be an integer from 1 to 64")
     work = []
@@ -396,9 +408,21 @@ def reduce_keys(targets, tolerance: float = 1e-3, rotation_tolerance: float = np
                     raise ValueError(f"{fcurve.data_path}[{fcurve.array_index}] has F-curve modifiers: "
                                      "apply or remove them before reducing its keys")
         work.append((obj, action, groups))
-    planned, before, after = plan_group_writes(
-        work, lambda obj, action, group: _reduce_group(native, obj, action, group, tolerance, rotation_tolerance,
-                                                       samples_per_frame), progress)
+    world = {}
+    if space == 'WORLD':
+        for obj, action, groups in work:
+            for key, keys in world_reduction.plan(native, obj, action, groups, distance, axis_length,
+                                                  samples_per_frame).items():
+                world[(obj.name, *key)] = keys
+
+    def compute(obj, action, group):
+        planned_keys = world.get((obj.name, group.owner, group.prop))
+        if planned_keys is None:
+            return _reduce_group(native, obj, action, group, tolerance, rotation_tolerance, samples_per_frame)
+        channels, frames, values, slopes_in, slopes_out = planned_keys
+        return KeyWrite(channels, frames, values, 'BEZIER', _handles(frames, values, (slopes_in, slopes_out)))
+
+    planned, before, after = plan_group_writes(work, compute, progress)
     write_planned(planned)
     return before, after
 

@@ -109,11 +109,32 @@ class MOTIONKIT_OT_reduce_keys(_KeysOperator, bpy.types.Operator):
                                       min=1e-9, max=math.pi, description="On the whole rotation, not per channel")
     samples_per_frame: IntProperty(name="Samples per Frame", default=4, min=1, max=64,
                                    description="How densely the tolerance is checked")
+    space: EnumProperty(name="Space", default='CHANNELS', items=[
+        ('CHANNELS', "Channels", "Each channel within its own tolerance"),
+        ('WORLD', "World", "Every joint of an armature, and points along each bone's axes, within a distance "
+                           "of where they were; other curves per channel")])
+    distance: FloatProperty(name="Distance", subtype='DISTANCE', unit='LENGTH', default=1e-3, min=1e-9, max=1e3,
+                            precision=4, description="How far any joint or axis point may move (scene units)")
+    axis_length: FloatProperty(name="Axis Length", subtype='DISTANCE', unit='LENGTH', default=0.1, min=0.0,
+                               max=1e3, description="How far along each bone's axes the checked points lie")
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        layout.prop(self, "space")
+        if self.space == 'WORLD':
+            layout.prop(self, "distance")
+            layout.prop(self, "axis_length")
+        column = layout.column(heading="Other Curves" if self.space == 'WORLD' else "")
+        column.prop(self, "tolerance")
+        column.prop(self, "rotation_tolerance")
+        layout.prop(self, "samples_per_frame")
 
     def execute(self, context):
         return self.run(context, lambda objects, bones, progress: resampling.reduce_keys(
             objects, self.tolerance, self.rotation_tolerance, samples_per_frame=self.samples_per_frame,
-            bones=bones, progress=progress),
+            bones=bones, progress=progress, space=self.space, distance=self.distance,
+            axis_length=self.axis_length),
             lambda counts: f"Reduced {counts[0]} keys to {counts[1]}")
 
 

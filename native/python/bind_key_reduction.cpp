@@ -9,7 +9,9 @@
 #include "bindings.hpp"
 #include "motionkit/error.hpp"
 #include "motionkit/key_reduction.hpp"
+#include "motionkit/rig.hpp"
 #include "motionkit/types.hpp"
+#include "motionkit/world_key_reduction.hpp"
 
 namespace py = pybind11;
 using namespace pybind11::literals;
@@ -43,6 +45,22 @@ py::tuple ReduceKeys(const ConstVectorView& times, const ConstMatrixView& values
                         slopes_out.array[keys].attr("copy")());
 }
 
+py::tuple ReduceKeysWorld(const RigModel& rig, const ConstVectorView& times, const ConstMatrixView& channels,
+                          const Eigen::Ref<const Eigen::VectorXi>& rotation_modes,
+                          const ConstIntMatrixView& group_ranges, double distance, double axis_length,
+                          Eigen::Index stride) {
+  const Eigen::Index m = times.size(), bones = rig.size();
+  Output<bool> keys(m, 3 * bones);
+  Output<> slopes_in(m, 10 * bones), slopes_out(m, 10 * bones);
+  WorldKeyReductionJob job(rig, times, channels, rotation_modes, group_ranges, keys.view, slopes_in.view,
+                           slopes_out.view);
+  job.distance = distance;
+  job.axis_length = axis_length;
+  job.stride = stride;
+  RunWithoutGil(job);
+  return py::make_tuple(keys.array, slopes_in.array, slopes_out.array, job.worst_error);
+}
+
 }  // namespace
 
 void BindKeyReduction(py::module_& m) {
@@ -67,6 +85,24 @@ void BindKeyReduction(py::module_& m) {
         incoming and outgoing slope in value per time unit. Within tolerance at
         every sample given (pass 4-10 samples per frame for "everywhere").
         The GIL is released while it runs.
+      )pbdoc");
+
+  m.def("reduce_keys_world", &ReduceKeysWorld, "rig"_a, "times"_a.noconvert(), "channels"_a.noconvert(),
+        "rotation_modes"_a.noconvert(), "group_ranges"_a.noconvert(), "distance"_a, "axis_length"_a,
+        "stride"_a = 1,
+        R"pbdoc(
+        The fewest Bezier keys keeping every joint of the rig, and points
+        axis_length along each bone's axes, within distance of the original
+        pose on every sample (native/include/motionkit/world_key_reduction.hpp).
+
+        times: float64 (m,); channels: float64 (m, 10 B), per bone rotation (4;
+        Euler: 3 angles in the intrinsic order's letter order, then unused),
+        location (3), scale (3); rotation_modes: int32 (B,) 0 quaternion,
+        1 axis-angle, 2 + i Euler order i of XYZ XZY YXZ YZX ZXY ZYX;
+        group_ranges: int32 (3 B, 2) first and last sample of the keys of each
+        bone's rotation, location and scale, or -1 -1 to keep a group.
+        Returns (keys bool (m, 3 B), slopes_in (m, 10 B), slopes_out (m, 10 B),
+        worst error). The GIL is released while it runs.
       )pbdoc");
 }
 

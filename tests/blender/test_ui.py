@@ -193,11 +193,11 @@ def test_the_live_toggle_says_its_state(panels):
 DIALOG_LABELS = {
     "dialog-resample": ("Resample Keys", "Timing", "Frame Rate", "Change Rate", "Location/Scale", "Rotation",
                         "Output"),
-    "dialog-reduce": ("Reduce Keys", "Tolerance", "Rotation Tolerance", "Samples per Frame"),
+    "dialog-reduce": ("Reduce Keys", "Space", "Tolerance", "Rotation Tolerance", "Samples per Frame"),
     "dialog-schemes": ("Map by Schemes", "Source Scheme", "Target Scheme"),
     "dialog-filter": ("Filter Keys", "Filter", "Butterworth", "Cut-off", "Order", "Channels", "Keys", "Every Frame",
                       "Scene Range"),
-    "redo-reduce": ("Reduce Keys", "Tolerance", "Rotation Tolerance", "Samples per Frame"),
+    "redo-reduce": ("Reduce Keys", "Space", "Tolerance", "Rotation Tolerance", "Samples per Frame"),
     "redo-resample": ("Resample Keys", "Timing", "Frame Rate", "Change Rate", "Location/Scale", "Rotation",
                       "Output"),
 }
