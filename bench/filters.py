@@ -33,6 +33,9 @@ from scipy import signal
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))  # Blender's --python adds no folder
 
 import harness  # noqa: E402
+
+sys.path.insert(0, os.path.join(harness.ROOT, "tests", "common"))
+from blender_eval import GraphEditor  # noqa: E402
 import resample  # noqa: E402
 
 FPS = 30
@@ -59,26 +62,6 @@ def source_action(animdata, obj, frames_count: int):
     action = animdata.new_action("Source")
     animdata.write_keys(obj, action, channels, frames, np.array(rows))
     return action
-
-
-class GraphEditor:
-    """A context override with a Graph Editor showing every curve (the largest area of the window's screen
-    switched to one); the area's type is restored on leaving."""
-
-    def __enter__(self):
-        window = bpy.context.window_manager.windows[0]
-        self.area = max(window.screen.areas, key=lambda area: area.width * area.height)
-        self.kept_type = self.area.type
-        self.area.type = 'GRAPH_EDITOR'
-        self.space = self.area.spaces.active
-        self.kept_only_selected = self.space.dopesheet.show_only_selected
-        self.space.dopesheet.show_only_selected = False
-        region = next(r for r in self.area.regions if r.type == 'WINDOW')
-        return dict(window=window, screen=window.screen, area=self.area, region=region, space_data=self.space)
-
-    def __exit__(self, *exc):
-        self.space.dopesheet.show_only_selected = self.kept_only_selected
-        self.area.type = self.kept_type
 
 
 def has_blender_butterworth() -> bool:

@@ -31,23 +31,11 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))  # Blender's --py
 
 import harness  # noqa: E402
 
+sys.path.insert(0, os.path.join(harness.ROOT, "tests", "common"))
+from blender_eval import world_points  # noqa: E402
+
 DISTANCE, AXIS = 1e-3, 0.1
 BISECTIONS = 14
-
-
-def world_points(obj, frames):
-    scene = bpy.context.scene
-    scale = float(np.linalg.svd(np.array(obj.matrix_world)[:3, :3], compute_uv=False)[0])
-    out = np.empty((len(frames), len(obj.pose.bones), 5, 3))
-    for i, frame in enumerate(frames):
-        scene.frame_set(int(frame))
-        for b, pose_bone in enumerate(obj.pose.bones):
-            matrix = np.array(pose_bone.matrix, dtype=np.float64)
-            head = matrix[:3, 3]
-            out[i, b, 0] = head
-            out[i, b, 1:4] = head + AXIS * matrix[:3, :3].T
-            out[i, b, 4] = np.array(pose_bone.tail) if not pose_bone.children else head
-    return out * scale
 
 
 def keys_of(animdata, obj):
@@ -87,7 +75,7 @@ def measure(animdata, obj, original, frames, reference, run):
     start = time.perf_counter()
     run()
     seconds = time.perf_counter() - start
-    error = np.linalg.norm(world_points(obj, frames) - reference, axis=-1)
+    error = np.linalg.norm(world_points(obj, frames, AXIS) - reference, axis=-1)
     return keys_of(animdata, obj), float(error.max()), seconds
 
 
@@ -128,7 +116,7 @@ def bench_clip(mk, animdata, name, load):
     original.use_fake_user = True
     first, last = original.frame_range
     frames = np.arange(int(round(first)), int(round(last)) + 1)
-    reference = world_points(obj, frames)
+    reference = world_points(obj, frames, AXIS)
     before = keys_of(animdata, obj)
     scale = float(np.linalg.svd(np.array(obj.matrix_world)[:3, :3], compute_uv=False)[0])
     world = measure(animdata, obj, original, frames, reference,

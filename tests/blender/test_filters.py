@@ -5,6 +5,7 @@ import math
 import bpy
 import numpy as np
 import pytest
+from blender_eval import GraphEditor
 from keyed_objects import animated_empty
 from scipy import ndimage, signal
 from scipy.spatial.transform import Rotation
@@ -276,26 +277,6 @@ def _blender_butterworth(x, filter_order, cutoff, fps):
     return both[filter_order:filter_order + x.size]
 
 
-class _GraphEditor:
-    """A context override with a Graph Editor showing every curve of the file (the largest area of the
-    window's screen switched to one), as it was again on leaving."""
-
-    def __enter__(self):
-        window = bpy.context.window_manager.windows[0]
-        self.area = max(window.screen.areas, key=lambda area: area.width * area.height)
-        self.kept_type = self.area.type
-        self.area.type = 'GRAPH_EDITOR'
-        self.space = self.area.spaces.active
-        self.kept_only_selected = self.space.dopesheet.show_only_selected
-        self.space.dopesheet.show_only_selected = False
-        region = next(r for r in self.area.regions if r.type == 'WINDOW')
-        return dict(window=window, screen=window.screen, area=self.area, region=region, space_data=self.space)
-
-    def __exit__(self, *exc):
-        self.space.dopesheet.show_only_selected = self.kept_only_selected
-        self.area.type = self.kept_type
-
-
 def _select_keys_of(curves, chosen):
     """Selects every key of the chosen curves and none of the others': Blender's smoothing operators act on
     the runs of selected keys."""
@@ -330,7 +311,7 @@ def test_blenders_butterworth_smooth_agrees_away_from_the_edges(mk, animdata, wa
     hips_curves = [animdata.find_fcurve(action, theirs, path, k) for k in range(3)]
     _select_keys_of([c for obj in (ours, theirs) for c in animdata.fcurves(animdata.assigned_action(obj), obj)],
                     hips_curves)
-    with _GraphEditor() as editor, bpy.context.temp_override(**editor):
+    with GraphEditor() as editor, bpy.context.temp_override(**editor):
         assert bpy.ops.graph.butterworth_smooth(cutoff_frequency=6.0, filter_order=2, samples_per_frame=1,
                                                 blend=1.0, blend_in_out=0) == {'FINISHED'}
     got_ours = _evaluated(animdata, ours, path, 3, frames)

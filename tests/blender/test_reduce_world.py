@@ -12,6 +12,7 @@ import os
 import bpy
 import numpy as np
 import pytest
+from blender_eval import world_points
 
 AXIS = 0.1
 DISTANCE = 1e-3
@@ -27,24 +28,6 @@ def import_fbx(path):
 def frames_of(action):
     first, last = action.frame_range
     return np.arange(int(round(first)), int(round(last)) + 1)
-
-
-def world_points(obj, frames, axis=AXIS):
-    """(frames, bones, 5, 3) in world units: each pose bone's head, the points axis along its x, y and z
-    (pose_bone.matrix, so its scale too), and its tail (the head again for a bone with children), as
-    Blender evaluates them; armature space scaled by the object's largest scale factor."""
-    scene = bpy.context.scene
-    scale = float(np.linalg.svd(np.array(obj.matrix_world)[:3, :3], compute_uv=False)[0])
-    out = np.empty((len(frames), len(obj.pose.bones), 5, 3))
-    for i, frame in enumerate(frames):
-        scene.frame_set(int(frame))
-        for b, pose_bone in enumerate(obj.pose.bones):
-            matrix = np.array(pose_bone.matrix, dtype=np.float64)
-            head = matrix[:3, 3]
-            out[i, b, 0] = head
-            out[i, b, 1:4] = head + axis * matrix[:3, :3].T
-            out[i, b, 4] = np.array(pose_bone.tail) if not pose_bone.children else head
-    return out * scale
 
 
 def slack(points):
@@ -63,10 +46,10 @@ def all_keys(action, animdata, obj):
 
 def reduce_and_measure(mk, animdata, obj, action, capsys, label, **options):
     frames = frames_of(action)
-    before_points = world_points(obj, frames)
+    before_points = world_points(obj, frames, AXIS)
     before = key_count(action, animdata, obj)
     counted = mk.reduce_keys(obj, space='WORLD', distance=DISTANCE, axis_length=AXIS, **options)
-    after_points = world_points(obj, frames)
+    after_points = world_points(obj, frames, AXIS)
     error = np.linalg.norm(after_points - before_points, axis=-1)
     worst = float(error.max())
     after = key_count(action, animdata, obj)
@@ -158,10 +141,10 @@ def test_the_operator_reduces_in_world_space(mk, animdata, walk60):
         other.select_set(other == obj)
     bpy.context.view_layer.objects.active = obj
     frames = frames_of(action)[::7]
-    before_points = world_points(obj, frames)
+    before_points = world_points(obj, frames, AXIS)
     before = key_count(action, animdata, obj)
     assert bpy.ops.motionkit.reduce_keys('EXEC_DEFAULT', space='WORLD', distance=2e-3, axis_length=AXIS) == \
         {'FINISHED'}
     assert key_count(action, animdata, obj) < before
-    error = np.linalg.norm(world_points(obj, frames) - before_points, axis=-1)
+    error = np.linalg.norm(world_points(obj, frames, AXIS) - before_points, axis=-1)
     assert error.max() <= 2e-3 + slack(before_points)
