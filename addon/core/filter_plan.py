@@ -70,17 +70,17 @@ class FilterSettings:
             raise ValueError(f"{where}: One-Euro needs min_cutoff > 0, beta >= 0 and d_cutoff > 0")
 
 
-def grid_step(scene_fps: float, fps: float) -> float:
-    """Scene frames between two samples at the keys' own rate fps. File formats round their frame time (a
-    BVH's 0.016667 s is 59.9988 fps against a 60 fps scene), so a step within a thousandth of a whole
-    number of frames, or of one over a whole number, is taken as that: the samples then fall on the keys
-    and the last key is not lost to drift."""
-    step = scene_fps / fps
-    candidates = [float(round(step))] + ([1.0 / round(1.0 / step)] if step < 1.0 else [])
-    for candidate in candidates:
-        if candidate > 0.0 and abs(step - candidate) <= 1e-3 * step:
-            return candidate
-    return step
+def grid_step(key_frames: np.ndarray) -> float:
+    """Frames between the samples a curve is filtered on: the keys' own spacing when they are evenly spaced
+    closer than a frame (a capture keyed at its own rate in a slower scene), else one frame. Taken as the
+    mean spacing from first to last key, so that float32 key frames do not make the samples drift off them
+    and lose the last key."""
+    if key_frames.size >= 3:
+        gaps = np.diff(key_frames.astype(np.float64))
+        spacing = float(key_frames[-1] - key_frames[0]) / (key_frames.size - 1)
+        if 0.0 < spacing < 1.0 - 1e-6 and np.all(np.abs(gaps - spacing) <= 1e-3 * spacing + 1e-4):
+            return spacing
+    return 1.0
 
 
 def sample_frames(first: float, last: float, step: float) -> np.ndarray:

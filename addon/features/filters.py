@@ -10,7 +10,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import bpy
 import numpy as np
 
 from ..blender import animdata
@@ -81,6 +80,7 @@ class _GroupFrames:
     shared: bool
     first: float
     last: float
+    step: float  # frames between samples
     samples: np.ndarray
 
 
@@ -98,9 +98,10 @@ class _ClipFilter:
         return self.writes[id(group)]
 
     def _filter_clip(self, obj, action, groups) -> dict:
-        render = bpy.context.scene.render
-        step = filter_plan.grid_step(render.fps / render.fps_base, self.fps)
-        plans = [_group_frames(obj, group, self.frame_range, step) for group in groups]
+        """Each group's KeyWrite by id. A sample is one Blender frame, or the keys' own spacing where a
+        capture is keyed closer than that; the action's frame rate says how many Blender frames make a
+        second, so the filters' Hz are seconds of the capture whatever the scene plays it at."""
+        plans = [_group_frames(obj, group, self.frame_range) for group in groups]
         writes, grids = {}, {}
         for plan in plans:
             if plan.samples.size < 2:
@@ -108,8 +109,9 @@ class _ClipFilter:
                 writes[id(plan.group)] = KeyWrite(plan.channels, plan.key_frames, np.ascontiguousarray(values.T),
                                                   'BEZIER', None)
             else:
-                grids.setdefault((plan.samples[0], plan.samples.size), []).append(plan)
-        for same_grid in grids.values():
+                grids.setdefault((plan.samples[0], plan.samples.size, plan.step), []).append(plan)
+        for (*_, step), same_grid in grids.items():
+            self.settings.check(self.fps / step, f"'{action.name}'")
             samples = same_grid[0].samples
             values = sample_channels(obj, action, [c for p in same_grid for c in p.channels],
                                      np.concatenate([p.static for p in same_grid]), samples)
@@ -117,7 +119,7 @@ class _ClipFilter:
             blocks = [(p.group.kind, p.group.mode, values[:, end - len(p.channels):end], p.group.data_path)
                       for p, end in zip(same_grid, ends)]
             try:
-                filtered = filter_plan.filter_groups(self.native, blocks, self.settings, self.fps, samples)
+                filtered = filter_plan.filter_groups(self.native, blocks, self.settings, self.fps / step, samples)
             except (ValueError, self.native.MotionKitError) as ex:
                 raise ValueError(f"{obj.name}: {ex}") from None
             for plan, values_of_group in zip(same_grid, filtered):
@@ -125,16 +127,23 @@ class _ClipFilter:
         return writes
 
 
-def _group_frames(obj, group, frame_range, step) -> _GroupFrames:
+def _group_frames(obj, group, frame_range) -> _GroupFrames:
     channels, static = channels_of_group(obj, group)
     reads = [animdata.read_keys(fcurve) for fcurve in group.curves.values()]
     shared = all(f.shape == reads[0][0].shape and np.array_equal(f, reads[0][0]) for f, _ in reads)
     key_frames = (reads[0][0] if shared else np.unique(np.concatenate([f for f, _ in reads]))).astype(np.float64)
     first, last = float(key_frames[0]), float(key_frames[-1])
+    step = filter_plan.grid_step(key_frames)
     if frame_range is not None:
         first, last = max(first, float(frame_range[0])), min(last, float(frame_range[1]))
-    return _GroupFrames(group, channels, static, key_frames, np.stack([v for _, v in reads]) if shared else None,
-                        shared, first, last, filter_plan.sample_frames(first, last, step))
+        chosen = key_frames[(key_frames >= first - 1e-6) & (key_frames <= last + 1e-6)]
+        if step < 1.0 and chosen.size:  # a dense capture's samples stay on its keys
+            first, last = float(chosen[0]), float(chosen[-1])
+    order = list(group.curves)
+    key_values = (np.stack([reads[order.index(c.index)][1] for c in channels if c.index in group.curves])
+                  if shared else None)
+    return _GroupFrames(group, channels, static, key_frames, key_values, shared, first, last,
+                        step, filter_plan.sample_frames(first, last, step))
 
 
 def _group_write(obj, action, plan: _GroupFrames, filtered, keys) -> KeyWrite:

@@ -171,19 +171,29 @@ def test_original_keys_and_a_frame_range(mk, animdata):
         assert np.max(np.abs(got[~outside] - location[~outside, k])) > 1e-4
 
 
-def test_a_capture_keeps_every_key_frame_and_its_last_frame(mk, animdata, walk60):
-    """walk60's rounded frame time (0.016667 s: 59.9988 fps in a 60 fps scene) must not drift the samples off
-    its keys: every curve keeps its key frames, the last one included, and takes filtered values there."""
-    obj, _ = mk.bvh.load(walk60, update_scene_fps=True)
+@pytest.mark.parametrize("scene_fps, load", [
+    (60, dict(update_scene_fps=True)),  # a key a frame at the scene's 60 fps
+    (24, dict()),  # a key a frame, the capture played slower than it ran
+    (24, dict(use_fps_scale=True)),  # a key every 0.4 frames, at the capture's own time
+])
+def test_a_capture_is_filtered_in_its_own_time_on_its_own_keys(mk, animdata, walk60, scene_fps, load):
+    """walk60 (frame time 0.016667 s: 59.9988 fps) however it is loaded: every curve keeps its key frames,
+    the last one included, and takes the values a 6 Hz filter gives at the capture's own rate (the native
+    filter run directly on the keys, in seconds of the capture, whatever the scene's rate)."""
+    bpy.context.scene.render.fps, bpy.context.scene.render.fps_base = scene_fps, 1.0
+    obj, _ = mk.bvh.load(walk60, **load)
     action = animdata.assigned_action(obj)
-    before = {(fc.data_path, fc.array_index): animdata.read_keys(fc) for fc in animdata.fcurves(action, obj)}
+    path = 'pose.bones["lKnee"].rotation_quaternion'
+    frames, _ = animdata.read_keys(animdata.find_fcurve(action, obj, path, 0))
+    knee = _evaluated(animdata, obj, path, 4, frames.astype(np.float64))
+    expected = mk.native().filter_rotations(np.ascontiguousarray(knee), "butterworth", 1.0 / 0.016667, cutoff=6.0)
+    before = {(fc.data_path, fc.array_index): animdata.read_keys(fc)[0] for fc in animdata.fcurves(action, obj)}
     mk.filter(obj, "butterworth", cutoff=6.0, order=4)
     for fcurve in animdata.fcurves(action, obj):
-        frames, values = animdata.read_keys(fcurve)
-        old_frames, old_values = before[fcurve.data_path, fcurve.array_index]
-        assert np.array_equal(frames, old_frames), fcurve.data_path
-        assert np.all(np.isfinite(values)) and abs(values[-1] - old_values[-1]) < 0.2, fcurve.data_path
-    assert np.array_equal(frames, np.arange(1, 183, dtype=np.float32))
+        assert np.array_equal(animdata.read_keys(fcurve)[0], before[fcurve.data_path, fcurve.array_index])
+    got = _evaluated(animdata, obj, path, 4, frames.astype(np.float64))
+    assert frames.size == 182
+    assert np.max(np.abs(np.abs(np.sum(got * expected, axis=1)) - 1.0)) < 1e-6
 
 
 def test_original_keys_keep_their_handles_shape(mk, animdata):

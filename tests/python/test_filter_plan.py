@@ -30,10 +30,15 @@ def test_good_settings_pass():
         FilterSettings(kind).check(30.0, "'Walk'")
 
 
-def test_a_rounded_frame_time_keeps_the_samples_on_the_keys():
-    assert filter_plan.grid_step(60.0, 1.0 / 0.016667) == 1.0  # a BVH's 59.9988 fps in a 60 fps scene
-    assert filter_plan.grid_step(30.0, 120.0 * 0.99999) == 0.25
-    assert filter_plan.grid_step(24.0, 30.0) == 0.8  # a real difference of rates stays
+def test_samples_are_frames_or_a_dense_captures_own_keys():
+    assert filter_plan.grid_step(np.arange(1.0, 183.0)) == 1.0  # a key on every frame
+    assert filter_plan.grid_step(np.arange(1.0, 100.0, 4.0)) == 1.0  # hand keys: every frame is sampled
+    assert filter_plan.grid_step(np.array([1.0, 2.0, 2.5, 4.0])) == 1.0  # uneven
+    # 60 fps keys in a 24 fps scene, as float32 stores them: the samples land on every key, the last one too.
+    keys = (1.0 + np.arange(10_000) * 24.0 / 59.9988).astype(np.float32)
+    step = filter_plan.grid_step(keys)
+    samples = filter_plan.sample_frames(float(keys[0]), float(keys[-1]), step)
+    assert samples.size == keys.size and np.max(np.abs(samples - keys)) < 1e-3
 
 
 def test_frames_sampled_at_the_keys_rate():
