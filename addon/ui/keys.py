@@ -120,7 +120,10 @@ class MOTIONKIT_OT_reduce_keys(_KeysOperator, bpy.types.Operator):
 
     def draw(self, context):
         layout = self.layout
+        # As Blender draws an operator's properties itself: no keyframe decorators, whose column would
+        # leave the labels too little room in the narrow redo panel.
         layout.use_property_split = True
+        layout.use_property_decorate = False
         layout.prop(self, "space")
         if self.space == 'WORLD':
             layout.prop(self, "distance")

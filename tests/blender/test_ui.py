@@ -26,6 +26,7 @@ OUT = os.path.join(ROOT, "out", "ui", "%d.%d" % bpy.app.version[:2])
 READY = "MOTIONKIT-UI-READY"
 # A tall screen, so that every panel of the sidebar fits without scrolling; the sidebar keeps Blender's
 # default width.
+SCENARIO_SECONDS = 1800
 SCREEN = "-screen 0 1400x3200x24"
 # Lines in a window session's output that are not errors of MotionKit's (checked by eye when added).
 NOT_OURS = (re.compile(r"^(Info|Warning): "), re.compile(r"^UI "), re.compile(r"ALSA|libdecor|Xlib|GLX"))
@@ -42,7 +43,9 @@ def run_window(script: str, args: list, folder) -> dict:
         pytest.fail("tesseract is missing: tools/install_deps.sh (or the chroot's setup) installs tesseract-ocr")
     cmd = [xvfb, "-a", "-s", SCREEN, bpy.app.binary_path, "--factory-startup", "--enable-event-simulate",
            "--python-exit-code", "1", "--python", os.path.join(HERE, "ui", script), "--", *args]
-    out = subprocess.run(cmd, capture_output=True, text=True, timeout=900, env=conftest.fresh_blender_env(folder))
+    # A scenario takes minutes, several times longer on a loaded machine: the bound catches a hang only.
+    out = subprocess.run(cmd, capture_output=True, text=True, timeout=SCENARIO_SECONDS,
+                         env=conftest.fresh_blender_env(folder))
     report = {"problems": [], "output": out.stdout[-4000:] + out.stderr[-4000:], "returncode": out.returncode}
     for stream in (out.stdout, out.stderr):
         for line in stream.split(READY, 1)[1].splitlines() if READY in stream else ["no add-on: " + stream[-2000:]]:
