@@ -7,6 +7,7 @@
 
 #include "motionkit/mirror.hpp"
 #include "motionkit/rig.hpp"
+#include "random_poses.hpp"
 #include "rig_specs.hpp"
 
 namespace motionkit {
@@ -14,6 +15,7 @@ namespace {
 
 using test_rigs::BoneSpec;
 using test_rigs::MakeRig;
+using test_rigs::RandomPoses;
 
 constexpr double kPi = 3.14159265358979323846;
 
@@ -42,20 +44,6 @@ int Partner(const RigModel& rig, int b) {
   std::string n = rig.name(b);
   if (n.size() > 2 && n[n.size() - 2] == '.') n.back() = n.back() == 'L' ? 'R' : 'L';
   return n == "prop" ? -1 : rig.Find(n);
-}
-
-RowMatrixXd RandomPoses(int bones, int frames, unsigned seed) {
-  std::mt19937 rng(seed);
-  std::normal_distribution<double> n(0.0, 0.8);
-  RowMatrixXd q(frames, 4 * bones);
-  for (int f = 0; f < frames; ++f) {
-    for (int b = 0; b < bones; ++b) {
-      const Eigen::Vector3d v(n(rng), n(rng), n(rng));
-      const Eigen::Quaterniond r(Eigen::AngleAxisd(v.norm(), v.normalized()));
-      q.row(f).segment<4>(4 * b) << r.w(), r.x(), r.y(), r.z();
-    }
-  }
-  return q;
 }
 
 struct Clip {

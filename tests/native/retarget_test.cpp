@@ -8,6 +8,7 @@
 
 #include "motionkit/retarget.hpp"
 #include "motionkit/rig.hpp"
+#include "random_poses.hpp"
 #include "rig_specs.hpp"
 
 namespace motionkit {
@@ -15,6 +16,7 @@ namespace {
 
 using test_rigs::BoneSpec;
 using test_rigs::MakeRig;
+using test_rigs::RandomPoses;
 
 constexpr double kPi = 3.14159265358979323846;
 
@@ -49,20 +51,6 @@ std::vector<BoneSpec> Humanoid(int spine, double arm_down, double roll_seed = 0.
   b.push_back({"shin", thigh, {0.1 * s, -0.01 * s, 0.54 * s}, {0.1 * s, 0, 0.1 * s}, roll()});
   b.push_back({"foot", thigh + 1, {0.1 * s, 0, 0.1 * s}, {0.1 * s, -0.14 * s, 0.02 * s}, roll()});
   return b;
-}
-
-RowMatrixXd RandomPoses(int bones, int frames, unsigned seed, double spread = 0.8) {
-  std::mt19937 rng(seed);
-  std::normal_distribution<double> n(0.0, spread);
-  RowMatrixXd q(frames, 4 * bones);
-  for (int f = 0; f < frames; ++f) {
-    for (int b = 0; b < bones; ++b) {
-      const Eigen::Vector3d v(n(rng), n(rng), n(rng));
-      const Eigen::Quaterniond r(Eigen::AngleAxisd(v.norm(), v.normalized()));
-      q.row(f).segment<4>(4 * b) << r.w(), r.x(), r.y(), r.z();
-    }
-  }
-  return q;
 }
 
 struct Posed {

@@ -17,7 +17,6 @@ import os
 import subprocess
 import sys
 import tempfile
-import time
 import traceback
 
 from screen_text import find_words  # noqa: F401  (scenarios use it through harness)
@@ -79,11 +78,10 @@ def run(steps) -> None:
 
 
 def wait_until(condition, what: str, timeout: float = 10.0, step: float = 0.1, required: bool = True):
-    """A scenario step (`yield from`): lets Blender run until condition() is true. After timeout seconds (of
-    the clock: a condition that reads the screen takes time of its own) an AssertionError naming `what`, or,
-    with required=False, it goes on (the caller reports what it sees)."""
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
+    """A scenario step (`yield from`): lets Blender run until condition() is true. After timeout / step
+    tries (timeout seconds of waiting, plus what the condition's own reading of the screen takes) an
+    AssertionError naming `what`, or, with required=False, it goes on (the caller reports what it sees)."""
+    for _ in range(max(1, int(round(timeout / step)))):
         if condition():
             return True
         yield step
