@@ -113,8 +113,9 @@ class _ClipFilter:
         for (*_, step), same_grid in grids.items():
             self.settings.check(self.fps / step, f"'{action.name}'")
             samples = same_grid[0].samples
-            values = sample_channels(obj, action, [c for p in same_grid for c in p.channels],
-                                     np.concatenate([p.static for p in same_grid]), samples)
+            values = np.hstack([plan.key_values.T if _keys_are_samples(plan) else
+                                sample_channels(obj, action, plan.channels, plan.static, samples)
+                                for plan in same_grid])
             ends = np.cumsum([len(p.channels) for p in same_grid])
             blocks = [(p.group.kind, p.group.mode, values[:, end - len(p.channels):end], p.group.data_path)
                       for p, end in zip(same_grid, ends)]
@@ -144,6 +145,16 @@ def _group_frames(obj, group, frame_range) -> _GroupFrames:
                   if shared else None)
     return _GroupFrames(group, channels, static, key_frames, key_values, shared, first, last,
                         step, filter_plan.sample_frames(first, last, step))
+
+
+def _keys_are_samples(plan: _GroupFrames) -> bool:
+    """Whether every channel has a curve keyed exactly on the samples and nowhere else, without modifiers:
+    its keys are then its samples, read already, and Blender need not evaluate the curves (a capture's
+    usual case)."""
+    frames = plan.key_frames
+    return (plan.shared and len(plan.key_values) == len(plan.channels) and frames.size == plan.samples.size
+            and bool(np.allclose(frames, plan.samples, rtol=0.0, atol=1e-4))
+            and not any(len(fcurve.modifiers) for fcurve in plan.group.curves.values()))
 
 
 def _group_write(obj, action, plan: _GroupFrames, filtered, keys) -> KeyWrite:
