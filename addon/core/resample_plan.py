@@ -148,6 +148,13 @@ def plan_timing(scene_fps: float, anchor: float, step: float | None = None, fps:
     return Timing(1.0, anchor, scene_fps / fps, None)
 
 
+def samples_between(first: float, last: float, samples_per_frame: int) -> np.ndarray:
+    """first, then every 1/samples_per_frame of a frame up to last: the samples a key reduction is checked
+    on (uniform, so that a sample's index says its time)."""
+    count = int(np.floor((last - first) * samples_per_frame + 1e-9)) + 1
+    return first + np.arange(count, dtype=np.float64) / samples_per_frame
+
+
 def key_grid(first: float, last: float, step: float) -> np.ndarray:
     """first, first + step, ... up to last, and last itself when it is a whole frame.
 

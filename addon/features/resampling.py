@@ -463,8 +463,7 @@ def _reduce_group(native, obj, action, group, tolerance, rotation_tolerance, sam
     reads = [animdata.read_keys(fcurve)[0] for fcurve in group.curves.values()]
     first = min(float(f[0]) for f in reads)
     last = max(float(f[-1]) for f in reads)
-    count = int(np.floor((last - first) * samples_per_frame + 1e-9)) + 1
-    times = first + np.arange(count, dtype=np.float64) / samples_per_frame
+    times = resample_plan.samples_between(first, last, samples_per_frame)
     if last - times[-1] > 1e-9:
         times = np.append(times, last)
     values = sample_channels(obj, action, channels, static, times)

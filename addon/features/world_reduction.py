@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..blender import animdata, pose_channels
-from ..core import rotation_channels
+from ..core import resample_plan, rotation_channels
 
 # The native Euler orders, as numbered by the native rotation modes (2 + index).
 _NATIVE_ORDERS = ('XYZ', 'XZY', 'YXZ', 'YZX', 'ZXY', 'ZYX')
@@ -112,8 +112,7 @@ def plan(native, obj, action, groups, distance, axis_length, samples_per_frame) 
         return {}
     ends = {group.label(): _key_range(group) for group, _ in posing}
     first, last = min(e[0] for e in ends.values()), max(e[1] for e in ends.values())
-    count = int(np.floor((last - first) * samples_per_frame + 1e-9)) + 1
-    times = first + np.arange(count, dtype=np.float64) / samples_per_frame
+    times = resample_plan.samples_between(first, last, samples_per_frame)
     static, modes, columns = _static_channels(obj, bones)
     values = np.repeat(static, times.size, axis=0)
     ranges = np.full((3 * len(bones), 2), -1, dtype=np.int32)
@@ -124,7 +123,7 @@ def plan(native, obj, action, groups, distance, axis_length, samples_per_frame) 
         start, stop = ends[group.label()]
         begin = int(np.floor((start - first) * samples_per_frame + 1e-6))
         end = int(np.ceil((stop - first) * samples_per_frame - 1e-6))
-        ranges[3 * b + g] = (max(begin, 0), min(end, count - 1))
+        ranges[3 * b + g] = (max(begin, 0), min(end, times.size - 1))
     keys, slopes_in, slopes_out, _ = native.reduce_keys_world(
         rig, times, values, modes, ranges, distance / scale, axis_length / scale, samples_per_frame)
     return {(group.owner, group.prop): _group_keys(obj, group, b, g, times, values, keys, (slopes_in, slopes_out),
