@@ -12,11 +12,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..blender import animdata
+from ..blender import animdata, channel_groups
 from ..core import filter_plan, native_state
 from ..core.filter_plan import FilterSettings
-from .resampling import KeyWrite, bones_of, channel_groups, channels_of_group, plan_group_writes, sample_channels, \
-    target_actions, write_planned
+from .resampling import KeyWrite, bones_of, plan_group_writes, target_actions, write_planned
 
 # Which channel groups each `channels` choice takes: scale is a vector too, but not a location.
 _CHOSEN = {"ALL": lambda group: True, "ROTATION": lambda group: group.kind == 'rotation',
@@ -56,7 +55,7 @@ def filter(targets, kind: str = "butterworth", *, cutoff: float = filter_plan.MA
     for obj, action in target_actions(targets):
         fps = animdata.frame_rate(action)
         settings.check(fps, f"'{action.name}'")
-        groups = [g for g in channel_groups(obj, action, bones_of(bones, obj)) if _CHOSEN[channels](g)]
+        groups = [g for g in channel_groups.read(obj, action, bones_of(bones, obj)) if _CHOSEN[channels](g)]
         groups = [g for g in groups if not animdata.holds_every_key(next(iter(g.curves.values())))]
         if not groups:
             raise ValueError(f"'{obj.name}' has no keys to filter" + (" on the selected bones" if bones else ""))
@@ -105,7 +104,7 @@ class _ClipFilter:
         writes, grids = {}, {}
         for plan in plans:
             if plan.samples.size < 2:
-                values = sample_channels(obj, action, plan.channels, plan.static, plan.key_frames)
+                values = channel_groups.sample(obj, action, plan.channels, plan.static, plan.key_frames)
                 writes[id(plan.group)] = KeyWrite(plan.channels, plan.key_frames, np.ascontiguousarray(values.T),
                                                   'BEZIER', None)
             else:
@@ -114,7 +113,7 @@ class _ClipFilter:
             self.settings.check(self.fps / step, f"'{action.name}'")
             samples = same_grid[0].samples
             values = np.hstack([plan.key_values.T if _keys_are_samples(plan) else
-                                sample_channels(obj, action, plan.channels, plan.static, samples)
+                                channel_groups.sample(obj, action, plan.channels, plan.static, samples)
                                 for plan in same_grid])
             ends = np.cumsum([len(p.channels) for p in same_grid])
             blocks = [(p.group.kind, p.group.mode, values[:, end - len(p.channels):end], p.group.data_path)
@@ -129,7 +128,7 @@ class _ClipFilter:
 
 
 def _group_frames(obj, group, frame_range) -> _GroupFrames:
-    channels, static = channels_of_group(obj, group)
+    channels, static = channel_groups.channels(obj, group)
     reads = [animdata.read_keys(fcurve) for fcurve in group.curves.values()]
     shared = all(f.shape == reads[0][0].shape and np.array_equal(f, reads[0][0]) for f, _ in reads)
     key_frames = (reads[0][0] if shared else np.unique(np.concatenate([f for f, _ in reads]))).astype(np.float64)
@@ -173,7 +172,7 @@ def _group_write(obj, action, plan: _GroupFrames, filtered, keys) -> KeyWrite:
     new_values = filtered if keys == "EVERY_FRAME" else filter_plan.at_frames(samples, filtered, new_frames)
     kept = frames[~inside]
     all_frames = np.concatenate([kept[kept < plan.first], new_frames, kept[kept > plan.last]])
-    kept_values = (sample_channels(obj, action, plan.channels, plan.static, kept) if kept.size
+    kept_values = (channel_groups.sample(obj, action, plan.channels, plan.static, kept) if kept.size
                    else np.empty((0, len(plan.channels))))
     values = np.concatenate([kept_values[kept < plan.first], new_values, kept_values[kept > plan.last]])
     return KeyWrite(plan.channels, all_frames, np.ascontiguousarray(values.T), 'BEZIER', None)

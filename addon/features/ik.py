@@ -195,7 +195,6 @@ def plan(obj, effectors, frame_range=None, method: str = "dls", *, root_translat
         options = _with_defaults(options, natural_joints, [all_names.index(n) for n in names], len(names))
     if any(e.chain_count > 0 for e in effectors):
         options["excluded"] = _outside_chains(bones, names, effectors)
-    height = float(np.max(np.ptp(rest, axis=0)))
 
     def run():
         with native_state.blender_frames(frames):

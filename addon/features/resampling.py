@@ -17,7 +17,7 @@ import bpy
 import numpy as np
 
 from . import world_reduction
-from ..blender import animdata, pose_channels
+from ..blender import animdata, channel_groups
 from ..core import native_state, resample_plan, rotation_channels
 from ..core.resample_plan import ChannelGroup
 
@@ -57,58 +57,6 @@ def target_action(target):
     return target, action
 
 
-def channel_groups(obj, action, bones) -> list[ChannelGroup]:
-    owners = None if bones is None else {pose_channels.bone_path(b) for b in bones}
-
-    def euler_mode_of(owner):
-        holder = obj.path_resolve(owner) if owner else obj
-        mode = getattr(holder, "rotation_mode", 'XYZ')
-        return mode if mode in rotation_channels.EULER_MODES else 'XYZ'
-
-    triples = []
-    for fcurve in animdata.fcurves(action, obj):
-        owner, _ = resample_plan.split_path(fcurve.data_path)
-        if owners is not None and owner not in owners:
-            continue
-        if len(fcurve.keyframe_points) and not fcurve.mute:
-            triples.append((fcurve.data_path, fcurve.array_index, fcurve))
-    return resample_plan.group_channels(triples, euler_mode_of)
-
-
-def channels_of_group(obj, group: ChannelGroup) -> tuple[list, np.ndarray]:
-    """Every channel of the group (present or not) and each one's static value."""
-    holder = obj.path_resolve(group.owner) if group.owner else obj
-    static = np.atleast_1d(np.asarray(getattr(holder, group.prop) if group.prop else
-                                      obj.path_resolve(group.data_path), dtype=np.float64))
-    if group.kind == 'scalar':
-        index = next(iter(group.curves))
-        fcurve = group.curves[index]
-        return [animdata.Channel(fcurve.data_path, index, _group_name(fcurve))], static[index:index + 1]
-    name = _group_name(next(iter(group.curves.values())))
-    return [animdata.Channel(group.data_path, k, name) for k in range(group.size)], static[:group.size]
-
-
-def _group_name(fcurve) -> str:
-    return fcurve.group.name if fcurve.group is not None else ""
-
-
-def _keys(obj, action, group: ChannelGroup) -> tuple[list, np.ndarray, np.ndarray]:
-    """The group's channels, its key times (union over its curves) and every channel there, (n, size)."""
-    reads = {index: animdata.read_keys(fcurve) for index, fcurve in group.curves.items()}
-    frames = [f for f, _ in reads.values()]
-    channels, static = channels_of_group(obj, group)
-    same = all(f.shape == frames[0].shape and np.array_equal(f, frames[0]) for f in frames)
-    times = frames[0].astype(np.float64) if same else np.unique(np.concatenate(frames)).astype(np.float64)
-    values = np.tile(static, (times.size, 1))
-    if same:
-        for row, channel in enumerate(channels):
-            if channel.index in reads:
-                values[:, row] = reads[channel.index][1]
-    else:
-        values = sample_channels(obj, action, channels, static, times)
-    return channels, times, values
-
-
 def _stepped(group: ChannelGroup) -> bool:
     """A scalar curve whose keys all hold (CONSTANT), such as a 0/1 foot contact: it stays stepped, never
     a spline that overshoots between its values."""
@@ -118,11 +66,6 @@ def _stepped(group: ChannelGroup) -> bool:
 def _key_range(fcurve) -> tuple[float, float]:
     points = fcurve.keyframe_points
     return points[0].co[0], points[-1].co[0]
-
-
-def sample_channels(obj, action, channels, static, times) -> np.ndarray:
-    """The channels as Blender evaluates them at times, (n, size); a channel without a curve holds static."""
-    return np.ascontiguousarray(animdata.sample(action, obj, channels, times, static)[0].T)
 
 
 def _scalar_options(kind: str, count: int, tcb) -> dict:
@@ -292,7 +235,7 @@ def resample(targets, step: float | None = None, fps: float | None = None, *, ro
 
     work = []
     for obj, action in pairs:
-        groups = channel_groups(obj, action, bones_of(bones, obj))
+        groups = channel_groups.read(obj, action, bones_of(bones, obj))
         if not groups:
             raise ValueError(f"'{obj.name}' has no keys to resample" + (" on the selected bones" if bones else ""))
         work.append((obj, action, groups))
@@ -309,7 +252,7 @@ def resample(targets, step: float | None = None, fps: float | None = None, *, ro
         for obj, action, groups in work:
             futures = []
             for group in groups:
-                channels, times, values = _keys(obj, action, group)
+                channels, times, values = channel_groups.keys(obj, action, group)
                 kind = "stepped" if _stepped(group) else scalar
                 futures.append(pool.submit(_resample_group, native, channels, group, timing.map(times),
                                            values, grid, kind, rotation, output, tcb))
@@ -399,7 +342,7 @@ def reduce_keys(targets, tolerance: float = 1e-3, rotation_tolerance: float = np
         raise ValueError("reduce_keys: samples_per_frame must be an integer from 1 to 64")
     work = []
     for obj, action in pairs:
-        groups = channel_groups(obj, action, bones_of(bones, obj))
+        groups = channel_groups.read(obj, action, bones_of(bones, obj))
         if not groups:
             raise ValueError(f"'{obj.name}' has no keys to reduce")
         for group in groups:
@@ -459,14 +402,14 @@ def write_planned(planned) -> None:
 
 
 def _reduce_group(native, obj, action, group, tolerance, rotation_tolerance, samples_per_frame) -> KeyWrite:
-    channels, static = channels_of_group(obj, group)
+    channels, static = channel_groups.channels(obj, group)
     reads = [animdata.read_keys(fcurve)[0] for fcurve in group.curves.values()]
     first = min(float(f[0]) for f in reads)
     last = max(float(f[-1]) for f in reads)
     times = resample_plan.samples_between(first, last, samples_per_frame)
     if last - times[-1] > 1e-9:
         times = np.append(times, last)
-    values = sample_channels(obj, action, channels, static, times)
+    values = channel_groups.sample(obj, action, channels, static, times)
     kind, order, tol = "absolute", "XYZ", tolerance
     columns = np.arange(values.shape[1])
     if group.kind == 'rotation':

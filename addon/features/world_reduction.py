@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..blender import animdata, pose_channels
+from ..blender import animdata, channel_groups, pose_channels
 from ..core import resample_plan, rotation_channels
 
 # The native Euler orders, as numbered by the native rotation modes (2 + index).
@@ -96,8 +96,6 @@ def _static_channels(obj, bones) -> tuple[np.ndarray, np.ndarray, list]:
 def plan(native, obj, action, groups, distance, axis_length, samples_per_frame) -> dict:
     """New keys for those of groups that pose obj's bones: {(owner, prop): (channels, frames, values (size,
     k), slopes_in (size, k), slopes_out (size, k))}, every bone's pose bounded as the module says."""
-    # resampling imports this module for reduce_keys: its helpers come in when called.
-    from .resampling import channel_groups, channels_of_group
     if obj.type != 'ARMATURE':
         raise ValueError(f"space='WORLD' bounds an armature's joints; '{obj.name}' is not an armature")
     _check_inheritance(obj)
@@ -105,7 +103,7 @@ def plan(native, obj, action, groups, distance, axis_length, samples_per_frame) 
     rig, bones = pose_channels.native_rig(obj.data)
     bone_paths = {pose_channels.bone_path(bone.name): (bone.name, b) for b, bone in enumerate(bones)}
     # Every curve that poses a bone counts, selected or not.
-    posing = [(group, _pose_slot(obj, bone_paths, group)) for group in channel_groups(obj, action, None)]
+    posing = [(group, _pose_slot(obj, bone_paths, group)) for group in channel_groups.read(obj, action, None)]
     posing = [(group, slot) for group, slot in posing if slot is not None]
     selected = {(group.owner, group.prop) for group in groups}
     if not any((group.owner, group.prop) in selected for group, _ in posing):
@@ -116,7 +114,7 @@ def plan(native, obj, action, groups, distance, axis_length, samples_per_frame) 
     static, modes, columns = _static_channels(obj, bones)
     values = np.repeat(static, times.size, axis=0)
     ranges = np.full((3 * len(bones), 2), -1, dtype=np.int32)
-    _sample_posing(obj, action, posing, times, values, columns, channels_of_group)
+    _sample_posing(obj, action, posing, times, values, columns)
     for group, (b, g) in posing:
         if (group.owner, group.prop) not in selected:
             continue
@@ -127,7 +125,7 @@ def plan(native, obj, action, groups, distance, axis_length, samples_per_frame) 
     keys, slopes_in, slopes_out, _ = native.reduce_keys_world(
         rig, times, values, modes, ranges, distance / scale, axis_length / scale, samples_per_frame)
     return {(group.owner, group.prop): _group_keys(obj, group, b, g, times, values, keys, (slopes_in, slopes_out),
-                                                   columns[b], channels_of_group)
+                                                   columns[b])
             for group, (b, g) in posing if ranges[3 * b + g, 0] >= 0}
 
 
@@ -145,11 +143,11 @@ def _group_columns(b, g, order) -> np.ndarray:
     return start + np.argsort(order)
 
 
-def _sample_posing(obj, action, posing, times, values, columns, channels_of_group) -> None:
+def _sample_posing(obj, action, posing, times, values, columns) -> None:
     """The posing groups' channels as Blender evaluates them at times, into values (m, 10 B), in one call."""
     wanted, statics, targets = [], [], []
     for group, (b, g) in posing:
-        channels, static = channels_of_group(obj, group)
+        channels, static = channel_groups.channels(obj, group)
         wanted += [(channel.data_path, channel.index) for channel in channels]
         statics.append(static)
         targets.append(_group_columns(b, g, columns[b])[:len(channels)])
@@ -157,9 +155,9 @@ def _sample_posing(obj, action, posing, times, values, columns, channels_of_grou
     values[:, np.concatenate(targets)] = sampled.T
 
 
-def _group_keys(obj, group, b, g, times, values, keys, slopes, order, channels_of_group) -> tuple:
+def _group_keys(obj, group, b, g, times, values, keys, slopes, order) -> tuple:
     rows = np.flatnonzero(keys[:, 3 * b + g])
-    channels, _ = channels_of_group(obj, group)
+    channels, _ = channel_groups.channels(obj, group)
     cols = _group_columns(b, g, order)[:len(channels)]
     taken = [np.ascontiguousarray(array[np.ix_(rows, cols)].T) for array in (values, *slopes)]
     return (channels, times[rows], *taken)
