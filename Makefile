@@ -40,7 +40,8 @@ test-demo:
 	tools/with_blender.sh 3.4 $(BLENDER_ARGS) --python demo/demo.py -- --zip $(ZIP_3.4) --out "$$scratch" && \
 	test -s "$$scratch/demo.png" && test -s "$$scratch/demo.blend" && test -s "$$scratch/contacts.png" && \
 	test -s "$$scratch/filters.png" && \
-	test -s "$$scratch/ik_reach.png" && test -s "$$scratch/feet_fingers.png"
+	test -s "$$scratch/ik_reach.png" && test -s "$$scratch/feet_fingers.png" && \
+	test -s "$$scratch/reduction.png" && test -s "$$scratch/mirror.png"
 
 deps:
 	tools/install_deps.sh

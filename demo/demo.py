@@ -29,6 +29,7 @@ import install_addon  # noqa: E402
 import rigify_rig  # noqa: E402
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import cleanup_figures  # noqa: E402
 import contacts_plot  # noqa: E402
 import filters_plot  # noqa: E402
 import feet_fingers  # noqa: E402
@@ -377,6 +378,7 @@ def main() -> None:
         animated.append(rigify_character(motionkit, walker, 3.25, FRONT + 0.9, labels, "walk60.bvh"))
         contacts_figure(motionkit, walker, row[-1], os.path.join(out, "contacts.png"))
         filters_figure(motionkit, mocap, os.path.join(out, "filters.png"))
+        cleanup_figures.reduction_figure(motionkit, mocap, os.path.join(out, "reduction.png"))
         before = resample_inputs(motionkit, walker, action)
     else:
         print(f"demo: {mocap} is absent, so the motion-capture row is left out")
@@ -408,6 +410,9 @@ def main() -> None:
     if os.path.isfile(mocap) and os.path.isfile(os.path.join(fbx, "ybot.fbx")):
         feet_fingers.figure(motionkit, mocap, fbx, os.path.join(out, "feet_fingers.png"))
         print(f"demo: wrote {os.path.join(out, 'feet_fingers.png')}")
+        # Last, as it replaces the scene's objects too: a Mixamo clip and its mirror image, rendered.
+        cleanup_figures.mirror_figure(motionkit, add_label, render, fbx, os.path.join(out, "mirror.png"),
+                                      args.samples)
     else:
         print(f"demo: {fbx} is absent, so feet_fingers.png is left out")
     print(f"demo: wrote {blend}, {png} and {reach} in {time.perf_counter() - start:.1f} s")
