@@ -50,6 +50,9 @@ def start(zip_path: str):
     # Transform) it would open over the menu while the scenario waits for the picture to stand still, and
     # Escape would then close only the sub-menu.
     prefs.view.open_sublevel_delay = 40
+    # The viewport's anti-aliasing redraws it eight times over on mesa's software OpenGL (1.8 s a frame of the
+    # tall window against 0.8 s without); the scenarios read panels, menus and dialogs, not the viewport.
+    prefs.system.viewport_aa = 'OFF'
     module = install_addon.install(zip_path)
     print(READY, file=sys.stderr, flush=True)
     print(READY, flush=True)
@@ -242,11 +245,20 @@ def _xwd_pixels(data: bytes) -> np.ndarray:
     start = size + 12 * colours
     rows = np.frombuffer(data[start:start + height * line], dtype=np.uint8).reshape(height, line)
     step = bits // 8
-    pixel = rows[:, :width * step].reshape(height, width, step).astype(np.uint32)
-    order = range(step) if byte_order == 0 else range(step - 1, -1, -1)  # LSBFirst: the first byte is lowest
-    value = sum(pixel[..., i] << (8 * k) for k, i in enumerate(order))
-    channels = [((value & m) >> ((m & -m).bit_length() - 1)).astype(np.float32) / 255.0 for m in masks]
-    return np.dstack(channels + [np.ones((height, width), dtype=np.float32)])
+    pixel = rows[:, :width * step].reshape(height, width, step)
+    out = np.ones((height, width, 4), dtype=np.float32)
+    shifts = [(m & -m).bit_length() - 1 for m in masks]
+    if all(m >> shift == 0xFF and shift % 8 == 0 for m, shift in zip(masks, shifts)):
+        # Each channel one whole byte (every usual X server): taken as it lies, a screenshot a poll.
+        for c, shift in enumerate(shifts):
+            byte = shift // 8 if byte_order == 0 else step - 1 - shift // 8  # LSBFirst: the first byte is lowest
+            np.divide(pixel[..., byte], np.float32(255.0), out=out[..., c], dtype=np.float32)
+        return out
+    order = range(step) if byte_order == 0 else range(step - 1, -1, -1)
+    value = sum(pixel[..., i].astype(np.uint32) << (8 * k) for k, i in enumerate(order))
+    for c, (m, shift) in enumerate(zip(masks, shifts)):
+        out[..., c] = ((value & m) >> shift).astype(np.float32) / float(m >> shift)
+    return out
 
 
 def load_png(path: str) -> np.ndarray:
@@ -391,8 +403,10 @@ def ocr(pixels: np.ndarray, origin, scale: int = 3) -> list[dict]:
     with tempfile.TemporaryDirectory() as folder:
         png = os.path.join(folder, "crop.png")
         save_png(rgba, png)
+        # One thread: tesseract's OpenMP threads fight Blender's for two cores and take five times as long
+        # to read the same words.
         out = subprocess.run(["tesseract", png, "stdout", "--psm", "12", "tsv"], capture_output=True,
-                             text=True, timeout=120)
+                             text=True, timeout=120, env=dict(os.environ, OMP_THREAD_LIMIT="1"))
     assert out.returncode == 0, out.stderr
     x0, y0, _, h0 = origin
     words = []
