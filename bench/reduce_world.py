@@ -32,7 +32,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))  # Blender's --py
 import harness  # noqa: E402
 
 sys.path.insert(0, os.path.join(harness.ROOT, "tests", "common"))
-from blender_eval import world_points  # noqa: E402
+from blender_eval import world_points, world_scale  # noqa: E402
 
 DISTANCE, AXIS = 1e-3, 0.1
 BISECTIONS = 14
@@ -118,7 +118,7 @@ def bench_clip(mk, animdata, name, load):
     frames = np.arange(int(round(first)), int(round(last)) + 1)
     reference = world_points(obj, frames, AXIS)
     before = keys_of(animdata, obj)
-    scale = float(np.linalg.svd(np.array(obj.matrix_world)[:3, :3], compute_uv=False)[0])
+    scale = world_scale(obj)
     world = measure(animdata, obj, original, frames, reference,
                     lambda: mk.reduce_keys(obj, space='WORLD', distance=DISTANCE, axis_length=AXIS))
     bound = world[1]

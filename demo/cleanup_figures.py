@@ -20,17 +20,10 @@ import mathutils
 import numpy as np
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "tests", "common"))
-from blender_eval import world_points  # noqa: E402
+from blender_eval import world_points, world_scale  # noqa: E402
+from feet_fingers import import_fbx  # noqa: E402
 
 AXIS, DISTANCE = 0.1, 1e-3
-
-
-def _import_fbx(path, name):
-    before = set(bpy.data.objects)
-    bpy.ops.import_scene.fbx(filepath=path)
-    arm = next(o for o in bpy.data.objects if o not in before and o.type == 'ARMATURE')
-    arm.name = name
-    return arm
 
 
 def _world_head(obj, bone):
@@ -54,8 +47,7 @@ def _reflected_hand_gap(original, mirrored, frame):
     bpy.context.scene.frame_set(frame)
     right = np.array(original.pose.bones["mixamorig:RightHand"].head) * (-1.0, 1.0, 1.0)
     left = np.array(mirrored.pose.bones["mixamorig:LeftHand"].head)
-    scale = float(np.linalg.svd(np.array(original.matrix_world)[:3, :3], compute_uv=False)[0])
-    return float(np.linalg.norm(left - right)) * scale
+    return float(np.linalg.norm(left - right)) * world_scale(original)
 
 
 def mirror_figure(motionkit, add_label, render, fbx_dir: str, path: str, samples: int) -> None:
@@ -66,9 +58,9 @@ def mirror_figure(motionkit, add_label, render, fbx_dir: str, path: str, samples
             bpy.data.objects.remove(obj)
     # The clip's FBX holds the skeleton only: Y Bot's skinned FBX plays it, and its mirror image lands on
     # a second Y Bot (mirroring onto another armature).
-    clip = _import_fbx(os.path.join(fbx_dir, "ybot@punch.fbx"), "Punch clip")
-    original = _import_fbx(os.path.join(fbx_dir, "ybot.fbx"), "Punch")
-    mirrored = _import_fbx(os.path.join(fbx_dir, "ybot.fbx"), "Punch mirrored")
+    clip, _ = import_fbx(os.path.join(fbx_dir, "ybot@punch.fbx"), "Punch clip")
+    original, _ = import_fbx(os.path.join(fbx_dir, "ybot.fbx"), "Punch")
+    mirrored, _ = import_fbx(os.path.join(fbx_dir, "ybot.fbx"), "Punch mirrored")
     motionkit.animdata.assign(original, motionkit.animdata.assigned_action(clip))
     report = motionkit.mirror(clip, target=mirrored)
     first, last = (int(round(v)) for v in motionkit.animdata.assigned_action(clip).frame_range)
@@ -98,11 +90,10 @@ def mirror_figure(motionkit, add_label, render, fbx_dir: str, path: str, samples
 
 
 def _knee_bend(animdata, action, obj, frames):
-    """Degrees of the left knee's rotation at frames, from its curves as Blender evaluates them."""
-    curves = [animdata.find_fcurve(action, obj, 'pose.bones["lKnee"].rotation_quaternion', k) for k in range(4)]
-    w = np.array([curves[0].evaluate(f) for f in frames])
-    vector = np.array([[c.evaluate(f) for c in curves[1:]] for f in frames])
-    return np.degrees(2.0 * np.arctan2(np.linalg.norm(vector, axis=1), np.abs(w)))
+    """Degrees of the left knee's rotation at frames, its curves sampled in one call."""
+    channels = [('pose.bones["lKnee"].rotation_quaternion', k) for k in range(4)]
+    w, *vector = animdata.sample(action, obj, channels, np.asarray(frames, dtype=np.float64))[0]
+    return np.degrees(2.0 * np.arctan2(np.linalg.norm(vector, axis=0), np.abs(w)))
 
 
 def _reduced(motionkit, obj, original, frames, reference, **settings):
@@ -131,7 +122,7 @@ def reduction_figure(motionkit, mocap: str, path: str) -> None:
     frames = np.arange(first, last + 1)
     reference = world_points(obj, frames, AXIS)
     before = sum(len(fc.keyframe_points) for fc in animdata.fcurves(original, obj))
-    scale = float(np.linalg.svd(np.array(obj.matrix_world)[:3, :3], compute_uv=False)[0])
+    scale = world_scale(obj)
     bend = _knee_bend(animdata, original, obj, frames)
     channels = _reduced(motionkit, obj, original, frames, reference, tolerance=DISTANCE / scale,
                         rotation_tolerance=math.radians(0.1))

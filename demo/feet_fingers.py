@@ -40,7 +40,7 @@ def _floor(obj, feet):
     return min(z)
 
 
-def _import_fbx(path, name):
+def import_fbx(path, name):
     before = set(bpy.data.objects)
     bpy.ops.import_scene.fbx(filepath=path)
     added = [o for o in bpy.data.objects if o not in before]
@@ -110,8 +110,8 @@ def figure(motionkit, walk60: str, fbx_dir: str, path: str) -> None:
     made = []
     source, _ = motionkit.bvh.load(walk60, name="walk60 (feet)")
     made.append(source)
-    before, added = _import_fbx(os.path.join(fbx_dir, "ybot.fbx"), "YBot before")
-    after, more = _import_fbx(os.path.join(fbx_dir, "ybot.fbx"), "YBot after")
+    before, added = import_fbx(os.path.join(fbx_dir, "ybot.fbx"), "YBot before")
+    after, more = import_fbx(os.path.join(fbx_dir, "ybot.fbx"), "YBot after")
     made += added + more
     motionkit.retarget(source, before, floor_fit="off", plant_feet=False)
     motionkit.retarget(source, after)
@@ -125,8 +125,8 @@ def figure(motionkit, walk60: str, fbx_dir: str, path: str) -> None:
     _leg_panel(axes[0, 2], after, leg, frame, "Y Bot after: on its own floor", "#7570b3")
 
     punch_path = os.path.join(fbx_dir, "ybot@punch.fbx")
-    fist_before, added = _import_fbx(os.path.join(fbx_dir, "ybot.fbx"), "YBot fist before")
-    fist_after, more = _import_fbx(os.path.join(fbx_dir, "ybot.fbx"), "YBot fist after")
+    fist_before, added = import_fbx(os.path.join(fbx_dir, "ybot.fbx"), "YBot fist before")
+    fist_after, more = import_fbx(os.path.join(fbx_dir, "ybot.fbx"), "YBot fist after")
     made += added + more
     before_objects = set(bpy.data.objects)
     motionkit.retarget(punch_path, fist_after, imported_source="keep")

@@ -26,12 +26,17 @@ class GraphEditor:
         self.area.type = self.kept_type
 
 
+def world_scale(obj) -> float:
+    """The object's largest scale factor: armature-space distances times it are world distances (at most)."""
+    return float(np.linalg.svd(np.array(obj.matrix_world)[:3, :3], compute_uv=False)[0])
+
+
 def world_points(obj, frames, axis):
     """(frames, bones, 5, 3) in world units: each pose bone's head, the points axis along its x, y and z
     (pose_bone.matrix, so its scale too), and its tail (the head again for a bone with children), as
     Blender evaluates them; armature space scaled by the object's largest scale factor."""
     scene = bpy.context.scene
-    scale = float(np.linalg.svd(np.array(obj.matrix_world)[:3, :3], compute_uv=False)[0])
+    scale = world_scale(obj)
     out = np.empty((len(frames), len(obj.pose.bones), 5, 3))
     for i, frame in enumerate(frames):
         scene.frame_set(int(frame))

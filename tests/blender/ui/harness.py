@@ -248,16 +248,11 @@ def _xwd_pixels(data: bytes) -> np.ndarray:
     pixel = rows[:, :width * step].reshape(height, width, step)
     out = np.ones((height, width, 4), dtype=np.float32)
     shifts = [(m & -m).bit_length() - 1 for m in masks]
-    if all(m >> shift == 0xFF and shift % 8 == 0 for m, shift in zip(masks, shifts)):
-        # Each channel one whole byte (every usual X server): taken as it lies, a screenshot a poll.
-        for c, shift in enumerate(shifts):
-            byte = shift // 8 if byte_order == 0 else step - 1 - shift // 8  # LSBFirst: the first byte is lowest
-            np.divide(pixel[..., byte], np.float32(255.0), out=out[..., c], dtype=np.float32)
-        return out
-    order = range(step) if byte_order == 0 else range(step - 1, -1, -1)
-    value = sum(pixel[..., i].astype(np.uint32) << (8 * k) for k, i in enumerate(order))
-    for c, (m, shift) in enumerate(zip(masks, shifts)):
-        out[..., c] = ((value & m) >> shift).astype(np.float32) / float(m >> shift)
+    assert all(m >> shift == 0xFF and shift % 8 == 0 for m, shift in zip(masks, shifts)), \
+        f"xwd gave channel masks {[hex(m) for m in masks]}, not a byte each"
+    for c, shift in enumerate(shifts):  # each channel one whole byte, taken as it lies
+        byte = shift // 8 if byte_order == 0 else step - 1 - shift // 8  # LSBFirst: the first byte is lowest
+        np.divide(pixel[..., byte], np.float32(255.0), out=out[..., c], dtype=np.float32)
     return out
 
 
