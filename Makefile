@@ -23,25 +23,30 @@ BUILD_5.2 := build/py314
 BLENDER_ARGS := --background --factory-startup --python-exit-code 1
 BENCHES := fcurve_write bvh_import resample retarget plant_feet control_rig ik ik_live
 
-.PHONY: demo test deps deps-4.3 deps-5.2 build-3.4 build-4.3 build-5.2 test-native test-python test-fuzz \
-        test-blender test-blender-3.4 test-blender-4.3 test-blender-5.2 test-demo bench clean
+.PHONY: demo test test-tiers deps deps-4.3 deps-5.2 build-3.4 build-4.3 build-5.2 test-native test-python \
+        test-fuzz test-blender test-demo test-long bench clean \
+        $(addprefix test-native-,$(BLENDERS)) $(addprefix test-blender-,$(BLENDERS)) $(addprefix test-long-,$(BLENDERS))
 
 demo: deps build-3.4
 	tools/with_blender.sh 3.4 $(BLENDER_ARGS) --python demo/demo.py -- --zip $(ZIP_3.4) --out out
 	@echo "Demo output: out/demo.blend and out/demo.png"
 
-test: deps deps-4.3 deps-5.2 build-3.4 build-4.3 build-5.2 test-native test-python test-blender test-demo test-fuzz
+# The tiers run two at a time, one per core: the Blender suites are mostly one Python thread each, so two
+# of them (or a suite beside a build) keep both cores busy. Each tier's output is printed whole when it ends
+# (--output-sync), its time is written to build/tiers.txt (tools/timed.sh), and the table closes the run.
+TEST_JOBS ?= 2
+test: deps
+	@mkdir -p build && rm -f build/tiers.txt
+	$(MAKE) --no-print-directory -j$(TEST_JOBS) --output-sync=target test-tiers
+	@sort -t$$'\t' -k2 -rn build/tiers.txt | awk -F'\t' '{printf "  %-18s %5d s\n", $$1, $$2}'
 	@echo "make test: everything passed on Blender 3.4, 4.3 and 5.2"
 
-# The README's other command, the demo, run whole into a scratch folder: a script or API change that breaks it
-# fails the tests (out/ is left to `make demo`).
-test-demo:
-	scratch=$$(mktemp -d) && trap 'rm -rf "$$scratch"' EXIT && \
-	tools/with_blender.sh 3.4 $(BLENDER_ARGS) --python demo/demo.py -- --zip $(ZIP_3.4) --out "$$scratch" && \
-	test -s "$$scratch/demo.png" && test -s "$$scratch/demo.blend" && test -s "$$scratch/contacts.png" && \
-	test -s "$$scratch/filters.png" && \
-	test -s "$$scratch/ik_reach.png" && test -s "$$scratch/feet_fingers.png" && \
-	test -s "$$scratch/reduction.png" && test -s "$$scratch/mirror.png"
+# The Blender suites first: they are the longest, so they start as soon as their build is done.
+test-tiers: test-blender test-native test-python test-demo test-fuzz
+
+# The README's other command, the demo, run whole into a scratch folder.
+test-demo: build-3.4
+	tools/timed.sh $@ tools/test_demo.sh $(ZIP_3.4)
 
 deps:
 	tools/install_deps.sh
@@ -50,25 +55,36 @@ deps-4.3: deps
 	tools/chroot.sh trixie setup
 deps-5.2: deps
 	tools/chroot.sh sid setup
+build-3.4: deps
+build-4.3: deps-4.3
+build-5.2: deps-5.2
 
 # Each build also compiles the native tests and benchmarks with that Blender's toolchain
 # (g++ 12 on the host, g++ 14 in trixie, g++ 16 in sid).
 $(addprefix build-,$(BLENDERS)): build-%:
-	$(IN_$*) python3 build_addon.py --blender /usr/bin/blender --all
+	tools/timed.sh $@ $(IN_$*) python3 build_addon.py --blender /usr/bin/blender --all
 
-test-native:
-	$(foreach v,$(BLENDERS),$(IN_$(v)) ctest --test-dir $(BUILD_$(v)) --output-on-failure --no-tests=error && ) true
+test-native: $(addprefix test-native-,$(BLENDERS))
+$(addprefix test-native-,$(BLENDERS)): test-native-%: build-%
+	tools/timed.sh $@ $(IN_$*) ctest --test-dir $(BUILD_$*) --output-on-failure --no-tests=error
 
-test-python:
-	python3 -m pytest -p no:cacheprovider -q -rs tests/python
+test-python: build-3.4
+	tools/timed.sh $@ python3 -m pytest -p no:cacheprovider -q -rs tests/python
 
 # A bounded libFuzzer run of the BVH reader under ASan and UBSan (clang).
-test-fuzz:
-	tools/fuzz_bvh.sh 30
+test-fuzz: deps
+	tools/timed.sh $@ tools/fuzz_bvh.sh 30
 
 test-blender: $(addprefix test-blender-,$(BLENDERS))
-$(addprefix test-blender-,$(BLENDERS)): test-blender-%:
-	tools/with_blender.sh $* $(BLENDER_ARGS) --python tests/blender/run_in_blender.py -- $(ZIP_$*)
+$(addprefix test-blender-,$(BLENDERS)): test-blender-%: build-%
+	tools/timed.sh $@ tools/with_blender.sh $* $(BLENDER_ARGS) --python tests/blender/run_in_blender.py -- $(ZIP_$*)
+
+# What takes minutes and adds no coverage the tiers above lack (every clip of a loop the tests keep one case
+# of): not run by `make test` or CI. Same Blenders, tests marked `long`.
+test-long: $(addprefix test-long-,$(BLENDERS))
+$(addprefix test-long-,$(BLENDERS)): test-long-%: build-%
+	tools/timed.sh $@ tools/with_blender.sh $* $(BLENDER_ARGS) --python tests/blender/run_in_blender.py -- \
+	  $(ZIP_$*) --long
 
 # Benchmarks are not tests: run them by hand and record the figures in docs/benchmarks.md.
 # The native ones on each toolchain, then each end-to-end script on each Blender.

@@ -125,12 +125,26 @@ def cmake_options(executable: str, include: str, everything: bool, werror: bool)
             f"-DMOTIONKIT_BUILD_TESTS={extras}", f"-DMOTIONKIT_BUILD_BENCHMARKS={extras}"]
 
 
+def compiler_cache() -> tuple[list[str], dict]:
+    """CMake's launcher option and the environment for ccache, where it is installed (MOTIONKIT_CCACHE=0 turns
+    it off): the same sources compiled by the same compiler are not compiled again, from any clone. Paths are
+    hashed relative to the clone (CCACHE_BASEDIR, CCACHE_NOHASHDIR), so a fresh clone in another folder, as
+    CI makes, finds what an earlier one compiled; the cache lives in the user's cache folder (in a chroot,
+    the chroot's own), beside the chroots."""
+    launcher = shutil.which("ccache") if os.environ.get("MOTIONKIT_CCACHE", "1") != "0" else None
+    env = dict(os.environ)
+    if launcher:
+        env.update(CCACHE_BASEDIR=ROOT, CCACHE_NOHASHDIR="1")
+    return [f"-DCMAKE_CXX_COMPILER_LAUNCHER={launcher or ''}"], env
+
+
 def build(info: dict, build_dir: str, everything: bool, werror: bool, jobs: int) -> str:
-    configure = ["cmake", "-S", ROOT, "-B", build_dir,
+    launcher, env = compiler_cache()
+    configure = ["cmake", "-S", ROOT, "-B", build_dir, *launcher,
                  *cmake_options(info["executable"], info["include"], everything, werror)]
-    subprocess.run(configure, check=True)
+    subprocess.run(configure, check=True, env=env)
     subprocess.run(["cmake", "--build", build_dir, "-j", str(jobs), "--target", "all" if everything else "_native"],
-                   check=True)
+                   check=True, env=env)
     module = os.path.join(build_dir, "_native" + info["ext_suffix"])
     if not os.path.isfile(module):
         fail(f"the build did not produce {module}: its suffix does not match Blender's Python "

@@ -43,7 +43,7 @@ root=$cache/$suite-chroot
 packages=(
   blender python3 python3-dev python3-numpy python3-scipy python3-pytest python3-distributed
   python3-matplotlib g++ cmake make libeigen3-dev pybind11-dev libgtest-dev
-  libgmock-dev libbenchmark-dev ca-certificates xz-utils
+  libgmock-dev libbenchmark-dev ca-certificates xz-utils ccache
   xvfb xauth libgl1-mesa-dri libegl1 mesa-utils tesseract-ocr x11-apps
 )
 

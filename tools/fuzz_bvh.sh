@@ -24,7 +24,11 @@ for tool in clang clang++ cmake; do
   }
 done
 
+# ccache, where installed, as build_addon.py uses it: nothing compiled twice, from any clone.
+launcher=$([ "${MOTIONKIT_CCACHE:-1}" != 0 ] && command -v ccache || true)
+export CCACHE_BASEDIR=$here CCACHE_NOHASHDIR=1
 CC=clang CXX=clang++ cmake -S "$here" -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+  -DCMAKE_CXX_COMPILER_LAUNCHER="$launcher" \
   -DMOTIONKIT_FUZZ=ON -DMOTIONKIT_BUILD_PYTHON=OFF -DMOTIONKIT_BUILD_TESTS=OFF \
   -DMOTIONKIT_BUILD_BENCHMARKS=OFF -DMOTIONKIT_WERROR=ON >/dev/null
 cmake --build "$build" --target motionkit_bvh_fuzz -j2

@@ -8,7 +8,7 @@ set -euo pipefail
 packages=(
   blender python3 python3-dev python3-numpy python3-scipy python3-pytest python3-matplotlib python3-distributed
   g++ cmake make libeigen3-dev pybind11-dev libgtest-dev libgmock-dev libbenchmark-dev
-  debootstrap util-linux zip
+  debootstrap util-linux zip ccache
   clang libclang-rt-dev
   xvfb xauth libgl1-mesa-dri libegl1 mesa-utils tesseract-ocr x11-apps
 )

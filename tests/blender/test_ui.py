@@ -28,6 +28,10 @@ READY = "MOTIONKIT-UI-READY"
 # default width.
 SCENARIO_SECONDS = 1800
 SCREEN = "-screen 0 1400x3200x24"
+# The first X display tried, one range per Blender: `make test` runs two Blenders' suites at once, and a
+# chroot's Blender sees its own /tmp (xvfb-run -a looks for free displays by their lock files there) but
+# shares the host's abstract X sockets.
+DISPLAY = 99 + 100 * (bpy.app.version[0] - 3)
 # Lines in a window session's output that are not errors of MotionKit's (checked by eye when added).
 NOT_OURS = (re.compile(r"^(Info|Warning): "), re.compile(r"^UI "), re.compile(r"ALSA|libdecor|Xlib|GLX"))
 PROBLEM = re.compile(r"Traceback|Error|rna_ui|not found|Exception", re.IGNORECASE)
@@ -41,8 +45,8 @@ def run_window(script: str, args: list, folder) -> dict:
         pytest.fail("xvfb-run is missing: tools/install_deps.sh (or the chroot's setup) installs xvfb")
     if shutil.which("tesseract") is None:
         pytest.fail("tesseract is missing: tools/install_deps.sh (or the chroot's setup) installs tesseract-ocr")
-    cmd = [xvfb, "-a", "-s", SCREEN, bpy.app.binary_path, "--factory-startup", "--enable-event-simulate",
-           "--python-exit-code", "1", "--python", os.path.join(HERE, "ui", script), "--", *args]
+    cmd = [xvfb, "-n", str(DISPLAY), "-a", "-s", SCREEN, bpy.app.binary_path, "--factory-startup",
+           "--enable-event-simulate", "--python-exit-code", "1", "--python", os.path.join(HERE, "ui", script), "--", *args]
     # A scenario takes minutes, several times longer on a loaded machine: the bound catches a hang only.
     out = subprocess.run(cmd, capture_output=True, text=True, timeout=SCENARIO_SECONDS,
                          env=conftest.fresh_blender_env(folder))
