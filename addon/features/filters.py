@@ -121,9 +121,10 @@ class _ClipFilter:
         for (*_, step), same_grid in grids.items():
             self.settings.check(self.fps / step, f"'{action.name}'")
             samples = same_grid[0].samples
-            values = np.hstack([plan.key_values.T if _keys_are_samples(plan) else
-                                channel_groups.sample(obj, action, plan.channels, plan.static, samples)
-                                for plan in same_grid])
+            # One float64 copy of every channel (the float32 keys widened as they are gathered).
+            values = np.concatenate([plan.key_values.T if _keys_are_samples(plan) else
+                                     channel_groups.sample(obj, action, plan.channels, plan.static, samples)
+                                     for plan in same_grid], axis=1, dtype=np.float64)
             ends = np.cumsum([len(p.channels) for p in same_grid])
             blocks = [(p.group.kind, p.group.mode, values[:, end - len(p.channels):end], p.group.data_path)
                       for p, end in zip(same_grid, ends)]
