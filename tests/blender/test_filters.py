@@ -341,12 +341,30 @@ def test_blenders_butterworth_smooth_agrees_away_from_the_edges(mk, animdata, wa
     got_theirs = _evaluated(animdata, theirs, path, 3, frames)
     inside = slice(int(fps), -int(fps))
     difference = np.abs(got_ours - got_theirs)
+    # Blender runs the same 4th-order filter in double but keeps its forward pass in float32, and both
+    # write float32 keys: half an ulp of the largest value for its forward pass (carried through the
+    # backward pass by the filter's L1 gain) and half an ulp for each side's keys. The ends' different
+    # treatments leave a transient that the filter's impulse response, a second on, has shrunk to its L1
+    # tail times the largest difference at the ends.
+    sos = signal.butter(4, 6.0, fs=fps, output='sos')
+    impulse = np.zeros(int(10 * fps))
+    impulse[0] = 1.0
+    response = np.abs(signal.sosfilt(sos, impulse))
+    ulp = _f32_rounding(noisy)
+    bound = ulp * (0.5 * response.sum() + 1.0) + difference.max() * response[int(fps):].sum()
     print(f"\nBlender's butterworth_smooth against motionkit.filter: {difference[inside].max():.2e} m a second "
-          f"from the ends, {difference.max():.2e} m at the ends")
-    assert difference[inside].max() < 1e-5, difference[inside].max()
+          f"from the ends (bound {bound:.2e} m: float32 ulp {ulp:.2e} m), {difference.max():.2e} m at the ends")
+    assert difference[inside].max() < bound, difference[inside].max()
     assert difference.max() > 1e-4  # the ends do differ, as the docstring says why
     model = np.stack([_blender_butterworth(noisy[:, k], 2, 6.0, fps) for k in range(3)], axis=1)
-    assert np.abs(got_theirs - model).max() < 1e-5, np.abs(got_theirs - model).max()
+    # The model rounds its forward pass to float32 as Blender does, from coefficients equal to Blender's
+    # to double rounding: where the two forward values fall either side of a float32 rounding point they
+    # differ by an ulp, carried through the backward pass by its L1 gain, and Blender's keys are its
+    # values within half an ulp.
+    model_bound = ulp * (response.sum() + 0.5)
+    print(f"Blender's keys against the model of its sampling: {np.abs(got_theirs - model).max():.2e} m "
+          f"(bound {model_bound:.2e} m)")
+    assert np.abs(got_theirs - model).max() <= model_bound, np.abs(got_theirs - model).max()
     assert np.abs(got_theirs - noisy).max() > 1e-3  # the filter did change the keys
 
 
