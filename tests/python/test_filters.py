@@ -36,7 +36,8 @@ def rounding_bound(x, order, cutoff, fps):
     that error reaches the output through the rest of the cascade: 1 / A_s of its own section, then the
     sections after it, whose impulse response's L1 norm is its gain (worst case, summed over sections); the
     backward pass carries the forward error through the whole filter (its L1 gain) and adds its own.
-    Measured errors are about a tenth of it (errors of random sign partly cancel): see the tests."""
+    It is a worst case: measured errors are 0.25 of it at most (orders 1 and 2), 0.02 at the median and less
+    at high orders near the Nyquist frequency, where errors of either sign cancel most."""
     sos = butterworth_sos(order, cutoff, fps)
     pad = sos_padding(sos, x.shape[0])
     amplitude = np.abs(np.concatenate([2 * x[:1] - x[pad:0:-1], x, 2 * x[-1:] - x[-2:-pad - 2:-1]])).max()
@@ -64,7 +65,8 @@ def test_butterworth_is_scipys_sosfiltfilt(native, fps, order):
     x = random_walk(300, 4, seed=order * 1000 + fps)
     for cutoff in (7.0, 2.0, 0.45 * fps):
         got = native.filter_channels(x, "butterworth", fps, cutoff=cutoff, order=order)
-        error, bound = np.abs(got - scipy_butterworth(x, order, cutoff, fps)).max(), rounding_bound(x, order, cutoff, fps)
+        error = np.abs(got - scipy_butterworth(x, order, cutoff, fps)).max()
+        bound = rounding_bound(x, order, cutoff, fps)
         print(f"order {order}, {cutoff:g} Hz at {fps} fps: {error:.1e}, {error / bound:.3f} of the bound {bound:.1e}")
         assert error <= bound, f"order {order}, cutoff {cutoff} Hz at {fps} fps: {error:.2e} > {bound:.2e}"
 
@@ -76,8 +78,8 @@ def test_butterworth_on_a_short_clip_shortens_the_padding(native, fps, order):
     got = native.filter_channels(x, "butterworth", fps, order=order)  # 7 Hz by default
     assert np.abs(got - scipy_butterworth(x, order, 7.0, fps)).max() <= rounding_bound(x, order, 7.0, fps)
     two = np.ascontiguousarray(x[:2])
-    assert (np.abs(native.filter_channels(two, "butterworth", fps, order=order) - scipy_butterworth(two, order, 7.0, fps)).max()
-            <= rounding_bound(two, order, 7.0, fps))
+    got = native.filter_channels(two, "butterworth", fps, order=order)
+    assert np.abs(got - scipy_butterworth(two, order, 7.0, fps)).max() <= rounding_bound(two, order, 7.0, fps)
 
 
 def test_butterworth_defaults_are_mayas_7_hz_order_4(native):
