@@ -101,10 +101,10 @@ def filter_groups(native, groups: list, settings: FilterSettings, fps: float, fr
     'vector' or 'scalar'. Returns each group's values filtered, rotations back in their mode, continuous
     from their first row; the Euler filter only makes Euler angles continuous. ValueError names the group
     and frame of a value that is not finite."""
-    out = [np.ascontiguousarray(values, dtype=np.float64) for _, _, values, _ in groups]
+    out = [np.asarray(values, dtype=np.float64) for _, _, values, _ in groups]
     for (_, _, _, what), values in zip(groups, out):
-        bad = np.argwhere(~np.isfinite(values))
-        if bad.size:
+        if not np.isfinite(values).all():
+            bad = np.argwhere(~np.isfinite(values))
             raise ValueError(f"{what}[{bad[0][1]}] is not finite at frame {frames[bad[0][0]]:g}")
     plain = [i for i, group in enumerate(groups) if group[0] != 'rotation']
     turned = [i for i, group in enumerate(groups) if group[0] == 'rotation'
@@ -120,7 +120,12 @@ def filter_groups(native, groups: list, settings: FilterSettings, fps: float, fr
                        for i in turned])
         if settings.kind != "euler":
             q = native.filter_rotations(np.ascontiguousarray(q), settings.kind, fps, **settings.native_options())
-        for k, i in enumerate(turned):
-            bone = np.ascontiguousarray(q[:, 4 * k:4 * k + 4])
-            out[i] = rotation_channels.from_quaternions(native, groups[i][1], bone, previous=out[i][0])
+        q = q.reshape(len(q), len(turned), 4)
+        # One conversion per rotation mode, every bone in that mode together.
+        for mode in {groups[i][1] for i in turned}:
+            bones = [k for k, i in enumerate(turned) if groups[i][1] == mode]
+            back = rotation_channels.from_quaternions(native, mode, q[:, bones],
+                                                      previous=np.stack([out[turned[k]][0] for k in bones]))
+            for j, k in enumerate(bones):
+                out[turned[k]] = back[:, j]
     return out

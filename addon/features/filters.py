@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import bpy
 import numpy as np
 
 from ..blender import animdata, channel_groups
@@ -52,7 +53,7 @@ def filter(targets, kind: str = "butterworth", *, cutoff: float = filter_plan.MA
     if channels not in _CHOSEN:
         raise ValueError(f"unknown channels {channels!r}; expected one of {list(_CHOSEN)}")
     work, clips = [], {}
-    for obj, action in target_actions(targets):
+    for obj, action in target_actions(_with_actions(targets)):
         fps = animdata.frame_rate(action)
         settings.check(fps, f"'{action.name}'")
         groups = [g for g in channel_groups.read(obj, action, bones_of(bones, obj)) if _CHOSEN[channels](g)]
@@ -66,6 +67,14 @@ def filter(targets, kind: str = "butterworth", *, cutoff: float = filter_plan.MA
     write_planned(planned)
     return FilterReport(sum(len(w.channels) for *_, ws in planned for w in ws), before, after,
                         [action for _, action, _ in planned])
+
+
+def _with_actions(targets):
+    """The targets, after a ValueError naming the first object that plays no action."""
+    for item in targets if isinstance(targets, (list, tuple, set)) else [targets]:
+        if isinstance(item, bpy.types.Object) and animdata.assigned_action(item) is None:
+            raise ValueError(f"'{item.name}' has no action to filter")
+    return targets
 
 
 @dataclass
@@ -112,9 +121,10 @@ class _ClipFilter:
         for (*_, step), same_grid in grids.items():
             self.settings.check(self.fps / step, f"'{action.name}'")
             samples = same_grid[0].samples
-            values = np.hstack([plan.key_values.T if _keys_are_samples(plan) else
-                                channel_groups.sample(obj, action, plan.channels, plan.static, samples)
-                                for plan in same_grid])
+            # One float64 copy of every channel (the float32 keys widened as they are gathered).
+            values = np.concatenate([plan.key_values.T if _keys_are_samples(plan) else
+                                     channel_groups.sample(obj, action, plan.channels, plan.static, samples)
+                                     for plan in same_grid], axis=1, dtype=np.float64)
             ends = np.cumsum([len(p.channels) for p in same_grid])
             blocks = [(p.group.kind, p.group.mode, values[:, end - len(p.channels):end], p.group.data_path)
                       for p, end in zip(same_grid, ends)]
@@ -130,6 +140,11 @@ class _ClipFilter:
 def _group_frames(obj, group, frame_range) -> _GroupFrames:
     channels, static = channel_groups.channels(obj, group)
     reads = [animdata.read_keys(fcurve) for fcurve in group.curves.values()]
+    for fcurve, (frames, values) in zip(group.curves.values(), reads):
+        bad = np.flatnonzero(~np.isfinite(values) | ~np.isfinite(frames))
+        if bad.size:
+            raise ValueError(f"'{obj.name}': the key of {fcurve.data_path}[{fcurve.array_index}] at frame "
+                             f"{frames[bad[0]]:g} is {values[bad[0]]:g}, not a finite number")
     shared = all(f.shape == reads[0][0].shape and np.array_equal(f, reads[0][0]) for f, _ in reads)
     key_frames = (reads[0][0] if shared else np.unique(np.concatenate([f for f, _ in reads]))).astype(np.float64)
     first, last = float(key_frames[0]), float(key_frames[-1])
@@ -166,7 +181,8 @@ def _group_write(obj, action, plan: _GroupFrames, filtered, keys) -> KeyWrite:
     if plan.shared and (keys == "ORIGINAL" or on_samples):
         present = [row for row, channel in enumerate(plan.channels) if channel.index in plan.group.curves]
         values = plan.key_values.astype(np.float64)
-        values[:, inside] = filter_plan.at_frames(samples, filtered[:, present], frames[inside]).T
+        values[:, inside] = (filtered[:, present].T if on_samples else
+                             filter_plan.at_frames(samples, filtered[:, present], frames[inside]).T)
         return KeyWrite([plan.channels[row] for row in present], frames, values, 'BEZIER', None, in_place=True)
     new_frames = samples if keys == "EVERY_FRAME" else frames[inside]
     new_values = filtered if keys == "EVERY_FRAME" else filter_plan.at_frames(samples, filtered, new_frames)

@@ -58,9 +58,10 @@ void BindFilters(py::module_& m) {
         Filter scalar channels sampled once per frame at fps frames per second.
 
         values: float64 (frames, channels), C-contiguous; each column one channel.
-        kind "butterworth": zero-phase low-pass, scipy.signal.butter(order,
-        cutoff, fs=fps) run by filtfilt(padtype='odd', padlen=min(3 (order + 1),
-        frames - 1)); cutoff in Hz below fps / 2, order 1..8, frames >= 2.
+        kind "butterworth": zero-phase low-pass in second-order sections,
+        scipy.signal.butter(order, cutoff, fs=fps, output='sos') run by
+        sosfiltfilt(padtype='odd', padlen=min(3 (order + 1), frames - 1));
+        cutoff in Hz below fps / 2, order 1..8, frames >= 2.
         "gaussian": ndimage.gaussian_filter1d(sigma, mode='reflect'), sigma in
         frames. "median": running median of odd size (3 up to frames; larger is
         an error, not clamped), the ends extended by their values

@@ -2,9 +2,10 @@
 // F-curve sampled once per frame) and rotations filtered on the sphere.
 //
 // Scalar kinds, each column an independent channel sampled at `fps`:
-//   kButterworth: zero-phase low-pass, scipy.signal.butter(order, cutoff,
-//     fs=fps) run by filtfilt with odd padding of min(3 (order + 1), frames - 1)
-//     samples (scipy's default padding, shortened for short clips).
+//   kButterworth: zero-phase low-pass in second-order sections,
+//     scipy.signal.butter(order, cutoff, fs=fps, output='sos') run by
+//     sosfiltfilt with odd padding of min(3 (order + 1), frames - 1) samples
+//     (scipy's default padding, shortened for short clips).
 //   kGaussian: scipy.ndimage.gaussian_filter1d(sigma, mode='reflect',
 //     truncate=4), sigma in frames.
 //   kMedian: running median of an odd window, the clip extended by its end

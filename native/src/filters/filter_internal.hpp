@@ -5,6 +5,7 @@
 
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <array>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -23,18 +24,25 @@ inline std::string Number(double value) {
   return text.str();
 }
 
-// Transfer function b / a (order + 1 coefficients each, a[0] = 1) and the
-// state of a step's steady response (order values), as scipy's butter and
-// lfilter_zi give them.
+// Second-order sections b0 b1 b2 a0 a1 a2 (a0 = 1), the state of a step's
+// steady response per section, and the taps that set the padding, as scipy's
+// butter(output='sos'), sosfilt_zi and sosfiltfilt give them.
 struct ButterworthDesign {
-  std::vector<double> b, a, zi;
+  std::vector<std::array<double, 6>> sections;
+  std::vector<std::array<double, 2>> zi;
+  int taps = 0;
 };
 ButterworthDesign DesignButterworth(int order, double cutoff, double fps);
-// Samples of odd extension at each end: scipy's default, shortened for short signals.
+// Samples of odd extension at each end: sosfiltfilt's default 3 taps, shortened for short signals.
 Eigen::Index ButterworthPadding(const ButterworthDesign& design, Eigen::Index n);
-// scipy's filtfilt; scratch holds n + 2 ButterworthPadding(design, n) + order values.
-void ButterworthFilter(const ButterworthDesign& design, const double* x, Eigen::Index n, double* out,
-                       double* scratch);
+// Channels the Butterworth filter runs side by side: independent recurrences
+// that the processor overlaps.
+inline constexpr int kLanes = 4;
+// scipy's sosfiltfilt of `lanes` (1..kLanes) channels at once: sample i of
+// channel l at x[i x_stride + l], written to out[i out_stride + l]; scratch
+// holds kLanes (n + 2 ButterworthPadding(design, n)) values.
+void ButterworthFilter(const ButterworthDesign& design, const double* x, Eigen::Index x_stride, int lanes,
+                       Eigen::Index n, double* out, Eigen::Index out_stride, double* scratch);
 
 // Weights of the centre and of offsets 1..radius (radius = int(4 sigma + 0.5)), summing to 1 over -radius..radius.
 std::vector<double> GaussianHalfKernel(double sigma);
@@ -71,10 +79,14 @@ class ScalarFilter {
  public:
   ScalarFilter(const FilterDesign& design, Eigen::Index frames);
   void Apply(const double* in, Eigen::Index n, double* out);
+  // `lanes` (1..kLanes) channels at once: sample i of channel l at
+  // in[i in_stride + l], written to out[i out_stride + l].
+  void Apply(const double* in, Eigen::Index in_stride, int lanes, Eigen::Index n, double* out,
+             Eigen::Index out_stride);
 
  private:
   const FilterDesign& design_;
-  std::vector<double> scratch_;
+  std::vector<double> scratch_, in_, out_;
 };
 
 // work(begin, end) over ranges covering [0, count), one range per thread

@@ -98,18 +98,33 @@ FilterDesign DesignFilter(const FilterSettings& settings) {
 ScalarFilter::ScalarFilter(const FilterDesign& design, Eigen::Index frames) : design_(design) {
   if (design.settings.kind == FilterKind::kButterworth) {
     const Eigen::Index pad = ButterworthPadding(design.butterworth, frames);
-    scratch_.resize(static_cast<std::size_t>(frames + 2 * std::max<Eigen::Index>(pad, 0)) + design.butterworth.a.size());
-  } else if (design.settings.kind == FilterKind::kMedian) {
-    scratch_.resize(static_cast<std::size_t>(design.settings.size));
+    scratch_.resize(static_cast<std::size_t>(kLanes * (frames + 2 * std::max<Eigen::Index>(pad, 0))));
+  } else {
+    in_.resize(static_cast<std::size_t>(frames));
+    out_.resize(static_cast<std::size_t>(frames));
+    if (design.settings.kind == FilterKind::kMedian) scratch_.resize(static_cast<std::size_t>(design.settings.size));
   }
 }
 
-void ScalarFilter::Apply(const double* in, Eigen::Index n, double* out) {
-  switch (design_.settings.kind) {
-    case FilterKind::kButterworth: ButterworthFilter(design_.butterworth, in, n, out, scratch_.data()); return;
-    case FilterKind::kGaussian: GaussianFilter(design_.gaussian, in, n, out); return;
-    case FilterKind::kMedian: MedianFilter(design_.settings.size, in, n, out, scratch_.data()); return;
-    case FilterKind::kOneEuro: OneEuroFilter(design_.settings, in, n, out); return;
+void ScalarFilter::Apply(const double* in, Eigen::Index n, double* out) { Apply(in, 1, 1, n, out, 1); }
+
+void ScalarFilter::Apply(const double* in, Eigen::Index in_stride, int lanes, Eigen::Index n, double* out,
+                         Eigen::Index out_stride) {
+  if (design_.settings.kind == FilterKind::kButterworth) {
+    ButterworthFilter(design_.butterworth, in, in_stride, lanes, n, out, out_stride, scratch_.data());
+    return;
+  }
+  for (int l = 0; l < lanes; ++l) {
+    for (Eigen::Index i = 0; i < n; ++i) in_[static_cast<std::size_t>(i)] = in[i * in_stride + l];
+    double* const x = in_.data();
+    double* const y = out_.data();
+    switch (design_.settings.kind) {
+      case FilterKind::kGaussian: GaussianFilter(design_.gaussian, x, n, y); break;
+      case FilterKind::kMedian: MedianFilter(design_.settings.size, x, n, y, scratch_.data()); break;
+      case FilterKind::kOneEuro: OneEuroFilter(design_.settings, x, n, y); break;
+      case FilterKind::kButterworth: break;
+    }
+    for (Eigen::Index i = 0; i < n; ++i) out[i * out_stride + l] = y[i];
   }
 }
 
@@ -140,11 +155,10 @@ void FilterChannelsJob::Run() {
   const Eigen::Index frames = values.rows();
   internal::ForEachRange(values.cols(), threads, [&](Eigen::Index begin, Eigen::Index end) {
     internal::ScalarFilter filter(design, frames);
-    Eigen::VectorXd in(frames), out(frames);
-    for (Eigen::Index c = begin; c < end; ++c) {
-      in = values.col(c);
-      filter.Apply(in.data(), frames, out.data());
-      filtered.col(c) = out;
+    for (Eigen::Index c = begin; c < end; c += internal::kLanes) {
+      const int lanes = static_cast<int>(std::min<Eigen::Index>(internal::kLanes, end - c));
+      filter.Apply(values.data() + c, values.outerStride(), lanes, frames, filtered.data() + c,
+                   filtered.outerStride());
     }
   });
 }

@@ -24,7 +24,7 @@ class BoneFilter {
  public:
   BoneFilter(const internal::FilterDesign& design, Eigen::Index frames)
       : design_(design), filter_(design, frames), input_(frames), reference_(frames),
-        tangent_(3, frames), smoothed_(3, frames) {}
+        tangent_(frames, 4), smoothed_(frames, 4) {}
 
   void Run(const ConstMatrixView& quaternions, Eigen::Index bone, Eigen::Ref<RowMatrixXd> filtered) {
     const Eigen::Index n = quaternions.rows();
@@ -36,7 +36,7 @@ class BoneFilter {
       internal::OneEuroRotations(design_.settings, input_.data(), n, reference_.data());
     } else if (design_.settings.kind == FilterKind::kMedian) {
       std::copy(input_.begin(), input_.end(), reference_.begin());
-      // tangent_ holds 3 frames >= 3 size values (Validate).
+      // tangent_ holds 4 frames >= 3 size values (Validate).
       Repeat([&] { return internal::MedianRotations(design_.settings.size, input_.data(), n, reference_.data(),
                                                     tangent_.data()); });
     } else {
@@ -67,12 +67,12 @@ class BoneFilter {
   // constant-speed rotation is its own reference.
   void IntegrateFilteredVelocities(Eigen::Index n) {
     for (Eigen::Index i = 0; i + 1 < n; ++i) {
-      tangent_.col(i) = internal::RotationVector(input_[i].conjugate() * input_[i + 1]);
+      tangent_.row(i).head<3>() = internal::RotationVector(input_[i].conjugate() * input_[i + 1]);
     }
     FilterTangents(n - 1);
     reference_[0] = input_[0];
     for (Eigen::Index i = 0; i + 1 < n; ++i) {
-      reference_[i + 1] = (reference_[i] * internal::FromRotationVector(smoothed_.col(i))).normalized();
+      reference_[i + 1] = (reference_[i] * internal::FromRotationVector(smoothed_.row(i).head<3>())).normalized();
     }
   }
 
@@ -80,24 +80,25 @@ class BoneFilter {
   // largest move (radians).
   double Correct(Eigen::Index n) {
     for (Eigen::Index i = 0; i < n; ++i) {
-      tangent_.col(i) = internal::RotationVector(reference_[i].conjugate() * input_[i]);
+      tangent_.row(i).head<3>() = internal::RotationVector(reference_[i].conjugate() * input_[i]);
     }
     FilterTangents(n);
     double largest = 0.0;
     for (Eigen::Index i = 0; i < n; ++i) {
-      largest = std::max(largest, smoothed_.col(i).norm());
-      reference_[i] = (reference_[i] * internal::FromRotationVector(smoothed_.col(i))).normalized();
+      const Eigen::Vector3d move = smoothed_.row(i).head<3>();
+      largest = std::max(largest, move.norm());
+      reference_[i] = (reference_[i] * internal::FromRotationVector(move)).normalized();
     }
     return largest;
   }
 
   void FilterTangents(Eigen::Index n) {
     if (n < 1) return;
-    const Eigen::Index stride = tangent_.cols();
-    for (Eigen::Index k = 0; k < 3; ++k) filter_.Apply(tangent_.data() + k * stride, n, smoothed_.data() + k * stride);
+    filter_.Apply(tangent_.data(), 4, 3, n, smoothed_.data(), 4);
   }
 
-  using Tangents = Eigen::Matrix<double, 3, Eigen::Dynamic, Eigen::RowMajor>;  // each row one channel, contiguous
+  // A frame a row, its three components side by side for the filter's lanes (the fourth unused).
+  using Tangents = Eigen::Matrix<double, Eigen::Dynamic, 4, Eigen::RowMajor>;
 
   const internal::FilterDesign& design_;
   internal::ScalarFilter filter_;
