@@ -109,3 +109,59 @@ def test_an_arm_chain_meets_its_target_as_near_as_blenders_constraint(mk, walk60
     print(f"\nnatural={natural}: Blender's IK constraint {theirs * 1e6:.3f} um, MotionKit {ours * 1e6:.3f} um")
     assert ours < REACHED
     assert ours <= max(theirs, 0.2 * REACHED)
+
+
+# The arm's reach that the natural ranges allow (docs/ik.md): the elbow bends 0 to 150 degrees, the
+# upper arm swings freely (only its twist is ranged) and the wrist bends 70 either way, so the hand's tail
+# can lie anywhere from the shoulder at distances between the folded arm's and the straight arm's.
+ELBOW_MOST = np.radians(150.0)
+REACH_SHARE = 0.8
+# Directions from the shoulder, in the walker's own frame (-Y forward, +X its left, +Z up): ahead, ahead
+# and up, out to the side, ahead and down.
+DIRECTIONS = np.array([[0.0, -1.0, 0.0], [0.3, -0.7, 0.6], [1.0, -0.2, 0.0], [0.2, -0.8, -0.5]])
+
+
+def arm_reach(obj):
+    """(shortest, longest) distance from lShoulder's head to lWrist's tail within the ranges, from the
+    bones' lengths: straight (elbow at 0), and folded (elbow at 150 degrees, the wrist straight)."""
+    upper = obj.data.bones["lShoulder"].length
+    lower = obj.data.bones["lElbow"].length + obj.data.bones["lWrist"].length
+    folded = np.sqrt(upper ** 2 + lower ** 2 - 2 * upper * lower * np.cos(np.pi - ELBOW_MOST))
+    return folded, upper + lower
+
+
+# Ahead and up, frame 25 ends 10.7 um from its target (Blender 3.4; the others within 0.9 um): not met to
+# 1e-6 m yet. Strict: the test turns red once it is met, so that the mark goes.
+UP_MISSED = pytest.mark.xfail(strict=True, reason="walk60 frame 25: the hand stops 10.7 um short (issue 36)")
+
+
+@pytest.mark.parametrize("direction", [0, pytest.param(1, marks=UP_MISSED), 2, 3], ids=["ahead", "up", "side", "down"])
+def test_a_hand_at_80_percent_of_its_reach_is_met_with_the_toes_pinned(mk, walk60, direction):
+    """walk60 playing, both toes pinned, natural defaults (balance on): the left hand's target at 80 % of
+    the reach the ranges allow from the shoulder as the capture has it on each frame. A pose within the
+    ranges meets it (the elbow bent to the law of cosines' angle, inside 0-150 degrees, the upper arm
+    turned onto the line), so the hand must be on it, in Blender's evaluation."""
+    obj, _ = mk.bvh.load(walk60, name="reacher")
+    folded, straight = arm_reach(obj)
+    assert folded < REACH_SHARE * straight, "the target lies within the ranges' reach"
+    frames = np.arange(1, 31)
+    scene = bpy.context.scene
+    world = np.array(obj.matrix_world)
+    shoulders = []
+    for f in frames:
+        scene.frame_set(int(f))
+        shoulders.append(tuple(obj.matrix_world @ obj.pose.bones["lShoulder"].head))
+    unit = DIRECTIONS[direction] / np.linalg.norm(DIRECTIONS[direction])
+    scale = np.linalg.norm(world[:3, 0])
+    targets = np.array(shoulders) + REACH_SHARE * straight * scale * (world[:3, :3] / scale @ unit)
+    mk.ik.solve(obj, [mk.ik.Effector("lToeJoint", pin=True, orientation=True),
+                      mk.ik.Effector("rToeJoint", pin=True, orientation=True),
+                      mk.ik.Effector("lWrist", target=targets)], (1, 30))
+    errors = np.empty(frames.size)
+    for i, f in enumerate(frames):
+        scene.frame_set(int(f))
+        errors[i] = np.linalg.norm(np.array(obj.matrix_world @ obj.pose.bones["lWrist"].tail) - targets[i])
+    worst = int(np.argmax(errors))
+    print(f"\n80 % of the reach, {['ahead', 'up', 'side', 'down'][direction]}: median {np.median(errors) * 1e6:.3f} um, "
+          f"worst {errors[worst] * 1e6:.3f} um at frame {frames[worst]}")
+    assert errors[worst] < REACHED, f"frame {frames[worst]}: {errors[worst] * 1e3:.3f} mm"
