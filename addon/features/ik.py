@@ -181,6 +181,7 @@ def plan(obj, effectors, frame_range=None, method: str = "dls", *, root_translat
             e.pin and natural_joints.part[all_names.index(e.bone)] in ("foot", "shin") for e in effectors)
     balance = bool(balance) and priorities and method == "dls" and any(e.pin for e in effectors)
     rig, bones, above = _solved_rig(obj, all_bones, all_names, effectors, rest, balance)
+    _refuse_constraints(obj, bones + above)
     names = [b.name for b in bones]
     frames = _frames(frame_range)
     action = animdata.assigned_action(obj) if frame_range is not None else None
@@ -213,6 +214,20 @@ def plan(obj, effectors, frame_range=None, method: str = "dls", *, root_translat
     solved = run() if alongside is None else worker_thread.beside(run, alongside)[0]
     return _plan_of(obj, bones, frames, input_rotations, solved, root_translation,
                     options if natural_joints is not None or balance else None, balance)
+
+
+def _refuse_constraints(obj, bones) -> None:
+    """The solve poses bones by their pose channels alone: a bone it reads or keys that a working constraint
+    also moves would show Blender's evaluation something else than the solve reached (the constraint
+    applied on top of the keys). Such a bone is refused by name; muted constraints and constraints at zero
+    influence, and constraints on bones the solve does not see (fingers, say), are left alone."""
+    for bone in bones:
+        for constraint in obj.pose.bones[bone.name].constraints:
+            working = constraint.enabled if hasattr(constraint, "enabled") else not constraint.mute
+            if working and constraint.influence > 0.0:
+                raise ValueError(f"bone '{bone.name}' of '{obj.name}' has the constraint '{constraint.name}' "
+                                 f"({constraint.type}): the IK solve does not evaluate constraints; mute it or "
+                                 "apply it first")
 
 
 def _checked_effectors(obj, effectors, method) -> list:
@@ -253,8 +268,28 @@ def _input_pose(obj, action, bones, frames) -> tuple[np.ndarray, np.ndarray]:
     if action is None:
         rotations, locations = pose_channels.current_pose(obj, bones)
         return rotations.reshape(1, -1), np.ascontiguousarray(locations[:1])
+    _refuse_non_finite_keys(obj, action, bones)
     locations, _ = pose_channels.locations(obj, action, bones[:1], frames)
     return pose_channels.rotations(obj, action, bones, frames), np.ascontiguousarray(locations)
+
+
+def _refuse_non_finite_keys(obj, action, bones) -> None:
+    """A key that is not finite on a channel the solve reads (the bones' rotations, the root's location) is
+    named by bone, channel and frame, before anything is sampled."""
+    read = {f"{pose_channels.bone_path(bone.name)}.{prop}": bone.name
+            for bone in bones for prop in ("rotation_quaternion", "rotation_euler", "rotation_axis_angle")}
+    read[f"{pose_channels.bone_path(bones[0].name)}.location"] = bones[0].name
+    for fcurve in animdata.fcurves(action, obj):
+        name = read.get(fcurve.data_path)
+        if name is None:
+            continue
+        co = np.empty(2 * len(fcurve.keyframe_points))
+        fcurve.keyframe_points.foreach_get("co", co)
+        bad = np.flatnonzero(~np.isfinite(co.reshape(-1, 2)).all(axis=1))
+        if bad.size:
+            channel = fcurve.data_path.rsplit(".", 1)[1]
+            raise ValueError(f"bone '{name}' has a key that is not finite on {channel}[{fcurve.array_index}] "
+                             f"at frame {co[2 * bad[0]]:g} of action '{action.name}'")
 
 
 def _plan_of(obj, bones, frames, input_rotations, solved, root_translation, joints, balance) -> Plan:

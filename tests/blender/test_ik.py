@@ -51,15 +51,29 @@ def test_lab_simple_root_fixed_wrist_to_a_target(mk, ik, walk60):
     assert obj.pose.bones["RootJoint"].rotation_quaternion.angle < 1e-9  # the root stayed
 
 
-def test_lab_hard_toe_fixed_through_the_root(mk, ik, walk60):
+@pytest.mark.parametrize("balance, natural", [(None, "auto"), (False, "auto"), (False, False)],
+                         ids=["balance", "no balance", "plain"])
+def test_lab_hard_toe_fixed_through_the_root(mk, ik, walk60, balance, natural):
     obj = still_walker(mk, walk60)
     toe = tail(obj, "lToeJoint")
-    # Low and forward: the body must bend; the pinned toe's balance keeps it 6 mm short (the pass mark).
+    # Low and forward: the body must bend. Without the balance the target is reached; with it (on by
+    # default with a pinned foot) the centre of mass may not leave the toe's support, which keeps the hand
+    # short by a distance the posture decides (measured below).
     target = tail(obj, "lWrist") + Vector((0.1, -0.3, -0.6))
     mk.ik.solve(obj, [ik.Effector("lToeJoint", pin=True, orientation=True),
-                      ik.Effector("lWrist", target=tuple(target))])
-    assert (tail(obj, "lWrist") - target).length < LAB_TOLERANCE
-    assert (tail(obj, "lToeJoint") - toe).length < 1e-4
+                      ik.Effector("lWrist", target=tuple(target))], balance=balance, natural=natural)
+    short = (tail(obj, "lWrist") - target).length
+    print(f"\nbalance {balance}, natural {natural}: the hand {short * 1e3:.4f} mm from the target, the toe "
+          f"{(tail(obj, 'lToeJoint') - toe).length * 1e6:.4f} um from its pin")
+    assert short < LAB_TOLERANCE  # the brief's pass mark
+    # Plain, the target is reached: 0.1 um measured, held to ten times that. With natural defaults the
+    # ranges (and the balance) leave the hand short by what the posture they allow reaches: measured
+    # 2.781 mm without the balance and 5.833 mm with it (Blender 3.4), held to that plus 10 um, ten
+    # times what a single frame's solve moves under a 1e-12 nudge of its input or Blender's float32
+    # rounding of a pose a metre out (both below a micrometre).
+    assert short < {"plain": 1e-6, "no balance": 2.781e-3 + 1e-5, "balance": 5.833e-3 + 1e-5}[
+        "plain" if natural is False else "balance" if balance is None else "no balance"]
+    assert (tail(obj, "lToeJoint") - toe).length < 1e-6  # measured 0.07 um
     assert obj.pose.bones["RootJoint"].location.length > 0.01  # the hips moved
 
 
@@ -320,3 +334,87 @@ def test_live_survives_saving_and_opening_the_file(mk, walk60, tmp_path):
     assert float(report["before-save"]) < 1e-3
     assert report["toggle-after-open"] == "True"
     assert float(report["after-open"]) < 1e-3, report
+
+
+def keys_of(animdata, obj, action):
+    """Every key of the action: {(data_path, index): co values}, to see that nothing changed."""
+    out = {}
+    for fcurve in animdata.fcurves(action, obj):
+        co = np.empty(2 * len(fcurve.keyframe_points))
+        fcurve.keyframe_points.foreach_get("co", co)
+        out[fcurve.data_path, fcurve.array_index] = co
+    return out
+
+
+def unchanged(animdata, obj, actions, action, keys, pose):
+    assert set(bpy.data.actions) == actions and obj.animation_data.action == action
+    after = keys_of(animdata, obj, action)
+    assert after.keys() == keys.keys()
+    for channel, co in keys.items():
+        np.testing.assert_array_equal(after[channel], co, err_msg=str(channel))
+    assert [tuple(pb.rotation_quaternion) for pb in obj.pose.bones] == pose
+
+
+def test_no_effectors_are_refused_and_change_nothing(mk, ik, walk60, animdata):
+    obj, action = mk.bvh.load(walk60, name="none")
+    actions, keys = set(bpy.data.actions), keys_of(animdata, obj, action)
+    pose = [tuple(pb.rotation_quaternion) for pb in obj.pose.bones]
+    for frame_range in (None, (1, 20)):
+        with pytest.raises(ValueError, match="no effectors: give at least one bone and target"):
+            ik.solve(obj, [], frame_range)
+    unchanged(animdata, obj, actions, action, keys, pose)
+
+
+def test_a_constrained_bone_is_refused_by_name_and_changes_nothing(mk, ik, walk60, animdata):
+    """The solve poses bones by their channels alone: a working constraint on a bone it reads or keys is
+    named (bone and constraint); a muted one, or one on a bone the solve does not see, is left alone."""
+    obj, action = mk.bvh.load(walk60, name="constrained")
+    effectors = [ik.Effector("lWrist", target=(0.3, -0.4, 1.4))]
+    copy = obj.pose.bones["lElbow"].constraints.new('COPY_ROTATION')
+    copy.name = "Follow"
+    actions, keys = set(bpy.data.actions), keys_of(animdata, obj, action)
+    pose = [tuple(pb.rotation_quaternion) for pb in obj.pose.bones]
+    for frame_range in (None, (1, 20)):
+        with pytest.raises(ValueError, match=r"bone 'lElbow' of 'constrained' has the constraint 'Follow' "
+                                             r"\(COPY_ROTATION\)"):
+            ik.solve(obj, effectors, frame_range)
+    unchanged(animdata, obj, actions, action, keys, pose)
+    copy.influence = 0.0
+    ik.solve(obj, effectors, (1, 5))  # no influence: nothing to refuse
+    animdata.assign(obj, action)
+    copy.influence = 1.0
+    if hasattr(copy, "enabled"):
+        copy.enabled = False
+    else:
+        copy.mute = True
+    ik.solve(obj, effectors, (1, 5))
+    animdata.assign(obj, action)
+    copy.mute = False
+    if hasattr(copy, "enabled"):
+        copy.enabled = True
+    obj.pose.bones["lElbow"].constraints.remove(copy)
+    # A constraint on a bone the solve neither reads nor keys (the right hand, for a left-hand target
+    # without balance) is left alone.
+    obj.pose.bones["rWrist"].constraints.new('COPY_ROTATION')
+    ik.solve(obj, effectors, (1, 5), balance=False)
+
+
+@pytest.mark.parametrize("channel, index, frame, message", [
+    ('pose.bones["lElbow"].rotation_quaternion', 2, 10,
+     r"bone 'lElbow' has a key that is not finite on rotation_quaternion\[2\] at frame 10"),
+    ('pose.bones["RootJoint"].location', 1, 12,
+     r"bone 'RootJoint' has a key that is not finite on location\[1\] at frame 12"),
+], ids=["rotation", "root location"])
+def test_nan_keys_in_the_source_are_named_by_bone_and_frame(mk, ik, walk60, animdata, channel, index, frame,
+                                                           message):
+    obj, action = mk.bvh.load(walk60, name="nan")
+    fcurve = animdata.find_fcurve(action, obj, channel, index)
+    point = next(p for p in fcurve.keyframe_points if p.co[0] == frame)
+    point.co = (point.co[0], float("nan"))
+    fcurve.update()
+    actions, keys = set(bpy.data.actions), keys_of(animdata, obj, action)
+    pose = [tuple(pb.rotation_quaternion) for pb in obj.pose.bones]
+    for new_action in (True, False):
+        with pytest.raises(ValueError, match=message):
+            ik.solve(obj, [ik.Effector("lWrist", target=(0.3, -0.4, 1.4))], (1, 20), new_action=new_action)
+    unchanged(animdata, obj, actions, action, keys, pose)

@@ -1269,8 +1269,68 @@ TEST(IkNatural, ASweepInAndOutOfReachKeepsItsPinsAndDoesNotPop) {
               worst * 180.0 / kPi, beyond);
   EXPECT_LT(pins, 1e-6 * body.Height());
   EXPECT_LT(met, 1e-4 * body.Height());
+  // Measured 2.04 degrees; not ten times tighter: this sweep's path is not yet continuous in its input
+  // (the disabled test below: a nudge of 1e-12 moves its keys by 0.3 rad), so another processor can land
+  // on another path. 8 degrees is four times the figure.
   EXPECT_LT(worst, 8.0 * kPi / 180.0);
   EXPECT_LE(beyond, 1e-9) << where;
+}
+
+// The same sweep twice, the second time with every input rotation and target nudged by about 1e-12:
+// a solve whose path through the clip is continuous in its input (no choice flipped by the last bits,
+// as another processor's floating point would flip it) gives the same keys to within 1e-6 (the solver's
+// tolerance is 3e-7 of the rig's size; a flipped choice moves a joint by a degree or more).
+// Disabled, and failing when run: on this synthetic body the keys still move by up to 0.47 rad (0.29
+// with the input at rest), as on RigifyA and MixamoT in Blender (issue 36, docs/ik.md, "Precision");
+// walk60's case holds (tests/blender/test_ik_natural.py). Run it with --gtest_also_run_disabled_tests.
+TEST(IkNatural, DISABLED_ASweepNudgedByItsLastBitsGivesTheSameKeys) {
+  const FullBody body;
+  const RigModel& rig = body.rig;
+  const int frames = 40;
+  const auto sweep = [&](double nudge) {
+    Problem p(rig, frames, {Effector("hand_l", body.hand_l), Effector("toe_l", body.toe_l, true),
+                            Effector("toe_r", body.toe_r, true)});
+    p.joints = NaturalJoints(rig);
+    p.options = NaturalOptions(body.Height());
+    const int shoulder = rig.Find("upper_arm_l");
+    const Vec3 from = p.Input(0).head[static_cast<std::size_t>(shoulder)];
+    double reach = 0.0;
+    for (const char* n : {"upper_arm_l", "forearm_l", "hand_l"}) reach += rig.length(rig.Find(n));
+    const Vec3 direction = Vec3(0.3, -0.7, 0.6).normalized();
+    // The input walks a little (every joint turns with the frame), so that the nudge reaches every path.
+    p.input_rotations = RowMatrixXd(frames, 4 * rig.size());
+    for (int f = 0; f < frames; ++f) {
+      const double scale = 0.7 + 0.7 * std::sin(kPi * f / (frames - 1));
+      p.SetTarget(f, 0, from + scale * reach * direction + Vec3::Constant(nudge * std::cos(f)));
+      for (int b = 0; b < rig.size(); ++b) {
+        const double a = 0.03 * std::sin(0.2 * f + b) + nudge * std::sin(3.0 * f + b);
+        const Quat q(Eigen::AngleAxisd(a, Vec3(std::cos(b), 1.0, std::sin(b)).normalized()));
+        p.input_rotations.block<1, 4>(f, 4 * b) << q.w(), q.x(), q.y(), q.z();
+      }
+    }
+    p.Run();
+    return p;
+  };
+  const Problem base = sweep(0.0);
+  double worst = 0.0, root = 0.0;
+  int worst_frame = -1;
+  for (double nudge : {1e-12, -1e-12, 3e-12}) {
+    const Problem nudged = sweep(nudge);
+    for (int f = 0; f < frames; ++f) {
+      for (int b = 0; b < rig.size(); ++b) {
+        const double turn = QuatAt(base.rotations, f, b).angularDistance(QuatAt(nudged.rotations, f, b));
+        if (turn > worst) {
+          worst = turn;
+          worst_frame = f;
+        }
+      }
+      root = std::max(root, (base.root_locations.row(f) - nudged.root_locations.row(f)).norm());
+    }
+  }
+  std::printf("[ IK natural] sweep nudged by 1e-12: keys differ by at most %.1e rad (frame %d), the root by %.1e\n",
+              worst, worst_frame, root);
+  EXPECT_LT(worst, 1e-6);
+  EXPECT_LT(root, 1e-6 * body.Height());
 }
 
 }  // namespace

@@ -4,6 +4,10 @@ import pytest
 
 import rig_fk
 
+# The two-arm rig's targets, judged by scipy's forward kinematics: the solver stops within its tolerance,
+# 3e-7 of the rig's size (1.3e-6 on this 4.3 rig); measured 1.19e-6, held to about ten times that.
+MET = 1e-5
+
 
 def chain_arrays(lengths=(1.0, 0.7)):
     """Bones along +X from the origin, each the child of the one before: parents, rest, heads, lengths."""
@@ -127,7 +131,13 @@ def test_part_of_a_rig_solves_as_the_whole_given_its_size(native):
                               effectors, size=size, threads=threads)
         np.testing.assert_array_equal(got.rotations, out.rotations[:, :28])
         np.testing.assert_array_equal(got.errors, out.errors)
-    assert out.errors.max() < 1e-4
+    # Judged by the test's own forward kinematics (scipy) of the returned pose, not the solver's errors.
+    _, _, tails = rig_fk.pose(parents, rest, np.array(heads), np.array(lengths), out.rotations,
+                              out.root_locations)
+    missed = max(np.linalg.norm(tails[:, 3] - targets[:, 0:3], axis=1).max(),
+                 np.linalg.norm(tails[:, 6] - targets[:, 3:6], axis=1).max())
+    print(f"\ntwo arms on their targets: worst {missed:.2e} (rig size {size:.2f})")
+    assert missed < MET
 
 
 def whole_tails(heads, rest, lengths):
