@@ -7,7 +7,7 @@ import sys
 import pytest
 
 from test_batch import (BAD, GOOD, _same_actions, _some_files, check_command_line_run,  # noqa: F401
-                        library, run_command_line, target)
+                        library, run_command_line, target, ybot_blend)
 from test_production_files import fbx_dir  # noqa: F401  (library's fixture)
 
 
