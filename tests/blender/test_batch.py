@@ -267,12 +267,12 @@ def run_command_line(target, inputs, tmp_path, extra=()):
     return subprocess.run(command, env=env, capture_output=True, text=True, timeout=900), out
 
 
-def check_command_line_run(done, out, saved_blend, good, bad):
-    """The exit status is the number of clips that failed; the report, the files and the saved actions hold
-    every good clip."""
+def check_command_line_run(done, out, saved_blend, good, bad, files):
+    """The exit status is the number of clips that failed; progress counts the files; the report, the files
+    and the saved actions hold every good clip."""
     assert done.returncode == len(bad), done.stdout[-3000:] + done.stderr[-3000:]
-    total = len(good) + len(bad)
-    assert f"[1/{total}]" in done.stdout and f"{total} clips, {len(good)} done, {len(bad)} failed" in done.stdout
+    clips = len(good) + len(bad)
+    assert f"[1/{files}]" in done.stdout and f"{clips} clips, {len(good)} done, {len(bad)} failed" in done.stdout
     rows = json.loads((out / "report.json").read_text())["clips"]
     assert {r["action"] for r in rows if r["status"] == "ok"} == good
     assert {r["action"] for r in rows if r["status"] == "failed"} == bad
@@ -290,7 +290,7 @@ def test_the_command_line_retargets_a_folder_and_exits_with_the_number_that_fail
     for name in ("walk60.bvh", "cut_short.bvh"):
         shutil.copy(library / "bvh" / name, folder / name)
     done, out = run_command_line(target, [folder], tmp_path)
-    check_command_line_run(done, out, tmp_path / "done.blend", {"walk60"}, {"cut_short"})
+    check_command_line_run(done, out, tmp_path / "done.blend", {"walk60"}, {"cut_short"}, 2)
 
 
 def test_the_library_operator_fills_the_report_list(mk, library, target):
