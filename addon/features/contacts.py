@@ -721,7 +721,8 @@ def plant(armature, frame_range=None, settings: ContactSettings | None = None, d
     action = animdata.assigned_action(obj)
     if action is None:
         raise ValueError(f"'{obj.name}' has no action to clean up")
-    if not any(len(fc.keyframe_points) for fc in animdata.fcurves(action, obj) if fc.data_path.startswith("pose.bones")):
+    if not any(len(fc.keyframe_points) for fc in animdata.fcurves(action, obj)
+               if fc.data_path.startswith("pose.bones")):
         raise ValueError(f"'{obj.name}': action '{action.name}' has no keys on its bones")
     feet = _as_feet(feet) if feet is not None else find_feet(obj)
     if fps is None:

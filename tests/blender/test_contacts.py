@@ -123,7 +123,7 @@ def check_plant(mk, contacts, pose_channels, obj, clip, mm):
     names_after, rot_after, loc_after = channels(obj, pose_channels, frames)
     feet = contacts.find_feet(obj)
 
-    # Each detected contact: the point moves at most 1 mm.
+    # Each detected contact: the point moves at most HELD_MM.
     worst = 0.0
     point_bones = [b for foot in feet for b in (foot.shin, foot.foot)]
     for p, runs in enumerate(report.intervals):
@@ -133,23 +133,7 @@ def check_plant(mk, contacts, pose_channels, obj, clip, mm):
             worst = max(worst, float(np.max(np.linalg.norm(track - track[0], axis=1))))
     assert sum(len(r) for r in report.intervals) >= 2, report.intervals
     assert worst <= HELD_MM * mm, f"{clip}: a contact slides {worst / mm:.4f} mm"
-    # Stances by the tests' own rule on the input (stances.stance), whether the detector found them or not:
-    # where the foot clearly stands (within 2 % of the leg of its lowest, slower than a fifth of a leg a
-    # second, for 0.08 s) held to HELD_MM; on the looser stances (4 %, half a leg a second, any length)
-    # never sliding further than the input's own point there.
-    columns = [names.index(b) for b in point_bones]
-    leg = float(np.mean([sum(np.linalg.norm(plain[0, names.index(b), 1] - plain[0, names.index(b), 0])
-                             for b in (f.thigh, f.shin)) for f in feet]))
-    fps = mk.animdata.frame_rate(action)
-    track, moved = plain[:, columns, 1], after[:, columns, 1]
-    clear = stances.slides(moved, stances.stance(track[..., 2], track, leg, fps, 0.02, 0.2), int(np.ceil(0.08 * fps)))
-    clear_worst = max((s for *_, s in clear), default=0.0)
-    loose = stances.stance(track[..., 2], track, leg, fps)
-    beyond = max(s - own for (*_, s), (*_, own) in zip(stances.slides(moved, loose), stances.slides(track, loose)))
-    print(f"\n{clip}: clear stances {len(clear)}, worst slide {clear_worst / mm:.4f} mm; any stance's slide beyond "
-          f"the input's own {beyond / mm:.4f} mm")
-    assert clear_worst <= HELD_MM * mm, f"{clip}: a clear stance slides {clear_worst / mm:.4f} mm"
-    assert beyond <= HELD_MM * mm, f"{clip}: a stance slides {beyond / mm:.4f} mm further than the input's"
+    _check_stances(mk, action, clip, mm, plain, after, names, feet)
 
     # Only the legs' rotations and the hips' location changed; everything else equals the input.
     assert names_before == names_after
@@ -203,6 +187,27 @@ def check_plant(mk, contacts, pose_channels, obj, clip, mm):
           f"{worst / mm:.4f} mm, max joint move ratio {ratio:.3f} (excess over 1.5x {float(np.max(after_move - 1.5 * plain_move)) / mm:.2f} mm), cleanup {report.seconds * 1000:.1f} ms "
           f"(solve {report.solve_seconds * 1000:.1f} ms, {report.iterations} iterations), plant() "
           f"{elapsed * 1000:.1f} ms, knees {report.knee_axes}, max IK error {report.max_error.max() / mm:.4f} mm")
+
+
+def _check_stances(mk, action, clip, mm, plain, after, names, feet):
+    """Stances by the tests' own rule on the input (stances.stance), whether the detector found them or not:
+    where the foot clearly stands (within 2 % of the leg of its lowest, slower than a fifth of a leg a second,
+    for 0.08 s) held to HELD_MM; on the looser stances (4 %, half a leg a second, any length) never sliding
+    further than the input's own point there."""
+    point_bones = [b for foot in feet for b in (foot.shin, foot.foot)]
+    columns = [names.index(b) for b in point_bones]
+    leg = float(np.mean([sum(np.linalg.norm(plain[0, names.index(b), 1] - plain[0, names.index(b), 0])
+                             for b in (f.thigh, f.shin)) for f in feet]))
+    fps = mk.animdata.frame_rate(action)
+    track, moved = plain[:, columns, 1], after[:, columns, 1]
+    clear = stances.slides(moved, stances.stance(track[..., 2], track, leg, fps, 0.02, 0.2), int(np.ceil(0.08 * fps)))
+    clear_worst = max((s for *_, s in clear), default=0.0)
+    loose = stances.stance(track[..., 2], track, leg, fps)
+    beyond = max(s - own for (*_, s), (*_, own) in zip(stances.slides(moved, loose), stances.slides(track, loose)))
+    print(f"\n{clip}: clear stances {len(clear)}, worst slide {clear_worst / mm:.4f} mm; any stance's slide beyond "
+          f"the input's own {beyond / mm:.4f} mm")
+    assert clear_worst <= HELD_MM * mm, f"{clip}: a clear stance slides {clear_worst / mm:.4f} mm"
+    assert beyond <= HELD_MM * mm, f"{clip}: a stance slides {beyond / mm:.4f} mm further than the input's"
 
 
 def test_rerun_reads_the_curves_and_honours_an_edit(mk, contacts, walk60):
