@@ -20,8 +20,8 @@ CLIPS = sorted(os.path.relpath(p, BVH) for p in glob.glob(os.path.join(BVH, "*.b
                + glob.glob(os.path.join(BVH, "more", "*.bvh")))
 MM = {"more/bandai_dash_normal_001.bvh": 0.1}  # armature units per millimetre (that file is in cm)
 POP_ALLOWANCE = 5.0  # millimetres a frame, see check_plant
-# A held point's slide: measured 0.0015 mm at most on Blender 3.4 on the detected contacts (every capture
-# and character), 0.0013 mm on the clear stances; about ten times that.
+# A held point's slide: measured 0.0015 mm at most on Blender 3.4 and 4.3 on the detected contacts (every
+# capture and character), 0.0011 mm on the clear stances; about ten times that.
 HELD_MM = 0.02
 
 
