@@ -135,12 +135,7 @@ def retarget_library(inputs, target, *, pattern: str = "*", recursive: bool = Tr
     progress(done, total, path) is called before each file.
     options: retargeting.retarget's.
     """
-    if export is not None and export not in EXPORTS:
-        raise ValueError(f"unknown export {export!r}; expected one of {EXPORTS}")
-    if export and not out_dir:
-        raise ValueError("export needs out_dir, the folder the clips are written into")
-    if not keep and not export:
-        raise ValueError("keep=False without export would leave nothing of the clips")
+    check_arguments(target, export, out_dir, keep, options)
     files = batch_inputs.collect(inputs, pattern, recursive)
     if out_dir:
         os.makedirs(out_dir, exist_ok=True)
@@ -157,6 +152,22 @@ def retarget_library(inputs, target, *, pattern: str = "*", recursive: bool = Tr
     if report_dir:
         batch_report.write(result.rows, report_dir)
     return result
+
+
+def check_arguments(target, export, out_dir, keep, options) -> None:
+    """What would fail every clip of a batch, refused before any file is read: a ValueError naming the
+    argument (the target, export, out_dir, keep, a retarget option)."""
+    if not (isinstance(target, bpy.types.Object) and target.type == 'ARMATURE'):
+        raise ValueError(f"target: {getattr(target, 'name', target)!r} is not an armature object")
+    if export is not None and export not in EXPORTS:
+        raise ValueError(f"unknown export {export!r}; expected one of {EXPORTS}")
+    if export and not out_dir:
+        raise ValueError("export needs out_dir, the folder the clips are written into")
+    if not keep and not export:
+        raise ValueError("keep=False without export would leave nothing of the clips")
+    if "action_name" in options:
+        raise ValueError("action_name: a batch names each action after its clip")
+    retargeting.check_options(**options)
 
 
 def retarget_files(paths, target, **options) -> list:

@@ -149,6 +149,9 @@ def run_parallel(inputs, target, *, workers: int = 2, scheduler: str | None = No
                  progress=None, **options) -> batch.BatchResult:
     """batch.retarget_library over worker Blenders (workers of them here, or a Dask scheduler's); the same
     actions and rows, in the files' order."""
+    batch.check_arguments(target, export, out_dir, keep, options)
+    if scheduler is None and not (isinstance(workers, int) and workers >= 1):
+        raise ValueError(f"workers must be a whole number of Blenders, 1 or more, not {workers!r}")
     files = batch_inputs.collect(inputs, pattern, recursive)
     if out_dir:
         os.makedirs(out_dir, exist_ok=True)

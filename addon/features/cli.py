@@ -5,7 +5,9 @@
 
 Progress goes to the console (file i of n, time left), the report (report.json, report.csv) into --report
 (default: --out, else the current folder) and as a table onto the console; --save keeps the new actions in
-the .blend. The exit status is the number of files that failed (at most 100): 0 when every clip was done.
+the .blend. The exit status is the number of files that failed (at most 100): 0 when every clip was done;
+101 when the command cannot run as given (an unknown option or armature, a missing input, options that
+contradict each other), with the reason on stderr and nothing done.
 """
 from __future__ import annotations
 
@@ -20,10 +22,29 @@ from ..core import batch_report
 from . import batch, batch_workers
 
 MAX_STATUS = 100
+USAGE_STATUS = 101  # the command cannot run as given: above MAX_STATUS, never a count of failed files
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse, its errors exiting with USAGE_STATUS (argparse's own 2 would read as two failed files)."""
+
+    def error(self, message):
+        self.print_usage(sys.stderr)
+        self.exit(USAGE_STATUS, f"{self.prog}: error: {message}\n")
+
+
+def _workers(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number of Blenders, 1 or more")
+    return value
 
 
 def _parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="motionkit", description="MotionKit from the command line")
+    parser = _Parser(prog="motionkit", description="MotionKit from the command line")
     commands = parser.add_subparsers(dest="command", required=True)
     run = commands.add_parser("retarget", help="retarget motion files and folders onto an armature of the .blend")
     run.add_argument("inputs", nargs="+", help="motion files (.bvh .fbx .glb .gltf) and folders")
@@ -40,7 +61,7 @@ def _parser() -> argparse.ArgumentParser:
                      help="with --export: write the clips out without keeping their actions in the .blend")
     run.add_argument("--plant-feet", choices=("auto", "on", "off"), default="auto")
     workers = run.add_mutually_exclusive_group()
-    workers.add_argument("--workers", type=int, default=1, help="Blender processes to run side by side")
+    workers.add_argument("--workers", type=_workers, default=1, help="Blender processes to run side by side")
     workers.add_argument("--scheduler", help="a Dask distributed scheduler's address to run the files on")
     return parser
 
@@ -66,18 +87,35 @@ class ConsoleProgress:
         print(f"[{done + 1}/{total}] {path}{left}", flush=True)
 
 
-def _target(name: str):
+def _target(parser, name: str):
     obj = bpy.data.objects.get(name)
     if obj is None or obj.type != 'ARMATURE':
         armatures = [o.name for o in bpy.data.objects if o.type == 'ARMATURE']
-        raise SystemExit(f"motionkit: no armature '{name}' in {bpy.data.filepath or 'the open file'} "
-                         f"(armatures: {', '.join(armatures) or 'none'})")
+        parser.error(f"--target: no armature '{name}' in {bpy.data.filepath or 'the open file'} "
+                     f"(armatures: {', '.join(armatures) or 'none'})")
     return obj
 
 
+def _check(parser, args, target) -> None:
+    """What the command cannot run with, said before any file is read (USAGE_STATUS)."""
+    if args.export and not args.out:
+        parser.error("--export needs --out, the folder the clips are written into")
+    if args.files_only and not args.export:
+        parser.error("--files-only needs --export: without it nothing of the clips would be kept")
+    for item in args.inputs:
+        if not os.path.exists(item):
+            parser.error(f"{item}: no such file or folder")
+    try:
+        batch.check_arguments(target, args.export, args.out, not args.files_only, retarget_options(args))
+    except ValueError as error:
+        parser.error(str(error))
+
+
 def run(argv: list[str]) -> batch.BatchResult:
-    args = _parser().parse_args(argv)
-    target = _target(args.target)
+    parser = _parser()
+    args = parser.parse_args(argv)
+    target = _target(parser, args.target)
+    _check(parser, args, target)
     report_dir = args.report or args.out or os.getcwd()
     common = dict(pattern=args.glob, recursive=not args.no_recursive, out_dir=args.out, export=args.export,
                   overwrite=args.overwrite, keep=not args.files_only, progress=ConsoleProgress(),

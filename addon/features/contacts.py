@@ -721,6 +721,9 @@ def plant(armature, frame_range=None, settings: ContactSettings | None = None, d
     action = animdata.assigned_action(obj)
     if action is None:
         raise ValueError(f"'{obj.name}' has no action to clean up")
+    if not any(len(fc.keyframe_points) for fc in animdata.fcurves(action, obj)
+               if fc.data_path.startswith("pose.bones")):
+        raise ValueError(f"'{obj.name}': action '{action.name}' has no keys on its bones")
     feet = _as_feet(feet) if feet is not None else find_feet(obj)
     if fps is None:
         fps = animdata.frame_rate(action)
@@ -738,6 +741,10 @@ def plant(armature, frame_range=None, settings: ContactSettings | None = None, d
     try:
         rotations = pose_channels.rotations(obj, action, bones, frames)
         locations, _ = pose_channels.locations(obj, action, bones, frames)
+        if not np.isfinite(locations).all():  # rotations are checked as they are read
+            frame, column = np.argwhere(~np.isfinite(locations))[0]
+            raise ValueError(f"'{obj.name}': bone '{bones[column // 3].name}' location is not finite at frame "
+                             f"{frames[frame]:g} (action '{action.name}')")
     except ValueError as error:
         # The message names the bone and frame; say which foot when it is a leg's.
         side = next((f.side for f in feet for b in (f.thigh, f.shin, f.foot, f.toe)

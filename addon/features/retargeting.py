@@ -8,6 +8,7 @@ checked before anything in the file changes, so an error leaves it as it was.
 """
 from __future__ import annotations
 
+import inspect
 import os
 from dataclasses import dataclass
 
@@ -508,10 +509,15 @@ def plan(source, target, bone_map=None, frame_range=None, root: str = "scaled", 
         _check_editable(tgt.obj)
     if _armature_object(src.obj) == _armature_object(tgt.obj):
         raise ValueError(f"the source and the target are the same armature '{src.obj.name}' (a cycle)")
-    _check_options(root, floor_root, floor_fit, root_smoothing, source_match, target_match)
+    _check_options(root, floor_root, floor_fit, root_smoothing, source_match, target_match, plant_feet=plant_feet,
+                   align_facing=align_facing, ground=ground, frame_range=frame_range, source_floor=source_floor,
+                   target_floor=target_floor, contact_settings=contact_settings)
+    _check_scale(src.obj, "source")
+    _check_scale(tgt.obj, "target")
     action = animdata.assigned_action(src.obj)
     if action is None:
         raise ValueError(f"the source '{src.obj.name}' has no action to retarget")
+    _check_frames(action, frame_range)
     pairs = _pairs(bone_map, src, tgt)
     clip = _read_clip(src, action, pose_channels.action_frames(action, frame_range))
     rigs = _read_rigs(src, tgt, pairs, clip, source_match, match_frame, target_match)
@@ -550,17 +556,57 @@ def plan(source, target, bone_map=None, frame_range=None, root: str = "scaled", 
     return plan_  # a pending feet's solve is checked when it completes (contacts.cleanup and write_keys)
 
 
-def _check_options(root, floor_root, floor_fit, root_smoothing, source_match, target_match) -> None:
-    if floor_fit not in [f[0] for f in FLOOR_FITS]:
-        raise ValueError(f"unknown floor_fit {floor_fit!r}; expected one of {[f[0] for f in FLOOR_FITS]}")
-    if root not in [r[0] for r in ROOT_MOTIONS]:
-        raise ValueError(f"unknown root motion {root!r}; expected one of {[r[0] for r in ROOT_MOTIONS]}")
-    if floor_root not in [r[0] for r in FLOOR_ROOTS]:
-        raise ValueError(f"unknown floor root motion {floor_root!r}; expected one of {[r[0] for r in FLOOR_ROOTS]}")
-    if not (np.isfinite(root_smoothing) and root_smoothing >= 0):
+def _check_options(root, floor_root, floor_fit, root_smoothing, source_match, target_match, *, plant_feet=None,
+                   align_facing=True, ground=False, frame_range=None, source_floor=None, target_floor=None,
+                   contact_settings=None) -> None:
+    """Every option's value, before anything is read: a ValueError naming the option and the value."""
+    for name, value, known in (("floor_fit", floor_fit, FLOOR_FITS), ("root motion", root, ROOT_MOTIONS),
+                               ("floor root motion", floor_root, FLOOR_ROOTS)):
+        if value not in [k[0] for k in known]:
+            raise ValueError(f"unknown {name} {value!r}; expected one of {[k[0] for k in known]}")
+    if not (_is_number(root_smoothing) and np.isfinite(root_smoothing) and root_smoothing >= 0):
         raise ValueError(f"root_smoothing must be a non-negative number of seconds, not {root_smoothing!r}")
-    if source_match not in [m[0] for m in SOURCE_MATCHES] or target_match not in [m[0] for m in TARGET_MATCHES]:
-        raise ValueError(f"unknown match pose {source_match!r} / {target_match!r}")
+    for name, value, known in (("source_match", source_match, SOURCE_MATCHES),
+                               ("target_match", target_match, TARGET_MATCHES)):
+        if value not in [k[0] for k in known]:
+            raise ValueError(f"unknown match pose {name} {value!r}; expected one of {[k[0] for k in known]}")
+    if not isinstance(plant_feet, (bool, np.bool_, type(None))):
+        raise ValueError(f"plant_feet must be True, False or None, not {plant_feet!r}")
+    for name, value in (("align_facing", align_facing), ("ground", ground)):
+        if not isinstance(value, (bool, np.bool_)):
+            raise ValueError(f"{name} must be True or False, not {value!r}")
+    if frame_range is not None and not (isinstance(frame_range, (tuple, list)) and len(frame_range) == 2
+                                        and all(_is_number(f) and np.isfinite(f) for f in frame_range)):
+        raise ValueError(f"frame_range must be (first, last) frames, not {frame_range!r}")
+    for name, value in (("source_floor", source_floor), ("target_floor", target_floor)):
+        if value is not None and not (_is_number(value) and np.isfinite(value)):
+            raise ValueError(f"{name} must be a height in metres or None, not {value!r}")
+    if contact_settings is not None and not isinstance(contact_settings, ContactSettings):
+        raise ValueError(f"contact_settings must be a ContactSettings, not {contact_settings!r}")
+
+
+def _is_number(value) -> bool:
+    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, (bool, np.bool_))
+
+
+def _check_frames(action, frame_range) -> None:
+    """A frame range that holds none of the action's frames is a mistake, not an extrapolation."""
+    if frame_range is None:
+        return
+    start, end = action.frame_range
+    first, last = (int(f) for f in frame_range)
+    if first <= last and (last < start or first > end):
+        raise ValueError(f"frame range {first}..{last} is outside the source's action '{action.name}' "
+                         f"({start:g}..{end:g})")
+
+
+def _check_scale(obj, role: str) -> None:
+    """A non-uniform scale (the object's or a parent's) has no single ratio to scale the motion by."""
+    if isinstance(obj, bpy.types.Object):
+        scale = obj.matrix_world.to_scale()
+        if not np.allclose(scale, float(np.mean(scale)), rtol=1e-6):
+            raise ValueError(f"the {role} '{obj.name}' has a non-uniform scale {tuple(round(v, 6) for v in scale)} "
+                             f"(its own or a parent's); apply it first (Object > Apply > Scale)")
 
 
 @dataclass
@@ -579,6 +625,10 @@ class _Clip:
 def _read_clip(src: _Side, action, frames) -> _Clip:
     basis = pose_channels.rotations(src.obj, action, src.bones, frames)
     locations = np.ascontiguousarray(pose_channels.locations(src.obj, action, src.bones, frames)[0])
+    if not np.isfinite(locations).all():  # rotations are checked as they are read (pose_channels.rotations)
+        frame, column = np.argwhere(~np.isfinite(locations))[0]
+        raise ValueError(f"the source '{src.obj.name}': bone '{src.bones[column // 3].name}' location is not "
+                         f"finite at frame {frames[frame]:g} (action '{action.name}')")
     with native_state.blender_frames(frames):
         rotations, heads = native_state.native().armature_pose(src.rig, basis, locations)
     return _Clip(action, frames, animdata.frame_rate(action), basis, locations, rotations, heads)
@@ -1079,6 +1129,13 @@ def retarget(source, target, bone_map=None, frame_range=None, root: str = "scale
     imported_source = _imported_source_option(imported_source, bvh_source)
     if target is not None and getattr(target, "type", None) == 'ARMATURE':
         _check_editable(target)
+    # Before a file is imported for nothing: every option's value, and the target's scale.
+    _check_values(dict(root=root, floor_root=floor_root, floor_fit=floor_fit, root_smoothing=root_smoothing,
+                       source_match=source_match, target_match=target_match, plant_feet=plant_feet,
+                       align_facing=align_facing, ground=ground, frame_range=frame_range, source_floor=source_floor,
+                       target_floor=target_floor, contact_settings=contact_settings, keys=keys, controls=controls,
+                       reduce=reduce))
+    _check_scale(target, "target")
     options = dict(bone_map=bone_map, frame_range=frame_range, root=root, source_match=source_match,
                    match_frame=match_frame, target_match=target_match, ground=ground, align_facing=align_facing,
                    floor_root=floor_root, root_smoothing=root_smoothing, plant_feet=plant_feet,
@@ -1098,6 +1155,35 @@ def retarget(source, target, bone_map=None, frame_range=None, root: str = "scale
     if imported is not None:
         imported.finish(imported_source)
     return action
+
+
+def _check_values(values: dict) -> None:
+    """retarget()'s option values (all of _check_options', keys, controls and reduce)."""
+    _check_options(*(values[k] for k in ("root", "floor_root", "floor_fit", "root_smoothing", "source_match",
+                                         "target_match")),
+                   **{k: values[k] for k in ("plant_feet", "align_facing", "ground", "frame_range", "source_floor",
+                                             "target_floor", "contact_settings")})
+    if values["keys"] not in ("every", "source"):
+        raise ValueError(f"unknown keys {values['keys']!r}; expected 'every' or 'source'")
+    if values["controls"] not in [c[0] for c in CONTROLS]:
+        raise ValueError(f"unknown controls {values['controls']!r}; expected one of {[c[0] for c in CONTROLS]}")
+    if not isinstance(values["reduce"], (bool, np.bool_)):
+        raise ValueError(f"reduce must be True or False, not {values['reduce']!r}")
+
+
+def check_options(**options) -> None:
+    """retarget()'s keyword options as a batch passes them on: an unknown name or a bad value is a
+    ValueError naming it, before any file is read."""
+    parameters = inspect.signature(retarget).parameters
+    unknown = sorted(set(options) - set(parameters) - {"source", "target"})
+    if unknown:
+        raise ValueError(f"unknown retarget option {unknown[0]!r}; expected one of "
+                         f"{[n for n in parameters if n not in ('source', 'target')]}")
+    values = {n: p.default for n, p in parameters.items() if p.default is not inspect.Parameter.empty}
+    _check_values({**values, **options})
+    if "bvh_scale" in options:
+        _bvh_scale(options["bvh_scale"])
+    _imported_source_option(options.get("imported_source"), options.get("bvh_source"))
 
 
 def _retarget_bones(source, target, keys, reduce, action_name, overwrite, options):
@@ -1143,15 +1229,18 @@ class _Imported:
                 obj.hide_render = True
 
 
+def _bvh_scale(bvh_scale) -> None:
+    if not (bvh_scale == "auto" or (_is_number(bvh_scale) and np.isfinite(bvh_scale) and bvh_scale > 0)):
+        raise ValueError(f"bvh_scale must be 'auto' or a positive number, not {bvh_scale!r}")
+
+
 def _import_source(path, target, bvh_scale) -> _Imported:
     """A file path's armature: BVH through MotionKit's reader, FBX and glTF through Blender's importers."""
     path = os.fspath(path)
     if os.path.splitext(path)[1].lower() in imports.FORMATS:
         obj, added = imports.import_animated_armature(path)
         return _Imported(obj, added)
-    if not (bvh_scale == "auto" or (isinstance(bvh_scale, (int, float)) and np.isfinite(bvh_scale)
-                                    and bvh_scale > 0)):
-        raise ValueError(f"bvh_scale must be 'auto' or a positive number, not {bvh_scale!r}")
+    _bvh_scale(bvh_scale)
     obj, _ = bvh.load(path, scale=1.0 if bvh_scale == "auto" else float(bvh_scale))
     if bvh_scale == "auto":
         try:

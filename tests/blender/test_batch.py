@@ -6,9 +6,9 @@ Blender's own evaluation (frame_set, pose_bone.matrix, matrix_world).
 import csv
 import json
 import os
+import re
 import shutil
 import subprocess
-import sys
 
 import bpy
 import numpy as np
@@ -74,9 +74,10 @@ def _export_takes(mk, fbx_dir, folder):
             collection.remove(item)
 
 
-@pytest.fixture()
-def library(mk, fbx_dir, shared_dir, tmp_path):  # noqa: F811
-    folder = tmp_path / "clips"
+@pytest.fixture(scope="module")
+def library(mk, fbx_dir, shared_dir, tmp_path_factory):  # noqa: F811
+    """The library, built once for the module: the tests only read it (each writes into its own tmp_path)."""
+    folder = tmp_path_factory.mktemp("library") / "clips"
     (folder / "bvh").mkdir(parents=True)
     for name in ("walk60.bvh", "run_forward.bvh"):
         shutil.copy(os.path.join(shared_dir, "data", "bvh", name), folder / "bvh" / name)
@@ -88,11 +89,27 @@ def library(mk, fbx_dir, shared_dir, tmp_path):  # noqa: F811
     return folder
 
 
+@pytest.fixture(scope="module")
+def ybot_blend(fbx_dir, tmp_path_factory):  # noqa: F811
+    """Y Bot as Blender's FBX importer brings it, imported once for the module and kept in a .blend."""
+    obj = import_fbx(os.path.join(fbx_dir, "ybot.fbx"))
+    path = str(tmp_path_factory.mktemp("ybot") / "ybot.blend")
+    bpy.data.libraries.write(path, {obj})
+    conftest.clear_scene()
+    return path
+
+
 @pytest.fixture()
-def target(fbx_dir):  # noqa: F811
-    return import_fbx(os.path.join(fbx_dir, "ybot.fbx"))
+def target(ybot_blend):
+    """A fresh Y Bot for each test, appended from the module's .blend (an import each time: 1.5 s)."""
+    with bpy.data.libraries.load(ybot_blend) as (source, loaded):
+        loaded.objects = list(source.objects)
+    obj = next(o for o in loaded.objects if o.type == 'ARMATURE')
+    bpy.context.scene.collection.objects.link(obj)
+    return obj
 
 
+BATCH_DIRECTION_DEG = 1e-4  # measured 0.000012 deg at most (3.4, 4.3): test_each_clip_is_written_out_...
 GOOD = {"walk60", "run_forward", "punch", "fight|Punch", "fight|Kick", "kick_gltf"}
 BAD = {"cut_short", "garbage", "snake"}
 
@@ -124,10 +141,13 @@ def test_a_library_is_retargeted_past_its_bad_files_with_a_row_for_every_clip(mk
     for kind in ("objects", "armatures", "meshes", "materials", "images", "collections"):
         assert after[kind] == before[kind], (kind, after[kind] - before[kind])
     assert seen[0] == (0, 8) and seen[-1] == (8, 8)
+    legs = {b for foot in mk.contacts.find_feet(target) for b in (foot.thigh, foot.shin, foot.foot, foot.toe)}
     for name in GOOD:
         row = rows[name]
-        # Feet held where they land (plant_feet) turn away from the source's: the report is there to show it.
-        assert row["frames"] > 1 and row["bones_mapped"] >= 20 and row["direction_worst_deg"] < 30.0, row
+        # Feet held where they land (plant_feet) turn the legs away from the source's, by as much as a held
+        # foot needs (up to 23 deg, kick_gltf): the report is there to show it, and only the legs may. The
+        # retarget's own precision, planting off: test_each_clip_is_written_out_and_an_existing_file_is_kept.
+        assert row["frames"] > 1 and row["bones_mapped"] >= 20 and row["direction_worst_bone"] in legs, row
     assert rows["punch"]["fingers_mapped"] == 30 and rows["walk60"]["fingers_mapped"] == 0
     assert rows["walk60"]["sliding_worst_mm"] is not None
     report = json.loads((report_dir / "report.json").read_text())
@@ -141,7 +161,12 @@ def test_a_library_is_retargeted_past_its_bad_files_with_a_row_for_every_clip(mk
 def test_each_clip_is_written_out_and_an_existing_file_is_kept_unless_asked(mk, library, target, tmp_path):
     out = tmp_path / "out"
     files = [library / "bvh" / "walk60.bvh", library / "fight.fbx"]
-    result = mk.batch.retarget_library(files, target, out_dir=str(out), export="bvh")
+    # Planting off and the legs kept as the source's (floor_fit "hips"): every mapped bone points as the
+    # source's, and the report says so to the retarget's precision (BATCH_DIRECTION_DEG).
+    result = mk.batch.retarget_library(files, target, out_dir=str(out), export="bvh", plant_feet=False,
+                                       floor_fit="hips")
+    print("\n" + "\n".join(f"{r['action']}: direction worst {r['direction_worst_deg']:.6f} deg" for r in result.rows))
+    assert all(r["direction_worst_deg"] < BATCH_DIRECTION_DEG for r in result.rows), result.rows
     assert sorted(os.listdir(out)) == ["fight_Kick.bvh", "fight_Punch.bvh", "walk60.bvh"]
     again = mk.batch.retarget_library(files, target, out_dir=str(out), export="bvh")
     assert [row["status"] for row in again.rows] == ["skipped"] * 3 and again.actions == []
@@ -224,46 +249,9 @@ def _some_files(library):
             library / "bvh" / "cut_short.bvh", library / "kick_gltf.glb"]
 
 
-def test_two_worker_blenders_give_the_same_actions_and_rows_as_one(mk, library, target):
-    files = _some_files(library)
-    alone = mk.batch.retarget_library(files, target)
-    shared = mk.batch_workers.run_parallel(files, target, workers=2)
-    assert [(r["file"], r["take"]) for r in shared.rows] == [(r["file"], r["take"]) for r in alone.rows]
-    _same_actions(mk, alone, shared, target)
-    for a, b in zip(alone.rows, shared.rows):
-        assert a["sliding_worst_mm"] == b["sliding_worst_mm"] and a["direction_worst_deg"] == b["direction_worst_deg"]
-
-
-@pytest.fixture()
-def dask_scheduler():
-    """A Dask LocalCluster of two worker processes, in a Python of its own, for as long as the test runs."""
-    script = ("from distributed import LocalCluster\n"
-              "import sys, time\n"
-              "cluster = LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None)\n"
-              "print(cluster.scheduler_address, flush=True)\n"
-              "sys.stdin.read()\n")
-    process = subprocess.Popen([sys.executable, "-c", script], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
-                               text=True)
-    try:
-        address = process.stdout.readline().strip()
-        assert address.startswith("tcp://"), f"the LocalCluster did not start: {address!r}"
-        yield address
-    finally:
-        process.stdin.close()
-        process.wait(timeout=60)
-
-
-def test_a_dask_cluster_gives_the_same_actions_and_rows_as_one_blender(mk, library, target, dask_scheduler):
-    files = _some_files(library)
-    alone = mk.batch.retarget_library(files, target)
-    on_dask = mk.batch_workers.run_parallel(files, target, scheduler=dask_scheduler)
-    assert [(r["file"], r["take"], r["status"]) for r in on_dask.rows] == \
-        [(r["file"], r["take"], r["status"]) for r in alone.rows]
-    _same_actions(mk, alone, on_dask, target)
-
-
-def test_the_command_line_retargets_a_folder_and_exits_with_the_number_that_failed(mk, library, target, tmp_path):
-    """The README's command, in a Blender of its own with the add-on installed as a user installs it."""
+def run_command_line(target, inputs, tmp_path, extra=()):
+    """The README's command, in a Blender of its own with the add-on installed as a user installs it, the
+    open file this one saved: (the finished process, the output folder)."""
     blend = str(tmp_path / "character.blend")
     bpy.ops.wm.save_as_mainfile(filepath=blend, copy=True)
     env = conftest.fresh_blender_env(tmp_path)
@@ -275,15 +263,34 @@ def test_the_command_line_retargets_a_folder_and_exits_with_the_number_that_fail
     out = tmp_path / "out"
     command = [bpy.app.binary_path, "-b", blend, "--python-expr", "import motionkit.cli as c; c.main()", "--",
                "retarget", "--target", target.name, "--out", str(out), "--export", "bvh", "--save",
-               str(tmp_path / "done.blend"), str(library)]
-    done = subprocess.run(command, env=env, capture_output=True, text=True, timeout=900)
-    assert done.returncode == len(BAD), done.stdout[-3000:] + done.stderr[-3000:]
-    assert "[1/8]" in done.stdout and f"{len(GOOD) + len(BAD)} clips, {len(GOOD)} done, {len(BAD)} failed" in done.stdout
+               str(tmp_path / "done.blend"), *extra, *(str(i) for i in inputs)]
+    return subprocess.run(command, env=env, capture_output=True, text=True, timeout=900), out
+
+
+def check_command_line_run(done, out, saved_blend, good, bad, files):
+    """The exit status is the number of clips that failed; progress counts the files; the report, the files
+    and the saved actions hold every good clip."""
+    assert done.returncode == len(bad), done.stdout[-3000:] + done.stderr[-3000:]
+    clips = len(good) + len(bad)
+    assert f"[1/{files}]" in done.stdout and f"{clips} clips, {len(good)} done, {len(bad)} failed" in done.stdout
     rows = json.loads((out / "report.json").read_text())["clips"]
-    assert {r["action"] for r in rows if r["status"] == "ok"} == GOOD
-    assert len([n for n in os.listdir(out) if n.endswith(".bvh")]) == len(GOOD)
-    with bpy.data.libraries.load(str(tmp_path / "done.blend")) as (saved, _):
-        assert GOOD <= set(saved.actions)
+    assert {r["action"] for r in rows if r["status"] == "ok"} == good
+    assert {r["action"] for r in rows if r["status"] == "failed"} == bad
+    assert len([n for n in os.listdir(out) if n.endswith(".bvh")]) == len(good)
+    with bpy.data.libraries.load(str(saved_blend)) as (saved, _):
+        assert good <= set(saved.actions)
+
+
+def test_the_command_line_retargets_a_folder_and_exits_with_the_number_that_failed(library, target, tmp_path):
+    """One good clip and one bad, in a Blender of its own: the subprocess path whole (install, command, exit
+    status, report, export, save). The whole library, two worker Blenders and a Dask cluster run in the
+    long tier (tests/long/test_batch_long.py): each costs more Blenders started, not another path here."""
+    folder = tmp_path / "clips"
+    folder.mkdir()
+    for name in ("walk60.bvh", "cut_short.bvh"):
+        shutil.copy(library / "bvh" / name, folder / name)
+    done, out = run_command_line(target, [folder], tmp_path)
+    check_command_line_run(done, out, tmp_path / "done.blend", {"walk60"}, {"cut_short"}, 2)
 
 
 def test_the_library_operator_fills_the_report_list(mk, library, target):
@@ -298,3 +305,62 @@ def test_the_library_operator_fills_the_report_list(mk, library, target):
     assert rows["cut_short"].status == "failed" and "cut_short.bvh" in rows["cut_short"].reason
     assert rows["walk60"].frames == 182 and rows["walk60"].sliding_worst_mm >= 0.0
     assert {a.name for a in set(bpy.data.actions) - actions} == {"walk60", "run_forward"}
+
+
+@pytest.mark.parametrize("arguments,message", [
+    (dict(export="obj", out_dir="OUT"), r"unknown export 'obj'"),
+    (dict(export="bvh"), r"export needs out_dir"),
+    (dict(keep=False), r"keep=False without export"),
+    (dict(root="sideways"), r"unknown root motion 'sideways'"),
+    (dict(plant_feet="on"), r"plant_feet must be True, False or None, not 'on'"),
+    (dict(roots="scaled"), r"unknown retarget option 'roots'"),
+    (dict(action_name="walk"), r"action_name: a batch names each action after its clip"),
+], ids=lambda v: "-".join(v) if isinstance(v, dict) else "")
+def test_batch_arguments_are_refused_before_any_file_is_read(mk, library, target, tmp_path, arguments, message):
+    """Each argument that would fail every clip: a ValueError naming it, nothing imported, no folder made."""
+    arguments = {k: str(tmp_path / v) if k == "out_dir" else v for k, v in arguments.items()}
+    before = _datablocks()
+    for run in (mk.batch.retarget_library, lambda *a, **k: mk.batch_workers.run_parallel(*a, workers=2, **k)):
+        with pytest.raises(ValueError, match=message):
+            run([library / "bvh"], target, **arguments)
+    assert _datablocks() == before and not os.path.exists(tmp_path / "OUT")
+
+
+def test_batch_target_and_inputs_are_checked(mk, library, target, tmp_path):
+    bpy.ops.mesh.primitive_cube_add()
+    cube = bpy.context.active_object
+    before = _datablocks()
+    with pytest.raises(ValueError, match=r"target: 'Cube' is not an armature object"):
+        mk.batch.retarget_library([library], cube)
+    with pytest.raises(ValueError, match=r"target: None is not an armature object"):
+        mk.batch_workers.run_parallel([library], None)
+    with pytest.raises(FileNotFoundError, match=r"nowhere\.bvh: no such file or folder"):
+        mk.batch.retarget_library([library / "nowhere.bvh"], target)
+    for workers in (0, -1, 1.5):
+        with pytest.raises(ValueError, match=rf"workers must be a whole number of Blenders, 1 or more, not {workers}"):
+            mk.batch_workers.run_parallel([library], target, workers=workers)
+    assert _datablocks() == before
+
+
+@pytest.mark.parametrize("argv,message", [
+    (["retarget", "--target", "Nobody", "IN"], r"--target: no armature 'Nobody' in .*armatures: "),
+    (["retarget", "--target", "TARGET", "--export", "bvh", "IN"], r"--export needs --out"),
+    (["retarget", "--target", "TARGET", "--out", "OUT", "--files-only", "IN"], r"--files-only needs --export"),
+    (["retarget", "--target", "TARGET", "--workers", "0", "IN"], r"--workers: '0' is not a number of Blenders"),
+    (["retarget", "--target", "TARGET", "--export", "obj", "--out", "OUT", "IN"], r"--export: invalid choice: 'obj'"),
+    (["retarget", "--target", "TARGET", "--plant-feet", "yes", "IN"], r"--plant-feet: invalid choice: 'yes'"),
+    (["retarget", "--target", "TARGET", "IN/nowhere.bvh"], r"nowhere\.bvh: no such file or folder"),
+    (["retarget", "IN"], r"the following arguments are required: --target"),
+    (["convert", "IN"], r"invalid choice: 'convert'"),
+], ids=lambda v: " ".join(v[3:] if len(v) > 3 else v) if isinstance(v, list) else "")
+def test_command_line_errors_name_the_argument_and_do_nothing(mk, library, target, tmp_path, capsys, argv, message):
+    """An argument the command cannot run with: exit status cli.USAGE_STATUS (never a count of failed files),
+    the reason on stderr naming the argument, nothing imported and nothing written."""
+    argv = [{"TARGET": target.name, "IN": str(library / "bvh"), "OUT": str(tmp_path / "out")}.get(a, a)
+            .replace("IN/", str(library / "bvh") + "/") for a in argv]
+    before = _datablocks()
+    with pytest.raises(SystemExit) as exited:
+        mk.cli.main(argv)
+    assert exited.value.code == mk.cli.USAGE_STATUS
+    assert re.search(message, capsys.readouterr().err), argv
+    assert _datablocks() == before and not os.path.exists(tmp_path / "out")

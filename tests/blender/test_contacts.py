@@ -11,6 +11,7 @@ import pytest
 
 import characters
 import generate
+import stances
 from rotations import quaternion_angles
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
@@ -19,6 +20,9 @@ CLIPS = sorted(os.path.relpath(p, BVH) for p in glob.glob(os.path.join(BVH, "*.b
                + glob.glob(os.path.join(BVH, "more", "*.bvh")))
 MM = {"more/bandai_dash_normal_001.bvh": 0.1}  # armature units per millimetre (that file is in cm)
 POP_ALLOWANCE = 5.0  # millimetres a frame, see check_plant
+# A held point's slide: measured 0.0015 mm at most on Blender 3.4 and 4.3 on the detected contacts (every
+# capture and character), 0.0011 mm on the clear stances; about ten times that.
+HELD_MM = 0.02
 
 
 @pytest.fixture(scope="module")
@@ -119,7 +123,7 @@ def check_plant(mk, contacts, pose_channels, obj, clip, mm):
     names_after, rot_after, loc_after = channels(obj, pose_channels, frames)
     feet = contacts.find_feet(obj)
 
-    # Each detected contact: the point moves at most 1 mm.
+    # Each detected contact: the point moves at most HELD_MM.
     worst = 0.0
     point_bones = [b for foot in feet for b in (foot.shin, foot.foot)]
     for p, runs in enumerate(report.intervals):
@@ -128,7 +132,8 @@ def check_plant(mk, contacts, pose_channels, obj, clip, mm):
             track = after[int(first - frames[0]):int(last - frames[0]) + 1, j, 1]
             worst = max(worst, float(np.max(np.linalg.norm(track - track[0], axis=1))))
     assert sum(len(r) for r in report.intervals) >= 2, report.intervals
-    assert worst <= 1.0 * mm, f"{clip}: a contact slides {worst / mm:.3f} mm"
+    assert worst <= HELD_MM * mm, f"{clip}: a contact slides {worst / mm:.4f} mm"
+    _check_stances(mk, action, clip, mm, plain, after, names, feet)
 
     # Only the legs' rotations and the hips' location changed; everything else equals the input.
     assert names_before == names_after
@@ -182,6 +187,27 @@ def check_plant(mk, contacts, pose_channels, obj, clip, mm):
           f"{worst / mm:.4f} mm, max joint move ratio {ratio:.3f} (excess over 1.5x {float(np.max(after_move - 1.5 * plain_move)) / mm:.2f} mm), cleanup {report.seconds * 1000:.1f} ms "
           f"(solve {report.solve_seconds * 1000:.1f} ms, {report.iterations} iterations), plant() "
           f"{elapsed * 1000:.1f} ms, knees {report.knee_axes}, max IK error {report.max_error.max() / mm:.4f} mm")
+
+
+def _check_stances(mk, action, clip, mm, plain, after, names, feet):
+    """Stances by the tests' own rule on the input (stances.stance), whether the detector found them or not:
+    where the foot clearly stands (within 2 % of the leg of its lowest, slower than a fifth of a leg a second,
+    for 0.08 s) held to HELD_MM; on the looser stances (4 %, half a leg a second, any length) never sliding
+    further than the input's own point there."""
+    point_bones = [b for foot in feet for b in (foot.shin, foot.foot)]
+    columns = [names.index(b) for b in point_bones]
+    leg = float(np.mean([sum(np.linalg.norm(plain[0, names.index(b), 1] - plain[0, names.index(b), 0])
+                             for b in (f.thigh, f.shin)) for f in feet]))
+    fps = mk.animdata.frame_rate(action)
+    track, moved = plain[:, columns, 1], after[:, columns, 1]
+    clear = stances.slides(moved, stances.stance(track[..., 2], track, leg, fps, 0.02, 0.2), int(np.ceil(0.08 * fps)))
+    clear_worst = max((s for *_, s in clear), default=0.0)
+    loose = stances.stance(track[..., 2], track, leg, fps)
+    beyond = max(s - own for (*_, s), (*_, own) in zip(stances.slides(moved, loose), stances.slides(track, loose)))
+    print(f"\n{clip}: clear stances {len(clear)}, worst slide {clear_worst / mm:.4f} mm; any stance's slide beyond "
+          f"the input's own {beyond / mm:.4f} mm")
+    assert clear_worst <= HELD_MM * mm, f"{clip}: a clear stance slides {clear_worst / mm:.4f} mm"
+    assert beyond <= HELD_MM * mm, f"{clip}: a stance slides {beyond / mm:.4f} mm further than the input's"
 
 
 def test_rerun_reads_the_curves_and_honours_an_edit(mk, contacts, walk60):
@@ -362,3 +388,48 @@ def test_the_rolled_knee_angles_are_derived_exactly(contacts):
         gap = np.abs(derived - direct)
         gap[:, 1] = np.minimum(gap[:, 1], 2 * np.pi - gap[:, 1])  # the twist wraps at +-pi
         assert gap.max() < 1e-12
+
+
+def _state(obj):
+    action = obj.animation_data.action if obj.animation_data else None
+    keys = None if action is None else {(fc.data_path, fc.array_index): [tuple(k.co) for k in fc.keyframe_points]
+                                        for fc in action.fcurves}
+    return str(keys), sorted(a.name for a in bpy.data.actions), sorted(obj.pose.bones["lAnkle"].keys())
+
+
+def test_plant_without_an_action_or_keys_says_so_and_changes_nothing(mk, contacts, walk60):
+    obj, action = load(mk, walk60, "bare")
+    obj.animation_data.action = None
+    before = _state(obj)
+    with pytest.raises(ValueError, match=r"'bare' has no action to clean up"):
+        contacts.plant(obj)
+    assert _state(obj) == before
+    empty = bpy.data.actions.new("empty")
+    obj.animation_data.action = empty
+    before = _state(obj)
+    with pytest.raises(ValueError, match=r"'bare': action 'empty' has no keys on its bones"):
+        contacts.plant(obj)
+    assert _state(obj) == before
+    # Keys, but none on a bone (the object's own location only).
+    obj.keyframe_insert("location", frame=1)
+    obj.keyframe_insert("location", frame=30)
+    before = _state(obj)
+    with pytest.raises(ValueError, match=r"'bare': action 'empty' has no keys on its bones"):
+        contacts.plant(obj)
+    assert _state(obj) == before
+    bpy.ops.mesh.primitive_cube_add()
+    with pytest.raises(ValueError, match=r"'Cube' is not an armature object"):
+        contacts.plant(bpy.context.active_object)
+
+
+@pytest.mark.parametrize("bone,channel", [("RootJoint", "location"), ("lShoulder", "rotation")])
+def test_plant_refuses_a_nan_key_away_from_the_legs_naming_bone_and_frame(mk, contacts, walk60, bone, channel):
+    """A NaN on the hips' location or on a shoulder's rotation at Blender frame 21 (outside the legs, which
+    test_errors_name_foot_bone_and_frame_and_change_nothing covers): named, nothing changed."""
+    obj, action = load(mk, walk60, "nan")
+    fcurve = next(f for f in mk_fcurves(action, obj) if f.data_path.startswith(f'pose.bones["{bone}"].{channel}'))
+    fcurve.keyframe_points[20].co[1] = float("nan")
+    before = _state(obj)
+    with pytest.raises(ValueError, match=rf"bone '{bone}'.*frame 21"):
+        contacts.plant(obj)
+    assert _state(obj) == before

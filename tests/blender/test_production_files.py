@@ -15,11 +15,18 @@ from mathutils import Matrix
 
 import characters
 import generate
+import stances
 
 FINGERS = ("Thumb", "Index", "Middle", "Ring", "Pinky")
+# Directions and twists, joint to joint through Blender's evaluation: measured on Blender 3.4 and 4.3 at
+# most 0.0006 deg for the fingers (the punch onto Y Bot, two-bone fingers, Rigify's DEF phalanges) and
+# 0.0013 deg for arms, hands and fingers with automatic bone orientation or from an FBX file Blender wrote
+# (0.0025 deg from 4.3's glTF exporter): the float32 pose matrices of bones a few centimetres long.
+FINGER_DEG = 0.005
+FBX_DEG = 0.01
 
 
-@pytest.fixture()
+@pytest.fixture(scope="session")
 def fbx_dir(shared_dir):
     path = os.path.join(shared_dir, "data", "fbx")
     if not os.path.isfile(os.path.join(path, "ybot@punch.fbx")):
@@ -30,10 +37,25 @@ def fbx_dir(shared_dir):
 
 
 def import_fbx(path, **options):
-    """Blender's own FBX importer: the armature it brings (scaled 0.01, turned 90 degrees about X)."""
+    """Blender's own FBX importer: the armature it brings (scaled 0.01, turned 90 degrees about X), without
+    the skinned meshes it brings too (remove_skins; the tests export armatures alone)."""
     before = set(bpy.data.objects)
     bpy.ops.import_scene.fbx(filepath=path, **options)
-    return next(o for o in bpy.data.objects if o not in before and o.type == 'ARMATURE')
+    armature = next(o for o in bpy.data.objects if o not in before and o.type == 'ARMATURE')
+    remove_skins()
+    return armature
+
+
+def remove_skins():
+    """Removes every mesh an armature deforms (the bones' rest and axes came from their bind pose at import):
+    these tests read bones only, and each frame_set would deform the meshes again for nothing (most of the
+    tests' time)."""
+    for obj in list(bpy.data.objects):
+        if obj.type == 'MESH' and any(m.type == 'ARMATURE' for m in obj.modifiers):
+            mesh = obj.data
+            bpy.data.objects.remove(obj)
+            if mesh.users == 0:
+                bpy.data.meshes.remove(mesh)
 
 
 def rename_prefix(obj, old, new):
@@ -133,6 +155,7 @@ def test_mixamo_fingers_follow_the_source_on_every_frame(mk, fbx_dir, prefix):
     target = import_fbx(os.path.join(fbx_dir, "ybot.fbx"))
     rename_prefix(target, "mixamorig:", prefix)
     action = mk.retarget(os.path.join(fbx_dir, "ybot@punch.fbx"), target, imported_source="keep")
+    remove_skins()
     source = next(o for o in bpy.data.objects if o.type == 'ARMATURE' and o is not target)
     pairs = dict(mk.retargeting.auto_map(source, target))
     fingers = [n for side in ("Left", "Right") for n in phalanges("mixamorig:", side)]
@@ -145,14 +168,14 @@ def test_mixamo_fingers_follow_the_source_on_every_frame(mk, fbx_dir, prefix):
     _, src_x = world_axes(source, fingers, frames)
     _, tgt_x = world_axes(target, [pairs[n] for n in fingers], frames)
     twist = np.abs(angles_deg(src_x, tgt_x) - angles_deg(src_x[:1], tgt_x[:1])).max()
-    print(f"\nfingers ({prefix or 'no prefix'}): direction {worst:.4f} deg, twist {twist:.4f} deg")
-    assert worst < 1.0 and twist < 1.0
+    print(f"\nfingers ({prefix or 'no prefix'}): direction {worst:.6f} deg, twist {twist:.6f} deg")
+    assert worst < FINGER_DEG and twist < FINGER_DEG
     # The punch closes the fist: the index's last phalanx turns as far from the hand's line as the source's.
     hand_y = limb_directions(target, [prefix + "LeftHand"], frames)
     source_hand_y = limb_directions(source, ["mixamorig:LeftHand"], frames)
     tip = fingers.index("mixamorig:LeftHandIndex3")
     curl = angles_deg(hand_y[:, 0], tgt_y[:, tip])
-    assert curl.max() > 40.0 and np.abs(curl - angles_deg(source_hand_y[:, 0], src_y[:, tip])).max() < 1.0
+    assert curl.max() > 40.0 and np.abs(curl - angles_deg(source_hand_y[:, 0], src_y[:, tip])).max() < FINGER_DEG
 
 
 def _keep_fingers(obj, keep, drop_last=False):
@@ -177,6 +200,7 @@ def test_two_bone_fingers_and_a_hand_with_thumb_and_index_only(mk, fbx_dir):
     target = import_fbx(os.path.join(fbx_dir, "ybot.fbx"))
     _keep_fingers(target, keep=("Thumb", "Index"), drop_last=True)
     action = mk.retarget(os.path.join(fbx_dir, "ybot@punch.fbx"), target, imported_source="keep")
+    remove_skins()
     source = next(o for o in bpy.data.objects if o.type == 'ARMATURE' and o is not target)
     pairs = dict(mk.retargeting.auto_map(source, target))
     for side in ("Left", "Right"):
@@ -188,7 +212,9 @@ def test_two_bone_fingers_and_a_hand_with_thumb_and_index_only(mk, fbx_dir):
     sources = [s for s in pairs if "Thumb" in s or "Index" in s]
     src_y = limb_directions(source, sources, frames)
     tgt_y = limb_directions(target, [pairs[s] for s in sources], frames)
-    assert angles_deg(src_y, tgt_y).max() < 1.0
+    worst = angles_deg(src_y, tgt_y).max()
+    print(f"\ntwo-bone fingers: worst {worst:.6f} deg")
+    assert worst < FINGER_DEG
 
 
 # ---------------------------------------------------------------------------
@@ -230,13 +256,8 @@ def _lowest(obj, feet, frames):
 
 
 def _stance(low, ankles, leg, fps):
-    """A foot stands where its lowest point is within 4 % of the leg above the lowest it comes in the clip
-    (a Mixamo foot's ball is 10 cm above its sole) and its ankle moves slower than half a leg a second (the
-    test's own rule, not the product's contact detector)."""
-    speed = np.zeros(low.shape)
-    speed[1:-1] = np.linalg.norm(ankles[2:] - ankles[:-2], axis=-1) * fps / 2
-    speed[0], speed[-1] = speed[1], speed[-2]
-    return (low - low.min(axis=0) < 0.04 * leg) & (speed < 0.5 * leg)
+    """Where a foot stands, by the tests' own rule (stances.stance), not the product's contact detector."""
+    return stances.stance(low, ankles, leg, fps)
 
 
 def _world_leg(obj, feet):
@@ -272,12 +293,24 @@ VARIANTS = {"plain": lambda mk, obj: None, "origin at hips": _move_origin_to_hip
             "FBX scale and turn": lambda mk, obj: _as_fbx_leaves_it(obj), "parented": lambda mk, obj: _parented(obj)}
 
 
-@pytest.mark.parametrize("plant", [True, False], ids=["planted", "not planted"])
-@pytest.mark.parametrize("variant", list(VARIANTS))
-def test_feet_stand_on_the_floor(mk, walk60, variant, plant):
-    """walk60 onto RigifyA (another rig's proportions) however its armature is placed: on the source's
-    stance frames each target foot's lowest point stands where the source's does above its floor, scaled by
-    the leg ratio, within 0.5 % of the leg; no foot ever lower than that allows."""
+# A foot's lowest point on the source's stance frames against where the source's stands, scaled by the leg
+# ratio, in legs: measured on Blender 3.4 and 4.3 over every placement, planted or not (the long tier), and
+# the kick; about ten times that.
+FLOOR_ERROR = 1e-5  # measured 9e-7 at most (the kick onto an FBX-like rig; walk60 5e-7)
+FLOOR_BELOW = 1e-6  # and how far below the floor (or the source's scaled height) any foot may come (1e-7)
+
+
+def test_feet_stand_on_the_floor(mk, walk60):
+    """The representative placement: centimetres in the armature, the object scaled and turned as an FBX
+    import leaves it (every placement, planted and not: tests/long/test_production_files_long.py)."""
+    check_feet_on_the_floor(mk, walk60, "FBX scale and turn", True)
+
+
+def check_feet_on_the_floor(mk, walk60, variant, plant):
+    """walk60 onto RigifyA (another rig's proportions) placed as VARIANTS[variant] says: on the source's
+    stance frames (stances.stance, the tests' own rule) each target foot's lowest point stands where the
+    source's does above its floor, scaled by the leg ratio, within FLOOR_ERROR of the leg; no foot ever
+    lower than that allows."""
     source, _ = mk.bvh.load(walk60)
     target = generate.build_armature(characters.RIGIFY_A)
     VARIANTS[variant](mk, target)
@@ -295,35 +328,36 @@ def test_feet_stand_on_the_floor(mk, walk60, variant, plant):
     stance = _stance(src_low, src_ankles, _world_leg(source, src_feet), 60.0)
     error = np.abs(tgt_low - wanted)[stance] / leg
     hover = np.median((tgt_low - tgt_floor)[stance]) * 1000
-    print(f"\n{variant}, planted {plant}: stance error median {100 * np.median(error):.3f} %, worst "
-          f"{100 * error.max():.3f} % of the leg ({stance.sum()} foot-frames); lowest point above the floor "
+    print(f"\n{variant}, planted {plant}: stance error median {100 * np.median(error):.5f} %, worst "
+          f"{100 * error.max():.5f} % of the leg ({stance.sum()} foot-frames); lowest point above the floor "
           f"(median) {hover:.1f} mm")
     assert stance.sum() > 100
-    assert error.max() < 0.005
-    assert (tgt_low - np.minimum(wanted, tgt_floor)).min() > -0.0005 * leg
+    assert error.max() < FLOOR_ERROR
+    below = (tgt_low - np.minimum(wanted, tgt_floor)).min() / leg
+    print(f"lowest below the floor or the source's height {100 * below:.5f} % of the leg")
+    assert below > -FLOOR_BELOW
 
 
 @pytest.mark.parametrize("planted", [False, True], ids=["not planted", "planted"])
 def test_fbx_clip_onto_an_fbx_character_whose_origin_is_at_its_hips(mk, fbx_dir, planted):
     """The kick (FBX) onto MixamoT turned into an FBX-like rig with its origin at the hips: feet at the
-    source's heights above the floor, scaled by the leg ratio, on the stance frames the retarget keyed (0.5 %
-    of the leg), not a leg length in the air."""
+    source's heights above the floor, scaled by the leg ratio, on the source's stance frames (the tests' own
+    rule; FLOOR_ERROR of the leg), not a leg length in the air."""
     target = generate.build_armature(characters.MIXAMO_T)
     _move_origin_to_hips(mk, target)
     _as_fbx_leaves_it(target)
     bpy.context.view_layer.update()
     mk.retarget(os.path.join(fbx_dir, "ybot@kick.fbx"), target, imported_source="keep")
+    remove_skins()
     source = next(o for o in bpy.data.objects if o.type == 'ARMATURE' and o is not target)
     frames = frames_of(target.animation_data.action)
     src_feet, tgt_feet = _feet(mk, source), _feet(mk, target)
-    # The source's stance frames as the planted retarget keyed them (its contact curves, fcurve.evaluate).
-    curves = {fc.data_path: fc for fc in mk.animdata.fcurves(target.animation_data.action, target)}
-    stance = np.array([[any(curves[path].evaluate(float(f)) > 0.5 for path, _, _ in
-                            mk.contacts.contact_channels(tgt_feet)[2 * k:2 * k + 2]) for k in range(2)]
-                       for f in frames])
     if not planted:
         mk.retarget(source, target, plant_feet=False)
     src_low, src_ankles = _lowest(source, src_feet, frames)
+    # The source's stance frames by the tests' own rule (stances.stance), not the retarget's contacts.
+    stance = _stance(src_low, src_ankles, _world_leg(source, src_feet),
+                     mk.animdata.frame_rate(source.animation_data.action))
     tgt_low, _ = _lowest(target, tgt_feet, frames)
     src_floor, tgt_floor = _rest_floor(source, src_feet), _rest_floor(target, tgt_feet)
     leg = _world_leg(target, tgt_feet)
@@ -333,10 +367,10 @@ def test_fbx_clip_onto_an_fbx_character_whose_origin_is_at_its_hips(mk, fbx_dir,
     assert stance.sum() > 10
     above = (tgt_low - tgt_floor)[stance] / leg
     source_above = ratio * (src_low - src_floor)[stance] / leg
-    print(f"\nkick onto an FBX-like MixamoT (planted {planted}): worst {100 * np.abs(above - source_above).max():.2f} "
+    print(f"\nkick onto an FBX-like MixamoT (planted {planted}): worst {100 * np.abs(above - source_above).max():.5f} "
           f"% of the leg off; stance feet above the floor {100 * np.median(above):.2f} % of the leg "
           f"(the source's {100 * np.median(source_above):.2f} %)")
-    assert np.abs(above - source_above).max() < 0.005
+    assert np.abs(above - source_above).max() < FLOOR_ERROR
 
 
 # ---------------------------------------------------------------------------
@@ -399,6 +433,7 @@ def test_fbx_and_gltf_files_are_sources(mk, fbx_dir, tmp_path, kind):
     target = import_fbx(os.path.join(fbx_dir, "ybot.fbx"))
     before = {kind_: {i.name for i in getattr(bpy.data, kind_)} for kind_ in ("objects", "armatures", "meshes")}
     action = mk.retarget(path, target, imported_source="keep")
+    remove_skins()
     source = next(o for o in bpy.data.objects if o.type == 'ARMATURE' and o is not target)
     pairs = [(s, t) for s, t in mk.retargeting.auto_map(source, target) if "Hand" in t or "Arm" in t]
     assert len(pairs) >= 32
@@ -410,9 +445,9 @@ def test_fbx_and_gltf_files_are_sources(mk, fbx_dir, tmp_path, kind):
     # The exporter writes the rest as the pose it finds (not a T-pose) with bone axes of its own: the hands'
     # turn about their own line comes from where the fingers spread, and the palms must face as the source's.
     palms = worst_palm_deg(source, target, frames)
-    print(f"\npunch as .{kind}: worst arm, hand or finger direction {per_bone.max():.3f} deg "
-          f"({pairs[int(per_bone.argmax())]}), palms {palms:.3f} deg")
-    assert per_bone.max() < 1.0 and palms < 1.0
+    print(f"\npunch as .{kind}: worst arm, hand or finger direction {per_bone.max():.6f} deg "
+          f"({pairs[int(per_bone.argmax())]}), palms {palms:.6f} deg")
+    assert per_bone.max() < FBX_DEG and palms < FBX_DEG
     for obj in list(bpy.data.objects):
         if obj is not target and obj.name not in before["objects"]:
             bpy.data.objects.remove(obj)
@@ -438,8 +473,8 @@ def test_fbx_imports_with_automatic_bone_orientation(mk, fbx_dir, source_oriente
                           limb_directions(target, [t for _, t in pairs], frames)).max(axis=0)
     palms = worst_palm_deg(source, target, frames)
     print(f"\nautomatic bone orientation source {source_oriented}, target {target_oriented}: worst direction "
-          f"{per_bone.max():.3f} deg ({pairs[int(per_bone.argmax())]}), palms {palms:.3f} deg")
-    assert per_bone.max() < 1.0 and palms < 1.0
+          f"{per_bone.max():.6f} deg ({pairs[int(per_bone.argmax())]}), palms {palms:.6f} deg")
+    assert per_bone.max() < FBX_DEG and palms < FBX_DEG
 
 
 def test_bad_files_say_what_is_wrong_and_change_nothing(mk, fbx_dir, tmp_path):
@@ -570,6 +605,7 @@ def test_rigify_finger_controls_are_keyed_and_its_fingers_close_the_fist(mk, fbx
     rig = rigify_rig.generate()[0]
     before = set(bpy.data.objects)
     action = mk.retarget(os.path.join(fbx_dir, "ybot@punch.fbx"), rig, imported_source="keep")
+    remove_skins()
     source = next(o for o in bpy.data.objects if o not in before and o.type == 'ARMATURE')
     skeleton = mk.control_rigs.DeformSkeleton(rig, mk.control_rigs.find_map(rig))
     pairs = [(a, b) for a, b in mk.retargeting.auto_map(source, skeleton) if "Hand" in a and not a.endswith("Hand")]
@@ -582,8 +618,8 @@ def test_rigify_finger_controls_are_keyed_and_its_fingers_close_the_fist(mk, fbx
     src_y = limb_directions(source, [a for a, _ in pairs], frames)
     tgt_y, _ = world_axes(rig, [b for _, b in pairs], frames)
     worst = angles_deg(src_y, tgt_y).max()
-    print(f"\nRigify fingers from the punch: worst {worst:.4f} deg")
-    assert worst < 1.0
+    print(f"\nRigify fingers from the punch: worst {worst:.6f} deg")
+    assert worst < FINGER_DEG
 
 
 def test_planting_feet_on_a_target_without_feet_says_so(mk, walk60):

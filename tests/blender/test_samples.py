@@ -5,7 +5,7 @@ import bpy
 import numpy as np
 import pytest
 
-import conftest  # noqa: F401  (puts blend_samples on sys.path)
+import conftest  # (also puts blend_samples on sys.path)
 import characters
 import generate
 import walk
@@ -14,9 +14,25 @@ from rotations import quaternion_angles
 SPEC = {s.name: s for s in characters.CHARACTERS}
 
 
-@pytest.fixture
+@pytest.fixture(scope="module")
 def samples(animdata):
-    return generate.build_all(animdata, walk_on=tuple(SPEC))
+    """The three characters, built once for the module: its tests only read them (and the determinism test
+    removes only what it builds itself)."""
+    scene = bpy.context.scene
+    kept = (scene.render.fps, scene.render.fps_base, scene.frame_start, scene.frame_end)
+    conftest.clear_scene()
+    yield generate.build_all(animdata, walk_on=tuple(SPEC))
+    conftest.clear_scene()
+    scene.render.fps, scene.render.fps_base, scene.frame_start, scene.frame_end = kept
+
+
+@pytest.fixture(autouse=True)
+def empty_scene():
+    """conftest's empty scene between tests would remove the module's samples: here only the frame the tests
+    set is put back."""
+    frame = bpy.context.scene.frame_current
+    yield
+    bpy.context.scene.frame_set(frame)
 
 
 def _rest_armature_space(obj, spec, canonical):
@@ -90,13 +106,14 @@ def test_feet_alternate_and_the_walker_advances(samples):
 
 def test_generation_is_deterministic(animdata):
     def snapshot():
+        before = set(bpy.data.objects)
         objs = generate.build_all(animdata, walk_on=("RigifyA",))
         obj = objs["RigifyA"]
         keys = [animdata.read_keys(fc)[1] for fc in animdata.fcurves(animdata.assigned_action(obj), obj)]
         body = obj.children[0].data
         co = np.empty(3 * len(body.vertices), dtype=np.float32)
         body.vertices.foreach_get("co", co)
-        for item in list(bpy.data.objects):
+        for item in set(bpy.data.objects) - before:
             bpy.data.objects.remove(item)
         return np.concatenate(keys), co
     keys_a, co_a = snapshot()
