@@ -351,3 +351,62 @@ def test_a_stepped_curve_stays_stepped(mk, animdata):
     assert set(np.unique(values)) <= {0.0, 1.0}
     assert {k.interpolation for k in contact.keyframe_points} == {'CONSTANT'}
     assert animdata.find_fcurve(action, obj, "location", 0).keyframe_points[0].interpolation != 'CONSTANT'
+
+
+def _all_keys(animdata):
+    """Every action's keys and handles, and the scene's timing: what a refused call must leave as it was."""
+    scene = bpy.context.scene
+    keys = {}
+    for obj in bpy.data.objects:
+        action = animdata.assigned_action(obj)
+        for fc in (animdata.fcurves(action, obj) if action else []):
+            keys[(obj.name, fc.data_path, fc.array_index)] = [
+                tuple(k.co) + tuple(k.handle_left) + tuple(k.handle_right) for k in fc.keyframe_points]
+    return keys, set(bpy.data.actions), (scene.render.fps, scene.render.fps_base, scene.frame_start,
+                                         scene.frame_end)
+
+
+def _same(a, b):
+    """_all_keys equal, NaN included (a NaN key must still be there, untouched)."""
+    return a[1:] == b[1:] and a[0].keys() == b[0].keys() and all(
+        np.array_equal(np.array(a[0][k]), np.array(b[0][k]), equal_nan=True) for k in a[0])
+
+
+@pytest.mark.parametrize("call", ["resample", "reduce_keys", "reduce_keys world"])
+def test_an_object_without_an_action_or_keys_is_named(mk, animdata, call):
+    run = {"resample": lambda o: mk.resample(o, step=2.0), "reduce_keys": lambda o: mk.reduce_keys(o),
+           "reduce_keys world": lambda o: mk.reduce_keys(o, space='WORLD')}[call]
+    verb = "resample" if call == "resample" else "reduce"
+    bare = bpy.data.objects.new("Bare", None)
+    bpy.context.scene.collection.objects.link(bare)
+    before = _all_keys(animdata)
+    with pytest.raises(ValueError, match=rf"^'Bare' has no action to {verb}$"):
+        run(bare)
+    empty = bpy.data.objects.new("Unkeyed", None)
+    bpy.context.scene.collection.objects.link(empty)
+    animdata.assign(empty, animdata.new_action("Nothing"))
+    before = _all_keys(animdata)
+    with pytest.raises(ValueError, match=rf"^'Unkeyed' has no keys to {verb}$"):
+        run(empty)
+    assert _same(_all_keys(animdata), before)
+
+
+@pytest.mark.parametrize("call", ["resample", "reduce_keys"])
+@pytest.mark.parametrize("where", ["value", "handle"])
+def test_a_nan_key_is_named_and_changes_nothing(mk, animdata, call, where):
+    """A NaN in the source action (a broken script's key, a bad import) is refused naming the object, the
+    curve and the frame, before anything is computed: otherwise it would spread through every curve the
+    work computes from it."""
+    frames = np.arange(1.0, 41.0)
+    obj, action = animated_empty(animdata, frames, np.vstack([np.sin(frames / 5), np.cos(frames / 5), frames]))
+    point = animdata.find_fcurve(action, obj, "location", 1).keyframe_points[6]
+    if where == "value":
+        point.co.y = float("nan")
+    else:
+        point.handle_right_type = 'FREE'
+        point.handle_right.y = float("nan")
+    before = _all_keys(animdata)
+    with pytest.raises(ValueError, match=rf"^{call}: 'Mover' location\[1\] has a non-finite key at frame 7; "
+                                         r"nothing was changed$"):
+        mk.resample(obj, step=2.0) if call == "resample" else mk.reduce_keys(obj)
+    assert _same(_all_keys(animdata), before)

@@ -1,0 +1,34 @@
+"""Runs the long tier inside Blender: installs the zip, then pytest on tests/long.
+
+    tools/with_blender.sh 3.4 --background --factory-startup --python-exit-code 1 \
+        --python tests/long/run_in_blender.py -- dist/motionkit-...-py311.zip [pytest args]
+
+Blender's exit code is pytest's, so a failing or empty run is never green.
+"""
+import os
+import sys
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(os.path.dirname(HERE))
+sys.path.insert(0, os.path.join(ROOT, "tools"))
+
+import install_addon  # noqa: E402
+
+
+def main() -> int:
+    args = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
+    if not args:
+        print("run_in_blender.py: pass the zip to test after --", file=sys.stderr)
+        return 2
+    zip_path, pytest_args = os.path.abspath(args[0]), args[1:]
+    os.environ["MOTIONKIT_ZIP"] = zip_path
+    os.environ["MOTIONKIT_MODULE"] = install_addon.install(zip_path)
+    import pytest
+    code = pytest.main([HERE, "-p", "no:cacheprovider", "-ra", *pytest_args])
+    if code == pytest.ExitCode.NO_TESTS_COLLECTED:
+        print("run_in_blender.py: no test ran", file=sys.stderr)
+    return int(code)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
