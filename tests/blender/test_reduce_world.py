@@ -151,7 +151,7 @@ def test_the_operator_reduces_in_world_space(mk, animdata, walk60):
     for other in bpy.context.view_layer.objects:
         other.select_set(other == obj)
     bpy.context.view_layer.objects.active = obj
-    frames = frames_of(action)[::7]
+    frames = between_frames(action)[::7]  # every seventh third of a frame: whole frames and between
     before_points = world_points(obj, frames, AXIS)
     before = key_count(action, animdata, obj)
     assert bpy.ops.motionkit.reduce_keys('EXEC_DEFAULT', space='WORLD', distance=2e-3, axis_length=AXIS) == \

@@ -5,6 +5,7 @@ import math
 import bpy
 import numpy as np
 import pytest
+import squad_reference
 from keyed_objects import animated_empty
 
 SCALAR_EXACT = ["catmull-rom", "centripetal", "chordal", "kochanek-bartels", "natural", "clamped",
@@ -197,6 +198,30 @@ def test_rotations_go_over_the_sphere_in_every_rotation_mode(mk, animdata, nativ
     deviation = _angle_between(_pose_quaternions(obj, between),
                                native.interpolate_rotations(frames, quats, between, kind=kind))
     assert np.degrees(deviation.max()) < 0.5
+
+
+# Squad resampled by Blender's keys against Shoemake's formula (tests/common/squad_reference.py, float64):
+# the keys are stored in float32, each component to half an ulp (3e-8 at |q| <= 1), so the rotation Blender
+# evaluates on a key is off by up to about 2 * sqrt(3) * 3e-8 = 1e-7 rad, and matrix_basis.to_quaternion
+# (float32) adds as much; measured 3.4e-7 rad (Blender 3.4). The bound is about ten times that.
+SQUAD_FLOAT32 = 3.5e-6
+
+
+@pytest.mark.parametrize("mode", ['QUATERNION', 'XYZ'])
+def test_squad_keys_are_shoemakes_formula(mk, animdata, mode):
+    """resample(rotation='squad') from keys 2 frames apart onto every half frame (DENSE: each new key is the
+    curve's value there): Blender's evaluated rotation on each new key is Shoemake's squad."""
+    frames = np.arange(1.0, 41.0, 2.0)
+    quats = _smooth_quaternions(frames.size, 7, step=0.35)
+    obj, action, prop, size = _rotating_bone_rig(animdata, mk.native(), mode, frames, quats)
+    mk.resample(obj, step=0.5, rotation="squad", output='DENSE')
+    new_frames = _keys(animdata, action, obj, f'pose.bones["Arm"].{prop}', 0)[1]
+    assert new_frames.size == 2 * (frames.size - 1) * 2 + 1
+    got = _pose_quaternions(obj, new_frames)
+    want = squad_reference.squad(frames, quats, new_frames)
+    worst = _angle_between(got, want).max()
+    print(f"\nsquad through Blender's keys ({mode}) against Shoemake's formula: worst {worst:.3g} rad")
+    assert worst < SQUAD_FLOAT32
 
 
 def test_euler_channels_come_back_continuous_across_the_flip(mk, animdata, native):
