@@ -172,9 +172,10 @@ TWIST_SHARED = {"DEF-upper_arm.L", "DEF-upper_arm.R", "DEF-thigh.L", "DEF-thigh.
 # (DEF-spine.001, 2.7 deg; ORG-spine.001 5.5 deg, in FK and IK alike) and, with the legs in IK, the thighs
 # and shins (ORG-thigh up to 157 deg, ORG-shin and DEF-shin up to 152 deg). The IK knee is a hinge whose
 # plane the pole sets, and the pole follows the source's bend plane (core/control_rig.pole_positions): where
-# the capture's knee is nearly straight (walk60's right knee bends 3.4 deg on frames 1, 69-73, 141-145, to
-# one side and back of its usual plane) the whole leg rolls about its line to bend that way, 135 deg from
-# its roll four frames later, and rolls back: the directions stay within 0.12 deg, the mesh's leg twists.
+# the capture's knee is nearly straight (walk60's right knee bends 3.4 deg on frames 1, 69-73, 141-145, in a
+# plane about 135 deg from the one it bends in through the rest of the cycle) the whole leg rolls about its
+# line to bend that way and rolls back within four frames: the directions stay within 0.12 deg, the mesh's
+# leg twists.
 # test_control_rigs holds them in a strict xfail.
 KNOWN_OFF = {"DEF-spine.001"}
 KNOWN_OFF_IK_LEGS = {"ORG-thigh.L", "ORG-thigh.R", "DEF-shin.L", "DEF-shin.R"}
