@@ -427,11 +427,13 @@ def test_a_nan_key_is_named_and_changes_nothing(mk, animdata, call, where):
     point = animdata.find_fcurve(action, obj, "location", 1).keyframe_points[6]
     if where == "value":
         point.co.y = float("nan")
+        animdata.find_fcurve(action, obj, "location", 1).update()  # handles recomputed, as an edit would
     else:
         point.handle_right_type = 'FREE'
         point.handle_right.y = float("nan")
     before = _all_keys(animdata)
-    with pytest.raises(ValueError, match=rf"^{call}: 'Mover' location\[1\] has a non-finite key at frame 7; "
+    what = "key" if where == "value" else "handle"
+    with pytest.raises(ValueError, match=rf"^{call}: 'Mover' location\[1\] has a non-finite {what} at frame 7; "
                                          r"nothing was changed$"):
         mk.resample(obj, step=2.0) if call == "resample" else mk.reduce_keys(obj)
     assert _same(_all_keys(animdata), before)
