@@ -43,15 +43,14 @@ def rig(rigify_file):
 # The one representative case kept here (walk60, legs in IK); tests/long/test_control_rigs_clips.py runs
 # every clip with both kinds of controls (`make test-long`).
 CLIP, CONTROLS = "bvh/walk60.bvh", "auto"
-
-
 _TURNS = {}  # (clip, controls) -> the known-off bones' figures, from the test that measured them
 
 
 def test_rigify_deform_bones_turn_as_the_source_bones_do(mk, rig, shared_dir):
     """Without planted feet or the legs' floor fit (which move the legs on purpose), after Blender evaluates
     the rig on every frame each mapped bone's whole world turn from the first frame is its source bone's (a
-    roll error shows here, not in a direction), and each DEF bone points as its source bone does."""
+    roll error shows here, not in a direction), and each DEF bone points as its source bone does. The bones
+    control_rig_checks.KNOWN_OFF names are left out here and held by the strict xfail below."""
     whole, turn, direction = rigify_turns(mk, rig, _clip(shared_dir, CLIP), CONTROLS)
     _TURNS[CLIP, CONTROLS] = check_turns(whole, turn, direction, CONTROLS, CLIP)
 
