@@ -95,8 +95,9 @@ def test_switching_fk_ik_in_rigify_keeps_the_pose(mk, control_rigs, rig, shared_
     whole = np.degrees(matrix_angles(before, after).max(axis=0))
     y = lambda m: m[..., :3, 1] / np.linalg.norm(m[..., :3, 1], axis=-1, keepdims=True)  # noqa: E731
     pointing = np.degrees(np.arccos(np.clip(np.sum(y(before) * y(after), axis=-1), -1, 1)).max(axis=0))
-    print(f"\nIK <-> FK flipped on four limbs: DEF bones turn at most {dict(zip(names, np.round(whole, 4)))} deg, "
-          f"their directions {dict(zip(names, np.round(pointing, 4)))} deg")
+    print(f"\nIK <-> FK flipped on four limbs: DEF bones turn at most "
+          f"{ {n: round(float(w), 4) for n, w in zip(names, whole)} } deg, their directions "
+          f"{ {n: round(float(p), 4) for n, p in zip(names, pointing)} } deg")
     assert pointing.max() < SWITCH_DEG, dict(zip(names, pointing))
     assert max(w for n, w in zip(names, whole) if n not in rolled) < SWITCH_DEG, dict(zip(names, whole))
     _TURNS["switch"] = {n: (float(w), SWITCH_DEG) for n, w in zip(names, whole) if n in rolled}
