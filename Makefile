@@ -80,7 +80,7 @@ $(addprefix test-blender-,$(BLENDERS)): test-blender-%: build-%
 	tools/timed.sh $@ tools/with_blender.sh $* $(BLENDER_ARGS) --python tests/blender/run_in_blender.py -- $(ZIP_$*)
 
 # What takes minutes and adds no coverage the tiers above lack (every clip of a loop the tests keep one case
-# of): not run by `make test` or CI. Same Blenders, tests marked `long`.
+# of): not run by `make test` or CI. Same Blenders, tests/long.
 test-long: $(addprefix test-long-,$(BLENDERS))
 $(addprefix test-long-,$(BLENDERS)): test-long-%: build-%
 	tools/timed.sh $@ tools/with_blender.sh $* $(BLENDER_ARGS) --python tests/blender/run_in_blender.py -- \

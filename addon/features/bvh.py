@@ -20,6 +20,7 @@ from mathutils import Quaternion
 
 from ..blender import animdata, imports, pose_channels
 from ..core import bone_mapping, frame_rates, native_state, rotation_channels
+from .resampling import check_keys_finite
 
 ROTATION_MODES = ('QUATERNION', 'NATIVE', 'XYZ', 'XZY', 'YXZ', 'YZX', 'ZXY', 'ZYX')
 # An armature's custom property: its floor's height along its Z (a capture's floor is its origin's level,
@@ -168,11 +169,12 @@ def load(filepath: str, options: ImportOptions | None = None, *, context=None, n
 
 def _read_file(filepath, options: ImportOptions):
     """The file's (Skeleton, Motion), its options checked first."""
-    if options.rotation_mode not in ROTATION_MODES:
-        raise ValueError(f"bvh.load: unknown rotation_mode {options.rotation_mode!r}")
-    if not (options.scale > 0 and np.isfinite(options.scale)):
-        raise ValueError("bvh.load: scale must be positive")
     filepath = os.fspath(filepath)
+    if options.rotation_mode not in ROTATION_MODES:
+        raise ValueError(f"bvh.load: {filepath}: unknown rotation_mode {options.rotation_mode!r}; expected one "
+                         f"of {', '.join(ROTATION_MODES)}")
+    if not _positive(options.scale):
+        raise ValueError(f"bvh.load: {filepath}: scale must be a positive number, got {options.scale!r}")
     if not filepath or os.path.basename(filepath) == "" and os.path.isdir(filepath):
         raise ValueError("no BVH file was chosen" + (f" (only the folder {filepath})" if filepath else ""))
     if os.path.isdir(filepath):
@@ -304,6 +306,9 @@ def save(obj, filepath: str, options: ExportOptions | None = None, *, context=No
         raise ValueError(f"bvh.save: '{obj.name}' has a non-uniform scale {tuple(obj_scale)}")
     bones = pose_channels.depth_first(obj.data)
     action = animdata.assigned_action(obj)
+    if action is not None:
+        check_keys_finite(obj, [fc for fc in animdata.fcurves(action, obj) if fc.data_path.startswith("pose.bones")],
+                          "bvh.save")
     rotations = pose_channels.rotations(obj, action, bones, frames)
     locations, animated = pose_channels.locations(obj, action, bones, frames)
     locations *= sigma
@@ -332,13 +337,23 @@ def save(obj, filepath: str, options: ExportOptions | None = None, *, context=No
     native.write_bvh(os.fspath(filepath), skeleton, native.Motion(values, frame_time))
 
 
+def _positive(value) -> bool:
+    try:
+        value = float(value)
+    except (TypeError, ValueError):
+        return False
+    return bool(np.isfinite(value) and value > 0)
+
+
 def _check_export(obj, options: ExportOptions) -> None:
-    if obj is None or obj.type != 'ARMATURE':
+    if obj is None:
         raise ValueError("bvh.save: pick an armature object")
+    if not isinstance(obj, bpy.types.Object) or obj.type != 'ARMATURE':
+        raise ValueError(f"bvh.save: '{getattr(obj, 'name', obj)}' is not an armature object")
     if not len(obj.data.bones):
         raise ValueError(f"bvh.save: armature '{obj.name}' has no bones")
-    if not (options.scale > 0 and np.isfinite(options.scale)):
-        raise ValueError("bvh.save: scale must be positive")
+    if not _positive(options.scale):
+        raise ValueError(f"bvh.save: scale must be a positive number, got {options.scale!r}")
     if options.rotation_order != 'NATIVE' and options.rotation_order not in ROTATION_MODES[2:]:
         raise ValueError(f"bvh.save: unknown rotation order {options.rotation_order!r}")
 

@@ -16,7 +16,7 @@ import numpy as np
 
 from ..blender import animdata, pose_channels
 from ..core import native_state, side_names
-from .resampling import KeyWrite, check_finite
+from .resampling import KeyWrite, check_finite, check_keys_finite
 
 PLANES = {"X": (1.0, 0.0, 0.0), "Y": (0.0, 1.0, 0.0), "Z": (0.0, 0.0, 1.0)}
 # A bone without a side marker is a centre bone, mirrored onto itself, when its rest head lies this close to
@@ -60,6 +60,8 @@ def mirror(obj, *, plane="X", plane_offset: float = 0.0, target=None, action_nam
     action = animdata.assigned_action(source)
     if action is None:
         raise ValueError(f"'{source.name}' has no action to mirror")
+    check_keys_finite(source, [fc for fc in animdata.fcurves(action, source) if fc.data_path.startswith("pose.bones")],
+                      "mirror")
     normal, point = _plane(plane, plane_offset)
     rig, bones = pose_channels.native_rig(source.data)
     target_rig, target_bones = (rig, bones) if target is source else pose_channels.native_rig(target.data)

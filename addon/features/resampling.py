@@ -42,8 +42,8 @@ class KeyWrite:
     in_place: bool = False
 
 
-def target_action(target):
-    """(object, action) from an object or an action that some object plays."""
+def target_action(target, verb: str = "resample"):
+    """(object, action) from an object or an action that some object plays; verb names the work in errors."""
     if isinstance(target, bpy.types.Action):
         for obj in bpy.data.objects:
             if animdata.assigned_action(obj) == target:
@@ -53,7 +53,7 @@ def target_action(target):
         raise TypeError(f"expected an Object or an Action, got {type(target).__name__}")
     action = animdata.assigned_action(target)
     if action is None:
-        raise ValueError(f"'{target.name}' has no action to resample")
+        raise ValueError(f"'{target.name}' has no action to {verb}")
     return target, action
 
 
@@ -179,12 +179,12 @@ def _handles(frames, values, slopes) -> animdata.Handles:
     return animdata.Handles(*resample_plan.bezier_handles(frames, values, slopes_in, slopes_out))
 
 
-def target_actions(targets) -> list:
+def target_actions(targets, verb: str = "resample") -> list:
     """[(object, action)] from one object or action, or a list of them, each once."""
     items = targets if isinstance(targets, (list, tuple, set)) else [targets]
     pairs = []
     for item in items:
-        pair = target_action(item)
+        pair = target_action(item, verb)
         if all(pair[0] != seen[0] for seen in pairs):
             pairs.append(pair)
     if not pairs:
@@ -238,6 +238,7 @@ def resample(targets, step: float | None = None, fps: float | None = None, *, ro
         groups = channel_groups.read(obj, action, bones_of(bones, obj))
         if not groups:
             raise ValueError(f"'{obj.name}' has no keys to resample" + (" on the selected bones" if bones else ""))
+        check_keys_finite(obj, [fc for group in groups for fc in group.curves.values()], "resample")
         work.append((obj, action, groups))
     ends = [_key_range(fcurve) for *_, groups in work for group in groups for fcurve in group.curves.values()]
     first, last = min(e[0] for e in ends), max(e[1] for e in ends)
@@ -290,6 +291,29 @@ def _resample_group(native, channels, group, times, values, grid, scalar, rotati
     return KeyWrite(channels, own_grid, values_t, interpolation, handles)
 
 
+def check_keys_finite(obj, fcurves, label: str) -> None:
+    """A ValueError naming the curve and frame of the first key of fcurves that is not a finite number (or,
+    failing that, the first key with such a handle): work on such keys would spread NaN through every curve
+    it computes. Keys come first: Blender may recompute a neighbour's handles from a NaN key."""
+    for fcurve in fcurves:
+        points = fcurve.keyframe_points
+        count = len(points)
+        if not count:
+            continue
+        read = {}
+        for prop in ("co", "handle_left", "handle_right"):
+            read[prop] = np.empty(2 * count, dtype=np.float32)
+            points.foreach_get(prop, read[prop])
+        finite = {prop: np.isfinite(values.reshape(count, 2)).all(axis=1) for prop, values in read.items()}
+        for what, bad in (("key", ~finite["co"]), ("handle", ~(finite["handle_left"] & finite["handle_right"]))):
+            if bad.any():
+                key = int(np.argmax(bad))
+                frame = float(read["co"][2 * key])
+                where = f"at frame {frame:g}" if np.isfinite(frame) else f"(key {key}, whose frame is not a number)"
+                raise ValueError(f"{label}: '{obj.name}' {fcurve.data_path}[{fcurve.array_index}] has a non-finite "
+                                 f"{what} {where}; nothing was changed")
+
+
 def check_finite(obj, writes) -> None:
     for write in writes:
         arrays = [write.values] + ([write.handles.left_values, write.handles.right_values]
@@ -330,7 +354,7 @@ def reduce_keys(targets, tolerance: float = 1e-3, rotation_tolerance: float = np
     after). A ValueError leaves every action as it was.
     """
     native = native_state.native()
-    pairs = target_actions(targets)
+    pairs = target_actions(targets, "reduce")
     if space not in ('CHANNELS', 'WORLD'):
         raise ValueError(f"reduce_keys: space must be 'CHANNELS' or 'WORLD', got {space!r}")
     if not (np.isfinite(tolerance) and tolerance > 0 and np.isfinite(rotation_tolerance)
@@ -345,6 +369,7 @@ def reduce_keys(targets, tolerance: float = 1e-3, rotation_tolerance: float = np
         groups = channel_groups.read(obj, action, bones_of(bones, obj))
         if not groups:
             raise ValueError(f"'{obj.name}' has no keys to reduce")
+        check_keys_finite(obj, [fc for group in groups for fc in group.curves.values()], "reduce_keys")
         for group in groups:
             for fcurve in group.curves.values():
                 if len(fcurve.modifiers):

@@ -14,10 +14,6 @@ for path in (ROOT, os.path.join(ROOT, "tools"), os.path.join(ROOT, "blend_sample
         sys.path.insert(0, path)
 
 
-def pytest_configure(config):
-    config.addinivalue_line("markers", "long: minutes of clips the suite keeps one case of (make test-long)")
-
-
 def pytest_report_header(config):
     return (f"Blender {bpy.app.version_string}, Python {sys.version.split()[0]}, "
             f"MotionKit module {os.environ.get('MOTIONKIT_MODULE')}")

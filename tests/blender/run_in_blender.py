@@ -3,8 +3,8 @@
     tools/with_blender.sh 3.4 --background --factory-startup --python-exit-code 1 \
         --python tests/blender/run_in_blender.py -- dist/motionkit-...-py311.zip [--long] [pytest args]
 
-Tests marked `long` (every clip of a loop whose one representative case the suite keeps) run only with
---long (`make test-long`), and then alone.
+With --long it runs the long tier instead, tests/long (`make test-long`): every clip of the loops whose one
+representative case this suite keeps.
 
 Blender's exit code is pytest's, so a failing or empty run is never green.
 """
@@ -24,12 +24,12 @@ def main() -> int:
         print("run_in_blender.py: pass the zip to test after --", file=sys.stderr)
         return 2
     zip_path, pytest_args = os.path.abspath(args[0]), args[1:]
-    selection = ["-m", "long"] if "--long" in pytest_args else ["-m", "not long"]
+    folder = os.path.join(ROOT, "tests", "long") if "--long" in pytest_args else HERE
     pytest_args = [a for a in pytest_args if a != "--long"]
     os.environ["MOTIONKIT_ZIP"] = zip_path
     os.environ["MOTIONKIT_MODULE"] = install_addon.install(zip_path)
     import pytest
-    code = pytest.main([HERE, "-p", "no:cacheprovider", "-ra", *selection, *pytest_args])
+    code = pytest.main([folder, "-p", "no:cacheprovider", "-ra", *pytest_args])
     if code == pytest.ExitCode.NO_TESTS_COLLECTED:
         print("run_in_blender.py: no test ran", file=sys.stderr)
     return int(code)

@@ -292,3 +292,68 @@ def test_imported_bones_are_selected_so_their_curves_show(mk, shared_dir):
     obj, action = mk.bvh.load(os.path.join(shared_dir, "data", "bvh", "walk60.bvh"))
     selected = mk.pose_channels.selected(obj)
     assert len(selected) == 20 and all(selected)
+
+
+def _scene_state():
+    """What a refused import or export must leave as it was: the datablocks and the scene's timing."""
+    scene = bpy.context.scene
+    return (set(bpy.data.objects), set(bpy.data.actions), set(bpy.data.armatures),
+            (scene.render.fps, scene.render.fps_base, scene.frame_start, scene.frame_end))
+
+
+@pytest.mark.parametrize("options, message", [(dict(scale=0.0), r"scale must be a positive number, got 0\.0"),
+                                              (dict(scale=-1.0), r"scale must be a positive number, got -1\.0"),
+                                              (dict(scale=float("nan")), r"scale must be a positive number, got nan"),
+                                              (dict(rotation_mode="XZ"), r"unknown rotation_mode 'XZ'")])
+def test_a_bad_import_option_is_named_and_changes_nothing(mk, tmp_path, options, message):
+    path = write_case(tmp_path, "good", CASES[0][1])
+    before = _scene_state()
+    with pytest.raises(ValueError, match=rf"^bvh\.load: .*good\.bvh.*: {message}"):
+        mk.bvh.load(path, update_scene_fps=True, update_scene_duration=True, **options)
+    assert _scene_state() == before
+
+
+def _keyed_rig(mk, tmp_path):
+    obj, action = mk.bvh.load(write_case(tmp_path, "good", CASES[0][1]))
+    return obj, action
+
+
+@pytest.mark.parametrize("case", ["not an armature", "no bones", "scale 0", "scale nan", "rotation order",
+                                  "non-uniform scale"])
+def test_a_bad_export_is_named_writes_nothing_and_changes_nothing(mk, tmp_path, case):
+    obj, _ = _keyed_rig(mk, tmp_path)
+    options, message = {}, None
+    if case == "not an armature":
+        obj, message = bpy.data.objects.new("Prop", None), r"^bvh\.save: 'Prop' is not an armature object"
+    elif case == "no bones":
+        obj = bpy.data.objects.new("Bare", bpy.data.armatures.new("Bare"))
+        message = r"^bvh\.save: armature 'Bare' has no bones"
+    elif case.startswith("scale"):
+        options["scale"] = 0.0 if case == "scale 0" else float("nan")
+        message = r"^bvh\.save: scale must be a positive number, got (0\.0|nan)"
+    elif case == "rotation order":
+        options["rotation_order"], message = "XYZW", r"^bvh\.save: unknown rotation order 'XYZW'"
+    else:
+        obj.scale = (1.0, 2.0, 1.0)
+        bpy.context.view_layer.update()
+        message = rf"^bvh\.save: '{obj.name}' has a non-uniform scale"
+    before = _scene_state()
+    path = tmp_path / "out.bvh"
+    with pytest.raises(ValueError, match=message):
+        mk.bvh.save(obj, str(path), **options)
+    assert not path.exists() and _scene_state() == before
+
+
+def test_a_nan_key_is_named_on_export_and_writes_nothing(mk, animdata, tmp_path):
+    """A NaN in the source action (a broken script's key) is refused with its bone, channel and frame,
+    rather than written into the file as 'nan'."""
+    obj, action = _keyed_rig(mk, tmp_path)
+    curve = next(fc for fc in animdata.fcurves(action, obj) if ".rotation_quaternion" in fc.data_path)
+    bone = curve.data_path.split('"')[1]
+    curve.keyframe_points[2].co.y = float("nan")
+    frame = curve.keyframe_points[2].co.x
+    path = tmp_path / "out.bvh"
+    with pytest.raises(ValueError, match=rf"^bvh\.save: '{obj.name}' pose\.bones\[\"{bone}\"\]\.rotation_quaternion"
+                                         rf"\[{curve.array_index}\] has a non-finite key at frame {frame:g}"):
+        mk.bvh.save(obj, str(path))
+    assert not path.exists()

@@ -317,6 +317,56 @@ def test_bad_input_is_refused(mk, animdata):
     assert len(bpy.data.actions) == 1
 
 
+def test_an_action_without_bone_keys_is_named(mk, animdata):
+    obj = _body()
+    animdata.assign(obj, animdata.new_action("Empty"))
+    before = _snapshot(animdata, obj)
+    with pytest.raises(ValueError, match=r"^'Empty' has no bone keys to mirror$"):
+        mk.mirror(obj)
+    assert _snapshot(animdata, obj) == before and len(bpy.data.actions) == 1
+
+
+def test_a_nan_key_is_named_and_changes_nothing(mk, animdata):
+    """A NaN in the source action is refused naming the bone's curve and the frame, not spread into the
+    mirrored action."""
+    obj = _body()
+    action = _key(mk, animdata, obj)
+    curve = next(fc for fc in animdata.fcurves(action, obj) if fc.data_path == 'pose.bones["forearm.R"].rotation_euler')
+    curve.keyframe_points[4].co.y = float("nan")
+    keys = [tuple(k.co) for k in curve.keyframe_points]
+    with pytest.raises(ValueError, match=r'^mirror: \'Body\' pose\.bones\["forearm\.R"\]\.rotation_euler\[' +
+                       str(curve.array_index) + r"\] has a non-finite key at frame 5; nothing was changed$"):
+        mk.mirror(obj)
+    assert set(bpy.data.actions) == {action} and animdata.assigned_action(obj) == action
+    assert np.array_equal(np.array([tuple(k.co) for k in curve.keyframe_points]), np.array(keys), equal_nan=True)
+
+
+def test_linked_data_is_refused_naming_its_library(mk, animdata, tmp_path):
+    """An armature linked from another .blend (library data) cannot take a new action here: the error names
+    the object and its library, and nothing is added."""
+    obj = _body("Linked")
+    _key(mk, animdata, obj)
+    path = str(tmp_path / "library.blend")
+    bpy.data.libraries.write(path, {obj}, fake_user=True)
+    bpy.data.objects.remove(obj)
+    with bpy.data.libraries.load(path, link=True) as (data_from, data_to):
+        data_to.objects = ["Linked"]
+    linked = data_to.objects[0]
+    bpy.context.scene.collection.objects.link(linked)
+    assert linked.library is not None and animdata.assigned_action(linked) is not None
+    local = _body("Local")
+    _key(mk, animdata, local)
+    try:
+        before = _snapshot(animdata, linked), set(bpy.data.actions), set(bpy.data.objects)
+        with pytest.raises(ValueError, match=r"^'Linked' is linked from '.*library\.blend' and cannot be keyed here"):
+            mk.mirror(linked)
+        with pytest.raises(ValueError, match=r"^'Linked' is linked from"):  # as the target of another's mirror
+            mk.mirror(local, target=linked)
+        assert (_snapshot(animdata, linked), set(bpy.data.actions), set(bpy.data.objects)) == before
+    finally:
+        bpy.data.libraries.remove(linked.library)  # its linked objects, armatures and actions with it
+
+
 def test_the_operator_mirrors_the_active_armature(mk, animdata):
     obj = _body()
     bpy.context.view_layer.objects.active = obj

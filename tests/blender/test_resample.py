@@ -5,6 +5,7 @@ import math
 import bpy
 import numpy as np
 import pytest
+import squad_reference
 from keyed_objects import animated_empty
 
 SCALAR_EXACT = ["catmull-rom", "centripetal", "chordal", "kochanek-bartels", "natural", "clamped",
@@ -199,6 +200,30 @@ def test_rotations_go_over_the_sphere_in_every_rotation_mode(mk, animdata, nativ
     assert np.degrees(deviation.max()) < 0.5
 
 
+# Squad resampled by Blender's keys against Shoemake's formula (tests/common/squad_reference.py, float64):
+# the keys are stored in float32, each component to half an ulp (3e-8 at |q| <= 1), so the rotation Blender
+# evaluates on a key is off by up to about 2 * sqrt(3) * 3e-8 = 1e-7 rad, and matrix_basis.to_quaternion
+# (float32) adds as much; measured 3.4e-7 rad (Blender 3.4). The bound is about ten times that.
+SQUAD_FLOAT32 = 3.5e-6
+
+
+@pytest.mark.parametrize("mode", ['QUATERNION', 'XYZ'])
+def test_squad_keys_are_shoemakes_formula(mk, animdata, mode):
+    """resample(rotation='squad') from keys 2 frames apart onto every half frame (DENSE: each new key is the
+    curve's value there): Blender's evaluated rotation on each new key is Shoemake's squad."""
+    frames = np.arange(1.0, 41.0, 2.0)
+    quats = _smooth_quaternions(frames.size, 7, step=0.35)
+    obj, action, prop, size = _rotating_bone_rig(animdata, mk.native(), mode, frames, quats)
+    mk.resample(obj, step=0.5, rotation="squad", output='DENSE')
+    new_frames = _keys(animdata, action, obj, f'pose.bones["Arm"].{prop}', 0)[1]
+    assert new_frames.size == 2 * (frames.size - 1) * 2 + 1
+    got = _pose_quaternions(obj, new_frames)
+    want = squad_reference.squad(frames, quats, new_frames)
+    worst = _angle_between(got, want).max()
+    print(f"\nsquad through Blender's keys ({mode}) against Shoemake's formula: worst {worst:.3g} rad")
+    assert worst < SQUAD_FLOAT32
+
+
 def test_euler_channels_come_back_continuous_across_the_flip(mk, animdata, native):
     """A spin past 180 degrees about Z stays one continuous Euler curve, as Blender's compat Euler."""
     frames = np.arange(1.0, 21.0)
@@ -351,3 +376,64 @@ def test_a_stepped_curve_stays_stepped(mk, animdata):
     assert set(np.unique(values)) <= {0.0, 1.0}
     assert {k.interpolation for k in contact.keyframe_points} == {'CONSTANT'}
     assert animdata.find_fcurve(action, obj, "location", 0).keyframe_points[0].interpolation != 'CONSTANT'
+
+
+def _all_keys(animdata):
+    """Every action's keys and handles, and the scene's timing: what a refused call must leave as it was."""
+    scene = bpy.context.scene
+    keys = {}
+    for obj in bpy.data.objects:
+        action = animdata.assigned_action(obj)
+        for fc in (animdata.fcurves(action, obj) if action else []):
+            keys[(obj.name, fc.data_path, fc.array_index)] = [
+                tuple(k.co) + tuple(k.handle_left) + tuple(k.handle_right) for k in fc.keyframe_points]
+    return keys, set(bpy.data.actions), (scene.render.fps, scene.render.fps_base, scene.frame_start,
+                                         scene.frame_end)
+
+
+def _same(a, b):
+    """_all_keys equal, NaN included (a NaN key must still be there, untouched)."""
+    return a[1:] == b[1:] and a[0].keys() == b[0].keys() and all(
+        np.array_equal(np.array(a[0][k]), np.array(b[0][k]), equal_nan=True) for k in a[0])
+
+
+@pytest.mark.parametrize("call", ["resample", "reduce_keys", "reduce_keys world"])
+def test_an_object_without_an_action_or_keys_is_named(mk, animdata, call):
+    run = {"resample": lambda o: mk.resample(o, step=2.0), "reduce_keys": lambda o: mk.reduce_keys(o),
+           "reduce_keys world": lambda o: mk.reduce_keys(o, space='WORLD')}[call]
+    verb = "resample" if call == "resample" else "reduce"
+    bare = bpy.data.objects.new("Bare", None)
+    bpy.context.scene.collection.objects.link(bare)
+    before = _all_keys(animdata)
+    with pytest.raises(ValueError, match=rf"^'Bare' has no action to {verb}$"):
+        run(bare)
+    empty = bpy.data.objects.new("Unkeyed", None)
+    bpy.context.scene.collection.objects.link(empty)
+    animdata.assign(empty, animdata.new_action("Nothing"))
+    before = _all_keys(animdata)
+    with pytest.raises(ValueError, match=rf"^'Unkeyed' has no keys to {verb}$"):
+        run(empty)
+    assert _same(_all_keys(animdata), before)
+
+
+@pytest.mark.parametrize("call", ["resample", "reduce_keys"])
+@pytest.mark.parametrize("where", ["value", "handle"])
+def test_a_nan_key_is_named_and_changes_nothing(mk, animdata, call, where):
+    """A NaN in the source action (a broken script's key, a bad import) is refused naming the object, the
+    curve and the frame, before anything is computed: otherwise it would spread through every curve the
+    work computes from it."""
+    frames = np.arange(1.0, 41.0)
+    obj, action = animated_empty(animdata, frames, np.vstack([np.sin(frames / 5), np.cos(frames / 5), frames]))
+    point = animdata.find_fcurve(action, obj, "location", 1).keyframe_points[6]
+    if where == "value":
+        point.co.y = float("nan")
+        animdata.find_fcurve(action, obj, "location", 1).update()  # handles recomputed, as an edit would
+    else:
+        point.handle_right_type = 'FREE'
+        point.handle_right.y = float("nan")
+    before = _all_keys(animdata)
+    what = "key" if where == "value" else "handle"
+    with pytest.raises(ValueError, match=rf"^{call}: 'Mover' location\[1\] has a non-finite {what} at frame 7; "
+                                         r"nothing was changed$"):
+        mk.resample(obj, step=2.0) if call == "resample" else mk.reduce_keys(obj)
+    assert _same(_all_keys(animdata), before)

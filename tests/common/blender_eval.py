@@ -34,12 +34,14 @@ def world_scale(obj) -> float:
 def world_points(obj, frames, axis):
     """(frames, bones, 5, 3) in world units: each pose bone's head, the points axis along its x, y and z
     (pose_bone.matrix, so its scale too), and its tail (the head again for a bone with children), as
-    Blender evaluates them; armature space scaled by the object's largest scale factor."""
+    Blender evaluates them; armature space scaled by the object's largest scale factor. A frame with a
+    fraction is evaluated between frames (frame_set's subframe), where the curves interpolate."""
     scene = bpy.context.scene
     scale = world_scale(obj)
     out = np.empty((len(frames), len(obj.pose.bones), 5, 3))
     for i, frame in enumerate(frames):
-        scene.frame_set(int(frame))
+        whole = int(np.floor(frame))
+        scene.frame_set(whole, subframe=float(frame) - whole)
         for b, pose_bone in enumerate(obj.pose.bones):
             matrix = np.array(pose_bone.matrix, dtype=np.float64)
             head = matrix[:3, 3]

@@ -1,13 +1,16 @@
-"""The long tier's fixtures: the Blender tier's own (tests/blender/conftest.py, run here as this conftest, so
-that both tiers share one definition of mk, shared_dir, the empty scene and the rest), and tests/blender on
-sys.path so that the long tests reuse its test modules' helpers."""
+"""The long tier: loops over every clip, character and variant that the Blender suite keeps one
+representative case of (`make test-long`; CI does not run it). Its fixtures are the Blender suite's
+(tests/blender/conftest.py), loaded once and shared, not copied; tests/blender is on sys.path so that the
+long tests reuse its test modules' helpers."""
+import importlib.util
 import os
 import sys
 
 _BLENDER_TESTS = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "blender")
 if _BLENDER_TESTS not in sys.path:
     sys.path.insert(0, _BLENDER_TESTS)
-# The file is run in this module's namespace (not imported as a second module named conftest): its
-# ROOT, computed from __file__, is the repository's root from here too (the same depth).
-with open(os.path.join(_BLENDER_TESTS, "conftest.py")) as _source:
-    exec(compile(_source.read(), os.path.join(_BLENDER_TESTS, "conftest.py"), "exec"))
+_spec = importlib.util.spec_from_file_location("blender_suite_conftest", os.path.join(_BLENDER_TESTS, "conftest.py"))
+_suite = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(_suite)
+# pytest finds fixtures and hooks by the names a conftest holds: every public one of the suite's is held here.
+globals().update({name: value for name, value in vars(_suite).items() if not name.startswith("_")})
