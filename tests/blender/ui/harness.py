@@ -474,10 +474,11 @@ def read_until(path: str, get_region, accept, what: str, timeout: float = 10.0, 
         yield 0.3
 
 
-def read_region(path: str, region_, win=None) -> tuple[list[dict], dict]:
-    """Screenshot of the window (saved at path's -window.png), the region's crop saved at path, the words
-    read in it and how far from blank it is."""
+def read_region(path: str, region_, win=None, box=None) -> tuple[list[dict], dict]:
+    """Screenshot of the window (saved at path's -window.png), the region's crop (or box's, in window
+    coordinates) saved at path, the words read in it and how far from blank it is."""
+    box = box or box_of(region_)
     pixels = screenshot(path.replace(".png", "-window.png"), win)
-    part = crop(pixels, box_of(region_))
+    part = crop(pixels, box)
     save_png(part, path)
-    return ocr(part, box_of(region_)), not_blank(part)
+    return ocr(part, box), not_blank(part)
