@@ -1,6 +1,7 @@
 """How the UI tests find a label in the words read off a screenshot (tests/blender/ui/screen_text.py): whole,
 as a person reads it. Words here are laid out as tesseract reports them on Blender 3.4's sidebar: letters
 6 px wide, 9 px tall, 4 px between the words of a label."""
+import json
 import os
 import sys
 
@@ -155,3 +156,37 @@ def test_a_panels_arrow_and_checkbox_read_as_letters_are_no_part_of_its_title():
     words = line("\u201cof", ("Plant", 5.5), "Feet")
     assert texts(find_words(words, "Plant Feet")) == ["Plant", "Feet"]
     assert missing(line("of", ("Plant", 5.5), "Feet"), ["Plant Feet"]) == ["Plant Feet"]
+
+
+# What tesseract read on Blender 3.4's MotionKit sidebar (out/ui/3.4/panels.json, sidebar-object.words): the
+# rule on a real reading, and on the same reading with a lone label taken away.
+SIDEBAR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "data", "ui_sidebar_words_3.4.json")
+
+
+def sidebar_without(text, beside=None):
+    """The sidebar's words without those reading text (marks aside), but where a word reading beside
+    stands on their line (the longer label holding them)."""
+    with open(SIDEBAR) as f:
+        words = json.load(f)
+
+    def in_longer(word):
+        return beside is not None and any(w["text"] == beside and abs(w["y"] - word["y"]) < 3 for w in words)
+    return [w for w in words if w["text"].strip("\u2018\u201c") != text or in_longer(w)]
+
+
+def test_on_a_real_sidebar_each_label_is_found_whole():
+    words = sidebar_without(None)
+    assert missing(words, ["Retarget", "Retarget Library", "Keys", "Reduce Keys", "Solve", "Solver", "Iterations",
+                           "Plant Feet", "Bones (no control rig)", "Live: Off", "Height In", "Keyed as 0/1 curves",
+                           "Load", "Save", "Auto-map"]) == []
+    assert missing(words, ["Live: On", "Iteration", "Retarget Libraries"]) == ["Live: On", "Iteration",
+                                                                              "Retarget Libraries"]
+
+
+def test_on_a_real_sidebar_a_lone_label_taken_away_is_missed():
+    assert missing(sidebar_without("Retarget", beside="Library"), ["Retarget", "Retarget Library"]) == ["Retarget"]
+    assert missing(sidebar_without("Keys", beside="Reduce"), ["Keys", "Reduce Keys"]) == ["Keys"]
+    assert missing(sidebar_without("Solve"), ["Solve", "Solver"]) == ["Solve"]
+    iteratio = [dict(w, text="Iteratio.") if w["text"] in ("lterations", "Iterations") else w
+                for w in sidebar_without(None)]
+    assert missing(iteratio, ["Iterations"]) == ["Iterations"]
