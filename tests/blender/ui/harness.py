@@ -17,6 +17,7 @@ import os
 import subprocess
 import sys
 import tempfile
+import time
 import traceback
 
 from screen_text import find_words  # noqa: F401  (scenarios use it through harness)
@@ -31,6 +32,8 @@ for path in (os.path.join(ROOT, "tools"), os.path.join(ROOT, "blend_samples")):
         sys.path.insert(0, path)
 
 READY = "MOTIONKIT-UI-READY"
+# What reading the screen cost, reported at the end for a person weighing the suite's time.
+COST = {"ocr_calls": 0, "ocr_seconds": 0.0, "screenshots": 0, "screenshot_seconds": 0.0}
 
 
 def report(key: str, value) -> None:
@@ -68,6 +71,7 @@ def run(steps) -> None:
         try:
             wait = next(iterator)
         except StopIteration:
+            report("cost", {k: round(v, 1) for k, v in COST.items()})
             report("done", True)
             bpy.ops.wm.quit_blender()
             return None
@@ -221,6 +225,7 @@ def screenshot(path: str | None, win=None) -> np.ndarray:
     Taken with xwd from the X server, as a person's screen grabber would: Blender's own screen.screenshot
     reads its GL front buffer, which Blender 4.3 and 5.2 on mesa's llvmpipe under Xvfb return black."""
     win = win or window()
+    started = time.perf_counter()
     # Draw and swap now: what the last events changed is otherwise on screen only at Blender's next redraw,
     # which llvmpipe may not have reached yet.
     with bpy.context.temp_override(window=win):  # a file browser's temporary screen cannot be overridden
@@ -230,6 +235,8 @@ def screenshot(path: str | None, win=None) -> np.ndarray:
     screen = _xwd_pixels(out.stdout)
     top = screen.shape[0] - (win.y + win.height)
     pixels = screen[max(top, 0):top + win.height, max(win.x, 0):win.x + win.width]
+    COST["screenshots"] += 1
+    COST["screenshot_seconds"] += time.perf_counter() - started
     if path is not None:
         save_png(pixels, path)
     return pixels
@@ -291,24 +298,36 @@ def box_of(region_) -> tuple:
     return (region_.x, region_.y, region_.width, region_.height)
 
 
+def _changed(before: np.ndarray, after: np.ndarray) -> np.ndarray:
+    """Where a colour channel differs by more than 0.02, channel by channel (a sixth of the time numpy
+    takes over the three at once on the tall window)."""
+    changed = np.abs(after[..., 0] - before[..., 0]) > 0.02
+    for channel in (1, 2):
+        changed |= np.abs(after[..., channel] - before[..., channel]) > 0.02
+    return changed
+
+
 def changed_box(before: np.ndarray, after: np.ndarray):
     """(top, left, bottom, right) in rows from the top of where the pixels differ, or None."""
-    changed = np.argwhere(np.abs(after[..., :3] - before[..., :3]).max(axis=2) > 0.02)
+    if np.array_equal(before, after):
+        return None
+    changed = np.argwhere(_changed(before, after))
     if not len(changed):
         return None
     (top, left), (bottom, right) = changed.min(axis=0), changed.max(axis=0) + 1
     return int(top), int(left), int(bottom), int(right)
 
 
-def settled_screenshot(path: str, win=None, timeout: float = 10.0):
+def settled_screenshot(path: str | None, win=None, timeout: float = 10.0):
     """A scenario step (`yield from`): takes screenshots until two running are the same (what the last
-    events changed is drawn, nothing is sliding); returns the last."""
+    events changed is drawn, nothing is sliding); returns the last, saved at path (unless None)."""
     last = None
     for _ in range(int(timeout / 0.2)):
         yield 0.2
         now = screenshot(None, win)
         if last is not None and changed_box(last, now) is None:
-            save_png(now, path)
+            if path is not None:
+                save_png(now, path)
             return now
         last = now
     raise AssertionError(f"the window kept changing for {timeout:g} s ({path})")
@@ -318,7 +337,7 @@ def popup_box(before: np.ndarray, after: np.ndarray):
     """(top, left, bottom, right) of a popup that appeared between two screenshots, or None: the rows and
     then the columns where most pixels changed. A popup changes nearly every pixel it covers; a viewport
     redrawn beside it (its anti-aliasing starting again) changes only thin outlines, which stay out."""
-    changed = np.abs(after[..., :3] - before[..., :3]).max(axis=2) > 0.02
+    changed = _changed(before, after)
     per_row = changed.sum(axis=1)
     if not per_row.any():
         return None
@@ -388,9 +407,11 @@ def not_blank(pixels: np.ndarray) -> dict:
 
 def ocr(pixels: np.ndarray, origin, scale: int = 3) -> list[dict]:
     """Words tesseract reads in a crop (rows from the top) whose window position is origin = (x, y, w, h):
-    each {'text', 'x', 'y', 'conf'} with the word's centre in window coordinates. The crop is enlarged
+    each {'text', 'x', 'y', 'w', 'h', 'block', 'conf'} with the word's centre, width and height in window
+    coordinates and the block tesseract put it in (screen_text groups words into labels by them). The crop is enlarged
     three times and turned into dark text on light, which tesseract reads best; the darkest channel makes
     white text as clear on a blue (pressed) button as on grey."""
+    started = time.perf_counter()
     grey = pixels[..., :3].min(axis=2)
     grey = 1.0 - np.clip((grey - grey.min()) / max(float(np.ptp(grey)), 1e-6), 0.0, 1.0)
     big = np.kron(grey, np.ones((scale, scale)))
@@ -411,19 +432,53 @@ def ocr(pixels: np.ndarray, origin, scale: int = 3) -> list[dict]:
             continue
         left, top, width, height, conf = (float(c) for c in cols[6:11])
         cx, cy = (left + width / 2) / scale, (top + height / 2) / scale
-        words.append({"text": cols[11].strip(), "x": x0 + cx, "y": y0 + h0 - cy, "conf": conf})
+        words.append({"text": cols[11].strip(), "x": x0 + cx, "y": y0 + h0 - cy, "w": width / scale,
+                      "h": height / scale, "block": int(cols[2]), "conf": conf})
+    COST["ocr_calls"] += 1
+    COST["ocr_seconds"] += time.perf_counter() - started
     return words
 
 
 def plain(words: list[dict]) -> list[dict]:
-    """Words as reported: text and whole-pixel centre."""
-    return [{"text": w["text"], "x": round(w["x"]), "y": round(w["y"])} for w in words]
+    """Words as reported: text, centre and size to a tenth of a pixel (screen_text measures the spaces
+    between words), block."""
+    return [{"text": w["text"], "x": round(w["x"], 1), "y": round(w["y"], 1), "w": round(w["w"], 1),
+             "h": round(w["h"], 1), "block": w["block"]} for w in words]
 
 
-def read_region(path: str, region_, win=None) -> tuple[list[dict], dict]:
-    """Screenshot of the window (saved at path's -window.png), the region's crop saved at path, the words
-    read in it and how far from blank it is."""
-    pixels = screenshot(path.replace(".png", "-window.png"), win)
+def read_still(path: str, region_, win=None, timeout: float = 10.0):
+    """A scenario step (`yield from`): once the window stands still (settled_screenshot), the region's crop
+    saved at path (the window at path's -window.png) and read; returns (words, how far from blank)."""
+    pixels = yield from settled_screenshot(path.replace(".png", "-window.png"), win, timeout)
     part = crop(pixels, box_of(region_))
     save_png(part, path)
     return ocr(part, box_of(region_)), not_blank(part)
+
+
+def read_until(path: str, get_region, accept, what: str, timeout: float = 10.0, win=None, required=True):
+    """A scenario step (`yield from`): reads get_region()'s crop each time the window stands still
+    (read_still) until accept(words) or timeout seconds; returns the last (words, blank). One reading of a
+    still screen serves the wait and the report: no reading of a picture still moving, none twice."""
+    end = time.monotonic() + timeout
+    words, blank = [], None
+    while True:
+        region_ = get_region()
+        if region_ is not None:
+            words, blank = yield from read_still(path, region_, win, timeout)
+            if accept(words):
+                return words, blank
+        if time.monotonic() > end:
+            if required:
+                raise AssertionError(f"waited {timeout:g} s for {what} ({path})")
+            return words, blank
+        yield 0.3
+
+
+def read_region(path: str, region_, win=None, box=None) -> tuple[list[dict], dict]:
+    """Screenshot of the window (saved at path's -window.png), the region's crop (or box's, in window
+    coordinates) saved at path, the words read in it and how far from blank it is."""
+    box = box or box_of(region_)
+    pixels = screenshot(path.replace(".png", "-window.png"), win)
+    part = crop(pixels, box)
+    save_png(part, path)
+    return ocr(part, box), not_blank(part)
