@@ -16,12 +16,13 @@ from mathutils import Matrix
 import characters
 import generate
 import stances
+from rotations import matrix_angles
 
 FINGERS = ("Thumb", "Index", "Middle", "Ring", "Pinky")
-# Directions and twists, joint to joint through Blender's evaluation: measured on Blender 3.4 and 4.3 at
+# Directions and twists, joint to joint through Blender's evaluation: measured on Blender 3.4, 4.3, 5.2 at
 # most 0.0006 deg for the fingers (the punch onto Y Bot, two-bone fingers, Rigify's DEF phalanges) and
 # 0.0013 deg for arms, hands and fingers with automatic bone orientation or from an FBX file Blender wrote
-# (0.0025 deg from 4.3's glTF exporter): the float32 pose matrices of bones a few centimetres long.
+# (0.0025 deg from 4.3's and 5.2's glTF exporter): the float32 pose matrices of bones a few centimetres long.
 FINGER_DEG = 0.005
 FBX_DEG = 0.01
 
@@ -114,9 +115,9 @@ def palm_frames(obj, hand, frames):
     out = []
     for frame in frames:
         bpy.context.scene.frame_set(int(frame))
-        head = {n: np.array(obj.matrix_world @ obj.pose.bones[f"{prefix}{side}Hand{n}"].head)
-                for n in ("Middle1", "Index1", "Pinky1")}
-        wrist = np.array(obj.matrix_world @ obj.pose.bones[hand].head)
+        head = {n: np.array(obj.matrix_world @ obj.pose.bones[f"{prefix}{side}Hand{n}"].head, dtype=np.float64)
+                for n in ("Middle1", "Index1", "Pinky1")}  # float64: newer mathutils hands numpy float32
+        wrist = np.array(obj.matrix_world @ obj.pose.bones[hand].head, dtype=np.float64)
         y = head["Middle1"] - wrist
         y /= np.linalg.norm(y)
         x = head["Index1"] - head["Pinky1"]
@@ -134,9 +135,9 @@ def worst_palm_deg(source, target, frames, prefix="mixamorig:"):
 
 
 def frame_angles_deg(a, b):
-    """Angle (degrees) of the turn between rotation matrices, elementwise over the leading axes."""
-    trace = np.einsum("...ji,...ji->...", a, b)
-    return np.degrees(np.arccos(np.clip((trace - 1.0) / 2.0, -1.0, 1.0)))
+    """Angle (degrees) of the turn between rotation matrices, elementwise over the leading axes (accurate
+    near 0, where arccos of the trace loses half the digits)."""
+    return np.degrees(matrix_angles(a, b))
 
 
 def frames_of(action):
@@ -294,7 +295,7 @@ VARIANTS = {"plain": lambda mk, obj: None, "origin at hips": _move_origin_to_hip
 
 
 # A foot's lowest point on the source's stance frames against where the source's stands, scaled by the leg
-# ratio, in legs: measured on Blender 3.4 and 4.3 over every placement, planted or not (the long tier), and
+# ratio, in legs: measured on Blender 3.4, 4.3, 5.2 over every placement, planted or not (the long tier), and
 # the kick; about ten times that.
 FLOOR_ERROR = 1e-5  # measured 9e-7 at most (the kick onto an FBX-like rig; walk60 5e-7)
 FLOOR_BELOW = 1e-6  # and how far below the floor (or the source's scaled height) any foot may come (1e-7)
