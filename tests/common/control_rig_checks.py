@@ -19,7 +19,7 @@ import rigify_rig
 from pointing import pointing_pairs
 from rotations import matrix_angles
 
-# Bounds, about ten times what Blender 3.4 and 4.3 measure (the same figures) on walk60 and
+# Bounds, about ten times what Blenders 3.4, 4.3 and 5.2 measure (the same figures) on walk60 and
 # walk_and_turn_left, FK and legs in IK:
 # - a bone's whole turn from the first frame against its source bone's, where the controls are keyed in FK
 #   (Blender evaluates them exactly as posed; the errors are the float32 keys and pose matrices): measured
