@@ -256,6 +256,36 @@ def write_keys(id_data: bpy.types.ID, action: bpy.types.Action, channels: Iterab
     return written
 
 
+class NonFinite(NamedTuple):
+    """A key of a curve that is not a finite number: what ('key': its frame or value; 'handle': one of its
+    handles), its index and its frame (NaN when the frame itself is not a number)."""
+    fcurve: bpy.types.FCurve
+    what: str
+    index: int
+    frame: float
+
+
+def first_non_finite(fcurves: Iterable[bpy.types.FCurve]) -> NonFinite | None:
+    """The first key of fcurves, in their order, whose frame or value is not a finite number, or failing that
+    the first with such a handle (a key comes first: Blender may recompute a neighbour's handles from it);
+    None when every key is finite. Work on such keys would spread NaN through every value it computes."""
+    for fcurve in fcurves:
+        points = fcurve.keyframe_points
+        count = len(points)
+        if not count:
+            continue
+        read = {}
+        for prop in ("co", "handle_left", "handle_right"):
+            read[prop] = np.empty(2 * count, dtype=np.float32)
+            points.foreach_get(prop, read[prop])
+        finite = {prop: np.isfinite(values.reshape(count, 2)).all(axis=1) for prop, values in read.items()}
+        for what, bad in (("key", ~finite["co"]), ("handle", ~(finite["handle_left"] & finite["handle_right"]))):
+            if bad.any():
+                key = int(np.argmax(bad))
+                return NonFinite(fcurve, what, key, float(read["co"][2 * key]))
+    return None
+
+
 def set_key_values(id_data: bpy.types.ID, action: bpy.types.Action, channels: Iterable, values) -> None:
     """New values for the keys already on the channels' curves, in their order: values (len(channels), n),
     n each curve's key count. Frames, interpolation and handle types stay, and each key's handles move with

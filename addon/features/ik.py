@@ -279,17 +279,11 @@ def _refuse_non_finite_keys(obj, action, bones) -> None:
     read = {f"{pose_channels.bone_path(bone.name)}.{prop}": bone.name
             for bone in bones for prop in ("rotation_quaternion", "rotation_euler", "rotation_axis_angle")}
     read[f"{pose_channels.bone_path(bones[0].name)}.location"] = bones[0].name
-    for fcurve in animdata.fcurves(action, obj):
-        name = read.get(fcurve.data_path)
-        if name is None:
-            continue
-        co = np.empty(2 * len(fcurve.keyframe_points))
-        fcurve.keyframe_points.foreach_get("co", co)
-        bad = np.flatnonzero(~np.isfinite(co.reshape(-1, 2)).all(axis=1))
-        if bad.size:
-            channel = fcurve.data_path.rsplit(".", 1)[1]
-            raise ValueError(f"bone '{name}' has a key that is not finite on {channel}[{fcurve.array_index}] "
-                             f"at frame {co[2 * bad[0]]:g} of action '{action.name}'")
+    bad = animdata.first_non_finite(fc for fc in animdata.fcurves(action, obj) if fc.data_path in read)
+    if bad is not None:
+        channel = bad.fcurve.data_path.rsplit(".", 1)[1]
+        raise ValueError(f"bone '{read[bad.fcurve.data_path]}' has a {bad.what} that is not finite on "
+                         f"{channel}[{bad.fcurve.array_index}] at frame {bad.frame:g} of action '{action.name}'")
 
 
 def _plan_of(obj, bones, frames, input_rotations, solved, root_translation, joints, balance) -> Plan:

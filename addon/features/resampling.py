@@ -294,24 +294,13 @@ def _resample_group(native, channels, group, times, values, grid, scalar, rotati
 def check_keys_finite(obj, fcurves, label: str) -> None:
     """A ValueError naming the curve and frame of the first key of fcurves that is not a finite number (or,
     failing that, the first key with such a handle): work on such keys would spread NaN through every curve
-    it computes. Keys come first: Blender may recompute a neighbour's handles from a NaN key."""
-    for fcurve in fcurves:
-        points = fcurve.keyframe_points
-        count = len(points)
-        if not count:
-            continue
-        read = {}
-        for prop in ("co", "handle_left", "handle_right"):
-            read[prop] = np.empty(2 * count, dtype=np.float32)
-            points.foreach_get(prop, read[prop])
-        finite = {prop: np.isfinite(values.reshape(count, 2)).all(axis=1) for prop, values in read.items()}
-        for what, bad in (("key", ~finite["co"]), ("handle", ~(finite["handle_left"] & finite["handle_right"]))):
-            if bad.any():
-                key = int(np.argmax(bad))
-                frame = float(read["co"][2 * key])
-                where = f"at frame {frame:g}" if np.isfinite(frame) else f"(key {key}, whose frame is not a number)"
-                raise ValueError(f"{label}: '{obj.name}' {fcurve.data_path}[{fcurve.array_index}] has a non-finite "
-                                 f"{what} {where}; nothing was changed")
+    it computes."""
+    bad = animdata.first_non_finite(fcurves)
+    if bad is not None:
+        where = (f"at frame {bad.frame:g}" if np.isfinite(bad.frame)
+                 else f"(key {bad.index}, whose frame is not a number)")
+        raise ValueError(f"{label}: '{obj.name}' {bad.fcurve.data_path}[{bad.fcurve.array_index}] has a non-finite "
+                         f"{bad.what} {where}; nothing was changed")
 
 
 def check_finite(obj, writes) -> None:
