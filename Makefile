@@ -25,7 +25,7 @@ BENCHES := fcurve_write bvh_import resample retarget plant_feet control_rig ik i
 
 .PHONY: demo test test-tiers deps deps-4.3 deps-5.2 build-3.4 build-4.3 build-5.2 test-native test-python \
         test-fuzz test-blender test-demo test-long bench clean \
-        $(addprefix test-native-,$(BLENDERS)) $(addprefix test-blender-,$(BLENDERS)) $(addprefix test-long-,$(BLENDERS))
+        $(addprefix test-native-,$(BLENDERS)) $(addprefix test-blender-,$(BLENDERS)) $(addprefix test-long-,$(BLENDERS)) test-long-python
 
 demo: deps build-3.4
 	tools/with_blender.sh 3.4 $(BLENDER_ARGS) --python demo/demo.py -- --zip $(ZIP_3.4) --out out
@@ -68,8 +68,13 @@ test-native: $(addprefix test-native-,$(BLENDERS))
 $(addprefix test-native-,$(BLENDERS)): test-native-%: build-%
 	tools/timed.sh $@ $(IN_$*) ctest --test-dir $(BUILD_$*) --output-on-failure --no-tests=error
 
+# Twice: as numpy runs on this processor, then with its SIMD kernels above SSE and AVX off (AVX2, FMA3,
+# AVX-512: tools/simd_baseline.py), so that a bound set on one processor's last digits fails on any machine.
 test-python: build-3.4
 	tools/timed.sh $@ python3 -m pytest -p no:cacheprovider -q -rs tests/python
+	NPY_DISABLE_CPU_FEATURES="$$(python3 tools/simd_baseline.py)" \
+	  tools/timed.sh test-python-simd python3 -m pytest -p no:cacheprovider -q -rs tests/python \
+	  --ignore=tests/python/test_ik_rates.py  # random IK problems: the native solver, no numpy kernel
 
 # A bounded libFuzzer run of the BVH reader under ASan and UBSan (clang).
 test-fuzz: deps
@@ -81,7 +86,9 @@ $(addprefix test-blender-,$(BLENDERS)): test-blender-%: build-%
 
 # What takes minutes and adds no coverage the tiers above lack (every clip of a loop the tests keep one case
 # of): not run by `make test` or CI. Same Blenders, tests/long.
-test-long: $(addprefix test-long-,$(BLENDERS))
+test-long: $(addprefix test-long-,$(BLENDERS)) test-long-python
+test-long-python: build-3.4
+	MOTIONKIT_LONG=1 tools/timed.sh $@ python3 -m pytest -p no:cacheprovider -q -rs tests/python/test_ik_rates.py
 $(addprefix test-long-,$(BLENDERS)): test-long-%: build-%
 	tools/timed.sh $@ tools/with_blender.sh $* $(BLENDER_ARGS) --python tests/blender/run_in_blender.py -- \
 	  $(ZIP_$*) --long
