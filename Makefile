@@ -81,7 +81,8 @@ test-fuzz: deps
 	tools/timed.sh $@ tools/fuzz_bvh.sh 30
 
 test-blender: $(addprefix test-blender-,$(BLENDERS))
-$(addprefix test-blender-,$(BLENDERS)): test-blender-%: build-%
+# Every build before any Blender suite: each suite checks the other Blenders' zips (test_install).
+$(addprefix test-blender-,$(BLENDERS)): test-blender-%: $(addprefix build-,$(BLENDERS))
 	tools/timed.sh $@ tools/with_blender.sh $* $(BLENDER_ARGS) --python tests/blender/run_in_blender.py -- $(ZIP_$*)
 
 # What takes minutes and adds no coverage the tiers above lack (every clip of a loop the tests keep one case
