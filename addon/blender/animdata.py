@@ -305,15 +305,27 @@ def set_key_values(id_data: bpy.types.ID, action: bpy.types.Action, channels: It
     for fcurve, row in zip(found, values):
         points = fcurve.keyframe_points
         keys = _co_view(points)
-        moved = {prop: _read_co(points, keys, prop).reshape(-1, 2) for prop in _POINT_FLOATS}
-        shift = (row - moved["co"][:, 1]).astype(np.float32)
-        for prop, co in moved.items():
-            co[:, 1] = row if prop == "co" else co[:, 1] + shift
-            if keys is not None:
-                keys.view(np.float32)[:, _POINT_FLOATS[prop]] = co
-            else:
+        if keys is not None:
+            _move_values(keys, row)
+        else:
+            moved = {prop: _read_co(points, None, prop).reshape(-1, 2) for prop in _POINT_FLOATS}
+            shift = (row - moved["co"][:, 1]).astype(np.float32)
+            for prop, co in moved.items():
+                co[:, 1] = row if prop == "co" else co[:, 1] + shift
                 points.foreach_set(prop, co.reshape(-1))
         fcurve.update()
+
+
+def _move_values(keys: np.ndarray, row: np.ndarray) -> None:
+    """Every key's value to row (float64) in the keys' own array (_co_view), both handles shifted by as
+    much, in place: the same float32 values as the RNA way in set_key_values (shift rounded to float32,
+    added to each handle in float32; the value rounded from float64). In-place column updates, because a
+    (count, 3) temporary of the three values costs twice as much (strided rows of three floats)."""
+    values = keys.view(np.float32)[:, _VALUE_FLOATS]  # (count, 3): left handle's, co's and right handle's
+    shift = (row - values[:, 1]).astype(np.float32)
+    values[:, 0] += shift
+    values[:, 2] += shift
+    values[:, 1] = row
 
 
 # Interpolation and handle types are one byte in each key. Blender 4.x and
@@ -373,6 +385,8 @@ def _set_enum(points, prop: str, codes: np.ndarray, values: dict) -> None:
 KEY_ARRAY = True
 # vec[0], vec[1] and vec[2]'s x and y, as float32 columns of a key (18 floats).
 _POINT_FLOATS = {"handle_left": slice(0, 2), "co": slice(3, 5), "handle_right": slice(6, 8)}
+# Columns 1, 4 and 7: the value (y) of vec[0], vec[1] and vec[2], as in _POINT_FLOATS.
+_VALUE_FLOATS = slice(1, 8, 3)
 
 
 def _key_view(points) -> np.ndarray | None:

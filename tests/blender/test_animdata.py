@@ -208,3 +208,73 @@ def test_unknown_interpolation_is_refused(animdata):
     with pytest.raises(ValueError, match="unknown interpolation 'SPLINE'"):
         animdata.write_keys(obj, animdata.new_action("X"), [("location", 0)], [1.0], [[0.0]],
                             interpolation='SPLINE')
+
+
+def _keys_and_handles(fcurve):
+    return {prop: _rna(fcurve.keyframe_points, prop) for prop in ("co", "handle_left", "handle_right")}
+
+
+def test_new_values_move_keys_and_handles_as_rna_does(animdata):
+    """set_key_values through the keys' own array writes, bit for bit, what RNA's foreach_set way writes:
+    each value rounded from float64, each handle moved by the shift rounded to float32 and added in
+    float32. Values near 1000 moved to values near 0: the shift's rounding (float32 near 1000) is then
+    much coarser than the new value's, so adding it in float64 instead gives other handles."""
+    obj = make_armature()
+    action = animdata.new_action("Move")
+    rng = np.random.default_rng(11)
+    n = 2000
+    frames = np.cumsum(rng.uniform(0.5, 2.0, n))
+    values = 1000.0 + rng.normal(size=(1, n))
+    aligned = rng.random((1, n)) < 0.5
+    handles = animdata.Handles(frames - 0.3, values - rng.uniform(0, 1, n), frames + 0.3,
+                               values + rng.uniform(0, 1, n), aligned)
+    new = rng.normal(size=(1, n))
+    kinds = {"free": dict(interpolation='BEZIER', handles=animdata.Handles(*handles[:4], np.zeros_like(aligned))),
+             "aligned or free": dict(interpolation='BEZIER', handles=handles),
+             "automatic": dict(interpolation='BEZIER'), "linear": {}}
+    for kind, options in kinds.items():
+        curves = {}
+        for way, index in (("rna", 0), ("key array", 1)):
+            (fcurve,) = animdata.write_keys(obj, action, [(f'["{kind}"]', index)], frames, values, **options)
+            curves[way] = fcurve
+        before = _keys_and_handles(curves["rna"])
+        animdata.KEY_ARRAY = False
+        try:
+            animdata.set_key_values(obj, action, [(f'["{kind}"]', 0)], new)
+        finally:
+            animdata.KEY_ARRAY = True
+        assert animdata._co_view(curves["key array"].keyframe_points) is not None, "no key array on this Blender"
+        animdata.set_key_values(obj, action, [(f'["{kind}"]', 1)], new)
+        expected, got = _keys_and_handles(curves["rna"]), _keys_and_handles(curves["key array"])
+        for prop in expected:
+            np.testing.assert_array_equal(got[prop], expected[prop], err_msg=f"{kind}: {prop}")
+        np.testing.assert_array_equal(got["co"][1::2], new[0].astype(np.float32), err_msg=kind)
+        np.testing.assert_array_equal(got["co"][0::2], before["co"][0::2], err_msg=kind)
+        if kind == "free":  # Blender leaves FREE handles where they are put: the rule itself, computed here
+            shift = (new[0] - before["co"][1::2]).astype(np.float32)
+            for prop in ("handle_left", "handle_right"):
+                np.testing.assert_array_equal(got[prop][1::2], before[prop][1::2] + shift, err_msg=prop)
+                np.testing.assert_array_equal(got[prop][0::2], before[prop][0::2], err_msg=prop)
+        between = frames[:-1] + 0.37
+        np.testing.assert_array_equal([curves["key array"].evaluate(f) for f in between],
+                                      [curves["rna"].evaluate(f) for f in between], err_msg=kind)
+
+
+@pytest.mark.parametrize("channel, row, message", [
+    (("location", 2), [1.0, 2.0, 3.0], r"location\[2\] has no curve keys, not 3"),
+    (("rotation_euler", 0), [1.0, 2.0, 3.0], r"rotation_euler\[0\] has 2 keys, not 3"),
+    (("location", 1), [1.0, np.nan, 3.0], r"location\[1\] would get a non-finite value"),
+])
+def test_new_values_refused_change_no_curve(animdata, channel, row, message):
+    obj = make_armature()
+    action = animdata.new_action("Refused")
+    written = animdata.write_keys(obj, action, [("location", 0), ("location", 1)], [1.0, 2.0, 3.0],
+                                  [[0.0, 1.0, 2.0], [3.0, 4.0, 5.0]], interpolation='BEZIER')
+    written += animdata.write_keys(obj, action, [("rotation_euler", 0)], [1.0, 2.0], [[0.5, 0.7]])
+    before = [_keys_and_handles(fcurve) for fcurve in written]
+    with pytest.raises(ValueError, match=message):
+        # The first channel is fine and comes first: it must not have changed either.
+        animdata.set_key_values(obj, action, [("location", 0), channel], [[9.0, 9.0, 9.0], row])
+    for fcurve, keys in zip(written, before):
+        for prop, array in _keys_and_handles(fcurve).items():
+            np.testing.assert_array_equal(array, keys[prop], err_msg=prop)
