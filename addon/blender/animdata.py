@@ -293,6 +293,8 @@ def set_key_values(id_data: bpy.types.ID, action: bpy.types.Action, channels: It
     differs or a non-finite value raises ValueError before any curve changes."""
     channels = [c if isinstance(c, Channel) else Channel(*c) for c in channels]
     values = np.asarray(values, dtype=np.float64)
+    if len(values) != len(channels):
+        raise ValueError(f"set_key_values on {id_data.name}: {len(values)} rows of values for {len(channels)} channels")
     curves = fcurves(action, id_data)
     found = [curves.find(channel.data_path, index=channel.index) for channel in channels]
     for channel, fcurve, row in zip(channels, found, values):
