@@ -275,6 +275,8 @@ def test_new_values_refused_change_no_curve(animdata, channel, row, message):
     with pytest.raises(ValueError, match=message):
         # The first channel is fine and comes first: it must not have changed either.
         animdata.set_key_values(obj, action, [("location", 0), channel], [[9.0, 9.0, 9.0], row])
+    with pytest.raises(ValueError, match=r"3 rows of values for 2 channels"):
+        animdata.set_key_values(obj, action, [("location", 0), ("location", 1)], [[9.0, 9.0, 9.0]] * 3)
     for fcurve, keys in zip(written, before):
         for prop, array in _keys_and_handles(fcurve).items():
             np.testing.assert_array_equal(array, keys[prop], err_msg=prop)
