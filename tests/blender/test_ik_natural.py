@@ -204,14 +204,15 @@ def test_out_of_reach_the_pins_hold_the_arm_points_and_the_body_keeps_its_balanc
 
 
 # Per subject, the largest amount (degrees) by which a bone's turn from one frame to the next changes
-# faster than in the input, measured on Blender 3.4 (AMD EPYC), and again with the targets nudged by 1e-12
-# eight times (as another processor's rounding would nudge them): walk60 and UnrealA give the same figure
-# every time; MixamoT and RigifyA still switch between a few (their later stages' carry from frame to frame
-# amplifies the nudge, docs/ik.md), and the largest is taken. The test holds each to it plus POP_SLACK.
+# faster than in the input, measured on Blender 3.4 (AMD EPYC) in 34 bakes: the targets as given, and
+# nudged by 1e-12 (as another processor's rounding would nudge them) 32 ways. walk60 and UnrealA give the
+# same figure every time; MixamoT one of two; RigifyA spreads from 1.95 to 5.08 (five bakes of 34 above
+# 4: its later stages' path still amplifies the nudge, docs/ik.md), so its bound is the largest seen,
+# not a guarantee. The test holds each to it plus POP_SLACK.
 POP_MEASURED = {
     "walk60": 2.48,   # lShoulder 3.043 against the input's 0.563; every nudge the same
-    "MixamoT": 6.88,  # mixamorig:LeftArm; 4.86 or 6.88 by the nudge
-    "RigifyA": 3.25,  # upper_arm.L; 1.96 to 3.25 by the nudge
+    "MixamoT": 6.88,  # mixamorig:LeftArm; 4.86 (21 bakes of 34) or 6.88 (13)
+    "RigifyA": 5.08,  # upper_arm.L at the worst (one bake of 34); forearm.L 1.95 to 2.32 on most
     "UnrealA": 15.26,  # lowerarm_l 15.478 against 0.214 (the forearm rolls as the arm straightens, frame 26)
 }
 POP_SLACK = 0.5
