@@ -132,7 +132,9 @@ def compiler_cache() -> tuple[list[str], dict]:
     CI makes, finds what an earlier one compiled; the cache lives in the user's cache folder (in a chroot,
     the chroot's own), beside the chroots."""
     launcher = shutil.which("ccache") if os.environ.get("MOTIONKIT_CCACHE", "1") != "0" else None
-    env = dict(os.environ)
+    # The build runs its own jobs: under `make -j` (make test) the inherited MAKEFLAGS would hand CMake's make
+    # the outer jobserver and have it warn that its -j resets it.
+    env = {k: v for k, v in os.environ.items() if k not in ("MAKEFLAGS", "MFLAGS", "MAKELEVEL")}
     if launcher:
         env.update(CCACHE_BASEDIR=ROOT, CCACHE_NOHASHDIR="1")
     return [f"-DCMAKE_CXX_COMPILER_LAUNCHER={launcher or ''}"], env

@@ -31,7 +31,7 @@ CC=clang CXX=clang++ cmake -S "$here" -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebI
   -DCMAKE_CXX_COMPILER_LAUNCHER="$launcher" \
   -DMOTIONKIT_FUZZ=ON -DMOTIONKIT_BUILD_PYTHON=OFF -DMOTIONKIT_BUILD_TESTS=OFF \
   -DMOTIONKIT_BUILD_BENCHMARKS=OFF -DMOTIONKIT_WERROR=ON >/dev/null
-cmake --build "$build" --target motionkit_bvh_fuzz -j2
+env -u MAKEFLAGS -u MFLAGS -u MAKELEVEL cmake --build "$build" --target motionkit_bvh_fuzz -j2  # its own jobs, not make test's
 
 mkdir -p "$build/corpus-bvh" "$build/artifacts"
 cd "$build"

@@ -48,6 +48,25 @@ void FallBackToPinnedPose(const Model& m, Data& d, const Cost& cost) {
   ForwardKinematics(m, d.current, d.fk);
 }
 
+// Solves the stage again from d.trial and keeps that end when `keep` accepts its cost; otherwise the pose
+// it replaced comes back with its cost. The iterations spent either way.
+template <typename Keep>
+int SolveFromTrialKeepingIf(const Model& m, Data& d, int budget, Cost& cost, const Keep& keep) {
+  d.warm.ended = d.current;
+  d.current = d.trial;
+  const int iterations = SolveJacobian(m, d, budget);
+  ForwardKinematics(m, d.current, d.fk);
+  const Cost other = EvaluateCost(m, d, d.fk, d.buffers.residual.data());
+  if (keep(other)) {
+    cost = other;
+    return iterations;
+  }
+  std::swap(d.current, d.warm.ended);
+  ForwardKinematics(m, d.current, d.fk);
+  cost = EvaluateCost(m, d, d.fk, d.buffers.residual.data());
+  return iterations;
+}
+
 // A warm start carries the last frame's posture on; near a joint limit that
 // posture can hold the limb in a corner from which a target, reachable from
 // elsewhere, is not reached (the limb's solve ends against the limit). The
@@ -56,20 +75,12 @@ void FallBackToPinnedPose(const Model& m, Data& d, const Cost& cost) {
 // where the warm start left it, so that it does not pop between the two.
 int SolveAgainFromInput(const Model& m, Data& d, int budget, Cost& cost) {
   if (!(m.options.warm_start && d.warm.have_last) || m.options.method == IkMethod::kCcd) return 0;
-  d.warm.ended = d.current;
-  d.current = d.input;
-  ClampJoints(m, d, d.current);
-  const int iterations = SolveJacobian(m, d, budget);
-  ForwardKinematics(m, d.current, d.fk);
-  const Cost cold = EvaluateCost(m, d, d.fk, d.buffers.residual.data());
-  if (cold.worst <= m.tolerance && cold.balance <= m.tolerance && cold.pins <= std::max(cost.pins, m.pin_tolerance)) {
-    cost = cold;
-    return iterations;
-  }
-  std::swap(d.current, d.warm.ended);
-  ForwardKinematics(m, d.current, d.fk);
-  cost = EvaluateCost(m, d, d.fk, d.buffers.residual.data());
-  return iterations;
+  d.trial = d.input;
+  ClampJoints(m, d, d.trial);
+  return SolveFromTrialKeepingIf(m, d, budget, cost, [&](const Cost& cold) {
+    return cold.worst <= m.tolerance && cold.balance <= m.tolerance &&
+           cold.pins <= std::max(cost.pins, m.pin_tolerance);
+  });
 }
 
 // A hinge (a swing axis ranged over a radian or more, its other swing axis over less) of this stage,
@@ -116,20 +127,10 @@ int SolveAgainWithHingesBent(const Model& m, Data& d, int budget, Cost& cost) {
     any = true;
   }
   if (!any) return 0;
-  d.warm.ended = d.current;
-  d.current = d.trial;
-  const int iterations = SolveJacobian(m, d, budget);
-  ForwardKinematics(m, d.current, d.fk);
-  const Cost bent = EvaluateCost(m, d, d.fk, d.buffers.residual.data());
   // The targets met: the balance, which the limbs alone may not keep, is the later stages' to restore.
-  if (bent.worst <= m.tolerance && bent.pins <= std::max(cost.pins, m.pin_tolerance)) {
-    cost = bent;
-    return iterations;
-  }
-  std::swap(d.current, d.warm.ended);
-  ForwardKinematics(m, d.current, d.fk);
-  cost = EvaluateCost(m, d, d.fk, d.buffers.residual.data());
-  return iterations;
+  return SolveFromTrialKeepingIf(m, d, budget, cost, [&](const Cost& bent) {
+    return bent.worst <= m.tolerance && bent.pins <= std::max(cost.pins, m.pin_tolerance);
+  });
 }
 
 }  // namespace
