@@ -87,6 +87,7 @@ in_chroot() {
   with_mounts chroot "$root" /usr/bin/env -i HOME=/root LANG=C.UTF-8 \
     PATH=/usr/local/sbin:/usr/local/bin:/usr/sbin:/usr/bin:/sbin:/bin \
     ${CI:+CI=$CI} ${MOTIONKIT_WERROR:+MOTIONKIT_WERROR=$MOTIONKIT_WERROR} \
+    ${MOTIONKIT_CCACHE:+MOTIONKIT_CCACHE=$MOTIONKIT_CCACHE} ${MOTIONKIT_LONG:+MOTIONKIT_LONG=$MOTIONKIT_LONG} \
     bash -c 'cd "$1"; shift; exec "$@"' _ "$PWD" "$@"
 }
 
