@@ -179,11 +179,16 @@ def rotations(obj, action, bones, frames) -> np.ndarray:
 
 
 def locations(obj, action, bones, frames) -> tuple[np.ndarray, list[bool]]:
-    """Location channels (frames, 3 * bones) from the action, and per bone whether it moves at all."""
+    """Location channels (frames, 3 * bones) from the action, and per bone whether it moves at all. A value
+    that is not finite is a ValueError naming the bone and the frame, as rotations() gives for rotations."""
     channels = [(f"{bone_path(bone.name)}.location", k) for bone in bones for k in range(3)]
     static = np.array([obj.pose.bones[bone.name].location for bone in bones], dtype=np.float64).reshape(-1)
     values, found = animdata.sample(action, obj, channels, frames, static)
     out = np.ascontiguousarray(values.T)
+    if not np.isfinite(out).all():
+        frame, column = np.argwhere(~np.isfinite(out))[0]
+        raise ValueError(f"'{obj.name}': bone '{bones[column // 3].name}' location is not finite at frame "
+                         f"{frames[frame]:g} (action '{action.name}')")
     animated = (found.reshape(-1, 3).any(axis=1) | (static.reshape(-1, 3) != 0).any(axis=1)).tolist()
     return out, animated
 

@@ -740,11 +740,7 @@ def plant(armature, frame_range=None, settings: ContactSettings | None = None, d
     rig, bones = pose_channels.native_rig(obj.data)
     try:
         rotations = pose_channels.rotations(obj, action, bones, frames)
-        locations, _ = pose_channels.locations(obj, action, bones, frames)
-        if not np.isfinite(locations).all():  # rotations are checked as they are read
-            frame, column = np.argwhere(~np.isfinite(locations))[0]
-            raise ValueError(f"'{obj.name}': bone '{bones[column // 3].name}' location is not finite at frame "
-                             f"{frames[frame]:g} (action '{action.name}')")
+        locations, _ = pose_channels.locations(obj, action, bones, frames)  # both refuse values not finite
     except ValueError as error:
         # The message names the bone and frame; say which foot when it is a leg's.
         side = next((f.side for f in feet for b in (f.thigh, f.shin, f.foot, f.toe)

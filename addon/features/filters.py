@@ -10,7 +10,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import bpy
 import numpy as np
 
 from ..blender import animdata, channel_groups
@@ -53,7 +52,7 @@ def filter(targets, kind: str = "butterworth", *, cutoff: float = filter_plan.MA
     if channels not in _CHOSEN:
         raise ValueError(f"unknown channels {channels!r}; expected one of {list(_CHOSEN)}")
     work, clips = [], {}
-    for obj, action in target_actions(_with_actions(targets)):
+    for obj, action in target_actions(targets, "filter"):
         fps = animdata.frame_rate(action)
         settings.check(fps, f"'{action.name}'")
         groups = [g for g in channel_groups.read(obj, action, bones_of(bones, obj)) if _CHOSEN[channels](g)]
@@ -67,14 +66,6 @@ def filter(targets, kind: str = "butterworth", *, cutoff: float = filter_plan.MA
     write_planned(planned)
     return FilterReport(sum(len(w.channels) for *_, ws in planned for w in ws), before, after,
                         [action for _, action, _ in planned])
-
-
-def _with_actions(targets):
-    """The targets, after a ValueError naming the first object that plays no action."""
-    for item in targets if isinstance(targets, (list, tuple, set)) else [targets]:
-        if isinstance(item, bpy.types.Object) and animdata.assigned_action(item) is None:
-            raise ValueError(f"'{item.name}' has no action to filter")
-    return targets
 
 
 @dataclass

@@ -625,10 +625,6 @@ class _Clip:
 def _read_clip(src: _Side, action, frames) -> _Clip:
     basis = pose_channels.rotations(src.obj, action, src.bones, frames)
     locations = np.ascontiguousarray(pose_channels.locations(src.obj, action, src.bones, frames)[0])
-    if not np.isfinite(locations).all():  # rotations are checked as they are read (pose_channels.rotations)
-        frame, column = np.argwhere(~np.isfinite(locations))[0]
-        raise ValueError(f"the source '{src.obj.name}': bone '{src.bones[column // 3].name}' location is not "
-                         f"finite at frame {frames[frame]:g} (action '{action.name}')")
     with native_state.blender_frames(frames):
         rotations, heads = native_state.native().armature_pose(src.rig, basis, locations)
     return _Clip(action, frames, animdata.frame_rate(action), basis, locations, rotations, heads)
