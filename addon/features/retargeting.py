@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import inspect
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import bpy
 import numpy as np
@@ -18,7 +18,7 @@ import numpy as np
 from . import bvh, contacts, control_rigs, resampling
 from ..blender import animdata, imports, pose_channels
 from ..blender.imports import remove_armature
-from ..core import bone_mapping, native_state, root_motion, rotation_channels, worker_thread
+from ..core import bone_mapping, native_state, reference_pose, root_motion, rotation_channels, worker_thread
 from ..core.floor import clip_floor, feet_lifts, hips_lift, sole_height
 from ..core.foot_contacts import ContactSettings
 from ..core.root_motion import FLOOR_ROOTS
@@ -488,6 +488,7 @@ class Plan:
     pending: _PlantedFeet | None = None  # the feet's IK solve, when plan(defer_solve=True) left it to apply()
     pose: tuple = ()  # (rotations (frames, 4B), locations (frames, 3B)): every target bone's basis, final once
     #                   resolved (the feet's solve writes into them)
+    chains: list = field(default_factory=list)  # reference_pose.ChainPose per chain: kept posture or matched
 
     def resolve(self) -> None:
         """Runs a pending feet's IK solve here and now: values, contact_report and all are then final."""
@@ -500,7 +501,7 @@ def plan(source, target, bone_map=None, frame_range=None, root: str = "scaled", 
          align_facing: bool = True, floor_root: str = "auto", root_smoothing: float = 0.25,
          plant_feet: bool | None = None, contact_settings: ContactSettings | None = None,
          source_floor: float | None = None, target_floor: float | None = None, floor_fit: str = "legs",
-         defer_solve: bool = False) -> Plan:
+         chain_modes: dict | None = None, defer_solve: bool = False) -> Plan:
     """Compute the retargeted keys without touching the file (see retarget). defer_solve: leave the feet's
     IK solve pending for apply(), which runs it beside writing the other bones' keys (Plan.resolve runs it
     at once); the contacts, feet and every other bone's values are final either way."""
@@ -512,6 +513,7 @@ def plan(source, target, bone_map=None, frame_range=None, root: str = "scaled", 
     _check_options(root, floor_root, floor_fit, root_smoothing, source_match, target_match, plant_feet=plant_feet,
                    align_facing=align_facing, ground=ground, frame_range=frame_range, source_floor=source_floor,
                    target_floor=target_floor, contact_settings=contact_settings)
+    reference_pose.check_modes(chain_modes)
     _check_scale(src.obj, "source")
     _check_scale(tgt.obj, "target")
     action = animdata.assigned_action(src.obj)
@@ -522,12 +524,13 @@ def plan(source, target, bone_map=None, frame_range=None, root: str = "scaled", 
     clip = _read_clip(src, action, pose_channels.action_frames(action, frame_range))
     rigs = _read_rigs(src, tgt, pairs, clip, source_match, match_frame, target_match)
     fit = _fit(rigs, clip, align_facing, source_floor, target_floor)
+    chains = _chain_poses(rigs, fit, chain_modes)
     plant_feet = _planting(plant_feet, (src, rigs.src_body), (tgt, rigs.tgt_body))
     # The source's contacts, needed to plant feet or to put them on the floor, need only the source's pose.
     wants_feet = plant_feet or (floor_fit != "off" and root != "none")
     feet = (_feet(src, rigs.src_body), _feet(tgt, rigs.tgt_body)) if wants_feet else (None, None)
     # The source's contacts count only where both rigs have feet.
-    rotations, root_locations, found = _retarget_clip(rigs, clip, fit, root, ground,
+    rotations, root_locations, found = _retarget_clip(rigs, clip, fit, (root, ground, chains),
                                                       None if None in feet else feet[0], contact_settings)
     _share_twist(tgt, rigs.tgt_body, rotations, {b for _, b in rigs.pairs_idx})
     locations, located, mode = _place_roots(rigs, clip, fit, rotations, root_locations, root, floor_root,
@@ -551,6 +554,7 @@ def plan(source, target, bone_map=None, frame_range=None, root: str = "scaled", 
                           heights=feet_lift, hips_move=plant_feet) if legs_solve else None
     plan_ = _plan_keys(rigs, clip, pairs, fit.scale, (rotations, locations), located, mode, planted, plant_feet,
                        defer_solve)
+    plan_.chains = chains
     if not (np.all(np.isfinite(plan_.values)) and np.all(np.isfinite(plan_.still_values))):
         raise ValueError("the retargeted motion is not finite; check the rigs' rest poses")
     return plan_  # a pending feet's solve is checked when it completes (contacts.cleanup and write_keys)
@@ -724,10 +728,23 @@ def _fit(rigs: _Rigs, clip: _Clip, align_facing: bool, source_floor, target_floo
                 target_height / source_height, source_scale / target_scale, target_scale)
 
 
-def _retarget_clip(rigs: _Rigs, clip: _Clip, fit: _Fit, root, ground, source_feet, contact_settings):
+def _chain_poses(rigs: _Rigs, fit: _Fit, chain_modes) -> list:
+    """Each chain's reference_pose.ChainPose: the target keeps its own posture or takes the source's
+    direction, from the two match poses (the source's carried into the target's armature space)."""
+    source_heads = rotation_channels.rotate(fit.space, rigs.source_pose.heads)
+    source = reference_pose.Limbs(rigs.src_body, dict(zip(rigs.src.names, source_heads)))
+    target = reference_pose.Limbs(rigs.tgt_body, dict(zip(rigs.tgt.names, rigs.target_pose.heads)))
+    return reference_pose.decide(source, target, chain_modes)
+
+
+def _retarget_clip(rigs: _Rigs, clip: _Clip, fit: _Fit, how, source_feet, contact_settings):
     """(rotations, root locations, the source's contacts or None): the native retarget of the whole clip,
-    on a worker thread (it releases the GIL) while the source's contacts are found here."""
+    on a worker thread (it releases the GIL) while the source's contacts are found here. how: (root motion,
+    ground, the chains' reference_pose.ChainPose)."""
+    root, ground, chains = how
     native = native_state.native()
+    posture_bones = reference_pose.kept_bones(rigs.tgt.names, pose_channels.parent_indices(rigs.tgt.bones),
+                                              rigs.tgt_body, chains)
     src, tgt = rigs.src, rigs.tgt
     source_root, target_root = rigs.roots
     source_aims, target_aims = _bone_aims(src, tgt, [int(v) for v in rigs.bone_map])
@@ -745,7 +762,7 @@ def _retarget_clip(rigs: _Rigs, clip: _Clip, fit: _Fit, root, ground, source_fee
                 vertical_offset=fit.heights[1] - fit.unit_scale * fit.heights[0], root_motion=root,
                 ground_bones=list(range(len(tgt.bones))) if ground else [], up=fit.up,
                 source_floor=fit.floors[0], target_floor=fit.floors[1], source_aims=source_aims,
-                target_aims=target_aims)
+                target_aims=target_aims, posture_bones=posture_bones)
 
     def source_contacts():
         return None if source_feet is None else contacts.find_contacts(
@@ -1074,7 +1091,7 @@ def retarget(source, target, bone_map=None, frame_range=None, root: str = "scale
              root_smoothing: float = 0.25, plant_feet: bool | None = None,
              contact_settings: ContactSettings | None = None,
              source_floor: float | None = None, target_floor: float | None = None, floor_fit: str = "legs",
-             action_name: str | None = None, overwrite: bool = False, bvh_scale: float | str = "auto",
+             chain_modes: dict | None = None, action_name: str | None = None, overwrite: bool = False, bvh_scale: float | str = "auto",
              imported_source: str | None = None, bvh_source: str | None = None, controls: str = "auto",
              limbs: dict | None = None, control_map=None, keys: str = "every", reduce: bool = False, progress=None):
     """Retarget the source's action onto the target; returns the target's new action.
@@ -1101,7 +1118,12 @@ def retarget(source, target, bone_map=None, frame_range=None, root: str = "scale
     source frames (default: the action's), one key per frame on the same
     frames. root: "scaled", "in_place", "offset" or "none" (ROOT_MOTIONS).
     source_match 'REST' or 'FRAME' (with match_frame) and target_match 'REST'
-    or 'CURRENT': the poses in which the two rigs stand alike. ground: move the
+    or 'CURRENT': the poses in which the two rigs stand alike. chain_modes:
+    {chain: "KEEP" | "MATCH"} (core/reference_pose.CHAINS) overrides per chain
+    whether the target keeps its own posture (its spine's curve, its knees'
+    bend) or takes the source's direction (a T onto an A); by default the
+    trunk keeps, a limb whose rest line lies farther than 15 degrees from the
+    source's matches, the others keep, and fingers match (Plan.chains). ground: move the
     root so that the target's lowest point touches its floor (armature Z = 0) on
     the first frame. align_facing: turn the motion so that each rig walks the
     way it faces. source_floor, target_floor: the floors' world Z heights
@@ -1136,7 +1158,7 @@ def retarget(source, target, bone_map=None, frame_range=None, root: str = "scale
                    match_frame=match_frame, target_match=target_match, ground=ground, align_facing=align_facing,
                    floor_root=floor_root, root_smoothing=root_smoothing, plant_feet=plant_feet,
                    contact_settings=contact_settings, source_floor=source_floor, target_floor=target_floor,
-                   floor_fit=floor_fit)
+                   floor_fit=floor_fit, chain_modes=chain_modes)
     imported = _import_source(source, target, bvh_scale) if isinstance(source, (str, os.PathLike)) else None
     try:
         action = _retarget_controls(imported.obj if imported else source, target, controls, limbs, control_map, keys,

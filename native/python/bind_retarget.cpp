@@ -39,7 +39,8 @@ py::tuple Retarget(const RigModel& source, const RigModel& target, const ConstMa
                    int source_root, int target_root, const QuaternionArg& space, double scale, double unit_scale,
                    double vertical_offset, const std::string& root_motion, const std::vector<int>& ground_bones,
                    const PointArg& up, double source_floor, double target_floor,
-                   const std::optional<RowMatrixXd>& source_aims, const std::optional<RowMatrixXd>& target_aims) {
+                   const std::optional<RowMatrixXd>& source_aims, const std::optional<RowMatrixXd>& target_aims,
+                   const std::vector<int>& posture_bones) {
   const auto motion = ParseRootMotion(root_motion);
   if (!motion) throw Error("unknown root motion '" + root_motion + "'; expected scaled, in_place, offset or none");
   const Eigen::Index frames = source_rotations.rows(), bones = target.size();
@@ -58,6 +59,7 @@ py::tuple Retarget(const RigModel& source, const RigModel& target, const ConstMa
   job.options.vertical_offset = vertical_offset;
   job.options.space = ToQuaternion(space);
   job.options.ground_bones = ground_bones;
+  job.options.posture_bones = posture_bones;
   job.options.up = up;
   job.options.source_floor = source_floor;
   job.options.target_floor = target_floor;
@@ -76,7 +78,7 @@ void BindRetarget(py::module_& m) {
         "source_root"_a, "target_root"_a, "space"_a = Eigen::Vector4d(1, 0, 0, 0), "scale"_a = 1.0,
         "unit_scale"_a = 1.0, "vertical_offset"_a = 0.0, "root_motion"_a = "scaled", "ground_bones"_a = std::vector<int>{},
         "up"_a = Eigen::Vector3d(0, 0, 1), "source_floor"_a = 0.0, "target_floor"_a = 0.0,
-        "source_aims"_a = py::none(), "target_aims"_a = py::none(),
+        "source_aims"_a = py::none(), "target_aims"_a = py::none(), "posture_bones"_a = std::vector<int>{},
         R"pbdoc(
         Retarget a whole clip from the source rig to the target rig.
 
@@ -98,7 +100,9 @@ void BindRetarget(py::module_& m) {
         up (source units, after space); target_floor: the target's, in its
         armature units. source_aims (a, 3), target_aims (b, 3): where each
         bone points in its own frame, for rigs whose bone axes do not run
-        along their limbs (default: every bone's Y axis).
+        along their limbs (default: every bone's Y axis). posture_bones:
+        target bones that keep their own posture in the match pose (carried
+        by their parents, not turned onto the source's direction).
 
         Returns (rotations (frames, 4b) pose quaternions per target bone,
         continuous per bone; root_locations (frames, 3), the target root's

@@ -71,6 +71,8 @@ class Plan {
     source_heads_ = PosedHeads(job.source, source_match);
     target_heads_ = PosedHeads(t, match_);
     drives_.resize(static_cast<std::size_t>(nt));
+    kept_.assign(static_cast<std::size_t>(nt), false);
+    for (int b : job.options.posture_bones) kept_[static_cast<std::size_t>(b)] = true;
     for (int b = 0; b < nt; ++b) {
       const int a = job.bone_map[static_cast<std::size_t>(b)];
       if (a < 0) continue;
@@ -119,7 +121,7 @@ class Plan {
       const Eigen::Quaterniond carried =
           (p < 0 ? Eigen::Quaterniond::Identity() : drives_[static_cast<std::size_t>(p)].align) * t.relative(b) *
           match_basis(b);
-      if (d.kind == Drive::kKeep) {
+      if (d.kind == Drive::kKeep || kept_[static_cast<std::size_t>(b)]) {
         d.align = carried.normalized();
         continue;
       }
@@ -221,6 +223,7 @@ class Plan {
   std::vector<Eigen::Quaterniond> match_, match_basis_, source_match_inverse_;
   std::vector<Eigen::Vector3d> source_heads_, target_heads_;
   std::vector<Drive> drives_;
+  std::vector<bool> kept_;  // per target bone: keeps its own posture (options.posture_bones)
 };
 
 // Poses the target frame by frame from the plan: every bone's orientation, written as its pose basis, then
@@ -429,6 +432,9 @@ Status RetargetJob::Validate() const {
   }
   for (int g : options.ground_bones) {
     if (g < 0 || g >= nt) return Status::Fail("retarget: ground bone index out of range");
+  }
+  for (int k : options.posture_bones) {
+    if (k < 0 || k >= nt) return Status::Fail("retarget: posture bone index out of range");
   }
   for (const bool is_source : {true, false}) {
     const RowMatrixXd& aims = is_source ? source_aims : target_aims;

@@ -14,6 +14,14 @@
 // bone axes do not run along its limbs. Locals come back as G_p^-1 G_b against each bone's
 // rest (Blender's pose basis).
 //
+// Each character's posture: a target bone in `posture_bones` keeps the
+// orientation its parent carries it to in the match pose (S_b = 1), so it
+// moves from its own rest as a moves from the source's, and a hunched spine
+// or a bent knee stays the character's own (BRIEF section 8: the reference
+// poses are poses, not body shapes). The caller decides per chain which rest
+// differences are poses (T against A arms: turned, S_b) and which are the
+// body's (kept).
+//
 // Chains of different lengths: target bones left out of the map that lie
 // between two mapped bones (b0 above b) take, at the fraction of the chain's
 // length where their tails lie, the rotation interpolated (slerp) along the
@@ -64,6 +72,7 @@ struct RetargetOptions {
   double source_floor = 0.0;  // the source floor's height along up, source units carried by space
   double target_floor = 0.0;  // the target floor's height along up, target armature units
   std::vector<int> ground_bones;  // target bones that touch the floor on the first frame
+  std::vector<int> posture_bones;  // target bones that keep their own posture in the match pose (S_b = 1)
 };
 
 // Inputs (caller-owned, read-only):

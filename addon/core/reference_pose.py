@@ -1,0 +1,130 @@
+"""The reference pose: per chain, whether the target keeps its own posture or takes the source's direction
+(numpy, no bpy; BRIEF section 8).
+
+Two rigs' rest poses differ in two ways. Where they stand in different poses
+(one in a T, the other in an A; a capture with its legs spread), a limb of the
+target is turned onto the source's direction before the source's motion is
+laid on it: MATCH. Where they stand in the same pose but their bodies differ
+(a hunched spine, a forward lean, knees bent by design, a long neck), the
+target keeps its own posture and moves from it as the source moves from its
+own: KEEP. That is what Mixamo does between its own characters (their upper
+bodies' local rotations come out identical), and what Unreal's retarget pose
+and HumanIK do once both rigs stand in a T.
+
+The decision is per chain (CHAINS). The trunk (hips, spine, neck, head) is
+the character's posture and is kept. A limb is matched where its overall line
+(from its upper bone's head to its end joint) lies farther than
+LIMB_POSE_ANGLE from the source's, and kept otherwise. Fingers are matched (a
+hand's rest spread and curl are poses). The user can set any chain either way.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import bone_mapping
+
+CHAINS = ("trunk", "arm.L", "arm.R", "leg.L", "leg.R", "fingers.L", "fingers.R")
+MODES = ("KEEP", "MATCH")
+# T against A arms lie 30-50 degrees apart and a capture's spread legs 20-45; the limbs of characters that all
+# stand in a T differ by under 10 (a slightly lowered arm, a wide stance). Halfway between.
+LIMB_POSE_ANGLE = 15.0
+
+_LIMB_ENDS = {"arm": ("upper_arm", ("hand",), "forearm"), "leg": ("thigh", ("foot",), "shin")}
+
+
+@dataclass(frozen=True)
+class ChainPose:
+    """How one chain of the target stands in the reference pose."""
+    chain: str             # one of CHAINS
+    mode: str              # "KEEP" (the target's own posture) or "MATCH" (turned onto the source's direction)
+    by_user: bool          # the user's choice, not the automatic one
+    angle: float           # degrees between the two rigs' lines of a limb in their match poses; nan elsewhere
+
+
+@dataclass(frozen=True)
+class Limbs:
+    """One rig's match pose as this stage reads it: its body labels and its joints (heads) by bone name, in
+    the target's armature space (the source's carried there)."""
+    body: bone_mapping.Body
+    heads: dict
+
+
+def check_modes(modes) -> dict:
+    """The user's chain modes ({chain: "KEEP" | "MATCH"}), checked; None for none."""
+    modes = dict(modes or {})
+    for chain, mode in modes.items():
+        if chain not in CHAINS:
+            raise ValueError(f"chain_modes: unknown chain {chain!r}; expected one of {', '.join(CHAINS)}")
+        if mode not in MODES:
+            raise ValueError(f"chain_modes[{chain!r}]: unknown mode {mode!r}; expected KEEP or MATCH")
+    return modes
+
+
+def _limb_line(limbs: Limbs, kind: str, side: str) -> np.ndarray | None:
+    """A limb's overall line (unit) from its upper bone's head to its end joint, or None where unlabelled."""
+    upper, ends, middle = _LIMB_ENDS[kind]
+    start = limbs.heads.get(limbs.body.limbs.get(f"{upper}.{side}"))
+    end = next((limbs.heads.get(limbs.body.limbs.get(f"{e}.{side}")) for e in ends
+                if limbs.heads.get(limbs.body.limbs.get(f"{e}.{side}")) is not None), None)
+    if end is None:  # no hand or foot: the middle bone's head still shows where the limb starts off
+        end = limbs.heads.get(limbs.body.limbs.get(f"{middle}.{side}"))
+    if start is None or end is None:
+        return None
+    line = np.asarray(end, dtype=np.float64) - np.asarray(start, dtype=np.float64)
+    length = np.linalg.norm(line)
+    return line / length if length > 1e-12 else None
+
+
+def _angle(a, b) -> float:
+    return float(np.degrees(np.arctan2(np.linalg.norm(np.cross(a, b)), np.dot(a, b))))
+
+
+def decide(source: Limbs, target: Limbs, user_modes=None) -> list[ChainPose]:
+    """Every chain's mode, the user's where given (user_modes: {chain: mode})."""
+    user_modes = check_modes(user_modes)
+    out = []
+    for chain in CHAINS:
+        kind, _, side = chain.partition(".")
+        angle, auto = float("nan"), "KEEP" if kind == "trunk" else "MATCH"
+        if kind in _LIMB_ENDS:
+            lines = _limb_line(source, kind, side), _limb_line(target, kind, side)
+            if lines[0] is not None and lines[1] is not None:
+                angle = _angle(*lines)
+                auto = "MATCH" if angle > LIMB_POSE_ANGLE else "KEEP"
+        mode = user_modes.get(chain, auto)
+        out.append(ChainPose(chain, mode, chain in user_modes, angle))
+    return out
+
+
+def chain_of_labels(body: bone_mapping.Body) -> dict:
+    """{bone name: chain} for the labelled bones of a body."""
+    out = {name: "trunk" for name in [body.hips, *body.spine, *body.neck, body.head] if name}
+    for key, name in body.limbs.items():
+        slot, _, side = key.partition(".")
+        out[name] = ("arm." if slot in bone_mapping.ARM_KEYS else "leg.") + side
+    for key, names in body.fingers.items():
+        for name in names:
+            out[name] = "fingers." + key.partition(".")[2]
+    for key, name in body.metacarpals.items():
+        out[name] = "fingers." + key.partition(".")[2]
+    return out
+
+
+def kept_bones(names, parents, body: bone_mapping.Body, chains: list[ChainPose]) -> list[int]:
+    """The target bones (indices, any order) that keep their own posture: each bone is on the chain of its
+    nearest labelled ancestor or itself (a twist bone on its limb's, an unlabelled bone between the hips and
+    the chest on the trunk's, anything under a hand not labelled on that hand's fingers')."""
+    labels = chain_of_labels(body)
+    hands = {body.limbs.get(f"hand.{s}"): f"fingers.{s}" for s in bone_mapping.SIDES}
+    modes = {c.chain: c.mode for c in chains}
+    kept = []
+    for b, name in enumerate(names):
+        chain, up = labels.get(name), parents[b]
+        while chain is None and up >= 0:
+            chain = hands.get(names[up]) or labels.get(names[up])
+            up = parents[up]
+        if chain is not None and modes.get(chain) == "KEEP":
+            kept.append(b)
+    return kept
