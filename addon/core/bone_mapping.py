@@ -1021,24 +1021,43 @@ def _check_pairs(pairs, where: str) -> list[tuple[str, str]]:
     return checked
 
 
-def save_map(path, pairs) -> None:
-    """Writes pairs as a motionkit-bone-map JSON file."""
+def save_map(path, pairs, chains=None) -> None:
+    """Writes pairs as a motionkit-bone-map JSON file, with the reference pose's chain modes where given
+    ({chain: "KEEP" | "MATCH"}, core/reference_pose; version 2, version 1 without them)."""
     checked = _check_pairs(list(pairs), os.fspath(path))
     data = {"format": MAP_FORMAT, "version": 1, "pairs": [list(p) for p in checked]}
+    if chains:
+        from . import reference_pose  # it labels chains with this module's bodies
+        data.update(version=2, chains=reference_pose.check_modes(chains))
     with open(path, "w", encoding="utf-8") as f:
         json.dump(data, f, indent=1)
         f.write("\n")
 
 
-def load_map(path) -> list[tuple[str, str]]:
-    """The pairs of a file written by save_map; ValueError naming the file if it is not one."""
+def _map_file(path) -> dict:
     where = os.fspath(path)
     data = _read_json(path, "a bone map")
     if not isinstance(data, dict) or data.get("format") != MAP_FORMAT:
         raise ValueError(f'{where}: not a MotionKit bone map ("format" is not "{MAP_FORMAT}")')
-    if data.get("version") != 1:
+    if data.get("version") not in (1, 2):
         raise ValueError(f'{where}: unsupported bone map version {data.get("version")!r} '
-                         f"(this MotionKit reads version 1)")
+                         f"(this MotionKit reads versions 1 and 2)")
     if not isinstance(data.get("pairs"), list):
         raise ValueError(f'{where}: "pairs" must be a list')
-    return _check_pairs(data["pairs"], where)
+    return data
+
+
+def load_map(path) -> list[tuple[str, str]]:
+    """The pairs of a file written by save_map; ValueError naming the file if it is not one."""
+    return _check_pairs(_map_file(path)["pairs"], os.fspath(path))
+
+
+def load_chains(path) -> dict:
+    """The reference pose's chain modes saved with a map ({} for a version 1 file); ValueError naming the file
+    for a bad one."""
+    from . import reference_pose
+    chains = _map_file(path).get("chains", {})
+    try:
+        return reference_pose.check_modes(chains if isinstance(chains, dict) else [chains])
+    except (ValueError, TypeError) as error:
+        raise ValueError(f"{os.fspath(path)}: {error}") from None

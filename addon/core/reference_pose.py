@@ -12,10 +12,16 @@ bodies' local rotations come out identical), and what Unreal's retarget pose
 and HumanIK do once both rigs stand in a T.
 
 The decision is per chain (CHAINS). The trunk (hips, spine, neck, head) is
-the character's posture and is kept. A limb is matched where its overall line
-(from its upper bone's head to its end joint) lies farther than
-LIMB_POSE_ANGLE from the source's, and kept otherwise. Fingers are matched (a
-hand's rest spread and curl are poses). The user can set any chain either way.
+the character's posture and is kept, unless its line (hips to head) lies
+farther than TRUNK_POSE_ANGLE from the source's (a rig lying or bent double at
+rest). A limb is matched where its overall line (from its upper bone's head to
+its end joint) lies farther than LIMB_POSE_ANGLE from the source's, and kept
+otherwise. Fingers are matched (a hand's rest spread and curl are poses). A
+bone of a kept chain whose rest points farther than BONE_POSE_ANGLE from the
+source's is turned all the same (a capture's foot pointing down its shin). A
+zero pose (every joint straight on from its parent's, as some captures' rests
+stand) is no body's posture: against one, every chain is matched. The user can
+set any chain either way.
 """
 from __future__ import annotations
 
@@ -30,8 +36,14 @@ MODES = ("KEEP", "MATCH")
 # T against A arms lie 30-50 degrees apart and a capture's spread legs 20-45; the limbs of characters that all
 # stand in a T differ by under 10 (a slightly lowered arm, a wide stance). Halfway between.
 LIMB_POSE_ANGLE = 15.0
+# Characters' spines lean 10-28 degrees forward or back bone by bone; hips to head, less.
+TRUNK_POSE_ANGLE = 45.0
+# One bone: a bent knee or a hunched spine bone lies within 30 degrees of another body's; a foot pointing down
+# its shin against one on the floor, 90.
+BONE_POSE_ANGLE = 45.0
 
-_LIMB_ENDS = {"arm": ("upper_arm", ("hand",), "forearm"), "leg": ("thigh", ("foot",), "shin")}
+_LIMB_ENDS = {"arm": ("upper_arm", "hand", "forearm"), "leg": ("thigh", "foot", "shin")}
+_POSE_ANGLE = {"trunk": TRUNK_POSE_ANGLE, "arm": LIMB_POSE_ANGLE, "leg": LIMB_POSE_ANGLE}
 
 
 @dataclass(frozen=True)
@@ -49,6 +61,7 @@ class Limbs:
     the target's armature space (the source's carried there)."""
     body: bone_mapping.Body
     heads: dict
+    zero_pose: bool = False  # every joint straight on from its parent's: no body's posture
 
 
 def check_modes(modes) -> dict:
@@ -62,14 +75,18 @@ def check_modes(modes) -> dict:
     return modes
 
 
-def _limb_line(limbs: Limbs, kind: str, side: str) -> np.ndarray | None:
-    """A limb's overall line (unit) from its upper bone's head to its end joint, or None where unlabelled."""
-    upper, ends, middle = _LIMB_ENDS[kind]
-    start = limbs.heads.get(limbs.body.limbs.get(f"{upper}.{side}"))
-    end = next((limbs.heads.get(limbs.body.limbs.get(f"{e}.{side}")) for e in ends
-                if limbs.heads.get(limbs.body.limbs.get(f"{e}.{side}")) is not None), None)
-    if end is None:  # no hand or foot: the middle bone's head still shows where the limb starts off
-        end = limbs.heads.get(limbs.body.limbs.get(f"{middle}.{side}"))
+def _line(limbs: Limbs, kind: str, side: str) -> np.ndarray | None:
+    """A chain's overall line (unit): a limb's from its upper bone's head to its end joint, the trunk's from
+    the hips' head to the head's; None where unlabelled."""
+    body, heads = limbs.body, limbs.heads
+    if kind == "trunk":
+        start, end = heads.get(body.hips), heads.get(body.head or (body.neck or body.spine or [None])[-1])
+    else:
+        upper, end_key, middle = _LIMB_ENDS[kind]
+        start = heads.get(body.limbs.get(f"{upper}.{side}"))
+        end = heads.get(body.limbs.get(f"{end_key}.{side}"))
+        if end is None:  # no hand or foot: the middle bone's head still shows where the limb starts off
+            end = heads.get(body.limbs.get(f"{middle}.{side}"))
     if start is None or end is None:
         return None
     line = np.asarray(end, dtype=np.float64) - np.asarray(start, dtype=np.float64)
@@ -88,11 +105,13 @@ def decide(source: Limbs, target: Limbs, user_modes=None) -> list[ChainPose]:
     for chain in CHAINS:
         kind, _, side = chain.partition(".")
         angle, auto = float("nan"), "KEEP" if kind == "trunk" else "MATCH"
-        if kind in _LIMB_ENDS:
-            lines = _limb_line(source, kind, side), _limb_line(target, kind, side)
+        if kind in _POSE_ANGLE:
+            lines = _line(source, kind, side), _line(target, kind, side)
             if lines[0] is not None and lines[1] is not None:
                 angle = _angle(*lines)
-                auto = "MATCH" if angle > LIMB_POSE_ANGLE else "KEEP"
+                auto = "MATCH" if angle > _POSE_ANGLE[kind] else "KEEP"
+        if source.zero_pose or target.zero_pose:
+            auto = "MATCH"
         mode = user_modes.get(chain, auto)
         out.append(ChainPose(chain, mode, chain in user_modes, angle))
     return out
@@ -112,10 +131,20 @@ def chain_of_labels(body: bone_mapping.Body) -> dict:
     return out
 
 
-def kept_bones(names, parents, body: bone_mapping.Body, chains: list[ChainPose]) -> list[int]:
-    """The target bones (indices, any order) that keep their own posture: each bone is on the chain of its
+def across(source_directions, target_directions) -> np.ndarray:
+    """(n,) bool: which pairs of rest directions (n, 3 each, one space) lie farther apart than
+    BONE_POSE_ANGLE."""
+    a = np.asarray(source_directions, dtype=np.float64)
+    b = np.asarray(target_directions, dtype=np.float64)
+    cos = np.einsum("nk,nk->n", a, b) / np.maximum(np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1), 1e-300)
+    return cos < np.cos(np.radians(BONE_POSE_ANGLE))
+
+
+def kept_bones(names, parents, body: bone_mapping.Body, chains: list[ChainPose], turned=()) -> list[int]:
+    """The target bones (indices, ascending) that keep their own posture: each bone is on the chain of its
     nearest labelled ancestor or itself (a twist bone on its limb's, an unlabelled bone between the hips and
-    the chest on the trunk's, anything under a hand not labelled on that hand's fingers')."""
+    the chest on the trunk's, anything under a hand not labelled on that hand's fingers'); turned: bones
+    turned whatever their chain (across())."""
     labels = chain_of_labels(body)
     hands = {body.limbs.get(f"hand.{s}"): f"fingers.{s}" for s in bone_mapping.SIDES}
     modes = {c.chain: c.mode for c in chains}
@@ -125,6 +154,6 @@ def kept_bones(names, parents, body: bone_mapping.Body, chains: list[ChainPose])
         while chain is None and up >= 0:
             chain = hands.get(names[up]) or labels.get(names[up])
             up = parents[up]
-        if chain is not None and modes.get(chain) == "KEEP":
+        if chain is not None and modes.get(chain) == "KEEP" and b not in turned:
             kept.append(b)
     return kept

@@ -49,6 +49,9 @@ def _output_path(out_dir: str | None, export: str | None, name: str) -> str | No
     return os.path.join(out_dir, f"{safe}.{export}")
 
 
+_REFERENCE = ("source_match", "match_frame", "target_match", "align_facing", "chain_modes")  # kept_bones' options
+
+
 def _retarget_take(path, stem, take, action, count, source, target, out_dir, export, overwrite, keep,
                    options) -> tuple:
     """(report row, new action or None) of one take."""
@@ -65,7 +68,8 @@ def _retarget_take(path, stem, take, action, count, source, target, out_dir, exp
         pairs = retargeting.auto_map(source, target) if options.get("bone_map") is None else options["bone_map"]
         made = retargeting.retarget(source, target, **{**options, "bone_map": pairs}, action_name=name)
         made.use_fake_user = True
-        row.update(clip_report.row_figures(source, target, pairs))
+        kept = retargeting.kept_bones(source, target, pairs, **{k: options[k] for k in _REFERENCE if k in options})
+        row.update(clip_report.row_figures(source, target, pairs, kept))
         if output:
             export_clip(target, output, export)
             row["output"] = output

@@ -30,13 +30,30 @@ class _Posed:
         self.rotations = rotation_channels.multiply(np.array(turn), self.pose[0].reshape(len(frames), -1, 4))
 
 
-def _directions(source: _Posed, target: _Posed, pairs) -> tuple[np.ndarray, np.ndarray]:
-    """World directions (frames, pairs, 3) of each pair's bones, each where the retarget aims it."""
+def _rest_world(posed: _Posed, names) -> np.ndarray:
+    """(n, 4) the named bones' rest orientations in world space."""
+    _, turn, _ = posed.obj.matrix_world.decompose()
+    rest = np.array([posed.obj.data.bones[n].matrix_local.to_quaternion() for n in names]).reshape(-1, 4)
+    return rotation_channels.multiply(np.array(turn), rest)
+
+
+def _directions(source: _Posed, target: _Posed, pairs, kept=()) -> tuple[np.ndarray, np.ndarray]:
+    """World directions (frames, pairs, 3) of each pair's bones, each where the retarget aims it: the
+    source's where the target bone takes its direction, and for a bone that keeps its own posture (kept:
+    target bone names) the target's rest aim turned as the source's bone has turned from its rest."""
     aims = retargeting.pointing(source.obj, target.obj, pairs)
     out = []
     for posed, names, side_aims in ((source, [a for a, _ in pairs], aims[0]), (target, [t for _, t in pairs], aims[1])):
         q = posed.rotations[:, [posed.index[n] for n in names]]
         out.append(rotation_channels.rotate_each(q, np.array([side_aims[n] for n in names])[None]))
+    held = [i for i, (_, t) in enumerate(pairs) if t in kept]
+    if held:
+        names = [pairs[i] for i in held]
+        turned = rotation_channels.multiply(source.rotations[:, [source.index[a] for a, _ in names]],
+                                            rotation_channels.conjugate(_rest_world(source, [a for a, _ in names])))
+        rest = _rest_world(target, [t for _, t in names])
+        aim = rotation_channels.rotate_each(rest, np.array([aims[1][t] for _, t in names]))
+        out[0][:, held] = rotation_channels.rotate_each(turned, aim[None])
     return out[0], out[1]
 
 
@@ -72,14 +89,15 @@ def _feet(source: _Posed, target: _Posed, fps: float) -> clip_quality.FeetMotion
     return clip_quality.FeetMotion(points=points, rest=rest[0], stance=stance, up=WORLD_UP, feet=FEET)
 
 
-def measure(source, target, pairs) -> clip_quality.Quality:
+def measure(source, target, pairs, kept=()) -> clip_quality.Quality:
     """The figures of the target's action against the source's, over the target action's frames; pairs:
-    the (source bone, target bone) map the retarget used."""
+    the (source bone, target bone) map the retarget used; kept: the target bones that kept their own
+    posture (retargeting.kept_bones), measured against the source's turn from its rest."""
     action = animdata.assigned_action(target)
     frames = pose_channels.action_frames(action)
     src, tgt = _Posed(source, frames), _Posed(target, frames)
     pairs = [(a, t) for a, t in pairs if a in src.index and t in tgt.index]
-    source_dirs, target_dirs = _directions(src, tgt, pairs)
+    source_dirs, target_dirs = _directions(src, tgt, pairs, set(kept))
     turn = clip_quality.best_turn_about(WORLD_UP, source_dirs, target_dirs)
     bones = clip_quality.BoneMotion(
         source_directions=rotation_channels.rotate(turn, source_dirs),
@@ -98,7 +116,7 @@ def count_mapped(target, pairs) -> tuple[int, int]:
     return len(mapped - fingers), len(mapped & fingers)
 
 
-def row_figures(source, target, pairs) -> dict:
+def row_figures(source, target, pairs, kept=()) -> dict:
     """A batch report's figures of the target's new action (batch_report.COLUMNS). Only an action that keys
     the mapped bones themselves is measured: on a control rig the controls move them, through constraints
     that posing the keys alone does not evaluate, and its figures stay None."""
@@ -109,5 +127,5 @@ def row_figures(source, target, pairs) -> dict:
                "bones_mapped": body, "fingers_mapped": fingers}
     keyed = {c.data_path for c in animdata.fcurves(action, target)}
     if all(any(path.startswith(pose_channels.bone_path(t)) for path in keyed) for _, t in pairs):
-        figures.update(measure(source, target, pairs).as_dict())
+        figures.update(measure(source, target, pairs, kept).as_dict())
     return figures

@@ -496,6 +496,48 @@ class Plan:
             self.pending.complete(self)
 
 
+def _prepare(source, target, bone_map, frame_range, o: dict):
+    """plan()'s reading and fitting: (source side, target side, pairs, clip, rigs, fit, chains), the options
+    checked first (o: plan()'s keywords)."""
+    src, tgt = _side(source, "source"), _side(target, "target")
+    if isinstance(tgt.obj, bpy.types.Object):
+        _check_editable(tgt.obj)
+    if _armature_object(src.obj) == _armature_object(tgt.obj):
+        raise ValueError(f"the source and the target are the same armature '{src.obj.name}' (a cycle)")
+    _check_options(o["root"], o["floor_root"], o["floor_fit"], o["root_smoothing"], o["source_match"],
+                   o["target_match"], plant_feet=o["plant_feet"], align_facing=o["align_facing"], ground=o["ground"],
+                   frame_range=frame_range, source_floor=o["source_floor"], target_floor=o["target_floor"],
+                   contact_settings=o["contact_settings"])
+    reference_pose.check_modes(o["chain_modes"])
+    _check_scale(src.obj, "source")
+    _check_scale(tgt.obj, "target")
+    action = animdata.assigned_action(src.obj)
+    if action is None:
+        raise ValueError(f"the source '{src.obj.name}' has no action to retarget")
+    _check_frames(action, frame_range)
+    pairs = _pairs(bone_map, src, tgt)
+    clip = _read_clip(src, action, pose_channels.action_frames(action, frame_range))
+    rigs = _read_rigs(src, tgt, pairs, clip, o["source_match"], o["match_frame"], o["target_match"])
+    fit = _fit(rigs, clip, o["align_facing"], o["source_floor"], o["target_floor"])
+    return src, tgt, pairs, clip, rigs, fit, _chain_poses(rigs, fit, o["chain_modes"])
+
+
+def _reference(source, target, bone_map, source_match, match_frame, target_match, align_facing, chain_modes):
+    """_prepare() with plan()'s defaults for everything the reference pose does not depend on."""
+    return _prepare(source, target, bone_map, None, dict(
+        root="scaled", floor_root="auto", floor_fit="legs", root_smoothing=0.25, plant_feet=None, ground=False,
+        source_floor=None, target_floor=None, contact_settings=None, source_match=source_match,
+        match_frame=match_frame, target_match=target_match, align_facing=align_facing, chain_modes=chain_modes))
+
+
+def reference_chains(source, target, bone_map=None, *, source_match: str = 'REST', match_frame=None,
+                     target_match: str = 'REST', align_facing: bool = True, chain_modes: dict | None = None) -> list:
+    """How each chain of the target stands in the reference pose (reference_pose.ChainPose: kept posture or
+    the source's direction, decided or the user's), as plan() would decide it, without retargeting."""
+    return _reference(source, target, bone_map, source_match, match_frame, target_match, align_facing,
+                      chain_modes)[-1]
+
+
 def plan(source, target, bone_map=None, frame_range=None, root: str = "scaled", *, source_match: str = 'REST',
          match_frame: float | None = None, target_match: str = 'REST', ground: bool = False,
          align_facing: bool = True, floor_root: str = "auto", root_smoothing: float = 0.25,
@@ -505,26 +547,11 @@ def plan(source, target, bone_map=None, frame_range=None, root: str = "scaled", 
     """Compute the retargeted keys without touching the file (see retarget). defer_solve: leave the feet's
     IK solve pending for apply(), which runs it beside writing the other bones' keys (Plan.resolve runs it
     at once); the contacts, feet and every other bone's values are final either way."""
-    src, tgt = _side(source, "source"), _side(target, "target")
-    if isinstance(tgt.obj, bpy.types.Object):
-        _check_editable(tgt.obj)
-    if _armature_object(src.obj) == _armature_object(tgt.obj):
-        raise ValueError(f"the source and the target are the same armature '{src.obj.name}' (a cycle)")
-    _check_options(root, floor_root, floor_fit, root_smoothing, source_match, target_match, plant_feet=plant_feet,
-                   align_facing=align_facing, ground=ground, frame_range=frame_range, source_floor=source_floor,
-                   target_floor=target_floor, contact_settings=contact_settings)
-    reference_pose.check_modes(chain_modes)
-    _check_scale(src.obj, "source")
-    _check_scale(tgt.obj, "target")
-    action = animdata.assigned_action(src.obj)
-    if action is None:
-        raise ValueError(f"the source '{src.obj.name}' has no action to retarget")
-    _check_frames(action, frame_range)
-    pairs = _pairs(bone_map, src, tgt)
-    clip = _read_clip(src, action, pose_channels.action_frames(action, frame_range))
-    rigs = _read_rigs(src, tgt, pairs, clip, source_match, match_frame, target_match)
-    fit = _fit(rigs, clip, align_facing, source_floor, target_floor)
-    chains = _chain_poses(rigs, fit, chain_modes)
+    src, tgt, pairs, clip, rigs, fit, chains = _prepare(source, target, bone_map, frame_range, dict(
+        root=root, floor_root=floor_root, floor_fit=floor_fit, root_smoothing=root_smoothing,
+        source_match=source_match, match_frame=match_frame, target_match=target_match, plant_feet=plant_feet,
+        align_facing=align_facing, ground=ground, source_floor=source_floor, target_floor=target_floor,
+        contact_settings=contact_settings, chain_modes=chain_modes))
     plant_feet = _planting(plant_feet, (src, rigs.src_body), (tgt, rigs.tgt_body))
     # The source's contacts, needed to plant feet or to put them on the floor, need only the source's pose.
     wants_feet = plant_feet or (floor_fit != "off" and root != "none")
@@ -732,9 +759,35 @@ def _chain_poses(rigs: _Rigs, fit: _Fit, chain_modes) -> list:
     """Each chain's reference_pose.ChainPose: the target keeps its own posture or takes the source's
     direction, from the two match poses (the source's carried into the target's armature space)."""
     source_heads = rotation_channels.rotate(fit.space, rigs.source_pose.heads)
-    source = reference_pose.Limbs(rigs.src_body, dict(zip(rigs.src.names, source_heads)))
-    target = reference_pose.Limbs(rigs.tgt_body, dict(zip(rigs.tgt.names, rigs.target_pose.heads)))
+    bones = [[a for a, _ in rigs.pairs_idx], [b for _, b in rigs.pairs_idx]]
+    source = reference_pose.Limbs(rigs.src_body, dict(zip(rigs.src.names, source_heads)),
+                                  _faces_nowhere(rigs.src, rigs.source_pose, bones[0]))
+    target = reference_pose.Limbs(rigs.tgt_body, dict(zip(rigs.tgt.names, rigs.target_pose.heads)),
+                                  _faces_nowhere(rigs.tgt, rigs.target_pose, bones[1]))
     return reference_pose.decide(source, target, chain_modes)
+
+
+def _posture_bones(rigs: _Rigs, fit: _Fit, chains) -> list[int]:
+    """The target bones that keep their own posture (reference_pose.kept_bones): on a kept chain, and each
+    mapped one pointing within reference_pose.BONE_POSE_ANGLE of its source bone in the match poses."""
+    source_aims, target_aims = _bone_aims(rigs.src, rigs.tgt, [int(v) for v in rigs.bone_map])
+    a, b = (np.array([p[i] for p in rigs.pairs_idx], dtype=np.int64) for i in (0, 1))
+    aim = lambda aims, bones: np.tile([0.0, 1.0, 0.0], (len(bones), 1)) if aims is None else aims[bones]  # noqa: E731
+    source = rotation_channels.rotate_each(rigs.source_pose.rotations[a], aim(source_aims, a))
+    source = rotation_channels.rotate(fit.space, source)
+    target = rotation_channels.rotate_each(rigs.target_pose.rotations[b], aim(target_aims, b))
+    turned = set(b[reference_pose.across(source, target)].tolist())
+    return reference_pose.kept_bones(rigs.tgt.names, pose_channels.parent_indices(rigs.tgt.bones), rigs.tgt_body,
+                                     chains, turned)
+
+
+def kept_bones(source, target, bone_map=None, *, source_match: str = 'REST', match_frame=None,
+               target_match: str = 'REST', align_facing: bool = True, chain_modes: dict | None = None) -> list[str]:
+    """The target bones that keep their own posture in the reference pose (the others point where the
+    source's do), as plan() decides them."""
+    _, tgt, _, _, rigs, fit, chains = _reference(source, target, bone_map, source_match, match_frame, target_match,
+                                                 align_facing, chain_modes)
+    return [tgt.names[b] for b in _posture_bones(rigs, fit, chains)]
 
 
 def _retarget_clip(rigs: _Rigs, clip: _Clip, fit: _Fit, how, source_feet, contact_settings):
@@ -743,8 +796,7 @@ def _retarget_clip(rigs: _Rigs, clip: _Clip, fit: _Fit, how, source_feet, contac
     ground, the chains' reference_pose.ChainPose)."""
     root, ground, chains = how
     native = native_state.native()
-    posture_bones = reference_pose.kept_bones(rigs.tgt.names, pose_channels.parent_indices(rigs.tgt.bones),
-                                              rigs.tgt_body, chains)
+    posture_bones = _posture_bones(rigs, fit, chains)
     src, tgt = rigs.src, rigs.tgt
     source_root, target_root = rigs.roots
     source_aims, target_aims = _bone_aims(src, tgt, [int(v) for v in rigs.bone_map])

@@ -10,7 +10,7 @@ from bpy_extras.io_utils import ExportHelper, ImportHelper
 
 from . import common, contacts as contact_ui
 from ..blender import pose_channels
-from ..core import bone_mapping, display_names
+from ..core import bone_mapping, display_names, reference_pose
 from ..features import bvh, control_rigs, retargeting, scene_timing
 
 
@@ -22,9 +22,56 @@ def _is_armature(self, obj):
     return obj.type == 'ARMATURE'
 
 
+_CHAIN_MODES = (("AUTO", "Auto", "Keep the target's posture where both rigs stand alike, match the source's "
+                                 "direction where they stand in different poses (a T against an A)"),
+                ("KEEP", "Keep", "The target keeps its own posture (its spine's curve, its knees' bend) and moves "
+                                 "from it as the source moves from its own"),
+                ("MATCH", "Match", "The target's bones are turned onto the source's directions first"))
+_CHAIN_LABELS = {"trunk": "Trunk", "arm.L": "Arm L", "arm.R": "Arm R", "leg.L": "Leg L", "leg.R": "Leg R",
+                 "fingers.L": "Fingers L", "fingers.R": "Fingers R"}
+
+
+def _chain_prop(chain: str) -> str:
+    return "chain_" + chain.replace(".", "_").lower()
+
+
+def _chain_properties() -> dict:
+    return {_chain_prop(c): EnumProperty(name=_CHAIN_LABELS[c], items=_CHAIN_MODES, default="AUTO",
+                                         description=f"How the target's {_CHAIN_LABELS[c].lower()} stands in the "
+                                                     f"reference pose")
+            for c in reference_pose.CHAINS}
+
+
 class MOTIONKIT_PG_bone_pair(bpy.types.PropertyGroup):
     source: StringProperty(name="Source", description="Bone of the source armature (or BVH joint)")
     target: StringProperty(name="Target", description="Bone of the target armature")
+
+
+class MOTIONKIT_PG_reference_pose(bpy.types.PropertyGroup):
+    """Per chain (reference_pose.CHAINS) the user's mode (chain_trunk, chain_arm_l, ...), and what Auto
+    decided last (chains_decided: chain:MODE:angle, comma-separated)."""
+    __annotations__ = {**_chain_properties(), "chains_decided": StringProperty(name="Decided")}
+
+    def chain_modes(self) -> dict:
+        """The user's chain modes ({chain: KEEP | MATCH}), the Auto ones left out."""
+        return {c: getattr(self, _chain_prop(c)) for c in reference_pose.CHAINS
+                if getattr(self, _chain_prop(c)) != "AUTO"}
+
+    def set_chain_modes(self, modes: dict) -> None:
+        for c in reference_pose.CHAINS:
+            setattr(self, _chain_prop(c), modes.get(c, "AUTO"))
+
+    def decided(self) -> dict:
+        """{chain: (mode, angle text)} as chains_decided holds it."""
+        out = {}
+        for item in filter(None, self.chains_decided.split(",")):
+            chain, mode, angle = item.split(":")
+            out[chain] = (mode, angle)
+        return out
+
+    def record_chains(self, chains) -> None:
+        self.chains_decided = ",".join(
+            f"{c.chain}:{c.mode}:{'' if c.angle != c.angle else f'{c.angle:.0f}'}" for c in chains)
 
 
 class MOTIONKIT_PG_retarget(bpy.types.PropertyGroup):
@@ -91,6 +138,8 @@ class MOTIONKIT_PG_retarget(bpy.types.PropertyGroup):
     reduce: BoolProperty(name="Reduce Keys",
                          description="Afterwards, the fewest keys that stay within 0.1 degree and 1 mm, so that "
                                      "the result stays editable")
+
+    reference_pose: PointerProperty(type=MOTIONKIT_PG_reference_pose)
 
     def bone_map(self) -> list[tuple[str, str]]:
         return [(p.source, p.target) for p in self.pairs if p.source and p.target]
@@ -173,15 +222,19 @@ class MOTIONKIT_OT_retarget(bpy.types.Operator):
                 target_match=settings.target_match, ground=settings.ground, align_facing=settings.align_facing,
                 floor_root=settings.floor_root, root_smoothing=settings.root_smoothing,
                 floor_fit=settings.floor_fit, plant_feet=None if settings.plant_feet else False,
+                chain_modes=settings.reference_pose.chain_modes(),
                 contact_settings=contact_ui.settings(settings.contacts),
                 overwrite=settings.overwrite, progress=progress, **controls, **bvh_options)
             timing = scene_timing.from_clip(context.scene, action) if settings.scene_from_clip else None
+            _decide_chains(settings, settings.bone_map() or None)
             return action, timing
 
         def done(result):
             action, timing = result
             played = f"; the scene plays it at {timing[0]:g} fps, frames {timing[1]}-{timing[2]}" if timing else ""
-            return f"Retargeted onto '{settings.target.name}' as action '{action.name}'{played}"
+            decided = _decided_text(settings)
+            return f"Retargeted onto '{settings.target.name}' as action '{action.name}'{played}" + (
+                f". {decided}" if decided else "")
 
         return common.run(self, context, work, done)
 
@@ -197,8 +250,53 @@ class MOTIONKIT_OT_bone_map_auto(bpy.types.Operator):
         return _poll_rigs(cls, context)
 
     def execute(self, context):
-        return _fill_map(self, context, lambda settings: bone_mapping.auto_map(
-            _source_rig(settings), pose_channels.armature_mapping_rig(settings.target)))
+        def auto_map(settings):
+            pairs = bone_mapping.auto_map(_source_rig(settings), pose_channels.armature_mapping_rig(settings.target))
+            _decide_chains(settings, pairs)
+            return pairs
+
+        return _fill_map(self, context, auto_map)
+
+
+def _decide_chains(settings, pairs) -> None:
+    """What Auto decides per chain, for the panel, where the source is an armature with an action (a file is
+    read only when retargeting)."""
+    chains = settings.reference_pose
+    chains.chains_decided = ""
+    source = settings.source if settings.source_kind == 'ARMATURE' else None
+    if source is None or source.animation_data is None or source.animation_data.action is None:
+        return
+    chains.record_chains(retargeting.reference_chains(
+        source, settings.target, pairs, source_match=settings.source_match, match_frame=settings.match_frame,
+        target_match=settings.target_match, align_facing=settings.align_facing, chain_modes=chains.chain_modes()))
+
+
+class MOTIONKIT_OT_reference_pose(bpy.types.Operator):
+    """Decide again, from the two rigs' match poses, which chains keep the target's posture (MotionKit)"""
+    bl_idname = "motionkit.reference_pose"
+    bl_label = "Decide Reference Pose"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    @classmethod
+    def poll(cls, context):
+        if not (common.poll_native(cls) and _poll_rigs(cls, context)):
+            return False
+        if _settings(context).source_kind != 'ARMATURE':
+            cls.poll_message_set("A file source is decided when retargeting")
+            return False
+        return True
+
+    def execute(self, context):
+        settings = _settings(context)
+        return common.run(self, context, lambda progress: _decide_chains(settings, settings.bone_map() or None),
+                          lambda _: _decided_text(settings))
+
+
+def _decided_text(settings) -> str:
+    decided = settings.reference_pose.decided().items()
+    return "Reference pose: " + ", ".join(f"{_CHAIN_LABELS[c]} {m.lower()}" for c, (m, _) in decided) if decided \
+        else ""
+
 
 
 def _scheme_items(self, context):
@@ -236,9 +334,9 @@ class MOTIONKIT_OT_bone_map_save(bpy.types.Operator, ExportHelper):
     filter_glob: StringProperty(default="*.json", options={'HIDDEN'})
 
     def execute(self, context):
-        return common.run(self, context,
-                          lambda progress: bone_mapping.save_map(self.filepath, _settings(context).bone_map()),
-                          lambda _: "")
+        settings = _settings(context)
+        return common.run(self, context, lambda progress: bone_mapping.save_map(
+            self.filepath, settings.bone_map(), chains=settings.reference_pose.chain_modes()), lambda _: "")
 
 
 class MOTIONKIT_OT_bone_map_load(bpy.types.Operator, ImportHelper):
@@ -251,7 +349,12 @@ class MOTIONKIT_OT_bone_map_load(bpy.types.Operator, ImportHelper):
     filter_glob: StringProperty(default="*.json", options={'HIDDEN'})
 
     def execute(self, context):
-        return _fill_map(self, context, lambda settings: bone_mapping.load_map(self.filepath))
+        def load(settings):
+            pairs, chains = bone_mapping.load_map(self.filepath), bone_mapping.load_chains(self.filepath)
+            settings.reference_pose.set_chain_modes(chains)
+            return pairs
+
+        return _fill_map(self, context, load)
 
 
 # The most of a row the target's names may take, so that the source's still say something.
@@ -374,6 +477,21 @@ class MOTIONKIT_PT_retarget_map(RetargetSubPanel, bpy.types.Panel):
             _draw_bone_field(col, item, "source", settings.source if settings.source_kind == 'ARMATURE' else None,
                              "Source Bone")
             _draw_bone_field(col, item, "target", settings.target, "Target Bone")
+        _draw_reference_pose(layout.box(), settings)
+
+
+def _draw_reference_pose(box, settings) -> None:
+    """Per chain: the user's mode, and beside Auto what it decided (and the limb's angle to the source's)."""
+    row = box.row()
+    row.label(text="Reference Pose")
+    row.operator("motionkit.reference_pose", text="", icon='FILE_REFRESH')
+    decided = settings.reference_pose.decided()
+    for chain in reference_pose.CHAINS:
+        split = box.split(factor=0.6, align=True)
+        split.prop(settings.reference_pose, _chain_prop(chain))
+        mode, angle = decided.get(chain, ("", ""))
+        auto = getattr(settings.reference_pose, _chain_prop(chain)) == "AUTO"
+        split.label(text=(mode.capitalize() + (f" {angle}\u00b0" if angle else "")) if auto and mode else "")
 
 
 class MOTIONKIT_PT_retarget_controls(RetargetSubPanel, bpy.types.Panel):
@@ -439,7 +557,8 @@ class MOTIONKIT_PT_retarget_feet(RetargetSubPanel, bpy.types.Panel):
 BONE_MAP = common.editable_list(common.EditableList(
     "bone_map", "pair", lambda context: context.scene.motionkit_retarget, "pairs", "active_pair", "No scene"))
 
-classes = (MOTIONKIT_PG_bone_pair, MOTIONKIT_PG_retarget, MOTIONKIT_OT_retarget, MOTIONKIT_OT_bone_map_auto,
+classes = (MOTIONKIT_PG_bone_pair, MOTIONKIT_PG_reference_pose, MOTIONKIT_PG_retarget, MOTIONKIT_OT_retarget,
+           MOTIONKIT_OT_bone_map_auto, MOTIONKIT_OT_reference_pose,
            MOTIONKIT_OT_bone_map_scheme, MOTIONKIT_OT_bone_map_save, MOTIONKIT_OT_bone_map_load,
            MOTIONKIT_UL_bone_map, MOTIONKIT_PT_retarget, MOTIONKIT_PT_retarget_map, MOTIONKIT_PT_retarget_controls,
            MOTIONKIT_PT_retarget_options, MOTIONKIT_PT_retarget_feet)

@@ -18,7 +18,7 @@ import characters
 import generate
 import shared_data
 import stances
-from pointing import pointing_pairs
+from pointing import MATCH_EVERY_CHAIN, pointing_pairs
 from rotations import matrix_angles
 
 FEET = {  # per rig kind: (ankle bone, toe bone) for each side
@@ -228,8 +228,9 @@ def test_walk60_onto_each_sample_character(mk, retargeting, walk60, spec):
     mapped_limbs = {canonical[t] for _, t in pairs}
     for limb in ("upper_arm", "forearm", "hand", "thigh", "shin", "foot"):
         assert {f"{limb}.L", f"{limb}.R"} <= mapped_limbs, (limb, pairs)
-    # Planting and the legs' floor fit move the legs on purpose.
-    plan = retargeting.plan(source, target, pairs, plant_feet=False, floor_fit="hips")
+    # Planting and the legs' floor fit move the legs on purpose; every chain set to match the source's direction
+    # (by default the target keeps its own posture: test_walk60_keeps_each_characters_posture).
+    plan = retargeting.plan(source, target, pairs, plant_feet=False, floor_fit="hips", chain_modes=MATCH_EVERY_CHAIN)
     retargeting.apply(plan)
     frames = np.arange(1, 183)
     got = world_rotations(target, [t for _, t in pairs], frames)
@@ -248,6 +249,39 @@ def test_walk60_onto_each_sample_character(mk, retargeting, walk60, spec):
     # where the feet stand: test_feet_stand_on_the_floor.
     p = spec.proportions
     assert plan.leg_ratio * 0.85 < p.hip_height < plan.leg_ratio * 1.15  # walk60's legs are about 0.9 m
+
+
+def rest_y_axes(obj, names):
+    """World Y axes (bones, 3) of the bones at rest (matrix_world @ bone.matrix_local), unit."""
+    axes = np.array([(obj.matrix_world.to_3x3() @ obj.data.bones[n].matrix_local.to_3x3()).col[1] for n in names])
+    return axes / np.linalg.norm(axes, axis=1, keepdims=True)
+
+
+@pytest.mark.parametrize("spec", characters.CHARACTERS, ids=lambda s: s.name)
+def test_walk60_keeps_each_characters_posture(mk, retargeting, walk60, spec):
+    """By default the target keeps its own posture where the two rigs stand alike (BRIEF section 8): its trunk
+    (a character's spine curve and head carriage) moves from its own rest as the capture's moves from its
+    rest, so each trunk bone stays at its rest angle from the capture's bone on every frame, and each limb
+    is either matched (at 0) or kept (at its rest angle): a constant angle, never a drift. Every bone turns
+    from frame to frame as its source bone does either way."""
+    source, _ = load(mk, walk60, "walk60")
+    target = generate.build_armature(spec)
+    pairs = retargeting.auto_map(source, target)
+    plan = retargeting.plan(source, target, pairs, plant_feet=False, floor_fit="hips")
+    modes = {c.chain: c.mode for c in plan.chains}
+    print(f"\nwalk60 onto {spec.name}: " + ", ".join(f"{c.chain} {c.mode} ({c.angle:.1f})" for c in plan.chains))
+    assert modes["trunk"] == "KEEP" and not any(c.by_user for c in plan.chains)
+    retargeting.apply(plan)
+    frames = np.arange(1, 183, 4)
+    names = [[s for s, _ in pairs], [t for _, t in pairs]]
+    got, posed = world_rotations(target, names[1], frames), world_rotations(source, names[0], frames)
+    turns = lambda r: r @ np.swapaxes(r[:1], -1, -2)  # noqa: E731
+    assert np.degrees(matrix_angles(turns(got), turns(posed))).max() < CHARACTER_DEG
+    angle = angles_deg(posed[..., 1], got[..., 1])
+    assert np.ptp(angle, axis=0).max() < CHARACTER_DEG
+    rest = angles_deg(rest_y_axes(source, names[0]), rest_y_axes(target, names[1]))
+    trunk = [i for i, (_, t) in enumerate(pairs) if any(k in t.lower() for k in ("spine", "neck", "head", "hips"))]
+    assert trunk and np.abs(angle[:, trunk] - rest[trunk]).max() < CHARACTER_DEG, (angle[0, trunk], rest[trunk])
 
 
 def test_errors_change_nothing(mk, walk60):

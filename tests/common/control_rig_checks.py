@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 import rigify_rig
-from pointing import pointing_pairs
+from pointing import MATCH_EVERY_CHAIN, pointing_pairs
 from rotations import matrix_angles
 
 # Bounds, about ten times what Blenders 3.4, 4.3 and 5.2 measure (the same figures) on walk60 and
@@ -189,7 +189,7 @@ def rigify_turns(mk, rig, path, controls):
     TWIST_SHARED): the worst angle (degrees) between the bone's whole world turn from the first frame and
     the source bone's (turn_errors), and between the DEF bones' directions as the retarget promises to
     match them (pointing.py)."""
-    mk.retarget(path, rig, controls=controls, plant_feet=False, floor_fit="hips")
+    mk.retarget(path, rig, controls=controls, plant_feet=False, floor_fit="hips", chain_modes=MATCH_EVERY_CHAIN)
     source = source_object(path)
     pairs = mk.retargeting.auto_map(source, rig)
     frames = action_frames(rig)
@@ -256,7 +256,7 @@ def rigify_feet_slide(mk, rig, path, controls):
 def rigify_neck_and_head(mk, rig, path, controls):
     """Degrees per DEF neck and head bone (spine.004-.006): the worst angle between its world direction and
     the source's (test_rigify_neck_and_head_point_as_the_source_does says how the source's is found)."""
-    mk.retarget(path, rig, controls=controls, plant_feet=False, floor_fit="hips")
+    mk.retarget(path, rig, controls=controls, plant_feet=False, floor_fit="hips", chain_modes=MATCH_EVERY_CHAIN)
     source = source_object(path)
     paired = {target: bone for bone, target in mk.retargeting.auto_map(source, rig)}
     names = ["DEF-spine.004", "DEF-spine.005", "DEF-spine.006"]  # the neck's two bones and the head

@@ -8,6 +8,11 @@ spine); otherwise by the bones' Y axes (leaves, and bones whose tails end on no 
 import bpy
 import numpy as np
 
+# The retarget's chain modes that point every chain where the source's points (core/reference_pose.CHAINS,
+# spelled out here): what the exactness tests hold the retarget to; by default a target keeps its posture.
+MATCH_EVERY_CHAIN = {chain: "MATCH" for chain in ("trunk", "arm.L", "arm.R", "leg.L", "leg.R", "fingers.L",
+                                                  "fingers.R")}
+
 
 def pointing_ends(source, target, pairs, parents=None):
     """[(source child, target child) or None] for each (source bone, target bone) pair. parents: target

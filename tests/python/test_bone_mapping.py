@@ -524,7 +524,7 @@ def test_map_from_presets_rejects_unknown_and_foreign_schemes():
     ("not json at all", "cannot read a bone map"),
     ('{"format": "something-else", "version": 1, "pairs": []}', "not a MotionKit bone map"),
     ('[["a", "b"]]', "not a MotionKit bone map"),
-    ('{"format": "motionkit-bone-map", "version": 2, "pairs": []}', "unsupported bone map version 2"),
+    ('{"format": "motionkit-bone-map", "version": 3, "pairs": []}', "unsupported bone map version 3"),
     ('{"format": "motionkit-bone-map", "version": 1, "pairs": {"a": "b"}}', '"pairs" must be a list'),
     ('{"format": "motionkit-bone-map", "version": 1, "pairs": [["a"]]}', "must be \\[source bone, target"),
     ('{"format": "motionkit-bone-map", "version": 1, "pairs": [["a", "x"], ["b", "x"]]}',
