@@ -17,10 +17,13 @@ farther than TRUNK_POSE_ANGLE from the source's (a rig lying or bent double at
 rest). A limb is matched where its overall line (from its upper bone's head to
 its end joint) lies farther than LIMB_POSE_ANGLE from the source's, and kept
 otherwise. Fingers are matched (a hand's rest spread and curl are poses). A
-bone of a kept chain whose rest points farther than BONE_POSE_ANGLE from the
-source's is turned all the same (a capture's foot pointing down its shin). A
+bone of a kept chain that its parents carry to point more than 45 degrees from
+the source's is turned all the same (a capture's foot pointing down its shin;
+the native retarget decides that, where the carrying is known). A
 zero pose (every joint straight on from its parent's, as some captures' rests
-stand) is no body's posture: against one, every chain is matched. The user can
+stand) is no body's posture, and a rig whose trunk lies farther than
+TRUNK_POSE_ANGLE from the source's stands in another pose altogether (lying,
+or a zero pose along the floor): against either, every chain is matched. The user can
 set any chain either way.
 """
 from __future__ import annotations
@@ -38,9 +41,6 @@ MODES = ("KEEP", "MATCH")
 LIMB_POSE_ANGLE = 15.0
 # Characters' spines lean 10-28 degrees forward or back bone by bone; hips to head, less.
 TRUNK_POSE_ANGLE = 45.0
-# One bone: a bent knee or a hunched spine bone lies within 30 degrees of another body's; a foot pointing down
-# its shin against one on the floor, 90.
-BONE_POSE_ANGLE = 45.0
 
 _LIMB_ENDS = {"arm": ("upper_arm", "hand", "forearm"), "leg": ("thigh", "foot", "shin")}
 _POSE_ANGLE = {"trunk": TRUNK_POSE_ANGLE, "arm": LIMB_POSE_ANGLE, "leg": LIMB_POSE_ANGLE}
@@ -101,6 +101,9 @@ def _angle(a, b) -> float:
 def decide(source: Limbs, target: Limbs, user_modes=None) -> list[ChainPose]:
     """Every chain's mode, the user's where given (user_modes: {chain: mode})."""
     user_modes = check_modes(user_modes)
+    trunk = _line(source, "trunk", ""), _line(target, "trunk", "")
+    elsewhere = source.zero_pose or target.zero_pose or (
+        trunk[0] is not None and trunk[1] is not None and _angle(*trunk) > TRUNK_POSE_ANGLE)
     out = []
     for chain in CHAINS:
         kind, _, side = chain.partition(".")
@@ -110,7 +113,7 @@ def decide(source: Limbs, target: Limbs, user_modes=None) -> list[ChainPose]:
             if lines[0] is not None and lines[1] is not None:
                 angle = _angle(*lines)
                 auto = "MATCH" if angle > _POSE_ANGLE[kind] else "KEEP"
-        if source.zero_pose or target.zero_pose:
+        if elsewhere:
             auto = "MATCH"
         mode = user_modes.get(chain, auto)
         out.append(ChainPose(chain, mode, chain in user_modes, angle))
@@ -131,20 +134,10 @@ def chain_of_labels(body: bone_mapping.Body) -> dict:
     return out
 
 
-def across(source_directions, target_directions) -> np.ndarray:
-    """(n,) bool: which pairs of rest directions (n, 3 each, one space) lie farther apart than
-    BONE_POSE_ANGLE."""
-    a = np.asarray(source_directions, dtype=np.float64)
-    b = np.asarray(target_directions, dtype=np.float64)
-    cos = np.einsum("nk,nk->n", a, b) / np.maximum(np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1), 1e-300)
-    return cos < np.cos(np.radians(BONE_POSE_ANGLE))
-
-
-def kept_bones(names, parents, body: bone_mapping.Body, chains: list[ChainPose], turned=()) -> list[int]:
-    """The target bones (indices, ascending) that keep their own posture: each bone is on the chain of its
-    nearest labelled ancestor or itself (a twist bone on its limb's, an unlabelled bone between the hips and
-    the chest on the trunk's, anything under a hand not labelled on that hand's fingers'); turned: bones
-    turned whatever their chain (across())."""
+def kept_bones(names, parents, body: bone_mapping.Body, chains: list[ChainPose]) -> list[int]:
+    """The target bones (indices, ascending) on a kept chain: each bone is on the chain of its nearest
+    labelled ancestor or itself (a twist bone on its limb's, an unlabelled bone between the hips and the
+    chest on the trunk's, anything under a hand not labelled on that hand's fingers')."""
     labels = chain_of_labels(body)
     hands = {body.limbs.get(f"hand.{s}"): f"fingers.{s}" for s in bone_mapping.SIDES}
     modes = {c.chain: c.mode for c in chains}
@@ -154,6 +147,6 @@ def kept_bones(names, parents, body: bone_mapping.Body, chains: list[ChainPose],
         while chain is None and up >= 0:
             chain = hands.get(names[up]) or labels.get(names[up])
             up = parents[up]
-        if chain is not None and modes.get(chain) == "KEEP" and b not in turned:
+        if chain is not None and modes.get(chain) == "KEEP":
             kept.append(b)
     return kept

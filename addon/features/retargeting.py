@@ -767,27 +767,41 @@ def _chain_poses(rigs: _Rigs, fit: _Fit, chain_modes) -> list:
     return reference_pose.decide(source, target, chain_modes)
 
 
-def _posture_bones(rigs: _Rigs, fit: _Fit, chains) -> list[int]:
-    """The target bones that keep their own posture (reference_pose.kept_bones): on a kept chain, and each
-    mapped one pointing within reference_pose.BONE_POSE_ANGLE of its source bone in the match poses."""
-    source_aims, target_aims = _bone_aims(rigs.src, rigs.tgt, [int(v) for v in rigs.bone_map])
-    a, b = (np.array([p[i] for p in rigs.pairs_idx], dtype=np.int64) for i in (0, 1))
-    aim = lambda aims, bones: np.tile([0.0, 1.0, 0.0], (len(bones), 1)) if aims is None else aims[bones]  # noqa: E731
-    source = rotation_channels.rotate_each(rigs.source_pose.rotations[a], aim(source_aims, a))
-    source = rotation_channels.rotate(fit.space, source)
-    target = rotation_channels.rotate_each(rigs.target_pose.rotations[b], aim(target_aims, b))
-    turned = set(b[reference_pose.across(source, target)].tolist())
+def _posture_bones(rigs: _Rigs, chains) -> list[int]:
+    """The target bones on kept chains (reference_pose.kept_bones), for the native retarget to keep where
+    their parents carry them within 45 degrees of the source's."""
     return reference_pose.kept_bones(rigs.tgt.names, pose_channels.parent_indices(rigs.tgt.bones), rigs.tgt_body,
-                                     chains, turned)
+                                     chains)
 
 
 def kept_bones(source, target, bone_map=None, *, source_match: str = 'REST', match_frame=None,
                target_match: str = 'REST', align_facing: bool = True, chain_modes: dict | None = None) -> list[str]:
     """The target bones that keep their own posture in the reference pose (the others point where the
-    source's do), as plan() decides them."""
-    _, tgt, _, _, rigs, fit, chains = _reference(source, target, bone_map, source_match, match_frame, target_match,
-                                                 align_facing, chain_modes)
-    return [tgt.names[b] for b in _posture_bones(rigs, fit, chains)]
+    source's do), as plan() decides them: the native retarget's kept_posture on the clip's first frame."""
+    _, tgt, _, clip, rigs, fit, chains = _reference(source, target, bone_map, source_match, match_frame,
+                                                    target_match, align_facing, chain_modes)
+    first = _Clip(clip.action, clip.frames[:1], clip.fps, clip.basis[:1], clip.locations[:1], clip.rotations[:1],
+                  clip.heads[:1])
+    return [tgt.names[b] for b in _native_retarget(rigs, first, fit, "none", False, chains).kept_posture]
+
+
+def _native_retarget(rigs: _Rigs, clip: _Clip, fit: _Fit, root, ground, chains):
+    """The native retarget of the clip (a _native.RetargetResult); it releases the GIL."""
+    src, tgt = rigs.src, rigs.tgt
+    source_root, target_root = rigs.roots
+    source_aims, target_aims = _bone_aims(src, tgt, [int(v) for v in rigs.bone_map])
+    with native_state.blender_frames(clip.frames):
+        return native_state.native().retarget(
+            src.rig, tgt.rig, clip.rotations, np.ascontiguousarray(clip.heads[:, 3 * source_root:3 * source_root + 3]),
+            [int(v) for v in rigs.bone_map], source_match=np.ascontiguousarray(rigs.source_pose.rotations),
+            source_match_root=rigs.source_pose.heads[source_root],
+            target_match_basis=np.ascontiguousarray(rigs.target_basis),
+            target_match_location=rigs.target_locations[target_root], source_root=source_root,
+            target_root=target_root, space=fit.space, scale=fit.scale, unit_scale=fit.unit_scale,
+            vertical_offset=fit.heights[1] - fit.unit_scale * fit.heights[0], root_motion=root,
+            ground_bones=list(range(len(tgt.bones))) if ground else [], up=fit.up, source_floor=fit.floors[0],
+            target_floor=fit.floors[1], source_aims=source_aims, target_aims=target_aims,
+            posture_bones=_posture_bones(rigs, chains))
 
 
 def _retarget_clip(rigs: _Rigs, clip: _Clip, fit: _Fit, how, source_feet, contact_settings):
@@ -795,34 +809,16 @@ def _retarget_clip(rigs: _Rigs, clip: _Clip, fit: _Fit, how, source_feet, contac
     on a worker thread (it releases the GIL) while the source's contacts are found here. how: (root motion,
     ground, the chains' reference_pose.ChainPose)."""
     root, ground, chains = how
-    native = native_state.native()
-    posture_bones = _posture_bones(rigs, fit, chains)
-    src, tgt = rigs.src, rigs.tgt
-    source_root, target_root = rigs.roots
-    source_aims, target_aims = _bone_aims(src, tgt, [int(v) for v in rigs.bone_map])
-
-    def retarget_clip():
-        with native_state.blender_frames(clip.frames):
-            return native.retarget(
-                src.rig, tgt.rig, clip.rotations,
-                np.ascontiguousarray(clip.heads[:, 3 * source_root:3 * source_root + 3]),
-                [int(v) for v in rigs.bone_map], source_match=np.ascontiguousarray(rigs.source_pose.rotations),
-                source_match_root=rigs.source_pose.heads[source_root],
-                target_match_basis=np.ascontiguousarray(rigs.target_basis),
-                target_match_location=rigs.target_locations[target_root], source_root=source_root,
-                target_root=target_root, space=fit.space, scale=fit.scale, unit_scale=fit.unit_scale,
-                vertical_offset=fit.heights[1] - fit.unit_scale * fit.heights[0], root_motion=root,
-                ground_bones=list(range(len(tgt.bones))) if ground else [], up=fit.up,
-                source_floor=fit.floors[0], target_floor=fit.floors[1], source_aims=source_aims,
-                target_aims=target_aims, posture_bones=posture_bones)
+    src = rigs.src
 
     def source_contacts():
         return None if source_feet is None else contacts.find_contacts(
             src.obj, src.bones, src.rig, clip.basis, clip.locations, source_feet, contact_settings, fps=clip.fps,
             posed=(clip.rotations, clip.heads), floor=_armature_height_to_world(src.obj, fit.floors[0]))
 
-    (rotations, root_locations), found = worker_thread.beside(retarget_clip, source_contacts)
-    return rotations, root_locations, found
+    result, found = worker_thread.beside(lambda: _native_retarget(rigs, clip, fit, root, ground, chains),
+                                         source_contacts)
+    return result.rotations, result.root_locations, found
 
 
 def _place_roots(rigs: _Rigs, clip: _Clip, fit: _Fit, rotations, root_locations, root, floor_root,

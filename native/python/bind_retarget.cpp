@@ -32,7 +32,14 @@ ConstRowMap AsRow(const ConstMatrixView& table, Eigen::Index bones, Eigen::Index
   return ConstRowMap(table.data(), 1, bones * width);
 }
 
-py::tuple Retarget(const RigModel& source, const RigModel& target, const ConstMatrixView& source_rotations,
+// The retarget's results by name: rotations, root_locations, kept_posture.
+struct RetargetResult {
+  py::array rotations;
+  py::array root_locations;
+  std::vector<int> kept_posture;
+};
+
+RetargetResult Retarget(const RigModel& source, const RigModel& target, const ConstMatrixView& source_rotations,
                    const ConstMatrixView& source_root_heads, const std::vector<int>& bone_map,
                    const ConstMatrixView& source_match, const PointArg& source_match_root,
                    const ConstMatrixView& target_match_basis, const PointArg& target_match_location,
@@ -66,12 +73,19 @@ py::tuple Retarget(const RigModel& source, const RigModel& target, const ConstMa
   if (source_aims) job.source_aims = *source_aims;
   if (target_aims) job.target_aims = *target_aims;
   RunWithoutGil(job);
-  return py::make_tuple(rotations.array, root_locations.array);
+  return RetargetResult{rotations.array, root_locations.array, job.kept_posture};
 }
 
 }  // namespace
 
 void BindRetarget(py::module_& m) {
+  py::class_<RetargetResult>(m, "RetargetResult", "What retarget returns, by name.")
+      .def_readonly("rotations", &RetargetResult::rotations,
+                    "float64 (frames, 4b): pose quaternions per target bone, continuous per bone")
+      .def_readonly("root_locations", &RetargetResult::root_locations,
+                    "float64 (frames, 3): the target root's location channel")
+      .def_readonly("kept_posture", &RetargetResult::kept_posture,
+                    "the posture_bones that kept their own posture (ascending)");
   m.def("retarget", &Retarget, "source"_a, "target"_a, "source_rotations"_a.noconvert(),
         "source_root_heads"_a.noconvert(), "bone_map"_a, py::kw_only(), "source_match"_a.noconvert(),
         "source_match_root"_a, "target_match_basis"_a.noconvert(), "target_match_location"_a,
@@ -104,10 +118,12 @@ void BindRetarget(py::module_& m) {
         target bones that keep their own posture in the match pose (carried
         by their parents, not turned onto the source's direction).
 
-        Returns (rotations (frames, 4b) pose quaternions per target bone,
-        continuous per bone; root_locations (frames, 3), the target root's
-        location channel). Errors name the bone and frame. The GIL is released
-        while it runs.
+        Returns a RetargetResult: rotations (frames, 4b) pose quaternions per
+        target bone, continuous per bone; root_locations (frames, 3), the
+        target root's location channel; kept_posture, the posture_bones that
+        kept their posture (one that its parents carry to point more than 45
+        degrees from the source's is turned). Errors name the bone and frame.
+        The GIL is released while it runs.
       )pbdoc");
 }
 

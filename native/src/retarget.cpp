@@ -88,6 +88,7 @@ class Plan {
 
   const Drive& drive(int b) const { return drives_[static_cast<std::size_t>(b)]; }
   const Eigen::Quaterniond& match(int b) const { return match_[static_cast<std::size_t>(b)]; }
+  bool kept(int b) const { return kept_[static_cast<std::size_t>(b)]; }
   const Eigen::Quaterniond& match_basis(int b) const { return match_basis_[static_cast<std::size_t>(b)]; }
   const Eigen::Quaterniond& source_match_inverse(int a) const {
     return source_match_inverse_[static_cast<std::size_t>(a)];
@@ -121,13 +122,21 @@ class Plan {
       const Eigen::Quaterniond carried =
           (p < 0 ? Eigen::Quaterniond::Identity() : drives_[static_cast<std::size_t>(p)].align) * t.relative(b) *
           match_basis(b);
-      if (d.kind == Drive::kKeep || kept_[static_cast<std::size_t>(b)]) {
+      if (d.kind == Drive::kKeep) {
         d.align = carried.normalized();
         continue;
       }
       const Eigen::Vector3d direction = d.kind == Drive::kMapped ? SourceDirection(d.from, d.from, 0.0)
                                                                  : SourceDirection(d.from, d.to, d.alpha);
       const Eigen::Vector3d own = carried * Aim(job_.target_aims, b);
+      // A bone kept where its parents carry it unless it then points across the source's: a capture's foot
+      // pointing down its shin, an arm lying along a zero pose's spine turned upright, are poses.
+      const bool kept = kept_[static_cast<std::size_t>(b)] && own.normalized().dot(direction.normalized()) >= kPostureCos;
+      kept_[static_cast<std::size_t>(b)] = kept;
+      if (kept) {
+        d.align = carried.normalized();
+        continue;
+      }
       d.align = (Eigen::Quaterniond::FromTwoVectors(own, direction) * carried).normalized();
       if (d.kind == Drive::kMapped) d.align = (SpreadTurn(b, d.align, direction.normalized()) * d.align).normalized();
     }
@@ -162,6 +171,7 @@ class Plan {
     return Eigen::Quaterniond(Eigen::AngleAxisd(std::atan2(across, along), axis));
   }
 
+  static constexpr double kPostureCos = 0.7071067811865476;  // cos 45 degrees: bodies differ less, poses more
   static constexpr double kOffLine = 0.17;  // sin 10 degrees: a child head this far off the line shows a roll
 
   static Eigen::Vector3d Across(const Eigen::Vector3d& axis, const Eigen::Vector3d& v) {
@@ -190,21 +200,23 @@ class Plan {
     if (a0 == a || !s.IsAncestor(a0, a)) return;
     std::reverse(chain.begin(), chain.end());
     const std::vector<int> path = SourcePath(s, a0, a);
-    std::vector<double> source_ends{0.0};
-    for (int bone : path) source_ends.push_back(source_ends.back() + s.length(bone));
-    double target_total = 0.0;
-    for (int bone : chain) target_total += t.length(bone);
-    double reach = 0.0;
+    // Where a0 only leads on to a (a neck to its head), the source's span runs from a0's head to a's tail
+    // against the target's from top's head to b's tail: a target bone whose tail lies within a0's own
+    // reach continues a0 (a two-bone neck under a one-bone neck shares its turn), one beyond it blends the
+    // source bones its tail lies between. Where a0 branches (a chest carrying arms and a head), its reach
+    // is no chain's: the span runs from a0's tail, the target's from top's.
+    const bool through = MappedBranches(a0) == 1;
+    const std::vector<double> source_ends = Ends(s, source_heads_, a0, path, through);
+    const std::vector<double> target_ends = Ends(t, target_heads_, top, chain, through);
     for (std::size_t j = 0; j + 1 < chain.size(); ++j) {
       const int c = chain[j];
-      reach += t.length(c);
-      const double f = reach / target_total * source_ends.back();
+      const double f = target_ends[j + 2] / target_ends.back() * source_ends.back();
       std::size_t i = 1;
       while (i + 1 < source_ends.size() && source_ends[i] < f) ++i;
-      const int upper = i == 1 ? a0 : path[i - 2];
-      const int lower = path[i - 1];
+      const int upper = i <= 2 ? a0 : path[i - 3];
+      const int lower = i == 1 ? a0 : path[i - 2];
       const double span = source_ends[i] - source_ends[i - 1];
-      const double alpha = std::clamp((f - source_ends[i - 1]) / span, 0.0, 1.0);
+      const double alpha = i == 1 || span <= 0.0 ? 0.0 : std::clamp((f - source_ends[i - 1]) / span, 0.0, 1.0);
       // A bone on two chains (an unmapped chest under the neck and both
       // arms) follows the one that continues it best.
       const Eigen::Vector3d own = t.rest(c) * kBoneAxis;
@@ -217,6 +229,40 @@ class Plan {
       d.alpha = alpha;
       d.fit = fit;
     }
+  }
+
+  // Where each bone of `first` then `bones` (a chain, top first) ends along it, from first's head: 0, then
+  // each bone's reach to the next one's head (the last one's length); first's reach counted only
+  // with_first (else 0: nothing ends within it).
+  static std::vector<double> Ends(const RigModel& rig, const std::vector<Eigen::Vector3d>& heads, int first,
+                                  const std::vector<int>& bones, bool with_first) {
+    std::vector<int> all{first};
+    all.insert(all.end(), bones.begin(), bones.end());
+    std::vector<double> ends{0.0};
+    for (std::size_t k = 0; k < all.size(); ++k) {
+      double reach = rig.length(all[k]);
+      if (k == 0 && !with_first) {
+        reach = 0.0;
+      } else if (k + 1 < all.size()) {
+        reach = (heads[static_cast<std::size_t>(all[k + 1])] - heads[static_cast<std::size_t>(all[k])]).norm();
+      }
+      ends.push_back(ends.back() + reach);
+    }
+    return ends;
+  }
+
+  // How many of source bone a's children lead to a mapped source bone.
+  int MappedBranches(int a) const {
+    const RigModel& s = job_.source;
+    std::vector<bool> leads(static_cast<std::size_t>(s.size()), false);
+    for (int m : job_.bone_map) {
+      for (int x = m; x >= 0 && !leads[static_cast<std::size_t>(x)]; x = s.parent(x)) {
+        leads[static_cast<std::size_t>(x)] = true;
+      }
+    }
+    int branches = 0;
+    for (int c = 0; c < s.size(); ++c) branches += s.parent(c) == a && leads[static_cast<std::size_t>(c)];
+    return branches;
   }
 
   const RetargetJob& job_;
@@ -499,6 +545,10 @@ Status RetargetJob::Validate() const {
 void RetargetJob::Run() {
   Validate().ThrowIfFailed();
   const Plan plan(*this);
+  kept_posture.clear();
+  for (int b = 0; b < target.size(); ++b) {
+    if (plan.kept(b)) kept_posture.push_back(b);
+  }
   TargetPoser poser(*this, plan);
   const double lift = poser.GroundLift();
   for (Eigen::Index f = 0; f < source_rotations.rows(); ++f) poser.PoseFrame(f, lift);

@@ -121,3 +121,23 @@ def test_bad_chain_modes_in_a_map_name_the_file(tmp_path):
     path.write_text(json.dumps({"format": bm.MAP_FORMAT, "version": 2, "pairs": [], "chains": {"tail": "KEEP"}}))
     with pytest.raises(ValueError, match=r"map\.json: chain_modes: unknown chain 'tail'"):
         bm.load_chains(path)
+
+
+def test_a_trunk_lying_another_way_or_a_zero_pose_matches_every_chain():
+    lying = {name: np.array([p[2], p[1], -p[0]]) for name, p in _heads().items()}  # turned 90 deg about Y
+    chains = rp.decide(_limbs(), rp.Limbs(_body(), lying))
+    assert _modes(chains) == {c: "MATCH" for c in rp.CHAINS}
+    assert {c.chain: round(c.angle, 9) for c in chains}["trunk"] == 90.0
+    zero = rp.Limbs(_body(), _heads(), zero_pose=True)
+    assert _modes(rp.decide(_limbs(), zero)) == {c: "MATCH" for c in rp.CHAINS}
+    assert _modes(rp.decide(zero, _limbs(), {"trunk": "KEEP"}))["trunk"] == "KEEP"
+
+
+def test_a_trunk_leaning_less_than_a_pose_keeps():
+    lean = np.radians(rp.TRUNK_POSE_ANGLE - 1.0)
+    heads = _heads()
+    hips = heads["hips"]
+    for name in ("spine", "neck", "head"):
+        v = heads[name] - hips
+        heads[name] = hips + np.array([v[0], -np.sin(lean) * v[2], np.cos(lean) * v[2]])
+    assert _modes(rp.decide(_limbs(), rp.Limbs(_body(), heads)))["trunk"] == "KEEP"

@@ -20,7 +20,10 @@
 // or a bent knee stays the character's own (BRIEF section 8: the reference
 // poses are poses, not body shapes). The caller decides per chain which rest
 // differences are poses (T against A arms: turned, S_b) and which are the
-// body's (kept).
+// body's (kept). A posture bone that its parents carry to point more than 45
+// degrees from the source's is turned all the same: so far apart, the rigs
+// stand in different poses there (a capture's foot pointing down its shin);
+// kept_posture says which bones kept theirs.
 //
 // Chains of different lengths: target bones left out of the map that lie
 // between two mapped bones (b0 above b) take, at the fraction of the chain's
@@ -119,6 +122,7 @@ struct RetargetJob {
   RetargetOptions options;
   Eigen::Ref<RowMatrixXd> rotations;
   Eigen::Ref<RowMatrixXd> root_locations;
+  std::vector<int> kept_posture;  // output: the posture bones that kept their posture (ascending)
 
   // Shapes, finiteness (naming bone and frame), the map (indices in range, at
   // least one bone, and no crossing: if target b0 is above b, source a0 must
