@@ -168,6 +168,11 @@ _HELPER_WORDS = {
     "socket", "attach", "weapon", "prop", "jiggle", "metacarpal", "face", "jaw", "lip", "lips", "mouth",
     "nose", "chin", "tongue", "teeth", "forehead", "hair", "bck", "fwd", "bicep", "tricep", "scap",
     "latissimus", "vb",
+    # Mixamo characters' own joints beside the standard ones: LeftShoulder_split and Spine1_split (identity
+    # in Mixamo's clips), a facial-animation joint on the floor (BoyFacialAnim_Joint), and clothes, hair and
+    # props whose names hold a body word (LeftPantLeg, Left_ShortSleeve, LFootTongue, Bind_Left_JacketString).
+    "split", "facial", "pant", "pants", "sleeve", "cape", "skirt", "hood", "hat", "visor", "strap", "string",
+    "belt", "bag", "pouch", "backpack", "butt", "belly", "jowel", "jowl", "whistle", "peck", "scarf", "tie",
 }
 # Fingers, face and flesh bones come in pairs: these words are helpers only on a
 # sided name, so that an unsided "spineMiddle" or "Ring" stays what it is.
@@ -439,8 +444,7 @@ def _find_hips(shape: _Shape) -> int | None:
     for bone in shape.order:
         if shape.ignored[bone]:
             continue
-        kids = shape.kids[bone]
-        if any(shape.goes_up(c, bone) for c in kids) and sum(shape.goes_down(c, bone) for c in kids) >= 2:
+        if any(shape.goes_up(c, bone) for c in shape.kids[bone]) and len(_leg_starts(shape, bone)) >= 2:
             return bone
     return None
 
@@ -463,8 +467,31 @@ def _up_chain(shape: _Shape, hips: int) -> list[int]:
 
 
 def _leg_starts(shape: _Shape, hips: int) -> list[int]:
-    downs = [c for c in shape.kids[hips] if shape.goes_down(c, hips)]
-    return sorted(sorted(downs, key=lambda c: (shape.bottom[c], c))[:2])
+    """The first bones of the two legs below hips.
+
+    A bone going down that the two legs branch from (Mixamo's Pelvis between
+    Hips and the legs) is passed through. A leg starts at the hip: a subtree
+    going down from far off (a joint parked on the floor) is none. Subtrees
+    holding bones named as legs come first, so that no other bone reaching
+    the floor displaces a leg its names declare; then the lowest reaching.
+    """
+    starts = []
+    for child in shape.kids[hips]:
+        if not shape.goes_down(child, hips):
+            continue
+        below = [c for c in shape.kids[child] if shape.goes_down(c, child)]
+        named = any(k in LEG_SLOTS for k in shape.info[child].keys)
+        starts += below if len(below) >= 2 and not named else [child]
+    origin = shape.rig.heads[hips]
+    starts = [c for c in starts if np.linalg.norm(shape.rig.heads[c] - origin) < 0.3 * shape.height]
+    ranked = sorted(starts, key=lambda c: (-_named_sides(shape, c, LEG_SLOTS), shape.bottom[c], c))
+    return sorted(ranked[:2])
+
+
+def _named_sides(shape: _Shape, start: int, slots: tuple[str, ...]) -> int:
+    """How many sides the non-helper bones of start's subtree name as limb bones of slots (0, 1 or 2)."""
+    return len({shape.info[b].side for b in shape.members[start]
+                if not shape.ignored[b] and shape.info[b].side and set(shape.info[b].keys) & set(slots)})
 
 
 def _horizontal(v) -> np.ndarray:
@@ -627,8 +654,10 @@ def _label_trunk(body: Body, shape: _Shape, up: list[int], chest: int | None) ->
     head = named_head[0] if named_head else len(up) - 1
     if head <= chest:
         head = None
-    spine = up[:chest + 1]
-    neck = up[chest + 1:head] if head is not None else up[chest + 1:]
+    # A segment split off its neighbour (Mixamo's Spine1_split, at rest in Mixamo's own clips) stays in the
+    # chain's shape but is not one of its joints: the chain pairs bone to bone with a rig without it.
+    spine = [b for b in up[:chest + 1] if not _is_split(names[b])]
+    neck = [b for b in (up[chest + 1:head] if head is not None else up[chest + 1:]) if not _is_split(names[b])]
     body.spine = [names[b] for b in spine]
     body.neck = [names[b] for b in neck]
     for key, bones in (("spine", spine), ("neck", neck)):
@@ -637,6 +666,10 @@ def _label_trunk(body: Body, shape: _Shape, up: list[int], chest: int | None) ->
     if head is not None:
         body.head = names[up[head]]
         body.how["head"] = "name" if named_head else "structure"
+
+
+def _is_split(name: str) -> bool:
+    return "split" in _words(_strip(name))
 
 
 def _names_only_body(shape: _Shape) -> Body:
