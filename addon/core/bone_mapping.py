@@ -879,18 +879,35 @@ def _scheme_names(scheme: dict) -> list[str]:
     return names
 
 
+def _answering(rig: Rig) -> dict[str, str]:
+    """Each name a preset may give -> the rig's bone answering to it.
+
+    A bone answers to its own name and, where no other bone has the same name
+    past its namespace, to that name in any namespace: a character exported
+    as mixamorig6: or newVegas: answers to the Mixamo preset's mixamorig:Hips.
+    """
+    bases = {}
+    for name in rig.names:
+        bases.setdefault(_NAMESPACE.sub("", name), []).append(name)
+    return {base: found[0] for base, found in bases.items() if len(found) == 1} | {n: n for n in rig.names}
+
+
+def _answer(answering: dict[str, str], name: str) -> str | None:
+    return answering.get(name) or answering.get(_NAMESPACE.sub("", name))
+
+
 def detect_scheme(rig: Rig) -> str | None:
-    """The shipped scheme all of whose (non-optional) bone names the rig has, or None.
+    """The shipped scheme all of whose (non-optional) bone names the rig has (in any namespace), or None.
 
     When several fit, the one naming the most of the rig's bones wins, then the first id.
     """
-    present = set(rig.names)
+    answering = _answering(rig)
     fits = []
     for scheme_id, scheme in sorted(_load_schemes().items()):
         optional = set(scheme.get("optional", []))
-        names = _scheme_names(scheme)
-        if all(n in present for n in names if n not in optional):
-            fits.append((-sum(n in present for n in names), scheme_id))
+        found = [_answer(answering, n) is not None for n in _scheme_names(scheme)]
+        if all(f for f, n in zip(found, _scheme_names(scheme)) if n not in optional):
+            fits.append((-sum(found), scheme_id))
     return min(fits)[1] if fits else None
 
 
@@ -902,20 +919,20 @@ def _scheme(scheme_id: str) -> dict:
 
 
 def _body_from_scheme(rig: Rig, scheme_id: str) -> Body:
-    bones, present = _scheme(scheme_id)["bones"], set(rig.names)
+    bones, answering = _scheme(scheme_id)["bones"], _answering(rig)
     how = f"preset:{scheme_id}"
     body = Body()
     for key, value in bones.items():
         if key in ("spine", "neck"):
-            chain = [n for n in value if n in present]
+            chain = [b for b in (_answer(answering, n) for n in value) if b is not None]
             setattr(body, key, chain)
             if chain:
                 body.how[key] = how
-        elif value in present:
+        elif _answer(answering, value) is not None:
             if key in ("hips", "head", "root"):
-                setattr(body, key, value)
+                setattr(body, key, _answer(answering, value))
             else:
-                body.limbs[key] = value
+                body.limbs[key] = _answer(answering, value)
             body.how[key] = how
     return body
 
