@@ -529,7 +529,12 @@ def _structural_slots(shape: _Shape, chain: list[int], slots: tuple[str, ...]) -
     """
     if not chain:
         return {}
-    sums = [shape.length[chain[i]] + shape.length[chain[i + 1]] for i in range(len(chain) - 1)]
+    # A segment's length is from its joint to the next joint of the chain: a bone's own tail may point at
+    # another child (an importer aims it at a sleeve or pant-leg joint beside the knee).
+    heads = shape.rig.heads
+    length = [float(np.linalg.norm(heads[chain[i + 1]] - heads[chain[i]])) if i + 1 < len(chain)
+              else shape.length[chain[i]] for i in range(len(chain))]
+    sums = [length[i] + length[i + 1] for i in range(len(chain) - 1)]
     upper = int(np.argmax(sums)) if sums else 0
     labels = {}
     if upper > 0:
@@ -1041,6 +1046,65 @@ def _join(source: Body, target: Body, target_rig: Rig) -> list[tuple[str, str]]:
 def auto_map(source: Rig, target: Rig) -> list[tuple[str, str]]:
     """(source bone, target bone) pairs from classifying both rigs, in target depth-first order."""
     return _join(classify(source), classify(target), target)
+
+
+@dataclass
+class MapReport:
+    """An automatic map and, by bone name, what it leaves out: for the caller to show, never to act on.
+
+    target_unmapped: the target's body joints (hips, spine, neck, head, limb
+    bones, each finger's first phalanx) that no pair drives; they keep their
+    rest. A spine of three onto one of two leaves one here; so does a limb or
+    finger the source lacks.
+    target_unlabelled: target bones whose names read as body joints but that
+    are none of the body's labels (Mixamo's Pelvis between the hips and the
+    legs, CMU's LHipJoint, a clothing collar), so nothing maps onto them.
+    source_unused: the source's body joints that drive nothing.
+    """
+    pairs: list[tuple[str, str]]
+    target_unmapped: list[str] = field(default_factory=list)
+    target_unlabelled: list[str] = field(default_factory=list)
+    source_unused: list[str] = field(default_factory=list)
+
+    def message(self) -> str:
+        """One line naming what is left out ("" when nothing is)."""
+        parts = [f"{what}: {', '.join(names)}" for what, names in (
+            ("target body joints left unmapped", self.target_unmapped),
+            ("target bones named as body joints but not mapped", self.target_unlabelled),
+            ("source body joints unused", self.source_unused)) if names]
+        return "; ".join(parts)
+
+
+def body_joints(body: Body) -> list[str]:
+    """The labelled body joints of a Body: hips, spine, neck, head, limb bones, each finger's first phalanx.
+
+    Later phalanges and metacarpals are left out: the retarget moves the
+    phalanges between a finger's paired first and last bones itself.
+    """
+    joints = [body.hips] + body.spine + body.neck + [body.head]
+    joints += [body.limbs[k] for k in LIMB_KEYS if k in body.limbs]
+    joints += [body.fingers[k][0] for k in FINGER_KEYS if body.fingers.get(k)]
+    return [j for j in joints if j is not None]
+
+
+def _unlabelled(rig: Rig, body: Body) -> list[str]:
+    """Bones whose names read as body joints (not helpers) that the body does not label, depth first."""
+    labelled = set(body_joints(body)) | {body.root} | {b for f in body.fingers.values() for b in f}
+    order = [rig.names[i] for i in _depth_first(rig.parents)]
+    return [n for n in order if n not in labelled and name_info(n).keys and not name_info(n).helper]
+
+
+def auto_map_report(source: Rig, target: Rig) -> MapReport:
+    """auto_map's pairs with what they leave out (MapReport)."""
+    source_body, target_body = classify(source), classify(target)
+    pairs = _join(source_body, target_body, target)
+    driven, driving = {t for _, t in pairs}, {s for s, _ in pairs}
+    order = {n: i for i, n in enumerate(target.names[i] for i in _depth_first(target.parents))}
+    return MapReport(
+        pairs,
+        sorted((j for j in body_joints(target_body) if j not in driven), key=order.get),
+        _unlabelled(target, target_body),
+        [j for j in body_joints(source_body) if j not in driving])
 
 
 def map_from_presets(source: Rig, source_scheme: str, target: Rig, target_scheme: str) -> list[tuple[str, str]]:
