@@ -214,3 +214,17 @@ def test_shape_alone_finds_the_legs_beside_a_joint_parked_on_the_floor(san, name
     legs = {k: base(real[v]) for k, v in body.limbs.items() if k.split(".")[0] in bm.LEG_KEYS}
     assert legs == {k: v for k, v in LIMB_NAMES.items() if k.split(".")[0] in bm.LEG_KEYS}
     assert base(real[body.hips]) == "Hips"
+
+
+def test_named_legs_win_over_a_longer_chain_from_the_hips(san):
+    """A tail from the hips reaching lower than the feet (a cape, a tail) displaces no leg its names declare."""
+    rig = san["Aj"]
+    hips = rig.names.index("Hips")
+    top, floor = rig.heads[hips], rig.heads[:, 2].min()
+    mid, end = top + [0.0, 20.0, 0.6 * (floor - top[2])], top + [0.0, 30.0, floor - top[2] - 10.0]
+    tail = bm.Rig(rig.names + ("Tail1", "Tail2"), rig.parents + (hips, len(rig.names)),
+                  np.vstack([rig.heads, top, mid]), np.vstack([rig.tails, mid, end]))
+    shape = bm._Shape(tail)
+    assert shape.bottom[len(rig.names)] < min(shape.bottom[rig.names.index(n)] for n in ("LeftUpLeg", "RightUpLeg"))
+    other = san["Kaya"]
+    assert {(base(s), base(t)) for s, t in pairs_of(tail, other, presets=False)} == namesakes(tail, other)
