@@ -4,16 +4,23 @@ classify() labels a humanoid's hips, spine, neck, head, limb and finger bones;
 auto_map() joins two such labellings into the (source bone, target bone) pairs the
 retarget engine drives. Three sources of evidence, in this order:
 
-1. a shipped scheme preset (addon/core/presets/*.json) whose bone names all exist;
+1. a shipped scheme preset (addon/core/presets/*.json) whose bone names all
+   exist, in any namespace (mixamorig6:Hips answers to mixamorig:Hips);
 2. bone names: namespaces and DEF-/ORG- stripped, the side read from markers
    (.L, _r, Left, lHip, LHipJoint...), body-part words with synonyms;
 3. the skeleton's shape: the hips are where one subtree goes up and two go
-   down to the floor, the chest is where the arms branch off, and the upper
-   and lower limb bones are the two longest consecutive bones of a limb.
+   down to the floor (through a pelvis bone the legs branch from), the chest
+   is where the arms branch off, and the upper and lower limb bones are the
+   two longest consecutive segments of a limb.
 
-Names are trusted only where they agree with the shape (the bone lies in the
-limb chain the shape found); elsewhere the shape decides. Body.how records
-which evidence produced each label.
+Names choose among the chains the shape offers (a subtree holding bones named
+as a leg is a leg before any other reaching the floor) and label the bones
+along them; they are trusted only where they agree with the shape (the bone
+lies in the limb chain the shape found), and the shape fills what they leave.
+Body.how records which evidence produced each label. Joints characters carry
+beside the body (Mixamo's *_split segments, a facial-animation joint parked
+on the floor, clothes, hair, props) are helpers: never labelled, never
+mapped. auto_map_report() says by name what a map leaves out.
 
 Fingers and twist bones are labelled last, by name alone (their names make
 them helpers, which the shape rules ignore):
