@@ -4,16 +4,23 @@ classify() labels a humanoid's hips, spine, neck, head, limb and finger bones;
 auto_map() joins two such labellings into the (source bone, target bone) pairs the
 retarget engine drives. Three sources of evidence, in this order:
 
-1. a shipped scheme preset (addon/core/presets/*.json) whose bone names all exist;
+1. a shipped scheme preset (addon/core/presets/*.json) whose bone names all
+   exist, in any namespace (mixamorig6:Hips answers to mixamorig:Hips);
 2. bone names: namespaces and DEF-/ORG- stripped, the side read from markers
    (.L, _r, Left, lHip, LHipJoint...), body-part words with synonyms;
 3. the skeleton's shape: the hips are where one subtree goes up and two go
-   down to the floor, the chest is where the arms branch off, and the upper
-   and lower limb bones are the two longest consecutive bones of a limb.
+   down to the floor (through a pelvis bone the legs branch from), the chest
+   is where the arms branch off, and the upper and lower limb bones are the
+   two longest consecutive segments of a limb.
 
-Names are trusted only where they agree with the shape (the bone lies in the
-limb chain the shape found); elsewhere the shape decides. Body.how records
-which evidence produced each label.
+Names choose among the chains the shape offers (a subtree holding bones named
+as a leg is a leg before any other reaching the floor) and label the bones
+along them; they are trusted only where they agree with the shape (the bone
+lies in the limb chain the shape found), and the shape fills what they leave.
+Body.how records which evidence produced each label. Joints characters carry
+beside the body (Mixamo's *_split segments, a facial-animation joint parked
+on the floor, clothes, hair, props) are helpers: never labelled, never
+mapped. auto_map_report() says by name what a map leaves out.
 
 Fingers and twist bones are labelled last, by name alone (their names make
 them helpers, which the shape rules ignore):
@@ -168,6 +175,11 @@ _HELPER_WORDS = {
     "socket", "attach", "weapon", "prop", "jiggle", "metacarpal", "face", "jaw", "lip", "lips", "mouth",
     "nose", "chin", "tongue", "teeth", "forehead", "hair", "bck", "fwd", "bicep", "tricep", "scap",
     "latissimus", "vb",
+    # Mixamo characters' own joints beside the standard ones: LeftShoulder_split and Spine1_split (identity
+    # in Mixamo's clips), a facial-animation joint on the floor (BoyFacialAnim_Joint), and clothes, hair and
+    # props whose names hold a body word (LeftPantLeg, Left_ShortSleeve, LFootTongue, Bind_Left_JacketString).
+    "split", "facial", "pant", "pants", "sleeve", "cape", "skirt", "hood", "hat", "visor", "strap", "string",
+    "belt", "bag", "pouch", "backpack", "butt", "belly", "jowel", "jowl", "whistle", "peck", "scarf", "tie",
 }
 # Fingers, face and flesh bones come in pairs: these words are helpers only on a
 # sided name, so that an unsided "spineMiddle" or "Ring" stays what it is.
@@ -439,8 +451,7 @@ def _find_hips(shape: _Shape) -> int | None:
     for bone in shape.order:
         if shape.ignored[bone]:
             continue
-        kids = shape.kids[bone]
-        if any(shape.goes_up(c, bone) for c in kids) and sum(shape.goes_down(c, bone) for c in kids) >= 2:
+        if any(shape.goes_up(c, bone) for c in shape.kids[bone]) and len(_leg_starts(shape, bone)) >= 2:
             return bone
     return None
 
@@ -463,8 +474,31 @@ def _up_chain(shape: _Shape, hips: int) -> list[int]:
 
 
 def _leg_starts(shape: _Shape, hips: int) -> list[int]:
-    downs = [c for c in shape.kids[hips] if shape.goes_down(c, hips)]
-    return sorted(sorted(downs, key=lambda c: (shape.bottom[c], c))[:2])
+    """The first bones of the two legs below hips.
+
+    A bone going down that the two legs branch from (Mixamo's Pelvis between
+    Hips and the legs) is passed through. A leg starts at the hip: a subtree
+    going down from far off (a joint parked on the floor) is none. Subtrees
+    holding bones named as legs come first, so that no other bone reaching
+    the floor displaces a leg its names declare; then the lowest reaching.
+    """
+    starts = []
+    for child in shape.kids[hips]:
+        if not shape.goes_down(child, hips):
+            continue
+        below = [c for c in shape.kids[child] if shape.goes_down(c, child)]
+        named = any(k in LEG_SLOTS for k in shape.info[child].keys)
+        starts += below if len(below) >= 2 and not named else [child]
+    origin = shape.rig.heads[hips]
+    starts = [c for c in starts if np.linalg.norm(shape.rig.heads[c] - origin) < 0.3 * shape.height]
+    ranked = sorted(starts, key=lambda c: (-_named_sides(shape, c, LEG_SLOTS), shape.bottom[c], c))
+    return sorted(ranked[:2])
+
+
+def _named_sides(shape: _Shape, start: int, slots: tuple[str, ...]) -> int:
+    """How many sides the non-helper bones of start's subtree name as limb bones of slots (0, 1 or 2)."""
+    return len({shape.info[b].side for b in shape.members[start]
+                if not shape.ignored[b] and shape.info[b].side and set(shape.info[b].keys) & set(slots)})
 
 
 def _horizontal(v) -> np.ndarray:
@@ -502,7 +536,12 @@ def _structural_slots(shape: _Shape, chain: list[int], slots: tuple[str, ...]) -
     """
     if not chain:
         return {}
-    sums = [shape.length[chain[i]] + shape.length[chain[i + 1]] for i in range(len(chain) - 1)]
+    # A segment's length is from its joint to the next joint of the chain: a bone's own tail may point at
+    # another child (an importer aims it at a sleeve or pant-leg joint beside the knee).
+    heads = shape.rig.heads
+    length = [float(np.linalg.norm(heads[chain[i + 1]] - heads[chain[i]])) if i + 1 < len(chain)
+              else shape.length[chain[i]] for i in range(len(chain))]
+    sums = [length[i] + length[i + 1] for i in range(len(chain) - 1)]
     upper = int(np.argmax(sums)) if sums else 0
     labels = {}
     if upper > 0:
@@ -627,8 +666,10 @@ def _label_trunk(body: Body, shape: _Shape, up: list[int], chest: int | None) ->
     head = named_head[0] if named_head else len(up) - 1
     if head <= chest:
         head = None
-    spine = up[:chest + 1]
-    neck = up[chest + 1:head] if head is not None else up[chest + 1:]
+    # A segment split off its neighbour (Mixamo's Spine1_split, at rest in Mixamo's own clips) stays in the
+    # chain's shape but is not one of its joints: the chain pairs bone to bone with a rig without it.
+    spine = [b for b in up[:chest + 1] if not _is_split(names[b])]
+    neck = [b for b in (up[chest + 1:head] if head is not None else up[chest + 1:]) if not _is_split(names[b])]
     body.spine = [names[b] for b in spine]
     body.neck = [names[b] for b in neck]
     for key, bones in (("spine", spine), ("neck", neck)):
@@ -637,6 +678,10 @@ def _label_trunk(body: Body, shape: _Shape, up: list[int], chest: int | None) ->
     if head is not None:
         body.head = names[up[head]]
         body.how["head"] = "name" if named_head else "structure"
+
+
+def _is_split(name: str) -> bool:
+    return "split" in _words(_strip(name))
 
 
 def _names_only_body(shape: _Shape) -> Body:
@@ -846,18 +891,35 @@ def _scheme_names(scheme: dict) -> list[str]:
     return names
 
 
+def _answering(rig: Rig) -> dict[str, str]:
+    """Each name a preset may give -> the rig's bone answering to it.
+
+    A bone answers to its own name and, where no other bone has the same name
+    past its namespace, to that name in any namespace: a character exported
+    as mixamorig6: or newVegas: answers to the Mixamo preset's mixamorig:Hips.
+    """
+    bases = {}
+    for name in rig.names:
+        bases.setdefault(_NAMESPACE.sub("", name), []).append(name)
+    return {base: found[0] for base, found in bases.items() if len(found) == 1} | {n: n for n in rig.names}
+
+
+def _answer(answering: dict[str, str], name: str) -> str | None:
+    return answering.get(name) or answering.get(_NAMESPACE.sub("", name))
+
+
 def detect_scheme(rig: Rig) -> str | None:
-    """The shipped scheme all of whose (non-optional) bone names the rig has, or None.
+    """The shipped scheme all of whose (non-optional) bone names the rig has (in any namespace), or None.
 
     When several fit, the one naming the most of the rig's bones wins, then the first id.
     """
-    present = set(rig.names)
+    answering = _answering(rig)
     fits = []
     for scheme_id, scheme in sorted(_load_schemes().items()):
         optional = set(scheme.get("optional", []))
-        names = _scheme_names(scheme)
-        if all(n in present for n in names if n not in optional):
-            fits.append((-sum(n in present for n in names), scheme_id))
+        found = [_answer(answering, n) is not None for n in _scheme_names(scheme)]
+        if all(f for f, n in zip(found, _scheme_names(scheme)) if n not in optional):
+            fits.append((-sum(found), scheme_id))
     return min(fits)[1] if fits else None
 
 
@@ -869,20 +931,20 @@ def _scheme(scheme_id: str) -> dict:
 
 
 def _body_from_scheme(rig: Rig, scheme_id: str) -> Body:
-    bones, present = _scheme(scheme_id)["bones"], set(rig.names)
+    bones, answering = _scheme(scheme_id)["bones"], _answering(rig)
     how = f"preset:{scheme_id}"
     body = Body()
     for key, value in bones.items():
         if key in ("spine", "neck"):
-            chain = [n for n in value if n in present]
+            chain = [b for b in (_answer(answering, n) for n in value) if b is not None]
             setattr(body, key, chain)
             if chain:
                 body.how[key] = how
-        elif value in present:
+        elif _answer(answering, value) is not None:
             if key in ("hips", "head", "root"):
-                setattr(body, key, value)
+                setattr(body, key, _answer(answering, value))
             else:
-                body.limbs[key] = value
+                body.limbs[key] = _answer(answering, value)
             body.how[key] = how
     return body
 
@@ -991,6 +1053,65 @@ def _join(source: Body, target: Body, target_rig: Rig) -> list[tuple[str, str]]:
 def auto_map(source: Rig, target: Rig) -> list[tuple[str, str]]:
     """(source bone, target bone) pairs from classifying both rigs, in target depth-first order."""
     return _join(classify(source), classify(target), target)
+
+
+@dataclass
+class MapReport:
+    """An automatic map and, by bone name, what it leaves out: for the caller to show, never to act on.
+
+    target_unmapped: the target's body joints (hips, spine, neck, head, limb
+    bones, each finger's first phalanx) that no pair drives; they keep their
+    rest. A spine of three onto one of two leaves one here; so does a limb or
+    finger the source lacks.
+    target_unlabelled: target bones whose names read as body joints but that
+    are none of the body's labels (Mixamo's Pelvis between the hips and the
+    legs, CMU's LHipJoint, a clothing collar), so nothing maps onto them.
+    source_unused: the source's body joints that drive nothing.
+    """
+    pairs: list[tuple[str, str]]
+    target_unmapped: list[str] = field(default_factory=list)
+    target_unlabelled: list[str] = field(default_factory=list)
+    source_unused: list[str] = field(default_factory=list)
+
+    def message(self) -> str:
+        """One line naming what is left out ("" when nothing is)."""
+        parts = [f"{what}: {', '.join(names)}" for what, names in (
+            ("target body joints left unmapped", self.target_unmapped),
+            ("target bones named as body joints but not mapped", self.target_unlabelled),
+            ("source body joints unused", self.source_unused)) if names]
+        return "; ".join(parts)
+
+
+def body_joints(body: Body) -> list[str]:
+    """The labelled body joints of a Body: hips, spine, neck, head, limb bones, each finger's first phalanx.
+
+    Later phalanges and metacarpals are left out: the retarget moves the
+    phalanges between a finger's paired first and last bones itself.
+    """
+    joints = [body.hips] + body.spine + body.neck + [body.head]
+    joints += [body.limbs[k] for k in LIMB_KEYS if k in body.limbs]
+    joints += [body.fingers[k][0] for k in FINGER_KEYS if body.fingers.get(k)]
+    return [j for j in joints if j is not None]
+
+
+def _unlabelled(rig: Rig, body: Body) -> list[str]:
+    """Bones whose names read as body joints (not helpers) that the body does not label, depth first."""
+    labelled = set(body_joints(body)) | {body.root} | {b for f in body.fingers.values() for b in f}
+    order = [rig.names[i] for i in _depth_first(rig.parents)]
+    return [n for n in order if n not in labelled and name_info(n).keys and not name_info(n).helper]
+
+
+def auto_map_report(source: Rig, target: Rig) -> MapReport:
+    """auto_map's pairs with what they leave out (MapReport)."""
+    source_body, target_body = classify(source), classify(target)
+    pairs = _join(source_body, target_body, target)
+    driven, driving = {t for _, t in pairs}, {s for s, _ in pairs}
+    order = {n: i for i, n in enumerate(target.names[i] for i in _depth_first(target.parents))}
+    return MapReport(
+        pairs,
+        sorted((j for j in body_joints(target_body) if j not in driven), key=order.get),
+        _unlabelled(target, target_body),
+        [j for j in body_joints(source_body) if j not in driving])
 
 
 def map_from_presets(source: Rig, source_scheme: str, target: Rig, target_scheme: str) -> list[tuple[str, str]]:
