@@ -65,9 +65,17 @@ def main() -> None:
     def arguments(parser):
         parser.add_argument("--every", type=int, default=1, help="measure every N-th frame")
         parser.add_argument("--no-fbx", action="store_true", help="only the BVH pairs")
+        parser.add_argument("--no-san", action="store_true", help="only the FBX pairs")
         parser.add_argument("--clips", nargs="*", help="only these SAN clips")
 
     args, motionkit = harness.start("mixamo_pairs.py", __doc__, arguments, repeat=1)
+    if not args.no_san:
+        san_pairs(motionkit, args)
+    if not args.no_fbx:
+        fbx_pairs(motionkit, args)
+
+
+def san_pairs(motionkit, args) -> None:
     rows = []
     for clip in args.clips or mp.SAN_CLIPS:
         for source, target in (mp.SAN_CHARACTERS, mp.SAN_CHARACTERS[::-1]):
@@ -80,8 +88,9 @@ def main() -> None:
             rows.append((f"{clip} {source}->{target}", result))
     print(f"sanity: at most {max(r['sanity'] for _, r in rows):.1e} of the height over {len(rows)} clips")
     print_table("san/Aj <-> san/Kaya (BVH)", rows)
-    if args.no_fbx:
-        return
+
+
+def fbx_pairs(motionkit, args) -> None:
     fbx_rows = []
     for clip in mp.FBX_CLIPS:
         for source, target in (mp.FBX_CHARACTERS, mp.FBX_CHARACTERS[::-1]):

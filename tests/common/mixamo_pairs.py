@@ -113,7 +113,8 @@ def armature_rotations(obj, names, frames) -> np.ndarray:
         world = np.array(obj.matrix_world)[:3, :3]
         world = world / np.cbrt(np.linalg.det(world))
         posed = np.array([np.array(b.matrix)[:3, :3] for b in bones])
-        delta = posed @ np.transpose(rest, (0, 2, 1))
+        u, _, vt = np.linalg.svd(posed)  # a bone's own scale keys are no turn
+        delta = (u @ vt) @ np.transpose(rest, (0, 2, 1))
         out[i] = world @ delta @ world.T
     return out
 
@@ -151,9 +152,10 @@ def constraint_way(source, target, pairs, hips, variant: str, frame_end: int) ->
 def world_plain_copy(source, target, pairs, hips, frames) -> dict[str, np.ndarray]:
     """The plain copy where the two skeletons differ (names, bone orientations): each paired target
     bone turned by its source bone's world-space turn from rest (armature space carried through each
-    object's orientation), a bone without a pair by its parent's, the hips' path from its rest position
-    by the source's times the ratio of the hip heights (rest hips above the lowest rest joint, world
-    up); forward kinematics over the target's rest heads. Returns {bone name: (frames, 3)} in world."""
+    object's orientation), a bone without a pair by its parent's, the hips' path
+    the source's world path times the ratio of the hip heights (rest hips above the lowest rest joint,
+    world up; both clips stand on world z = 0), as san_protocol.plain_copy does with the files' paths;
+    forward kinematics over the target's rest heads. Returns {bone name: (frames, 3)} in world."""
     deltas = armature_rotations(source, [s for s, _ in pairs], frames)
     by_target = {t: k for k, (_, t) in enumerate(pairs)}
 
@@ -171,7 +173,7 @@ def world_plain_copy(source, target, pairs, hips, frames) -> dict[str, np.ndarra
         turn[bone.name] = deltas[:, by_target[bone.name]] if bone.name in by_target else (
             turn[parent] if parent else np.tile(np.eye(3), (len(frames), 1, 1)))
         if parent is None:
-            out[bone.name] = tgt_rest[bone.name] + ratio * (src_path - src_rest[hips[0]])
+            out[bone.name] = ratio * src_path
         else:
             out[bone.name] = out[parent] + turn[parent] @ (tgt_rest[bone.name] - tgt_rest[parent])
     return out
