@@ -201,7 +201,9 @@ def remove(*objects) -> None:
             bpy.data.actions.remove(action)
 
 
-METHODS = ("plain copy", "constraints (world)", "constraints (local)", "MotionKit")
+# "MotionKit, given map": MotionKit's defaults with the bone map the constraints use (every bone both
+# rigs name alike, or the fixed correspondence), to tell the automatic map's share from the rest.
+METHODS = ("plain copy", "constraints (world)", "constraints (local)", "MotionKit", "MotionKit, given map")
 
 
 def _timed(run):
@@ -219,6 +221,8 @@ def _blender_methods(mk, source, template, pairs, hips, names, frames, last, met
         target = rest_copy(template, "retarget " + method)
         if method == "MotionKit":
             _, seconds = _timed(lambda: mk.retarget(source, target))
+        elif method == "MotionKit, given map":
+            _, seconds = _timed(lambda: mk.retarget(source, target, bone_map=pairs))
         else:
             variant = method.split("(")[1].rstrip(")")
             _, seconds = _timed(lambda: constraint_way(source, target, pairs, hips, variant, last))
