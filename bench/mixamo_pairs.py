@@ -68,6 +68,8 @@ def main() -> None:
         parser.add_argument("--every", type=int, default=1, help="measure every N-th frame")
         parser.add_argument("--no-fbx", action="store_true", help="only the BVH pairs")
         parser.add_argument("--no-san", action="store_true", help="only the FBX pairs")
+        parser.add_argument("--joints", action="store_true",
+                            help="also each body joint's pose-alone error, mean over the SAN retargets")
         parser.add_argument("--clips", nargs="*", help="only these SAN clips")
 
     args, motionkit = harness.start("mixamo_pairs.py", __doc__, arguments, repeat=1)
@@ -90,6 +92,19 @@ def san_pairs(motionkit, args) -> None:
             rows.append((f"{clip} {source}->{target}", result))
     print(f"sanity: at most {max(r['sanity'] for _, r in rows):.1e} of the height over {len(rows)} clips")
     print_table("san/Aj <-> san/Kaya (BVH)", rows)
+    if args.joints:
+        print_joints(rows)
+
+
+def print_joints(rows) -> None:
+    """Each body joint's pose-alone error (% of the height), mean over the retargets, per method."""
+    methods = list(rows[0][1]["joint_pose"])
+    print(f"\npose alone per joint, mean over {len(rows)} retargets (% of the height):\n")
+    print("| joint | " + " | ".join(methods) + " |")
+    print("|---|" + "---:|" * len(methods))
+    means = {m: np.mean([r["joint_pose"][m] for _, r in rows], axis=0) for m in methods}
+    for j, joint in enumerate(mp.sp.BODY_JOINTS):
+        print(f"| {joint} | " + " | ".join(f"{means[m][j]:.2f}" for m in methods) + " |")
 
 
 def fbx_pairs(motionkit, args) -> None:

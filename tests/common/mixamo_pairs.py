@@ -235,7 +235,8 @@ def measure_san(mk, shared, source: str, target: str, clip: str, every: int = 1,
     """One retarget of the SAN set: source's clip onto target's rest, measured against target's own clip
     (joints in Blender's world, metres). Returns frames, height, "sanity" (the largest distance between
     Blender's evaluation of target's own imported clip and san_protocol's forward kinematics, over the
-    height), "errors" {method: san_protocol.errors} and "seconds" {method: wall time}."""
+    height), "errors" {method: san_protocol.errors}, "joint_pose" {method: per-joint pose-alone %, in
+    BODY_JOINTS order} and "seconds" {method: wall time}."""
     src, tgt = sp.read_bvh(san_path(shared, source, clip)), sp.read_bvh(san_path(shared, target, clip))
     last = tgt.values.shape[0]
     if src.values.shape[0] != last:
@@ -260,7 +261,8 @@ def measure_san(mk, shared, source: str, target: str, clip: str, every: int = 1,
         joints[method], seconds[method] = found, secs
     remove(source_obj, template)
     return {"frames": len(frames), "height": height, "sanity": sanity, "seconds": seconds,
-            "errors": {m: sp.errors(joints[m], reference, height) for m in methods}}
+            "errors": {m: sp.errors(joints[m], reference, height) for m in methods},
+            "joint_pose": {m: sp.joint_pose_errors(joints[m], reference, height) for m in methods}}
 
 
 def fbx_body(character: str) -> dict:

@@ -196,6 +196,12 @@ def errors(predicted, reference, size: float, hips: int = 0) -> dict[str, float]
             "san_mse": 1000.0 * float(np.mean(diff ** 2)) / size ** 2}
 
 
+def joint_pose_errors(predicted, reference, size: float, hips: int = 0) -> np.ndarray:
+    """Per joint (joints,): the pose-alone distance (relative to the hips), mean over frames, in % of size."""
+    diff = np.asarray(predicted, np.float64) - np.asarray(reference, np.float64)
+    return 100.0 * np.linalg.norm(diff - diff[:, hips:hips + 1], axis=-1).mean(axis=0) / size
+
+
 def plain_copy(source: Bvh, target: Bvh) -> np.ndarray:
     """The baseline: target's joints (frames, joints, 3) with each joint's local rotation taken from the
     source's joint of the same name (rest rotation where none), the root's path times the hip heights'
