@@ -38,10 +38,10 @@ def fbx_path(shared: str, character: str, clip: str) -> str:
     return os.path.join(pairs_dir(shared), "fbx", character, clip + ".fbx")
 
 
-def _new_armature(before) -> bpy.types.Object:
+def _new_armature(before, path: str) -> bpy.types.Object:
     made = [o for o in bpy.data.objects if o not in before and o.type == 'ARMATURE']
     if len(made) != 1:
-        raise RuntimeError(f"the import made {len(made)} armatures")
+        raise RuntimeError(f"{path}: the import made {len(made)} armatures, one expected")
     return made[0]
 
 
@@ -56,13 +56,13 @@ def import_bvh(path: str) -> bpy.types.Object:
                                      update_scene_fps=False, update_scene_duration=False)
     if result != {'FINISHED'}:
         raise RuntimeError(f"{path}: import_anim.bvh returned {result}")
-    return _new_armature(before)
+    return _new_armature(before, path)
 
 
 def import_fbx(path: str) -> bpy.types.Object:
     before = set(bpy.data.objects)
     bpy.ops.import_scene.fbx(filepath=path)
-    arm = _new_armature(before)
+    arm = _new_armature(before, path)
     for obj in [o for o in bpy.data.objects if o not in before and o is not arm]:
         bpy.data.objects.remove(obj)  # the meshes: nothing measured, only slower frames
     return arm
