@@ -1,0 +1,81 @@
+"""Retargets held to Mixamo's own: the same Mixamo clip on two characters (../shared/data/pairs/san, Aj and
+Kaya) is the reference answer for retargeting one onto the other. Measured by the SAN protocol
+(tests/common/san_protocol.py, numpy only, no MotionKit code): the 22 main body joints of the target in
+world space, as Blender evaluates them, against the target's own clip, in % of its height; over all
+joints and for the pose alone (joints relative to the hips). The baseline is the plain rotation copy.
+The bench with every clip, Blender's constraints and the FBX pairs: bench/mixamo_pairs.py."""
+import os
+
+import numpy as np
+import pytest
+
+import mixamo_pairs as mp
+import san_protocol as sp
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+SHARED = os.path.join(os.path.dirname(ROOT), "shared")
+
+CASES = [("Jumping", "Aj", "Kaya"), ("Jumping", "Kaya", "Aj"), ("Running", "Aj", "Kaya"), ("Running", "Kaya", "Aj")]
+IDS = [f"{clip}-{a}-to-{b}" for clip, a, b in CASES]
+
+# Blender's evaluation of a target's own imported clip against san_protocol's float64 forward kinematics:
+# Blender keeps bone matrices and keys in float32 (relative precision 6e-8) and a hand sits about ten
+# joints from the root, each adding the rounding of a rotation and an offset of up to the body's size;
+# measured at most 6.2e-6 of the height on these clips (Blender 3.4, 4.3 and 5.2; 1.4e-5 on the 909-frame
+# Catwalk Walk in the bench), bounded at about 10x that.
+SANITY = 5e-5
+# The issue's targets (issue 37, "Done means"), means over the clips.
+TARGET_ALL, TARGET_POSE = 3.0, 1.0
+
+_results = {}
+
+
+@pytest.fixture(scope="module")
+def pairs(mk):
+    """../shared/data/pairs: required under CI, a visible skip elsewhere."""
+    if not os.path.isdir(os.path.join(SHARED, "data", "pairs", "san")):
+        if os.environ.get("CI") == "true":
+            pytest.fail(f"{SHARED}/data/pairs/san is missing, and CI=true requires it")
+        pytest.skip(f"{SHARED}/data/pairs/san is absent (set up ../shared to run this test)")
+    return SHARED
+
+
+def measured(mk, shared, case):
+    """The case's figures (plain copy and MotionKit's defaults), measured once per session."""
+    if case not in _results:
+        clip, source, target = case
+        _results[case] = mp.measure_san(mk, shared, source, target, clip, methods=("plain copy", "MotionKit"))
+    return _results[case]
+
+
+def test_plain_copy_of_a_clip_onto_itself_is_the_clip(pairs):
+    """The baseline's own check: copying a clip onto its own skeleton gives the clip back exactly."""
+    clip = sp.read_bvh(mp.san_path(pairs, "Kaya", "Running"))
+    np.testing.assert_allclose(sp.plain_copy(clip, clip), sp.clip_positions(clip), rtol=0, atol=1e-9)
+
+
+@pytest.mark.parametrize("case", CASES, ids=IDS)
+def test_blender_evaluates_the_target_clip_as_the_protocol(mk, pairs, case):
+    """The protocol's sanity check: the target's own clip through Blender's BVH importer and evaluation
+    (frame_set, pose bone heads in world) stands where the numpy reference puts it."""
+    result = measured(mk, pairs, case)
+    print(f"{case}: Blender against numpy {result['sanity']:.2e} of the height")
+    assert result["sanity"] <= SANITY
+
+
+@pytest.mark.parametrize("case", CASES, ids=IDS)
+def test_motionkit_defaults_at_least_as_close_to_mixamo_as_the_plain_copy(mk, pairs, case):
+    errors = measured(mk, pairs, case)["errors"]
+    plain, ours = errors["plain copy"], errors["MotionKit"]
+    print(f"{case}: all joints {ours['all']:.2f} % (plain copy {plain['all']:.2f} %), "
+          f"pose alone {ours['pose']:.2f} % (plain copy {plain['pose']:.2f} %)")
+    assert ours["all"] <= plain["all"] and ours["pose"] <= plain["pose"], (ours, plain)
+
+
+def test_motionkit_defaults_within_the_issue_targets_on_average(mk, pairs):
+    """Mean over the clips: within 3 % of the height over all joints and 1 % for the pose alone."""
+    figures = [measured(mk, pairs, case)["errors"]["MotionKit"] for case in CASES]
+    mean_all = float(np.mean([f["all"] for f in figures]))
+    mean_pose = float(np.mean([f["pose"] for f in figures]))
+    print(f"MotionKit's defaults: all joints {mean_all:.2f} %, pose alone {mean_pose:.2f} %")
+    assert mean_all <= TARGET_ALL and mean_pose <= TARGET_POSE, (mean_all, mean_pose)

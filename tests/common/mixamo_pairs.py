@@ -1,0 +1,302 @@
+"""Blender's side of the measure against Mixamo's own retargets (san_protocol.py holds the measure):
+the paired clips of ../shared/data/pairs imported with Blender's own importers, joints as Blender
+evaluates them (frame_set, then each pose bone's head through the object's matrix_world), and the two
+ways of retargeting that are not MotionKit's: the plain rotation copy and Blender's constraints + bake.
+Used by bench/mixamo_pairs.py and tests/blender/test_mixamo_pairs.py."""
+from __future__ import annotations
+
+import builtins
+import time
+import os
+
+import bpy
+import numpy as np
+
+import san_protocol as sp
+
+SAN_CHARACTERS = ("Aj", "Kaya")
+SAN_CLIPS = ("Jumping", "Running", "Catwalk Walk", "Getting Up")
+FBX_CHARACTERS = ("girl1", "girl2")
+FBX_CLIPS = ("Right Strafe Walk", "Left Strafe Walk", "Happy Walk Backward")
+
+# import_anim.bvh's default axes (forward -Z, up Y) turn a file's (x, y, z) into Blender's (x, -z, y);
+# the centimetre files are imported in metres.
+BVH_TO_BLENDER = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
+BVH_SCALE = 0.01
+CONSTRAINT_WAYS = ("world", "local")
+
+
+def pairs_dir(shared: str) -> str:
+    return os.path.join(shared, "data", "pairs")
+
+
+def san_path(shared: str, character: str, clip: str) -> str:
+    return os.path.join(pairs_dir(shared), "san", character, clip + ".bvh")
+
+
+def fbx_path(shared: str, character: str, clip: str) -> str:
+    return os.path.join(pairs_dir(shared), "fbx", character, clip + ".fbx")
+
+
+def _new_armature(before, path: str) -> bpy.types.Object:
+    made = [o for o in bpy.data.objects if o not in before and o.type == 'ARMATURE']
+    if len(made) != 1:
+        raise RuntimeError(f"{path}: the import made {len(made)} armatures, one expected")
+    return made[0]
+
+
+def import_bvh(path: str) -> bpy.types.Object:
+    """The file's armature and clip through bpy.ops.import_anim.bvh (frame 1 = the file's first frame).
+    3.4's importer opens its file with mode 'rU', which its Python 3.11 refuses; its module is given an
+    open() that drops the 'U' (universal newlines are Python 3's default): the importer is unchanged."""
+    import io_anim_bvh.import_bvh as importer
+    importer.open = lambda file, mode="r", *args, **kw: builtins.open(file, mode.replace("U", ""), *args, **kw)
+    before = set(bpy.data.objects)
+    result = bpy.ops.import_anim.bvh(filepath=path, global_scale=BVH_SCALE, frame_start=1, use_fps_scale=False,
+                                     update_scene_fps=False, update_scene_duration=False)
+    if result != {'FINISHED'}:
+        raise RuntimeError(f"{path}: import_anim.bvh returned {result}")
+    return _new_armature(before, path)
+
+
+def import_fbx(path: str) -> bpy.types.Object:
+    before = set(bpy.data.objects)
+    bpy.ops.import_scene.fbx(filepath=path)
+    arm = _new_armature(before, path)
+    for obj in [o for o in bpy.data.objects if o not in before and o is not arm]:
+        bpy.data.objects.remove(obj)  # the meshes: nothing measured, only slower frames
+    return arm
+
+
+def rest_copy(obj: bpy.types.Object, name: str) -> bpy.types.Object:
+    """A fresh copy of the armature at rest: its own data, no animation, every pose channel cleared."""
+    copy = obj.copy()
+    copy.data = obj.data.copy()
+    copy.name = name
+    copy.animation_data_clear()
+    bpy.context.scene.collection.objects.link(copy)
+    for pose_bone in copy.pose.bones:
+        pose_bone.location = (0.0, 0.0, 0.0)
+        pose_bone.rotation_quaternion = (1.0, 0.0, 0.0, 0.0)
+        pose_bone.rotation_euler = (0.0, 0.0, 0.0)
+        pose_bone.scale = (1.0, 1.0, 1.0)
+    return copy
+
+
+def joints_world(obj, names, frames) -> np.ndarray:
+    """(frames, joints, 3): each named pose bone's head in world space, as Blender evaluates the frame."""
+    scene = bpy.context.scene
+    bones = [obj.pose.bones[n] for n in names]
+    out = np.empty((len(frames), len(bones), 3))
+    for i, frame in enumerate(frames):
+        scene.frame_set(int(frame))
+        world = np.array(obj.matrix_world)
+        heads = np.array([tuple(b.head) for b in bones])
+        out[i] = heads @ world[:3, :3].T + world[:3, 3]
+    return out
+
+
+def bvh_to_blender(positions) -> np.ndarray:
+    """Positions in a BVH file's space and units as import_bvh places them in Blender's world."""
+    return BVH_SCALE * np.asarray(positions) @ BVH_TO_BLENDER.T
+
+
+def armature_rotations(obj, names, frames) -> np.ndarray:
+    """(frames, joints, 3, 3): each named bone's world orientation's turn from its rest, as Blender
+    evaluates the frame (object matrix x pose_bone.matrix x rest matrix inverse, scale removed)."""
+    scene = bpy.context.scene
+    bones = [obj.pose.bones[n] for n in names]
+    rest = np.array([np.array(b.bone.matrix_local)[:3, :3] for b in bones])
+    out = np.empty((len(frames), len(bones), 3, 3))
+    for i, frame in enumerate(frames):
+        scene.frame_set(int(frame))
+        world = np.array(obj.matrix_world)[:3, :3]
+        world = world / np.cbrt(np.linalg.det(world))
+        posed = np.array([np.array(b.matrix)[:3, :3] for b in bones])
+        u, _, vt = np.linalg.svd(posed)  # a bone's own scale keys are no turn
+        delta = (u @ vt) @ np.transpose(rest, (0, 2, 1))
+        out[i] = world @ delta @ world.T
+    return out
+
+
+def constraint_way(source, target, pairs, hips, variant: str, frame_end: int) -> None:
+    """Blender's own way onto target (a rest copy): on every paired target bone a COPY_ROTATION from its
+    source bone (mix Replace, influence 1), target and owner space both World ("world": the bone turned
+    to the source's orientation) or both Local ("local": the source's turn from its own rest applied
+    from the target's rest, the usual offset recipe); COPY_LOCATION World -> World on the hips (hips =
+    (source bone, target bone)); then nla.bake of frames 1..frame_end with visual keying, constraints
+    cleared, pose only (location and rotation where the bake asks which channels)."""
+    space = {"world": 'WORLD', "local": 'LOCAL'}[variant]
+    layer = bpy.context.view_layer
+    for other in layer.objects:
+        other.select_set(other == target)
+    layer.objects.active = target
+    bpy.ops.object.mode_set(mode='POSE')
+    for src, tgt in pairs:
+        con = target.pose.bones[tgt].constraints.new('COPY_ROTATION')
+        con.target, con.subtarget = source, src
+        con.target_space = con.owner_space = space
+    con = target.pose.bones[hips[1]].constraints.new('COPY_LOCATION')
+    con.target, con.subtarget = source, hips[0]
+    con.target_space = con.owner_space = 'WORLD'
+    options = dict(frame_start=1, frame_end=frame_end, only_selected=False, visual_keying=True,
+                   clear_constraints=True, use_current_action=False, bake_types={'POSE'})
+    if "channel_types" in bpy.ops.nla.bake.get_rna_type().properties:
+        options["channel_types"] = {'LOCATION', 'ROTATION'}
+    result = bpy.ops.nla.bake(**options)
+    bpy.ops.object.mode_set(mode='OBJECT')
+    if result != {'FINISHED'}:
+        raise RuntimeError(f"nla.bake returned {result}")
+
+
+def world_plain_copy(source, target, pairs, hips, frames) -> dict[str, np.ndarray]:
+    """The plain copy where the two skeletons differ (names, bone orientations): each paired target
+    bone turned by its source bone's world-space turn from rest (armature space carried through each
+    object's orientation), a bone without a pair by its parent's, the hips' path
+    the source's world path times the ratio of the hip heights (rest hips above the lowest rest joint,
+    world up; both clips stand on world z = 0), as san_protocol.plain_copy does with the files' paths;
+    forward kinematics over the target's rest heads. Returns {bone name: (frames, 3)} in world."""
+    deltas = armature_rotations(source, [s for s, _ in pairs], frames)
+    by_target = {t: k for k, (_, t) in enumerate(pairs)}
+
+    def rest_heads(obj):
+        world = np.array(obj.matrix_world)
+        return {b.name: world[:3, :3] @ np.array(b.head_local) + world[:3, 3] for b in obj.data.bones}
+
+    src_rest, tgt_rest = rest_heads(source), rest_heads(target)
+    src_path = joints_world(source, [hips[0]], frames)[:, 0]
+    ratio = ((tgt_rest[hips[1]][2] - min(p[2] for p in tgt_rest.values()))
+             / (src_rest[hips[0]][2] - min(p[2] for p in src_rest.values())))
+    turn, out = {}, {}
+    for bone in sorted(target.data.bones, key=lambda b: len(b.parent_recursive)):  # parents first
+        parent = bone.parent.name if bone.parent else None
+        turn[bone.name] = deltas[:, by_target[bone.name]] if bone.name in by_target else (
+            turn[parent] if parent else np.tile(np.eye(3), (len(frames), 1, 1)))
+        if parent is None:
+            out[bone.name] = ratio * src_path
+        else:
+            out[bone.name] = out[parent] + turn[parent] @ (tgt_rest[bone.name] - tgt_rest[parent])
+    return out
+
+
+def rest_skeleton(obj, names_of=None):
+    """(names, parents, offsets) of the armature's rest in world space (each bone's head from its
+    parent's; the root's from the origin), for san_protocol.height."""
+    world = np.array(obj.matrix_world)
+    bones = list(obj.data.bones)
+    names = [b.name for b in bones]
+    heads = np.array([world[:3, :3] @ np.array(b.head_local) + world[:3, 3] for b in bones])
+    parents = [names.index(b.parent.name) if b.parent else -1 for b in bones]
+    offsets = np.array([heads[j] - (heads[p] if p >= 0 else 0.0) for j, p in enumerate(parents)])
+    return names, parents, offsets
+
+
+def remove(*objects) -> None:
+    for obj in objects:
+        data, action = obj.data, obj.animation_data.action if obj.animation_data else None
+        bpy.data.objects.remove(obj)
+        if data is not None and data.users == 0:
+            bpy.data.armatures.remove(data)
+        if action is not None and action.users == 0:
+            bpy.data.actions.remove(action)
+
+
+# "MotionKit, given map": MotionKit's defaults with the bone map the constraints use (every bone both
+# rigs name alike, or the fixed correspondence), to tell the automatic map's share from the rest.
+METHODS = ("plain copy", "constraints (world)", "constraints (local)", "MotionKit", "MotionKit, given map")
+
+
+def _timed(run):
+    started = time.perf_counter()
+    result = run()
+    return result, time.perf_counter() - started
+
+
+def _blender_methods(mk, source, template, pairs, hips, names, frames, last, methods):
+    """Each Blender-side method on a fresh rest copy of template: {method: (joints, seconds)}."""
+    out = {}
+    for method in methods:
+        if method == "plain copy":
+            continue
+        target = rest_copy(template, "retarget " + method)
+        if method == "MotionKit":
+            _, seconds = _timed(lambda: mk.retarget(source, target))
+        elif method == "MotionKit, given map":
+            _, seconds = _timed(lambda: mk.retarget(source, target, bone_map=pairs))
+        else:
+            variant = method.split("(")[1].rstrip(")")
+            _, seconds = _timed(lambda: constraint_way(source, target, pairs, hips, variant, last))
+        out[method] = (joints_world(target, names, frames), seconds)
+        remove(target)
+    return out
+
+
+def measure_san(mk, shared, source: str, target: str, clip: str, every: int = 1, methods=METHODS) -> dict:
+    """One retarget of the SAN set: source's clip onto target's rest, measured against target's own clip
+    (joints in Blender's world, metres). Returns frames, height, "sanity" (the largest distance between
+    Blender's evaluation of target's own imported clip and san_protocol's forward kinematics, over the
+    height), "errors" {method: san_protocol.errors}, "joint_pose" {method: per-joint pose-alone %, in
+    BODY_JOINTS order} and "seconds" {method: wall time}."""
+    src, tgt = sp.read_bvh(san_path(shared, source, clip)), sp.read_bvh(san_path(shared, target, clip))
+    last = tgt.values.shape[0]
+    if src.values.shape[0] != last:
+        raise RuntimeError(f"{clip}: {source} has {src.values.shape[0]} frames, {target} {last}")
+    frames = np.arange(1, last + 1, every)
+    body = sp.body_indices(tgt.names)
+    height = BVH_SCALE * sp.height(tgt.names, tgt.parents, tgt.offsets)
+    reference = bvh_to_blender(sp.clip_positions(tgt)[frames - 1][:, body])
+    clip_obj = import_bvh(san_path(shared, target, clip))
+    evaluated = joints_world(clip_obj, sp.BODY_JOINTS, frames)
+    sanity = float(np.linalg.norm(evaluated - reference, axis=-1).max()) / height
+    template = rest_copy(clip_obj, target + " rest")
+    remove(clip_obj)
+    source_obj = import_bvh(san_path(shared, source, clip))
+    joints, seconds = {}, {}
+    if "plain copy" in methods:
+        plain, seconds["plain copy"] = _timed(lambda: sp.plain_copy(src, tgt))
+        joints["plain copy"] = bvh_to_blender(plain[frames - 1][:, body])
+    pairs = [(b.name, b.name) for b in template.data.bones if b.name in source_obj.data.bones]
+    for method, (found, secs) in _blender_methods(mk, source_obj, template, pairs, (sp.HIPS, sp.HIPS),
+                                                  sp.BODY_JOINTS, frames, last, methods).items():
+        joints[method], seconds[method] = found, secs
+    remove(source_obj, template)
+    return {"frames": len(frames), "height": height, "sanity": sanity, "seconds": seconds,
+            "errors": {m: sp.errors(joints[m], reference, height) for m in methods},
+            "joint_pose": {m: sp.joint_pose_errors(joints[m], reference, height) for m in methods}}
+
+
+def fbx_body(character: str) -> dict:
+    """Mixamo joint name -> the character's bone name (girl1 carries Mixamo's names with its prefix)."""
+    if character == "girl2":
+        return dict(sp.GIRL2_JOINTS)
+    return {j: "mixamorig:" + j for j in sp.BODY_JOINTS}
+
+
+def measure_fbx(mk, shared, source: str, target: str, clip: str, every: int = 1, methods=METHODS) -> dict:
+    """One retarget of the FBX pairs, as measure_san (both sides evaluated in Blender: no sanity figure);
+    the plain copy and the constraints through the fixed correspondence of the body joints."""
+    clip_obj = import_fbx(fbx_path(shared, target, clip))
+    last = int(round(clip_obj.animation_data.action.frame_range[1]))
+    frames = np.arange(1, last + 1, every)
+    src_body, tgt_body = fbx_body(source), fbx_body(target)
+    measured = [j for j in sp.BODY_JOINTS if j in tgt_body]
+    names = [tgt_body[j] for j in measured]
+    reference = joints_world(clip_obj, names, frames)
+    skeleton = rest_skeleton(clip_obj)
+    height = sp.height(*skeleton, toe=tgt_body[sp.TOE], head=tgt_body[sp.HEAD])
+    template = rest_copy(clip_obj, target + " rest")
+    remove(clip_obj)
+    source_obj = import_fbx(fbx_path(shared, source, clip))
+    pairs = [(src_body[j], tgt_body[j]) for j in sp.BODY_JOINTS if j in src_body and j in tgt_body]
+    hips = (src_body[sp.HIPS], tgt_body[sp.HIPS])
+    joints, seconds = {}, {}
+    if "plain copy" in methods:
+        plain, seconds["plain copy"] = _timed(lambda: world_plain_copy(source_obj, template, pairs, hips, frames))
+        joints["plain copy"] = np.stack([plain[n] for n in names], axis=1)
+    for method, (found, secs) in _blender_methods(mk, source_obj, template, pairs, hips, names, frames, last,
+                                                  methods).items():
+        joints[method], seconds[method] = found, secs
+    remove(source_obj, template)
+    hips_column = measured.index(sp.HIPS)
+    return {"frames": len(frames), "height": height, "sanity": None, "seconds": seconds, "joints": len(names),
+            "errors": {m: sp.errors(joints[m], reference, height, hips_column) for m in methods}}
