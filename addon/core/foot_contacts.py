@@ -24,8 +24,12 @@ class ContactSettings:
     standing height and slower than `speed_enter * L` per second; it stays in
     while within `height_leave * L` and slower than `speed_leave * L` per
     second (the looser pair: hysteresis). Contacts shorter than `min_length`
-    are dropped, gaps shorter than `min_gap` closed. `blend` is how long the
-    IK targets take to ramp in and out around a contact.
+    are dropped, gaps shorter than `min_gap` closed. A contact whose point
+    wanders farther than `max_drift * L` across the floor from where it
+    stands on average is no plant but a slide or a pivot (a catwalk's turn on
+    the ball of the foot): dropped, the foot left to follow the motion.
+    `blend` is how long the IK targets take to ramp in and out around a
+    contact.
     """
     height_enter: float = 0.06
     height_leave: float = 0.09
@@ -36,13 +40,15 @@ class ContactSettings:
     smoothing: float = 0.03       # s: box filter on the speed, so capture jitter does not flicker
     ground_percentile: float = 5.0  # a point's standing height: this low percentile of its heights
     max_ground: float = 0.3       # L: a point whose standing height is higher above the floor never lands
+    max_drift: float = 0.06       # L: captures' planted feet wander up to 0.049 (walk_and_turn_left's turn)
     blend: float = 0.1            # s
 
     def blend_frames(self, fps: float) -> int:
         return max(1, int(round(self.blend * fps)))
 
     def validate(self) -> None:
-        for name in ("height_enter", "height_leave", "speed_enter", "speed_leave", "blend", "max_ground"):
+        for name in ("height_enter", "height_leave", "speed_enter", "speed_leave", "blend", "max_ground",
+                     "max_drift"):
             value = getattr(self, name)
             if not (np.isfinite(value) and value > 0):
                 raise ValueError(f"ContactSettings.{name} must be positive, not {value}")
@@ -157,7 +163,19 @@ def detect(points, fps: float, leg_length: float, floor: float | None = 0.0,
     contacts = _hysteresis(enter, stay)
     min_frames = int(np.ceil(settings.min_length * fps - 1e-9))
     min_gap = int(np.floor(settings.min_gap * fps + 1e-9))
-    return _filter_runs(contacts, min_frames, min_gap)
+    return _drop_slides(points, _filter_runs(contacts, min_frames, min_gap), settings.max_drift * leg_length)
+
+
+def _drop_slides(points: np.ndarray, contacts: np.ndarray, drift: float) -> np.ndarray:
+    """contacts without those whose point wanders farther than drift across the floor (x, y) from its mean
+    over the contact."""
+    out = contacts.copy()
+    for p in range(out.shape[1]):
+        for start, end in intervals(out[:, p]):
+            across = points[start:end, p, :2]
+            if np.linalg.norm(across - across.mean(axis=0), axis=1).max() > drift:
+                out[start:end, p] = False
+    return out
 
 
 def plant_targets(native, points, contacts, blend_frames: int, rigid_pairs=()) -> tuple[np.ndarray, np.ndarray]:

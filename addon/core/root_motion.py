@@ -101,17 +101,6 @@ def leg_length(leg: Leg, heads: np.ndarray, tails: np.ndarray, ankle_lowest: flo
     return upper + lower + ankle_height
 
 
-def hips_drop(hips_head: np.ndarray, legs: list, heads: np.ndarray, tails: np.ndarray) -> float:
-    """How far the hips' head stands above the hip joints, along the legs' own up (hip joints' midpoint
-    minus ankles' midpoint): the part of the hips' height that no leg bone measures. Spreading the legs
-    alike on both sides leaves it as it is."""
-    hip = np.mean([heads[leg.thigh] for leg in legs], axis=0)
-    ankle = np.mean([heads[leg.foot] if leg.foot >= 0 else tails[leg.shin] for leg in legs], axis=0)
-    up = hip - ankle
-    norm = np.linalg.norm(up)
-    return float((hips_head - hip) @ (up / norm)) if norm > 0 else 0.0
-
-
 # ---------------------------------------------------------------------------
 # The floor root's motion
 

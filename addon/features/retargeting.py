@@ -19,7 +19,7 @@ from . import bvh, contacts, control_rigs, resampling
 from ..blender import animdata, imports, pose_channels
 from ..blender.imports import remove_armature
 from ..core import bone_mapping, native_state, reference_pose, root_motion, rotation_channels, worker_thread
-from ..core.floor import clip_floor, feet_lifts, hips_lift, sole_height
+from ..core.floor import clip_floor, feet_lifts, hips_lift, reach_drops, rest_floor, sole_height
 from ..core.foot_contacts import ContactSettings
 from ..core.root_motion import FLOOR_ROOTS
 
@@ -311,10 +311,13 @@ def _legs(side: _Side, body: bone_mapping.Body) -> list:
 def _leg_length(side: _Side, body, pose: _Pose, up, hips: int, heads_over_clip=None, floor: float = 0.0) -> float:
     """The rig's leg length in its own armature units.
 
-    The hips' height above the soles measured along the legs: the hips' head
-    above the hip joints, then thigh + shin + the ankle's height above the
-    sole (the legs' mean), so that the same skeleton in any rest pose measures the same;
-    the hips' height above the lowest point only for a rig without labelled legs.
+    thigh + shin + the ankle's height above the sole (the legs' mean), so
+    that the same skeleton in any rest pose measures the same: the stride and
+    the hips' rise scale with the legs, not with how far the hips bone's head
+    stands above the hip joints (a rig's own choice: Mixamo's own retargets
+    scale the root's path between Aj and Kaya by 0.88, their legs' ratio,
+    where their hips' heads stand 0.86 apart); the hips' height above the
+    lowest point only for a rig without labelled legs.
     heads_over_clip (frames, 3B): the rig's motion, for a zero pose's feet above the floor's height.
     """
     legs = _legs(side, body)
@@ -328,7 +331,7 @@ def _leg_length(side: _Side, body, pose: _Pose, up, hips: int, heads_over_clip=N
             lowest = float(np.min(heads_over_clip[:, 3 * leg.foot:3 * leg.foot + 3] @ up)) - floor
             lowest = lowest if lowest > 0 else None
         lengths.append(root_motion.leg_length(leg, pose.heads, tails, lowest))
-    return root_motion.hips_drop(pose.heads[hips], legs, pose.heads, tails) + float(np.mean(lengths))
+    return float(np.mean(lengths))
 
 
 def _bone_aims(src: _Side, tgt: _Side, bone_map: list[int]) -> tuple[np.ndarray | None, np.ndarray | None]:
@@ -401,15 +404,14 @@ def _floor_height(side: _Side, body, up, given=None, heads_over_clip=None) -> fl
     soles = _sole_points(side, body, heads, tails)
     if soles is None:
         return 0.0  # no feet: the armature's origin, as a capture's floor
-    rest = sole_height(soles, up)
-    if heads_over_clip is None:
-        return rest
-    feet = [leg.foot for leg in _legs(side, body) if leg.foot >= 0]
-    if not feet:
-        return rest
-    lowest = np.min(np.stack([heads_over_clip[:, 3 * f:3 * f + 3] @ up for f in feet], axis=1), axis=1)
     legs = [np.linalg.norm(heads[leg.shin] - heads[leg.thigh]) + np.linalg.norm(tails[leg.shin] - heads[leg.shin])
             for leg in _legs(side, body)]
+    rest = sole_height(soles, up)
+    rest = rest_floor(rest, float(np.mean(legs))) if legs else rest
+    feet = [leg.foot for leg in _legs(side, body) if leg.foot >= 0]
+    if heads_over_clip is None or not feet:
+        return rest
+    lowest = np.min(np.stack([heads_over_clip[:, 3 * f:3 * f + 3] @ up for f in feet], axis=1), axis=1)
     return clip_floor(rest, lowest, float(np.mean(legs)))
 
 
@@ -554,6 +556,9 @@ def plan(source, target, bone_map=None, frame_range=None, root: str = "scaled", 
         contact_settings=contact_settings, chain_modes=chain_modes))
     plant_feet = _planting(plant_feet, (src, rigs.src_body), (tgt, rigs.tgt_body))
     # The source's contacts, needed to plant feet or to put them on the floor, need only the source's pose.
+    # ground keeps the motion's own heights, the whole clip moved once so that its first frame touches the
+    # floor: no frame's feet are fitted apart.
+    floor_fit = "off" if ground else floor_fit
     wants_feet = plant_feet or (floor_fit != "off" and root != "none")
     feet = (_feet(src, rigs.src_body), _feet(tgt, rigs.tgt_body)) if wants_feet else (None, None)
     # The source's contacts count only where both rigs have feet.
@@ -911,8 +916,10 @@ def _pose_legs(native, side: _Side, body, rotations, locations, hips: int):
 
 def _stand_on_floor(native, source, target, rotations, locations, hips: int, contacts_, height_scale,
                     leg_length: float, fps: float) -> np.ndarray:
-    """Raises or lowers the target's hips on every frame so that each foot standing in the source stands as
-    high above the target's floor as the source's does above its own, scaled (core.floor.hips_lift).
+    """Where each foot standing in the source should stand on the target: as high above the target's floor
+    as the source's does above its own, scaled. The legs bend or stretch to put it there (the feet's IK
+    solve), as Mixamo's own retargets adjust the legs; the hips come down only where a leg would have to
+    stretch beyond straight (core.floor.reach_drops, hips_lift).
 
     source: (side, body, armature rotations, heads, up, floor height); target: (side, body, up, floor
     height); contacts_: (frames, 4) the source's contacts (contacts.POINTS); leg_length: the target's (its
@@ -925,8 +932,17 @@ def _stand_on_floor(native, source, target, rotations, locations, hips: int, con
     posed_rotations, posed_heads, column = _pose_legs(native, tgt, tgt_body, rotations, locations, hips)
     heights = _foot_heights(tgt, tgt_body, posed_rotations, posed_heads, up, column)
     stance = contacts_[:, 0::2] | contacts_[:, 1::2]  # per leg: its ankle or its ball stands
-    # The hips' height eases at most half a leg a second where a second foot comes down (core.floor).
-    lift = hips_lift(wanted, heights, stance, slope=0.5 * leg_length / fps)
+    joint = lambda b: posed_heads[:, 3 * column(b):3 * column(b) + 3]  # noqa: E731
+    legs = _legs(tgt, tgt_body)
+    ends = [(joint(leg.thigh), joint(leg.shin), joint(leg.foot) if leg.foot >= 0 else None) for leg in legs]
+    if all(ankle is not None for _, _, ankle in ends):
+        # A leg straightened to a thousandth short of its joints' reach: the solve stays well-conditioned.
+        reach = 0.999 * np.array([np.linalg.norm(k[0] - h[0]) + np.linalg.norm(a[0] - k[0]) for h, k, a in ends])
+        drops = reach_drops(np.stack([h for h, _, _ in ends], axis=1), np.stack([a for _, _, a in ends], axis=1),
+                            wanted - heights, up, reach)
+        lift = hips_lift(drops, stance, slope=0.5 * leg_length / fps)
+    else:
+        lift = np.zeros(len(heights))
     # The location channel moves the head in the bone's posed frame less its own rotation.
     orient = posed_rotations[:, 4 * column(hips):4 * column(hips) + 4]
     basis = rotations[:, 4 * hips:4 * hips + 4]
@@ -1173,7 +1189,7 @@ def retarget(source, target, bone_map=None, frame_range=None, root: str = "scale
     trunk keeps, a limb whose rest line lies farther than 15 degrees from the
     source's matches, the others keep, and fingers match (Plan.chains). ground: move the
     root so that the target's lowest point touches its floor (armature Z = 0) on
-    the first frame. align_facing: turn the motion so that each rig walks the
+    the first frame, the clip's heights kept (no floor_fit). align_facing: turn the motion so that each rig walks the
     way it faces. source_floor, target_floor: the floors' world Z heights
     (default: each rig's rest soles; see core/floor.py). floor_fit: how the
     feet are put on the target's floor where the source's stand on its own

@@ -20,6 +20,9 @@ _FIELDS = {
     "speed_leave": ("Speed Out", 0.001, 10.0, 'NONE',
                     "...and leaves it faster than this (leg lengths per second)"),
     "min_length": ("Shortest", 0.0, 2.0, 'TIME_ABSOLUTE', "Contacts shorter than this are ignored"),
+    "max_drift": ("Drift", 0.001, 1.0, 'NONE',
+                  "A contact whose foot point wanders farther than this across the floor is a slide or a pivot, "
+                  "not planted (leg lengths)"),
     "blend": ("Blend", 0.001, 2.0, 'TIME_ABSOLUTE', "How long the feet take to ease into and out of a plant"),
 }
 

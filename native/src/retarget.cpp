@@ -24,6 +24,7 @@ struct Drive {
   double alpha = 0;  // kChain: slerp parameter from `from` to `to`
   Eigen::Quaterniond align = Eigen::Quaterniond::Identity();  // the bone posed as the source's match pose
   double fit = -2;   // kChain: how well the chain continues this bone (for bones on two chains)
+  double other_fit = -2;  // kChain: how well the next best chain through this bone continues it
 };
 
 // Source bones from just below `top` down to `bottom` (inclusive), top first.
@@ -82,6 +83,10 @@ class Plan {
     }
     for (int b = 0; b < nt; ++b) {
       if (job.bone_map[static_cast<std::size_t>(b)] >= 0) PlanChain(b);
+    }
+    // A bone two chains continue alike (a pelvis both legs hang from) follows neither: it is carried.
+    for (Drive& d : drives_) {
+      if (d.kind == Drive::kChain && d.other_fit > d.fit - kTie) d.kind = Drive::kKeep;
     }
     AlignDownTheHierarchy();
   }
@@ -172,7 +177,8 @@ class Plan {
   }
 
   static constexpr double kPostureCos = 0.7071067811865476;  // cos 45 degrees: bodies differ less, poses more
-  static constexpr double kOffLine = 0.17;  // sin 10 degrees: a child head this far off the line shows a roll
+  static constexpr double kOffLine = 0.17;
+  static constexpr double kTie = 0.05;  // chains continuing a bone within this (in cosine) are alike  // sin 10 degrees: a child head this far off the line shows a roll
 
   static Eigen::Vector3d Across(const Eigen::Vector3d& axis, const Eigen::Vector3d& v) {
     return v - v.dot(axis) * axis;
@@ -222,7 +228,11 @@ class Plan {
       const Eigen::Vector3d own = t.rest(c) * kBoneAxis;
       const double fit = own.dot(t.rest(chain[j + 1]) * kBoneAxis);
       Drive& d = drives_[static_cast<std::size_t>(c)];
-      if (d.kind == Drive::kChain && d.fit >= fit) continue;
+      if (d.kind == Drive::kChain && d.fit >= fit) {
+        d.other_fit = std::max(d.other_fit, fit);
+        continue;
+      }
+      if (d.kind == Drive::kChain) d.other_fit = d.fit;
       d.kind = Drive::kChain;
       d.from = upper;
       d.to = lower;

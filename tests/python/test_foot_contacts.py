@@ -59,18 +59,32 @@ def test_hysteresis_does_not_flicker():
     fps = 60
     frames = 120
     points = np.zeros((frames, 1, 3))
-    # Planted, with the speed dithering around the enter threshold: stays in once in.
+    # Planted, with the speed dithering around the enter threshold: stays in once in (however far it slides:
+    # the drift limit is test_a_slide_or_a_pivot_is_no_plant's).
     rng = np.random.default_rng(1)
-    settings = fc.ContactSettings(smoothing=0.0)
+    settings = fc.ContactSettings(smoothing=0.0, max_drift=10.0)
     speed = settings.speed_enter * LEG * (1 + 0.2 * rng.standard_normal(frames))
     speed[:5] = 0.1 * settings.speed_enter * LEG
     points[:, 0, 0] = np.cumsum(np.abs(speed)) / fps
     contacts = fc.detect(points, fps, LEG, settings=settings)
     assert len(fc.intervals(contacts[:, 0])) == 1
     # Without hysteresis (leave == enter) the same motion flickers.
-    strict = fc.ContactSettings(smoothing=0.0, speed_leave=settings.speed_enter,
+    strict = fc.ContactSettings(smoothing=0.0, max_drift=10.0, speed_leave=settings.speed_enter,
                                 height_leave=settings.height_enter, min_length=0, min_gap=0)
     assert len(fc.intervals(fc.detect(points, fps, LEG, settings=strict)[:, 0])) > 3
+
+
+@pytest.mark.parametrize("wander, planted", [(0.059, True), (0.061, False)])
+def test_a_slide_or_a_pivot_is_no_plant(wander, planted):
+    """A foot point low and slow throughout that wanders (a catwalk's pivot on the ball of the foot, 26 cm over
+    two seconds) is planted only within max_drift leg lengths of its mean position across the floor."""
+    fps, frames = 60, 120
+    settings = fc.ContactSettings()
+    points = np.zeros((frames, 1, 3))
+    # Out and back along x: wander leg lengths from the mean at the ends and the middle, a slow slide.
+    points[:, 0, 0] = wander * LEG * np.cos(np.linspace(0.0, 2 * np.pi, frames))
+    contacts = fc.detect(points, fps, LEG, settings=settings)
+    assert contacts[:, 0].all() == planted and contacts[:, 0].any() == planted
 
 
 def test_minimum_length_and_gap():

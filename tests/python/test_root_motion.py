@@ -54,15 +54,6 @@ def test_a_zero_pose_foot_takes_the_height_it_is_given():
     assert rm.leg_length(spec, heads, tails) == pytest.approx(0.88)  # a tenth of thigh + shin
 
 
-def test_hips_drop_is_the_hips_above_the_hip_joints_along_the_legs():
-    spec, heads, tails = leg()
-    other = rm.Leg(4, 5, 6, (6,))
-    mirrored = heads * [-1, 1, 1]
-    all_heads = np.vstack([heads, mirrored[:3]])
-    all_tails = np.vstack([tails, (tails * [-1, 1, 1])[:3]])
-    assert rm.hips_drop(np.array([0, 0, 1.05]), [spec, other], all_heads, all_tails) == pytest.approx(0.05, abs=1e-4)
-
-
 def test_smoothing_keeps_a_straight_line_exactly_and_calms_a_sway():
     t = np.arange(200.0)
     line = np.stack([0.013 * t - 2.0, -0.004 * t, np.zeros_like(t)], axis=1)
