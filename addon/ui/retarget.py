@@ -22,21 +22,35 @@ def _is_armature(self, obj):
     return obj.type == 'ARMATURE'
 
 
-_CHAIN_MODES = (("AUTO", "Auto", "Keep the target's posture where both rigs stand alike, match the source's "
-                                 "direction where they stand in different poses (a T against an A)"),
-                ("KEEP", "Keep", "The target keeps its own posture (its spine's curve, its knees' bend) and moves "
-                                 "from it as the source moves from its own"),
-                ("MATCH", "Match", "The target's bones are turned onto the source's directions first"))
-_CHAIN_LABELS = {"trunk": "Trunk", "arm.L": "Arm L", "arm.R": "Arm R", "leg.L": "Leg L", "leg.R": "Leg R",
-                 "fingers.L": "Fingers L", "fingers.R": "Fingers R"}
+_AUTO = "Keep the target's posture where both rigs stand alike, match the source's direction where they stand " \
+        "in different poses (a T against an A)"
+_KEEP = "The target keeps its own posture (its spine's curve, its knees' bend) and moves from it as the source " \
+        "moves from its own"
+_MATCH = "The target's bones are turned onto the source's directions first"
+_CHAIN_LABELS = {"trunk": "Trunk", "arm.L": "Left arm", "arm.R": "Right arm", "leg.L": "Left leg",
+                 "leg.R": "Right leg", "fingers.L": "Left fingers", "fingers.R": "Right fingers"}
+_ITEMS = {}  # Blender keeps no reference to dynamic enum items: they live here while shown
 
 
 def _chain_prop(chain: str) -> str:
     return "chain_" + chain.replace(".", "_").lower()
 
 
+def _chain_items(chain: str):
+    """The chain's modes, Auto named after what it decided last ("(Keep)", "(Match)") so that the list says
+    it without a column of its own."""
+    def items(self, context):
+        mode, angle = self.decided().get(chain, ("", ""))
+        auto = f"({mode.capitalize()})" if mode else "Auto"
+        why = f"Decided: {mode.lower()}" + (f", the limb's line {angle}\u00b0 from the source's" if angle else "")
+        _ITEMS[chain] = [("AUTO", auto, f"{_AUTO}. {why}" if mode else _AUTO, 0),
+                         ("KEEP", "Keep", _KEEP, 1), ("MATCH", "Match", _MATCH, 2)]
+        return _ITEMS[chain]
+    return items
+
+
 def _chain_properties() -> dict:
-    return {_chain_prop(c): EnumProperty(name=_CHAIN_LABELS[c], items=_CHAIN_MODES, default="AUTO",
+    return {_chain_prop(c): EnumProperty(name=_CHAIN_LABELS[c], items=_chain_items(c), default=0,
                                          description=f"How the target's {_CHAIN_LABELS[c].lower()} stands in the "
                                                      f"reference pose")
             for c in reference_pose.CHAINS}
@@ -481,17 +495,17 @@ class MOTIONKIT_PT_retarget_map(RetargetSubPanel, bpy.types.Panel):
 
 
 def _draw_reference_pose(box, settings) -> None:
-    """Per chain: the user's mode, and beside Auto what it decided (and the limb's angle to the source's)."""
+    """Per chain the user's mode, Auto showing what it decided ("(Keep)"); left and right side by side."""
     row = box.row()
     row.label(text="Reference Pose")
     row.operator("motionkit.reference_pose", text="", icon='FILE_REFRESH')
-    decided = settings.reference_pose.decided()
-    for chain in reference_pose.CHAINS:
-        split = box.split(factor=0.6, align=True)
-        split.prop(settings.reference_pose, _chain_prop(chain))
-        mode, angle = decided.get(chain, ("", ""))
-        auto = getattr(settings.reference_pose, _chain_prop(chain)) == "AUTO"
-        split.label(text=(mode.capitalize() + (f" {angle}\u00b0" if angle else "")) if auto and mode else "")
+    for label, chains in (("Trunk", ("trunk",)), ("Arms", ("arm.L", "arm.R")), ("Legs", ("leg.L", "leg.R")),
+                          ("Fingers", ("fingers.L", "fingers.R"))):
+        split = box.split(factor=0.36)
+        split.label(text=label)
+        row = split.row(align=True)
+        for chain in chains:
+            row.prop(settings.reference_pose, _chain_prop(chain), text="")
 
 
 class MOTIONKIT_PT_retarget_controls(RetargetSubPanel, bpy.types.Panel):
