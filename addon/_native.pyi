@@ -91,7 +91,8 @@ def retarget(source: Rig, target: Rig, source_rotations: F64, source_root_heads:
     scale: float = 1.0, unit_scale: float = 1.0, vertical_offset: float = 0.0,
     root_motion: Literal["scaled", "in_place", "offset", "none"] = "scaled", ground_bones: list[int] = ...,
     up: npt.ArrayLike = ..., source_floor: float = 0.0, target_floor: float = 0.0, source_aims: F64 | None = None,
-    target_aims: F64 | None = None, posture_bones: list[int] = ...) -> RetargetResult: ...
+    target_aims: F64 | None = None, posture_bones: list[int] = ...,
+    posture_always: list[int] = ...) -> RetargetResult: ...
 
 # Mirroring a clip across a plane (native/python/bind_mirror.cpp).
 def mirror(source: Rig, target: Rig, basis_rotations: F64, basis_locations: F64, partners: list[int],

@@ -134,13 +134,14 @@ def chain_of_labels(body: bone_mapping.Body) -> dict:
     return out
 
 
-def kept_bones(names, parents, body: bone_mapping.Body, chains: list[ChainPose]) -> list[int]:
+def kept_bones(names, parents, body: bone_mapping.Body, chains: list[ChainPose], by_user=None) -> list[int]:
     """The target bones (indices, ascending) on a kept chain: each bone is on the chain of its nearest
     labelled ancestor or itself (a twist bone on its limb's, an unlabelled bone between the hips and the
-    chest on the trunk's, anything under a hand not labelled on that hand's fingers')."""
+    chest on the trunk's, anything under a hand not labelled on that hand's fingers'). by_user: only those
+    on chains the user set (True) or Auto decided (False); None: both."""
     labels = chain_of_labels(body)
     hands = {body.limbs.get(f"hand.{s}"): f"fingers.{s}" for s in bone_mapping.SIDES}
-    modes = {c.chain: c.mode for c in chains}
+    modes = {c.chain: c.mode for c in chains if by_user is None or c.by_user == by_user}
     kept = []
     for b, name in enumerate(names):
         chain, up = labels.get(name), parents[b]

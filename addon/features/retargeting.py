@@ -772,11 +772,12 @@ def _chain_poses(rigs: _Rigs, fit: _Fit, chain_modes) -> list:
     return reference_pose.decide(source, target, chain_modes)
 
 
-def _posture_bones(rigs: _Rigs, chains) -> list[int]:
-    """The target bones on kept chains (reference_pose.kept_bones), for the native retarget to keep where
-    their parents carry them within 45 degrees of the source's."""
+def _posture_bones(rigs: _Rigs, chains, by_user: bool) -> list[int]:
+    """The target bones on the chains the user (by_user) or Auto kept (reference_pose.kept_bones): Auto's
+    for the native retarget to keep where their parents carry them within 45 degrees of the source's, the
+    user's whatever the angle."""
     return reference_pose.kept_bones(rigs.tgt.names, pose_channels.parent_indices(rigs.tgt.bones), rigs.tgt_body,
-                                     chains)
+                                     chains, by_user)
 
 
 def kept_bones(source, target, bone_map=None, *, source_match: str = 'REST', match_frame=None,
@@ -806,7 +807,7 @@ def _native_retarget(rigs: _Rigs, clip: _Clip, fit: _Fit, root, ground, chains):
             vertical_offset=fit.heights[1] - fit.unit_scale * fit.heights[0], root_motion=root,
             ground_bones=list(range(len(tgt.bones))) if ground else [], up=fit.up, source_floor=fit.floors[0],
             target_floor=fit.floors[1], source_aims=source_aims, target_aims=target_aims,
-            posture_bones=_posture_bones(rigs, chains))
+            posture_bones=_posture_bones(rigs, chains, False), posture_always=_posture_bones(rigs, chains, True))
 
 
 def _retarget_clip(rigs: _Rigs, clip: _Clip, fit: _Fit, how, source_feet, contact_settings):

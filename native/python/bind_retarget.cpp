@@ -47,7 +47,7 @@ RetargetResult Retarget(const RigModel& source, const RigModel& target, const Co
                    double vertical_offset, const std::string& root_motion, const std::vector<int>& ground_bones,
                    const PointArg& up, double source_floor, double target_floor,
                    const std::optional<RowMatrixXd>& source_aims, const std::optional<RowMatrixXd>& target_aims,
-                   const std::vector<int>& posture_bones) {
+                   const std::vector<int>& posture_bones, const std::vector<int>& posture_always) {
   const auto motion = ParseRootMotion(root_motion);
   if (!motion) throw Error("unknown root motion '" + root_motion + "'; expected scaled, in_place, offset or none");
   const Eigen::Index frames = source_rotations.rows(), bones = target.size();
@@ -67,6 +67,7 @@ RetargetResult Retarget(const RigModel& source, const RigModel& target, const Co
   job.options.space = ToQuaternion(space);
   job.options.ground_bones = ground_bones;
   job.options.posture_bones = posture_bones;
+  job.options.posture_always = posture_always;
   job.options.up = up;
   job.options.source_floor = source_floor;
   job.options.target_floor = target_floor;
@@ -93,6 +94,7 @@ void BindRetarget(py::module_& m) {
         "unit_scale"_a = 1.0, "vertical_offset"_a = 0.0, "root_motion"_a = "scaled", "ground_bones"_a = std::vector<int>{},
         "up"_a = Eigen::Vector3d(0, 0, 1), "source_floor"_a = 0.0, "target_floor"_a = 0.0,
         "source_aims"_a = py::none(), "target_aims"_a = py::none(), "posture_bones"_a = std::vector<int>{},
+        "posture_always"_a = std::vector<int>{},
         R"pbdoc(
         Retarget a whole clip from the source rig to the target rig.
 
@@ -116,7 +118,9 @@ void BindRetarget(py::module_& m) {
         bone points in its own frame, for rigs whose bone axes do not run
         along their limbs (default: every bone's Y axis). posture_bones:
         target bones that keep their own posture in the match pose (carried
-        by their parents, not turned onto the source's direction).
+        by their parents, not turned onto the source's direction) unless their
+        parents carry them more than 45 degrees from it; posture_always:
+        bones that keep it whatever the angle (the user's choice).
 
         Returns a RetargetResult: rotations (frames, 4b) pose quaternions per
         target bone, continuous per bone; root_locations (frames, 3), the

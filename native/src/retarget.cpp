@@ -74,6 +74,10 @@ class Plan {
     drives_.resize(static_cast<std::size_t>(nt));
     kept_.assign(static_cast<std::size_t>(nt), false);
     for (int b : job.options.posture_bones) kept_[static_cast<std::size_t>(b)] = true;
+    always_.assign(static_cast<std::size_t>(nt), false);
+    for (int b : job.options.posture_always) {
+      kept_[static_cast<std::size_t>(b)] = always_[static_cast<std::size_t>(b)] = true;
+    }
     for (int b = 0; b < nt; ++b) {
       const int a = job.bone_map[static_cast<std::size_t>(b)];
       if (a < 0) continue;
@@ -136,8 +140,9 @@ class Plan {
       const Eigen::Vector3d own = carried * Aim(job_.target_aims, b);
       // A bone kept where its parents carry it unless it then points across the source's: a capture's foot
       // pointing down its shin, an arm lying along a zero pose's spine turned upright, are poses.
-      const bool kept = kept_[static_cast<std::size_t>(b)] && own.normalized().dot(direction.normalized()) >= kPostureCos;
-      kept_[static_cast<std::size_t>(b)] = kept;
+      const auto i = static_cast<std::size_t>(b);
+      const bool kept = kept_[i] && (always_[i] || own.normalized().dot(direction.normalized()) >= kPostureCos);
+      kept_[i] = kept;
       if (kept) {
         d.align = carried.normalized();
         continue;
@@ -177,8 +182,8 @@ class Plan {
   }
 
   static constexpr double kPostureCos = 0.7071067811865476;  // cos 45 degrees: bodies differ less, poses more
-  static constexpr double kOffLine = 0.17;
-  static constexpr double kTie = 0.05;  // chains continuing a bone within this (in cosine) are alike  // sin 10 degrees: a child head this far off the line shows a roll
+  static constexpr double kOffLine = 0.17;  // sin 10 degrees: a child head this far off the line shows a roll
+  static constexpr double kTie = 0.05;      // chains continuing a bone within this (in cosine) are alike
 
   static Eigen::Vector3d Across(const Eigen::Vector3d& axis, const Eigen::Vector3d& v) {
     return v - v.dot(axis) * axis;
@@ -279,7 +284,8 @@ class Plan {
   std::vector<Eigen::Quaterniond> match_, match_basis_, source_match_inverse_;
   std::vector<Eigen::Vector3d> source_heads_, target_heads_;
   std::vector<Drive> drives_;
-  std::vector<bool> kept_;  // per target bone: keeps its own posture (options.posture_bones)
+  std::vector<bool> kept_;    // per target bone: keeps its own posture (options.posture_bones, posture_always)
+  std::vector<bool> always_;  // per target bone: whatever the angle (options.posture_always)
 };
 
 // Poses the target frame by frame from the plan: every bone's orientation, written as its pose basis, then
@@ -489,8 +495,10 @@ Status RetargetJob::Validate() const {
   for (int g : options.ground_bones) {
     if (g < 0 || g >= nt) return Status::Fail("retarget: ground bone index out of range");
   }
-  for (int k : options.posture_bones) {
-    if (k < 0 || k >= nt) return Status::Fail("retarget: posture bone index out of range");
+  for (const auto* bones : {&options.posture_bones, &options.posture_always}) {
+    for (int k : *bones) {
+      if (k < 0 || k >= nt) return Status::Fail("retarget: posture bone index out of range");
+    }
   }
   for (const bool is_source : {true, false}) {
     const RowMatrixXd& aims = is_source ? source_aims : target_aims;

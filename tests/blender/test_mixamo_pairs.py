@@ -26,6 +26,14 @@ IDS = [f"{clip}-{a}-to-{b}" for clip, a, b in CASES]
 SANITY = 5e-5
 # The issue's targets (issue 37, "Done means"), means over the clips.
 TARGET_ALL, TARGET_POSE = 3.0, 1.0
+# MotionKit's defaults over these four cases, measured on Blender 3.4, 4.3 and 5.2 (means, % of the height):
+# what a change may not make worse by more than REGRESSION (about a millimetre on these 1.5 m characters;
+# the figures agree across the Blenders to 1e-4 %).
+MEASURED_ALL, MEASURED_POSE = 1.38, 0.51
+REGRESSION = 0.05
+# Two methods whose joints Blender evaluates alike differ by the evaluation's own noise (SANITY), in %: a
+# retarget that keeps the plain copy's pose exactly ties with it to that.
+TIE = 100 * SANITY
 
 _results = {}
 
@@ -69,13 +77,15 @@ def test_motionkit_defaults_at_least_as_close_to_mixamo_as_the_plain_copy(mk, pa
     plain, ours = errors["plain copy"], errors["MotionKit"]
     print(f"{case}: all joints {ours['all']:.2f} % (plain copy {plain['all']:.2f} %), "
           f"pose alone {ours['pose']:.2f} % (plain copy {plain['pose']:.2f} %)")
-    assert ours["all"] <= plain["all"] and ours["pose"] <= plain["pose"], (ours, plain)
+    assert ours["all"] <= plain["all"] + TIE and ours["pose"] <= plain["pose"] + TIE, (ours, plain)
 
 
 def test_motionkit_defaults_within_the_issue_targets_on_average(mk, pairs):
-    """Mean over the clips: within 3 % of the height over all joints and 1 % for the pose alone."""
+    """Mean over the clips: within 3 % of the height over all joints and 1 % for the pose alone (the issue's
+    targets), and no worse than measured."""
     figures = [measured(mk, pairs, case)["errors"]["MotionKit"] for case in CASES]
     mean_all = float(np.mean([f["all"] for f in figures]))
     mean_pose = float(np.mean([f["pose"] for f in figures]))
     print(f"MotionKit's defaults: all joints {mean_all:.2f} %, pose alone {mean_pose:.2f} %")
     assert mean_all <= TARGET_ALL and mean_pose <= TARGET_POSE, (mean_all, mean_pose)
+    assert mean_all <= MEASURED_ALL + REGRESSION and mean_pose <= MEASURED_POSE + REGRESSION, (mean_all, mean_pose)

@@ -6,6 +6,7 @@ height), random bone rolls (directions to 0.01 deg), walk60 onto each sample
 character (mapped directions to 0.1 deg, foot heights scaled by the leg
 ratio), and errors that change nothing.
 """
+import json
 import math
 import os
 
@@ -282,6 +283,43 @@ def test_walk60_keeps_each_characters_posture(mk, retargeting, walk60, spec):
     rest = angles_deg(rest_y_axes(source, names[0]), rest_y_axes(target, names[1]))
     trunk = [i for i, (_, t) in enumerate(pairs) if any(k in t.lower() for k in ("spine", "neck", "head", "hips"))]
     assert trunk and np.abs(angle[:, trunk] - rest[trunk]).max() < CHARACTER_DEG, (angle[0, trunk], rest[trunk])
+
+
+def test_reference_pose_is_decided_shown_switched_and_saved_with_the_map(mk, walk60, tmp_path):
+    """The panel's Reference Pose: Auto-map decides each chain (walk60's T arms against RigifyA's A arms: turned
+    onto the capture's; the trunks alike: kept), a chain switched by hand is saved with the bone map and
+    read back, and the Retarget button retargets with it, as the call with the same chain modes does."""
+    source, _ = load(mk, walk60, "walk60")
+    target = generate.build_armature(characters.RIGIFY_A)
+    settings = bpy.context.scene.motionkit_retarget
+    settings.source_kind, settings.source, settings.target = 'ARMATURE', source, target
+    assert bpy.ops.motionkit.bone_map_auto() == {'FINISHED'}
+    decided = settings.reference_pose.decided()
+    assert decided["trunk"][0] == "KEEP" and decided["arm.L"][0] == decided["arm.R"][0] == "MATCH", decided
+    assert decided["leg.L"][0] == "KEEP" and float(decided["arm.L"][1]) > 30.0, decided
+    settings.reference_pose.chain_trunk, settings.reference_pose.chain_arm_l = 'MATCH', 'KEEP'
+    path = tmp_path / "map.json"
+    assert bpy.ops.motionkit.bone_map_save(filepath=str(path)) == {'FINISHED'}
+    saved = json.loads(path.read_text())
+    assert saved["version"] == 2 and saved["chains"] == {"trunk": "MATCH", "arm.L": "KEEP"}
+    settings.reference_pose.chain_trunk = settings.reference_pose.chain_arm_l = 'AUTO'
+    assert bpy.ops.motionkit.bone_map_load(filepath=str(path)) == {'FINISHED'}
+    assert (settings.reference_pose.chain_trunk, settings.reference_pose.chain_arm_l) == ('MATCH', 'KEEP')
+    settings.use_frame_range, settings.scene_from_clip, settings.plant_feet = False, False, False
+    assert bpy.ops.motionkit.retarget() == {'FINISHED'}
+    by_button = target.animation_data.action
+    by_call = mk.retarget(source, target, bone_map=settings.bone_map(), plant_feet=False,
+                          chain_modes={"trunk": "MATCH", "arm.L": "KEEP"})
+    curves = {(c.data_path, c.array_index): c for c in mk.animdata.fcurves(by_call, target)}
+    for curve in mk.animdata.fcurves(by_button, target):
+        other = curves[(curve.data_path, curve.array_index)]
+        for frame in (1.0, 60.0, 120.0):
+            assert curve.evaluate(frame) == pytest.approx(other.evaluate(frame), abs=1e-6)
+    # The arm kept by hand moves from its own A-pose rest: it points 45 degrees off the capture's T-pose arm.
+    frames = np.array([1, 90])
+    arm = [("lShoulder", "upper_arm.L")]
+    left = angles_deg(*pointing_pairs(source, target, arm, frames))
+    assert left.min() > 30.0, left
 
 
 def test_errors_change_nothing(mk, walk60):

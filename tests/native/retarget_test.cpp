@@ -227,6 +227,115 @@ TEST(Retarget, ChainsOfOtherLengthsEndAsTheSourceAndBendBetween) {
   }
 }
 
+// Retargets like Retarget() and returns the job's kept_posture too.
+std::vector<int> KeptPosture(const RigModel& source, const RigModel& target, const Posed& posed,
+                             const RetargetOptions& options, RowMatrixXd* rotations) {
+  const Eigen::Index frames = posed.rotations.rows();
+  RowMatrixXd roots(frames, 3), source_match(1, 4 * source.size()), target_match(1, 4 * target.size());
+  rotations->resize(frames, 4 * target.size());
+  for (int a = 0; a < source.size(); ++a) {
+    const Eigen::Quaterniond q = source.rest(a);
+    source_match.row(0).segment<4>(4 * a) << q.w(), q.x(), q.y(), q.z();
+  }
+  for (int b = 0; b < target.size(); ++b) target_match.row(0).segment<4>(4 * b) << 1, 0, 0, 0;
+  const RowMatrixXd root_heads = posed.heads.leftCols(3);
+  RetargetJob job(source, target, posed.rotations, root_heads, source_match, target_match, *rotations, roots);
+  for (int b = 0; b < target.size(); ++b) job.bone_map.push_back(source.Find(target.name(b)));
+  job.source_match_root = source.head(0);
+  job.source_root = job.target_root = 0;
+  job.options = options;
+  job.Run();
+  return job.kept_posture;
+}
+
+// A target arm resting 15 degrees below the source's T keeps its posture where asked: it moves from its own
+// rest as the source's arm moves from its own, so it stays 15 degrees off the source's on every frame and
+// turns from rest exactly as the source's does; not kept, it points as the source's.
+TEST(Retarget, APostureBoneMovesFromItsOwnRestAsTheSourceFromIts) {
+  const RigModel source = MakeRig(Humanoid(3, 0.0));
+  const RigModel target = MakeRig(Humanoid(3, kPi / 12));
+  const Posed posed = Pose(source, RandomPoses(source.size(), 20, 5), RowMatrixXd::Zero(20, 3 * source.size()));
+  const int arm = target.Find("upper_arm"), forearm = target.Find("forearm");
+  for (const bool keep : {true, false}) {
+    RetargetOptions options;
+    if (keep) options.posture_bones = {arm, forearm};
+    RowMatrixXd rotations;
+    const std::vector<int> kept = KeptPosture(source, target, posed, options, &rotations);
+    EXPECT_EQ(kept, keep ? std::vector<int>({arm, forearm}) : std::vector<int>{});
+    const Posed result = Pose(target, rotations, RowMatrixXd::Zero(20, 3 * target.size()));
+    for (int f = 0; f < 20; ++f) {
+      for (const int b : {arm, forearm}) {
+        const int a = source.Find(target.name(b));
+        const double angle = AngleDeg(Direction(result.rotations, f, b), Direction(posed.rotations, f, a));
+        EXPECT_NEAR(angle, keep ? 15.0 : 0.0, 1e-9) << target.name(b) << " frame " << f;
+        if (!keep) continue;
+        const Eigen::Quaterniond turned = QuatAt(result.rotations, f, b) * target.rest(b).conjugate();
+        const Eigen::Quaterniond wanted = QuatAt(posed.rotations, f, a) * source.rest(a).conjugate();
+        EXPECT_LT(turned.angularDistance(wanted), 1e-9) << target.name(b) << " frame " << f;
+      }
+    }
+  }
+}
+
+// A posture bone its parents carry 60 degrees across the source's stands in another pose: turned onto the
+// source's direction, and left out of kept_posture; in posture_always (the user's choice) it is kept.
+TEST(Retarget, APostureBone60DegreesAcrossIsTurnedUnlessAlwaysKept) {
+  const RigModel source = MakeRig(Humanoid(3, 0.0));
+  const RigModel target = MakeRig(Humanoid(3, kPi / 3));
+  const Posed posed = Pose(source, RandomPoses(source.size(), 5, 6), RowMatrixXd::Zero(5, 3 * source.size()));
+  const int arm = target.Find("upper_arm"), a = source.Find("upper_arm");
+  for (const bool always : {false, true}) {
+    RetargetOptions options;
+    (always ? options.posture_always : options.posture_bones) = {arm};
+    RowMatrixXd rotations;
+    const std::vector<int> kept = KeptPosture(source, target, posed, options, &rotations);
+    EXPECT_EQ(kept, always ? std::vector<int>{arm} : std::vector<int>{});
+    const Posed result = Pose(target, rotations, RowMatrixXd::Zero(5, 3 * target.size()));
+    for (int f = 0; f < 5; ++f) {
+      EXPECT_NEAR(AngleDeg(Direction(result.rotations, f, arm), Direction(posed.rotations, f, a)),
+                  always ? 60.0 : 0.0, 1e-9) << "frame " << f;
+    }
+  }
+  RetargetOptions bad;
+  bad.posture_always = {target.size()};
+  RowMatrixXd rotations;
+  EXPECT_THROW(KeptPosture(source, target, posed, bad, &rotations), Error);
+}
+
+// A one-bone neck onto a two-bone neck: the target's second neck bone, left out of the map between the
+// neck and the head, lies within the source neck's reach and shares its turn, so both point as it does.
+// A pelvis both legs hang from, left out of the map, follows neither leg: the hips carry it.
+TEST(Retarget, ASecondNeckBoneSharesTheNecksTurnAndAPelvisIsCarried) {
+  const std::vector<BoneSpec> one{{"hips", -1, {0, 0, 1.0}, {0, 0, 1.1}, 0.0},
+                                  {"thigh.L", 0, {0.1, 0, 1.0}, {0.1, 0, 0.55}, 0.0},
+                                  {"thigh.R", 0, {-0.1, 0, 1.0}, {-0.1, 0, 0.55}, 0.0},
+                                  {"chest", 0, {0, 0, 1.1}, {0, 0, 1.5}, 0.0},
+                                  {"neck", 3, {0, 0, 1.5}, {0, 0.02, 1.62}, 0.0},
+                                  {"head", 4, {0, 0.02, 1.62}, {0, 0.02, 1.8}, 0.0}};
+  const std::vector<BoneSpec> two{{"hips", -1, {0, 0, 1.0}, {0, 0, 1.1}, 0.0},
+                                  {"pelvis", 0, {0, 0, 1.0}, {0, 0, 0.95}, 0.0},
+                                  {"thigh.L", 1, {0.1, 0, 1.0}, {0.1, 0, 0.55}, 0.0},
+                                  {"thigh.R", 1, {-0.1, 0, 1.0}, {-0.1, 0, 0.55}, 0.0},
+                                  {"chest", 0, {0, 0, 1.1}, {0, 0, 1.5}, 0.0},
+                                  {"neck", 4, {0, 0, 1.5}, {0, 0.01, 1.56}, 0.0},
+                                  {"neck.001", 5, {0, 0.01, 1.56}, {0, 0.02, 1.62}, 0.0},
+                                  {"head", 6, {0, 0.02, 1.62}, {0, 0.02, 1.8}, 0.0}};
+  const RigModel source = MakeRig(one), target = MakeRig(two);
+  const Posed posed = Pose(source, RandomPoses(source.size(), 10, 8), RowMatrixXd::Zero(10, 3 * source.size()));
+  RowMatrixXd rotations;
+  KeptPosture(source, target, posed, {}, &rotations);
+  const Posed result = Pose(target, rotations, RowMatrixXd::Zero(10, 3 * target.size()));
+  const int pelvis = target.Find("pelvis");
+  for (int f = 0; f < 10; ++f) {
+    for (const char* name : {"neck", "neck.001"}) {
+      EXPECT_LT(AngleDeg(Direction(result.rotations, f, target.Find(name)), Direction(posed.rotations, f, 4)), 1e-9)
+          << name << " frame " << f;
+    }
+    const Eigen::Quaterniond carried = QuatAt(result.rotations, f, 0) * target.relative(pelvis);
+    EXPECT_LT(QuatAt(result.rotations, f, pelvis).angularDistance(carried), 1e-9) << "pelvis, frame " << f;
+  }
+}
+
 TEST(Retarget, RootMotionScalesAndGroundsAsAsked) {
   const RigModel source = MakeRig(Humanoid(3, 0.0));
   const RigModel target = MakeRig(Humanoid(3, 0.0, 0.0, 0.5));  // half the size

@@ -23,7 +23,8 @@
 // body's (kept). A posture bone that its parents carry to point more than 45
 // degrees from the source's is turned all the same: so far apart, the rigs
 // stand in different poses there (a capture's foot pointing down its shin);
-// kept_posture says which bones kept theirs.
+// kept_posture says which bones kept theirs. A bone in posture_always (the
+// user's choice) keeps it whatever the angle.
 //
 // Chains of different lengths: target bones left out of the map that lie
 // between two mapped bones (b0 above b) take, at the fraction of the chain's
@@ -76,6 +77,7 @@ struct RetargetOptions {
   double target_floor = 0.0;  // the target floor's height along up, target armature units
   std::vector<int> ground_bones;  // target bones that touch the floor on the first frame
   std::vector<int> posture_bones;  // target bones that keep their own posture in the match pose (S_b = 1)
+  std::vector<int> posture_always;  // ... and do so even where their parents carry them 45 degrees across
 };
 
 // Inputs (caller-owned, read-only):
