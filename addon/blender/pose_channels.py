@@ -74,10 +74,16 @@ def rest_matrices(armature) -> np.ndarray:
     return flat
 
 
-def armature_mapping_rig(obj):
-    """The armature at rest as core.bone_mapping sees it."""
+def armature_mapping_rig(obj, upright: bool = False):
+    """The armature at rest as core.bone_mapping sees it; upright: turned by the object's world rotation, so
+    that up is Z as the shape rules read it (Blender's FBX importer leaves armatures Y-up in their own space,
+    turned upright by the object). Labels are names: nothing needs turning back."""
     bones = depth_first(obj.data)
-    return bone_mapping.Rig(tuple(b.name for b in bones), tuple(parent_indices(bones)), heads(bones), tails(bones))
+    head, tail = heads(bones), tails(bones)
+    if upright and isinstance(obj, bpy.types.Object):
+        turn = np.array(obj.matrix_world.to_3x3().normalized())
+        head, tail = head @ turn.T, tail @ turn.T
+    return bone_mapping.Rig(tuple(b.name for b in bones), tuple(parent_indices(bones)), head, tail)
 
 
 def bone_path(name: str) -> str:

@@ -110,7 +110,7 @@ def measure(source, target, pairs, kept=()) -> clip_quality.Quality:
 
 def count_mapped(target, pairs) -> tuple[int, int]:
     """(body bones, finger bones) among the pairs' target bones."""
-    body = bone_mapping.classify(pose_channels.armature_mapping_rig(target))
+    body = bone_mapping.classify(pose_channels.armature_mapping_rig(target, upright=True))
     fingers = {bone for chain in body.fingers.values() for bone in chain}
     mapped = {t for _, t in pairs}
     return len(mapped - fingers), len(mapped & fingers)

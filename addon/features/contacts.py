@@ -75,7 +75,7 @@ def _about_y(angle):
 
 def find_feet(obj) -> list[Foot]:
     """The two legs of an armature from MotionKit's bone map (labels thigh.L, shin.L, foot.L, toe.L, ...)."""
-    return feet_of(bone_mapping.classify(pose_channels.armature_mapping_rig(obj)), obj.name)
+    return feet_of(bone_mapping.classify(pose_channels.armature_mapping_rig(obj, upright=True)), obj.name)
 
 
 def feet_of(body, name: str) -> list[Foot]:

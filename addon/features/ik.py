@@ -318,7 +318,7 @@ def _labels(obj, all_names, rest) -> bone_mapping.Body:
     if key not in _LABELS:
         if len(_LABELS) > 64:
             _LABELS.clear()
-        _LABELS[key] = bone_mapping.classify(pose_channels.armature_mapping_rig(obj))
+        _LABELS[key] = bone_mapping.classify(pose_channels.armature_mapping_rig(obj, upright=True))
     return _LABELS[key]
 
 

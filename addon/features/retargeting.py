@@ -111,8 +111,8 @@ def _side(obj, role: str) -> _Side:
 
 def auto_map(source, target) -> list[tuple[str, str]]:
     """(source bone, target bone) pairs found from names and, where they say nothing, the skeletons."""
-    return bone_mapping.auto_map(pose_channels.armature_mapping_rig(source),
-                                 pose_channels.armature_mapping_rig(target))
+    return bone_mapping.auto_map(pose_channels.armature_mapping_rig(source, upright=True),
+                                 pose_channels.armature_mapping_rig(target, upright=True))
 
 
 def _pairs(bone_map, source: _Side, target: _Side) -> list[tuple[str, str]]:
@@ -705,8 +705,8 @@ def _read_rigs(src: _Side, tgt: _Side, pairs, clip: _Clip, source_match, match_f
     pairs_idx = [(src.index(a), tgt.index(b)) for a, b in pairs]
     for a, b in pairs_idx:
         bone_map_idx[b] = a
-    src_body = bone_mapping.classify(pose_channels.armature_mapping_rig(src.obj))
-    tgt_body = bone_mapping.classify(pose_channels.armature_mapping_rig(tgt.obj))
+    src_body = bone_mapping.classify(pose_channels.armature_mapping_rig(src.obj, upright=True))
+    tgt_body = bone_mapping.classify(pose_channels.armature_mapping_rig(tgt.obj, upright=True))
     # The hips are the body's root for proportions and height; a game rig's floor root above them is
     # carried apart (floor_root=), never mapped like a body bone.
     target_root, target_floor_bone = _body_roots(tgt, tgt_body, {b for _, b in pairs_idx}, _depths(tgt))

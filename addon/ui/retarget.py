@@ -181,7 +181,7 @@ def _source_ready(settings) -> str:
 def _source_rig(settings):
     if settings.source_kind == 'BVH':
         return bvh.file_mapping_rig(bpy.path.abspath(settings.bvh_path))
-    return pose_channels.armature_mapping_rig(settings.source)
+    return pose_channels.armature_mapping_rig(settings.source, upright=True)
 
 
 def _poll_rigs(cls, context) -> bool:
@@ -241,10 +241,15 @@ class MOTIONKIT_OT_retarget(bpy.types.Operator):
                 overwrite=settings.overwrite, progress=progress, **controls, **bvh_options)
             timing = scene_timing.from_clip(context.scene, action) if settings.scene_from_clip else None
             _decide_chains(settings, settings.bone_map() or None)
-            return action, timing
+            left_out = "" if settings.bone_map() or settings.source_kind != 'ARMATURE' else \
+                bone_mapping.auto_map_report(_source_rig(settings), pose_channels.armature_mapping_rig(
+                    settings.target, upright=True)).message()
+            return action, timing, left_out
 
         def done(result):
-            action, timing = result
+            action, timing, left_out = result
+            if left_out:
+                self.report({'WARNING'}, f"Auto-mapped; {left_out}")
             played = f"; the scene plays it at {timing[0]:g} fps, frames {timing[1]}-{timing[2]}" if timing else ""
             decided = _decided_text(settings)
             return f"Retargeted onto '{settings.target.name}' as action '{action.name}'{played}" + (
@@ -264,12 +269,19 @@ class MOTIONKIT_OT_bone_map_auto(bpy.types.Operator):
         return _poll_rigs(cls, context)
 
     def execute(self, context):
-        def auto_map(settings):
-            pairs = bone_mapping.auto_map(_source_rig(settings), pose_channels.armature_mapping_rig(settings.target))
-            _decide_chains(settings, pairs)
-            return pairs
+        left_out = []
 
-        return _fill_map(self, context, auto_map)
+        def auto_map(settings):
+            report = bone_mapping.auto_map_report(_source_rig(settings),
+                                                  pose_channels.armature_mapping_rig(settings.target, upright=True))
+            _decide_chains(settings, report.pairs)
+            left_out.append(report.message())
+            return report.pairs
+
+        done = _fill_map(self, context, auto_map)
+        if done == {'FINISHED'} and left_out and left_out[0]:
+            self.report({'WARNING'}, f"Mapped {len(_settings(context).pairs)} bones; {left_out[0]}")
+        return done
 
 
 def _decide_chains(settings, pairs) -> None:
@@ -336,7 +348,7 @@ class MOTIONKIT_OT_bone_map_scheme(bpy.types.Operator):
 
     def execute(self, context):
         return _fill_map(self, context, lambda settings: bone_mapping.map_from_presets(
-            _source_rig(settings), self.source_scheme, pose_channels.armature_mapping_rig(settings.target), self.target_scheme))
+            _source_rig(settings), self.source_scheme, pose_channels.armature_mapping_rig(settings.target, upright=True), self.target_scheme))
 
 
 class MOTIONKIT_OT_bone_map_save(bpy.types.Operator, ExportHelper):

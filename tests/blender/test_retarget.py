@@ -292,6 +292,18 @@ def test_reference_pose_is_decided_shown_switched_and_saved_with_the_map(mk, wal
     source, _ = load(mk, walk60, "walk60")
     target = generate.build_armature(characters.RIGIFY_A)
     settings = bpy.context.scene.motionkit_retarget
+    try:
+        check_reference_pose_panel(mk, settings, source, target, tmp_path)
+    finally:  # the scene's panel settings as they were, for the tests after this one
+        settings.pairs.clear()
+        for name in ("source_kind", "source", "target", "use_frame_range", "scene_from_clip", "plant_feet"):
+            settings.property_unset(name)
+        for name in settings.reference_pose.bl_rna.properties.keys():
+            if name != "rna_type":
+                settings.reference_pose.property_unset(name)
+
+
+def check_reference_pose_panel(mk, settings, source, target, tmp_path):
     settings.source_kind, settings.source, settings.target = 'ARMATURE', source, target
     assert bpy.ops.motionkit.bone_map_auto() == {'FINISHED'}
     decided = settings.reference_pose.decided()
