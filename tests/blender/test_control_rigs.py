@@ -13,6 +13,7 @@ import pytest
 from control_rig_checks import (NECK_DEG, SLIDE_M, STANCE_FRAMES, action_frames, append, check_turns, evaluated,
                                 keyed_bones, rigify_feet_slide, rigify_neck_and_head, rigify_turns)
 from control_rig_checks import rigify_file  # noqa: F401  (a fixture)
+from pointing import MATCH_EVERY_CHAIN
 from rotations import matrix_angles
 
 REDUCED_TURN = 0.3  # degrees, measured 0.278 (Blender 3.4): see test_keys_on_source_frames_and_reduced
@@ -275,6 +276,43 @@ def test_batch_retarget_keys_the_controls_of_each_file(mk, rig, shared_dir):
         bones = {fc.data_path.split('"')[1] for fc in mk.animdata.fcurves(action, rig)
                  if fc.data_path.startswith("pose.bones")}
         assert "upper_arm_fk.L" in bones and not [b for b in bones if b.startswith(("DEF-", "ORG-", "MCH-"))]
+
+
+# Measured 1.6e-4 degrees at most (DEF-spine.004 against the source's neck, Blender's float32 pose matrices
+# through Rigify's constraints); about ten times that.
+MIXAMO_NECK_DEG = 2e-3
+
+
+def test_rigify_two_neck_bones_point_as_a_mixamo_neck_does(mk, rig, shared_dir):
+    """A Mixamo clip (one neck bone, ybot@punch.fbx through Blender's FBX importer) onto Rigify's two neck bones,
+    every chain set to match the source's direction: after Blender evaluates the rig, the line from the neck's
+    base to the head joint, and each neck bone from joint to joint, point as the source's neck does (its head
+    to its head bone's head), and the head bone as the source's head, within MIXAMO_NECK_DEG on every frame (issue 37:
+    0.5 degrees asked; the second neck bone stood 6.5 degrees off, the line 3.1)."""
+    path = os.path.join(shared_dir, "data", "fbx", "ybot@punch.fbx")
+    if not os.path.exists(path):
+        if os.environ.get("CI") == "true":
+            pytest.fail(f"{path} is missing, and CI=true requires it")
+        pytest.skip(f"{path} is absent")
+    before = set(bpy.data.objects)
+    mk.retarget(path, rig, controls="auto", plant_feet=False, floor_fit="hips", chain_modes=MATCH_EVERY_CHAIN)
+    source = next(o for o in set(bpy.data.objects) - before if o.type == 'ARMATURE')
+    frames = np.arange(1, 60, 3)
+    names = ["DEF-spine.004", "DEF-spine.005", "DEF-spine.006"]
+    worst = dict.fromkeys(["line", *names], 0.0)
+    angle = lambda a, b: float(np.degrees(np.arctan2(np.linalg.norm(np.cross(a, b)), a @ b)))  # noqa: E731
+    for f in frames:
+        bpy.context.scene.frame_set(int(f))
+        joint = lambda obj, n: np.array(obj.matrix_world @ obj.pose.bones[n].head)  # noqa: E731
+        heads = [joint(rig, n) for n in names]
+        neck = joint(source, "mixamorig:Head") - joint(source, "mixamorig:Neck")
+        head = np.array((source.matrix_world.to_3x3() @ source.pose.bones["mixamorig:Head"].matrix.to_3x3()).col[1])
+        own = np.array((rig.matrix_world.to_3x3() @ rig.pose.bones[names[2]].matrix.to_3x3()).col[1])
+        for key, value in (("line", angle(heads[2] - heads[0], neck)), (names[0], angle(heads[1] - heads[0], neck)),
+                           (names[1], angle(heads[2] - heads[1], neck)), (names[2], angle(own, head))):
+            worst[key] = max(worst[key], value)
+    print(f"\nybot@punch onto Rigify, neck and head against the source's: { {k: round(v, 5) for k, v in worst.items()} }")
+    assert max(worst.values()) < MIXAMO_NECK_DEG, worst
 
 
 def test_rigify_neck_and_head_point_as_the_source_does(mk, rig, shared_dir):
