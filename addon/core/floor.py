@@ -42,6 +42,14 @@ def rest_floor(soles: float, leg_length: float) -> float:
     return 0.0 if 0.0 <= soles <= _JOINT_ABOVE_SOLE * leg_length else soles
 
 
+def clearance(soles: float, floor: float, leg_length: float) -> float:
+    """How high a rig's lowest foot joint rides above its floor when it stands, from its rest: the rest soles'
+    height above the floor where that is no more than a sole's thickness (4 % of the leg), else 0 (a floor
+    given by hand, or a capture's, on which the joints themselves stand)."""
+    above = soles - floor
+    return above if 0.0 <= above <= _JOINT_ABOVE_SOLE * leg_length else 0.0
+
+
 def clip_floor(rest_floor: float, lowest, leg_length: float) -> float:
     """The floor a source clip walks on: its rest pose's soles when the clip's feet come down to them;
     otherwise (a rest pose hanging below the ground, or a zero pose) the armature origin's level when the

@@ -28,8 +28,15 @@ class ContactSettings:
     wanders farther than `max_drift * L` across the floor from where it
     stands on average is no plant but a slide or a pivot (a catwalk's turn on
     the ball of the foot): dropped, the foot left to follow the motion.
-    `blend` is how long the IK targets take to ramp in and out around a
-    contact.
+    Where a foot's two points stand together and one wanders more than
+    `max_pivot * L` while the other moves less than half as far, the foot
+    turns about the still one (a kick's standing foot pivoting on its ball):
+    the wandering point's contact is dropped, so the foot turns as the motion
+    turns it about a held point. A contact through which the foot turns
+    across the floor by more than `max_turn` degrees (a kick's standing foot
+    swivelling) is no plant either: holding its points would hold the foot
+    turned away from the motion's. `blend` is how long the IK targets take to
+    ramp in and out around a contact.
     """
     height_enter: float = 0.06
     height_leave: float = 0.09
@@ -41,6 +48,8 @@ class ContactSettings:
     ground_percentile: float = 5.0  # a point's standing height: this low percentile of its heights
     max_ground: float = 0.3       # L: a point whose standing height is higher above the floor never lands
     max_drift: float = 0.06       # L: captures' planted feet wander up to 0.049 (walk_and_turn_left's turn)
+    max_pivot: float = 0.03       # L: a point wandering about its still partner turns the foot (captures: less)
+    max_turn: float = 25.0        # degrees: captures' planted feet turn up to 19.8 (walk_and_turn_left's turn)
     blend: float = 0.1            # s
 
     def blend_frames(self, fps: float) -> int:
@@ -48,7 +57,7 @@ class ContactSettings:
 
     def validate(self) -> None:
         for name in ("height_enter", "height_leave", "speed_enter", "speed_leave", "blend", "max_ground",
-                     "max_drift"):
+                     "max_drift", "max_pivot", "max_turn"):
             value = getattr(self, name)
             if not (np.isfinite(value) and value > 0):
                 raise ValueError(f"ContactSettings.{name} must be positive, not {value}")
@@ -138,7 +147,8 @@ def detect(points, fps: float, leg_length: float, floor: float | None = 0.0,
     standing height is its own low percentile, not the floor itself: an ankle
     stands a few centimetres above the floor when planted. A point whose
     standing height is more than `max_ground` leg lengths above the floor never
-    lands (a foot held up through the clip).
+    lands (a foot held up through the clip). Which of them a cleanup holds
+    still: plantable().
     """
     settings = settings or ContactSettings()
     settings.validate()
@@ -163,7 +173,56 @@ def detect(points, fps: float, leg_length: float, floor: float | None = 0.0,
     contacts = _hysteresis(enter, stay)
     min_frames = int(np.ceil(settings.min_length * fps - 1e-9))
     min_gap = int(np.floor(settings.min_gap * fps + 1e-9))
-    return _drop_slides(points, _filter_runs(contacts, min_frames, min_gap), settings.max_drift * leg_length)
+    return _filter_runs(contacts, min_frames, min_gap)
+
+
+def plantable(points, contacts, leg_length: float, settings: ContactSettings | None = None, feet=()) -> np.ndarray:
+    """The contacts (frames, P) of points (frames, P, 3) a cleanup holds still: all but slides and pivots
+    (ContactSettings: max_drift, max_pivot, max_turn), which stand on the floor all the same (their feet are
+    put on it) but move as the motion moves them. feet: pairs of point indices of one foot (ankle, ball)."""
+    settings = settings or ContactSettings()
+    points, contacts = _check_points(points), np.asarray(contacts, dtype=bool)
+    contacts = _drop_slides(points, contacts, settings.max_drift * leg_length)
+    contacts = _drop_pivots(points, contacts, feet, settings.max_pivot * leg_length)
+    return _drop_turns(points, contacts, feet, np.radians(settings.max_turn))
+
+
+def _drop_turns(points: np.ndarray, contacts: np.ndarray, feet, turn: float) -> np.ndarray:
+    """contacts without those through which their foot's line across the floor (its first point to its
+    second) turns farther than turn (radians) from its mean direction."""
+    out = contacts.copy()
+    for a, b in feet:
+        line = points[:, b, :2] - points[:, a, :2]
+        for p in (a, b):
+            for start, end in intervals(contacts[:, p]):
+                unit = line[start:end] / np.maximum(np.linalg.norm(line[start:end], axis=1, keepdims=True), 1e-300)
+                mean = unit.mean(axis=0)
+                mean /= max(np.linalg.norm(mean), 1e-300)
+                if np.arccos(np.clip(unit @ mean, -1.0, 1.0)).max() > turn:
+                    out[start:end, p] = False
+    return out
+
+
+def _wander(points: np.ndarray) -> float:
+    """How far points (frames, 3) stray across the floor (x, y) from their mean."""
+    across = points[:, :2]
+    return float(np.linalg.norm(across - across.mean(axis=0), axis=1).max()) if len(points) else 0.0
+
+
+def _drop_pivots(points: np.ndarray, contacts: np.ndarray, feet, pivot: float) -> np.ndarray:
+    """contacts without those of a foot point that wanders farther than pivot about its partner while the
+    partner stands with it and moves less than half as far (the foot turning about the partner)."""
+    out = contacts.copy()
+    for pair in feet:
+        for p, q in (pair, pair[::-1]):
+            for start, end in intervals(contacts[:, p]):
+                both = np.flatnonzero(contacts[start:end, q]) + start
+                if not len(both):
+                    continue
+                moved, still = _wander(points[both, p]), _wander(points[both, q])
+                if moved > pivot and still < 0.5 * moved:
+                    out[start:end, p] = False
+    return out
 
 
 def _drop_slides(points: np.ndarray, contacts: np.ndarray, drift: float) -> np.ndarray:
@@ -172,8 +231,7 @@ def _drop_slides(points: np.ndarray, contacts: np.ndarray, drift: float) -> np.n
     out = contacts.copy()
     for p in range(out.shape[1]):
         for start, end in intervals(out[:, p]):
-            across = points[start:end, p, :2]
-            if np.linalg.norm(across - across.mean(axis=0), axis=1).max() > drift:
+            if _wander(points[start:end, p]) > drift:
                 out[start:end, p] = False
     return out
 

@@ -31,7 +31,7 @@ import numpy as np
 from ..blender import animdata, pose_channels
 from ..core import bone_mapping, native_state, rotation_channels
 from ..core.rotation_channels import conjugate as _conj, multiply as _mul, rotate_each as _rotate
-from ..core.foot_contacts import ContactSettings, all_intervals, detect as detect_contacts, plant_targets
+from ..core.foot_contacts import ContactSettings, all_intervals, detect as detect_contacts, plant_targets, plantable
 
 SIDES = ("L", "R")
 POINTS = ("L ankle", "L ball", "R ankle", "R ball")
@@ -56,6 +56,7 @@ class Report:
     frames: np.ndarray                      # Blender frames
     contacts: np.ndarray                    # (frames, 4) bool, POINTS order
     intervals: list = field(default_factory=list)  # per point, [(first frame, last frame)] in Blender frames
+    held: np.ndarray | None = None          # (frames, 4) bool: the contacts held still (no slides, no pivots)
     source: str = "detected"                # "detected", "given" or "curves"
     errors: np.ndarray | None = None        # (frames, 4) distance of each point from its IK target, armature units
     max_error: np.ndarray | None = None     # (4,) the worst of errors per point
@@ -445,9 +446,9 @@ def _cleanup_steps(obj, bones, rig, frames, rotations, locations, feet, contacts
     started = time.perf_counter()
 
     _check_finite_pose(part, feet, frames, rotations, locations)
-    pose, points, targets, contacts, source = _plant_targets(part.leg_rig, frames, rotations, locations, contacts,
-                                                             settings, fps, follow_heights)
-    report = Report(frames, contacts, source=source)
+    pose, points, targets, contacts, source, holds = _plant_targets(part.leg_rig, frames, rotations, locations,
+                                                                    contacts, settings, fps, follow_heights)
+    report = Report(frames, contacts, source=source, held=holds)
     report.bones = [part.bone_names[part.hip]] + [part.bone_names[b] for b in part.changed]
     solve_input = _LegSolve.prepare(part, feet, pose, points, report)
     solve = _solve_call(part, solve_input, targets, frames, report, hips_move=hips_move, threads=threads,
@@ -546,14 +547,16 @@ def _check_finite_pose(part: _SolvePart, feet, frames, rotations, locations) -> 
 
 def _plant_targets(leg_rig: _LegRig, frames, rotations, locations, contacts, settings, fps, follow_heights):
     """(pose, foot points (F, 4, 3) armature space, IK targets (F, 4, 3) armature space, contacts, their
-    source): the plain pose's foot points held at their plants where contacts (detected when None) say."""
+    source, the contacts held): the plain pose's foot points held at their plants where contacts (detected
+    when None) say, but for slides and pivots (foot_contacts.plantable)."""
     pose, points, world_points, leg_length = _pose_points(leg_rig, rotations, locations)
     source = "given"
     if contacts is None:
         contacts = detect_contacts(world_points, fps, leg_length, 0.0, settings)
         source = "detected"
+    holds = plantable(world_points, contacts, leg_length, settings, _RIGID)  # no slides, no pivots
     with native_state.blender_frames(frames):
-        targets_world, _ = plant_targets(native_state.native(), world_points, contacts, settings.blend_frames(fps),
+        targets_world, _ = plant_targets(native_state.native(), world_points, holds, settings.blend_frames(fps),
                                          _RIGID)
     if follow_heights is not None:
         lift = np.asarray(follow_heights, dtype=np.float64)[:, [0, 0, 1, 1]]  # per point, POINTS order
@@ -561,7 +564,7 @@ def _plant_targets(leg_rig: _LegRig, frames, rotations, locations, contacts, set
         targets_world[..., 2] = world_points[..., 2] + lift
         _keep_feet_rigid(targets_world, world_points, targets_world[..., 2] - held)
     inverse = np.linalg.inv(leg_rig.world)
-    return pose, points, targets_world @ inverse[:3, :3].T + inverse[:3, 3], contacts, source
+    return pose, points, targets_world @ inverse[:3, :3].T + inverse[:3, 3], contacts, source, holds
 
 
 @dataclass

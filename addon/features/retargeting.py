@@ -19,7 +19,7 @@ from . import bvh, contacts, control_rigs, resampling
 from ..blender import animdata, imports, pose_channels
 from ..blender.imports import remove_armature
 from ..core import bone_mapping, native_state, reference_pose, root_motion, rotation_channels, worker_thread
-from ..core.floor import clip_floor, feet_lifts, hips_lift, reach_drops, rest_floor, sole_height
+from ..core.floor import clearance, clip_floor, feet_lifts, hips_lift, reach_drops, rest_floor, sole_height
 from ..core.foot_contacts import ContactSettings
 from ..core.root_motion import FLOOR_ROOTS
 
@@ -391,23 +391,30 @@ def _sole_points(side: _Side, body, heads, tails) -> np.ndarray | None:
     return np.vstack([heads[below], tails[below]]) if below else None
 
 
-def _floor_height(side: _Side, body, up, given=None, heads_over_clip=None) -> float:
-    """The rig's floor along up in its armature space: given (a world Z height) if set, else the floor its
-    importer recorded (bvh.FLOOR), else its rest soles; a source clip (heads_over_clip) whose feet never
-    come down to its rest soles walks on the floor core.floor.clip_floor finds."""
+def _floor_height(side: _Side, body, up, given=None, heads_over_clip=None) -> tuple[float, float]:
+    """(floor, clearance): the rig's floor along up in its armature space, given (a world Z height) if set,
+    else the floor its importer recorded (bvh.FLOOR), else its rest soles or the origin just below them
+    (core.floor.rest_floor); a source clip (heads_over_clip) whose feet never come down to its rest soles
+    walks on the floor core.floor.clip_floor finds. clearance: how high its lowest foot joint rides above
+    that floor when it stands (core.floor.clearance)."""
+    heads, tails = pose_channels.heads(side.bones), pose_channels.tails(side.bones)
+    soles = _sole_points(side, body, heads, tails)
+    legs = [np.linalg.norm(heads[leg.shin] - heads[leg.thigh]) + np.linalg.norm(tails[leg.shin] - heads[leg.shin])
+            for leg in _legs(side, body)]
+    rest = sole_height(soles, up) if soles is not None else None
+    floor = _floor_of(side, body, up, given, heads_over_clip, rest, legs)
+    return floor, clearance(rest, floor, float(np.mean(legs))) if rest is not None and legs else 0.0
+
+
+def _floor_of(side: _Side, body, up, given, heads_over_clip, soles, legs) -> float:
     if given is not None:
         return _world_height_to_armature(side.obj, given)
     recorded = side.obj.data.get(bvh.FLOOR) if hasattr(side.obj.data, "get") else None  # as its importer knew it
     if isinstance(recorded, (int, float)) and np.isfinite(recorded):
         return float(recorded)
-    heads, tails = pose_channels.heads(side.bones), pose_channels.tails(side.bones)
-    soles = _sole_points(side, body, heads, tails)
     if soles is None:
         return 0.0  # no feet: the armature's origin, as a capture's floor
-    legs = [np.linalg.norm(heads[leg.shin] - heads[leg.thigh]) + np.linalg.norm(tails[leg.shin] - heads[leg.shin])
-            for leg in _legs(side, body)]
-    rest = sole_height(soles, up)
-    rest = rest_floor(rest, float(np.mean(legs))) if legs else rest
+    rest = rest_floor(soles, float(np.mean(legs))) if legs else soles
     feet = [leg.foot for leg in _legs(side, body) if leg.foot >= 0]
     if heads_over_clip is None or not feet:
         return rest
@@ -571,8 +578,10 @@ def plan(source, target, bone_map=None, frame_range=None, root: str = "scaled", 
     if found is not None and root != "none" and floor_fit != "off":
         height_scale = fit.unit_scale if root == "offset" else fit.scale
         feet_lift = fit.target_scale * _stand_on_floor(
-            native_state.native(), (src, rigs.src_body, clip.rotations, clip.heads, fit.source_up, fit.floors[0]),
-            (tgt, rigs.tgt_body, fit.up, fit.floors[1]), rotations, locations, rigs.roots[1], found, height_scale,
+            native_state.native(), (src, rigs.src_body, clip.rotations, clip.heads, fit.source_up,
+                                    fit.floors[0] + fit.clearances[0]),
+            (tgt, rigs.tgt_body, fit.up, fit.floors[1] + fit.clearances[1]), rotations, locations, rigs.roots[1],
+            found, height_scale,
             fit.heights[1], clip.fps)
     # The legs' solve plants the feet, and puts right what the hips' lift leaves (feet the legs' proportions
     # keep off the floor); without planting it runs only where that is more than a twentieth of a percent of
@@ -733,6 +742,7 @@ class _Fit:
     up: np.ndarray
     source_up: np.ndarray
     floors: tuple        # (source, target) heights along up
+    clearances: tuple    # (source, target) how high each one's lowest foot joint rides above its floor
     heights: tuple       # (source, target) leg lengths
     scale: float         # target leg length / source leg length
     unit_scale: float    # source object scale / target object scale
@@ -747,8 +757,8 @@ def _fit(rigs: _Rigs, clip: _Clip, align_facing: bool, source_floor, target_floo
     space, up, source_up = _placement(
         (src, rigs.src_body, rigs.source_pose, clip.rotations, clip.heads, source_root),
         (tgt, rigs.tgt_body, rigs.target_pose, target_root), rigs.pairs_idx, align_facing)
-    source_floor_height = _floor_height(src, rigs.src_body, source_up, source_floor, clip.heads)
-    target_floor_height = _floor_height(tgt, rigs.tgt_body, up, target_floor)
+    source_floor_height, source_clearance = _floor_height(src, rigs.src_body, source_up, source_floor, clip.heads)
+    target_floor_height, target_clearance = _floor_height(tgt, rigs.tgt_body, up, target_floor)
     source_height = _leg_length(src, rigs.src_body, rigs.source_pose, source_up, source_root, clip.heads,
                                 floor=source_floor_height)
     # The target's own action (whatever is assigned now) never sets its proportions: a zero pose's feet
@@ -756,8 +766,9 @@ def _fit(rigs: _Rigs, clip: _Clip, align_facing: bool, source_floor, target_floo
     target_height = _leg_length(tgt, rigs.tgt_body, rigs.target_pose, up, target_root)
     if not (source_height > 1e-9 and target_height > 1e-9):
         raise ValueError("the root stands at the lowest point of a rig: no leg length to scale the motion by")
-    return _Fit(space, up, source_up, (source_floor_height, target_floor_height), (source_height, target_height),
-                target_height / source_height, source_scale / target_scale, target_scale)
+    return _Fit(space, up, source_up, (source_floor_height, target_floor_height),
+                (source_clearance, target_clearance), (source_height, target_height), target_height / source_height,
+                source_scale / target_scale, target_scale)
 
 
 def _chain_poses(rigs: _Rigs, fit: _Fit, chain_modes) -> list:

@@ -23,6 +23,12 @@ _FIELDS = {
     "max_drift": ("Drift", 0.001, 1.0, 'NONE',
                   "A contact whose foot point wanders farther than this across the floor is a slide or a pivot, "
                   "not planted (leg lengths)"),
+    "max_pivot": ("Pivot", 0.001, 1.0, 'NONE',
+                  "A foot point wandering farther than this about its still partner turns the foot about it: "
+                  "only the partner is planted (leg lengths)"),
+    "max_turn": ("Turn", 0.1, 180.0, 'NONE',
+                 "A contact through which the foot turns farther than this across the floor (degrees) is a "
+                 "swivel, not planted"),
     "blend": ("Blend", 0.001, 2.0, 'TIME_ABSOLUTE', "How long the feet take to ease into and out of a plant"),
 }
 

@@ -123,15 +123,19 @@ def check_plant(mk, contacts, pose_channels, obj, clip, mm):
     names_after, rot_after, loc_after = channels(obj, pose_channels, frames)
     feet = contacts.find_feet(obj)
 
-    # Each detected contact: the point moves at most HELD_MM.
+    # Each contact held (every detected one but slides and pivots, which stand on the floor and move as the
+    # clip moves them; foot_contacts.plantable): the point moves at most HELD_MM.
     worst = 0.0
     point_bones = [b for foot in feet for b in (foot.shin, foot.foot)]
-    for p, runs in enumerate(report.intervals):
+    held = [[(frames[s], frames[e - 1]) for s, e in mk.foot_contacts.intervals(report.held[:, p])]
+            for p in range(report.held.shape[1])]
+    for p, runs in enumerate(held):
         j = names.index(point_bones[p])
         for first, last in runs:
             track = after[int(first - frames[0]):int(last - frames[0]) + 1, j, 1]
             worst = max(worst, float(np.max(np.linalg.norm(track - track[0], axis=1))))
-    assert sum(len(r) for r in report.intervals) >= 2, report.intervals
+    assert sum(len(r) for r in held) >= 2, held
+    assert not (report.held & ~report.contacts).any()  # only contacts are held
     assert worst <= HELD_MM * mm, f"{clip}: a contact slides {worst / mm:.4f} mm"
     _check_stances(mk, action, clip, mm, plain, after, names, feet)
 

@@ -311,7 +311,7 @@ def check_feet_on_the_floor(mk, walk60, variant, plant):
     """walk60 onto RigifyA (another rig's proportions) placed as VARIANTS[variant] says: on the source's
     stance frames (stances.stance, the tests' own rule) each target foot's lowest point stands where the
     source's does above its floor, scaled by the leg ratio, within FLOOR_ERROR of the leg; no foot ever
-    lower than that allows. The target's floor is the one the sample was built on (world Z = 0)."""
+    lower than that allows."""
     source, _ = mk.bvh.load(walk60)
     target = generate.build_armature(characters.RIGIFY_A)
     VARIANTS[variant](mk, target)
@@ -322,11 +322,9 @@ def check_feet_on_the_floor(mk, walk60, variant, plant):
     src_feet, tgt_feet = _feet(mk, source), _feet(mk, target)
     src_low, src_ankles = _lowest(source, src_feet, frames)
     tgt_low, _ = _lowest(target, tgt_feet, frames)
-    # walk60's capture floor; the sample's own floor, world Z = 0 in every placement (characters.py builds its
-    # ball joints 2.5 cm above it), except where the origin moved to the hips: then nothing tells the floor
-    # but the rest soles.
-    src_floor = 0.0
-    tgt_floor = _rest_floor(target, tgt_feet) if variant == "origin at hips" else 0.0
+    # walk60's capture floor; the rig's rest soles: a standing foot's lowest joint stands as high above the
+    # floor as at rest (the sample's ball joints ride 2.5 cm above the floor it was built on).
+    src_floor, tgt_floor = 0.0, _rest_floor(target, tgt_feet)
     leg = _world_leg(target, tgt_feet)
     ratio = plan.leg_ratio * target.matrix_world.to_scale()[0] / source.matrix_world.to_scale()[0]
     wanted = tgt_floor + ratio * (src_low - src_floor)

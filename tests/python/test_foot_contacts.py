@@ -59,32 +59,66 @@ def test_hysteresis_does_not_flicker():
     fps = 60
     frames = 120
     points = np.zeros((frames, 1, 3))
-    # Planted, with the speed dithering around the enter threshold: stays in once in (however far it slides:
-    # the drift limit is test_a_slide_or_a_pivot_is_no_plant's).
+    # Planted, with the speed dithering around the enter threshold: stays in once in.
     rng = np.random.default_rng(1)
-    settings = fc.ContactSettings(smoothing=0.0, max_drift=10.0)
+    settings = fc.ContactSettings(smoothing=0.0)
     speed = settings.speed_enter * LEG * (1 + 0.2 * rng.standard_normal(frames))
     speed[:5] = 0.1 * settings.speed_enter * LEG
     points[:, 0, 0] = np.cumsum(np.abs(speed)) / fps
     contacts = fc.detect(points, fps, LEG, settings=settings)
     assert len(fc.intervals(contacts[:, 0])) == 1
     # Without hysteresis (leave == enter) the same motion flickers.
-    strict = fc.ContactSettings(smoothing=0.0, max_drift=10.0, speed_leave=settings.speed_enter,
+    strict = fc.ContactSettings(smoothing=0.0, speed_leave=settings.speed_enter,
                                 height_leave=settings.height_enter, min_length=0, min_gap=0)
     assert len(fc.intervals(fc.detect(points, fps, LEG, settings=strict)[:, 0])) > 3
 
 
 @pytest.mark.parametrize("wander, planted", [(0.059, True), (0.061, False)])
-def test_a_slide_or_a_pivot_is_no_plant(wander, planted):
-    """A foot point low and slow throughout that wanders (a catwalk's pivot on the ball of the foot, 26 cm over
-    two seconds) is planted only within max_drift leg lengths of its mean position across the floor."""
+def test_a_slide_is_a_stance_but_no_plant(wander, planted):
+    """A foot point low and slow throughout that wanders (a catwalk's turn, 26 cm over two seconds) stands on
+    the floor (a contact) but is held still only within max_drift leg lengths of its mean position."""
     fps, frames = 60, 120
-    settings = fc.ContactSettings()
     points = np.zeros((frames, 1, 3))
     # Out and back along x: wander leg lengths from the mean at the ends and the middle, a slow slide.
     points[:, 0, 0] = wander * LEG * np.cos(np.linspace(0.0, 2 * np.pi, frames))
-    contacts = fc.detect(points, fps, LEG, settings=settings)
-    assert contacts[:, 0].all() == planted and contacts[:, 0].any() == planted
+    contacts = fc.detect(points, fps, LEG)
+    assert contacts[:, 0].all()
+    held = fc.plantable(points, contacts, LEG)
+    assert held[:, 0].all() == planted and held[:, 0].any() == planted
+
+
+def _foot(frames, ankle, ball):
+    points = np.zeros((frames, 2, 3))
+    points[:, 0, :2], points[:, 1, :2] = ankle, ball
+    return points
+
+
+def test_a_foot_turning_about_its_ball_holds_the_ball_only():
+    """The ankle swings 30 degrees about a still ball (a pivot): the ball is held, the ankle is not; the same
+    foot sliding along without turning (both points alike) is held whole."""
+    frames, length = 60, 0.15 * LEG
+    angle = np.radians(np.linspace(0.0, 30.0, frames))
+    ankle = np.stack([-length * np.sin(angle), length * np.cos(angle)], axis=1)  # the ball at the origin
+    points = _foot(frames, ankle, np.zeros((frames, 2)))
+    both = np.ones((frames, 2), dtype=bool)
+    held = fc.plantable(points, both, LEG, feet=((0, 1),))
+    assert held[:, 1].all() and not held[:, 0].any()
+    slide = np.stack([np.linspace(0.0, 0.04 * LEG, frames), np.zeros(frames)], axis=1)
+    points = _foot(frames, slide + [0.0, length], slide)
+    assert fc.plantable(points, both, LEG, feet=((0, 1),)).all()
+
+
+@pytest.mark.parametrize("degrees, planted", [(24.0, True), (26.0, False)])
+def test_a_foot_swivelling_is_no_plant(degrees, planted):
+    """Both points of a foot swivel about its middle (a kick's standing foot): held only while the foot's line
+    across the floor turns less than max_turn degrees from its mean."""
+    frames, half = 60, 0.075 * LEG
+    angle = np.radians(np.linspace(-degrees, degrees, frames))
+    line = half * np.stack([-np.sin(angle), np.cos(angle)], axis=1)
+    points = _foot(frames, -line, line)
+    settings = fc.ContactSettings(max_drift=1.0, max_pivot=1.0)  # only the turn decides here
+    held = fc.plantable(points, np.ones((frames, 2), dtype=bool), LEG, settings, feet=((0, 1),))
+    assert held.all() == planted and held.any() == planted
 
 
 def test_minimum_length_and_gap():
