@@ -49,12 +49,10 @@ def _output_path(out_dir: str | None, export: str | None, name: str) -> str | No
     return os.path.join(out_dir, f"{safe}.{export}")
 
 
-_REFERENCE = ("source_match", "match_frame", "target_match", "align_facing", "chain_modes")  # kept_bones' options
-
-
 def _retarget_take(path, stem, take, action, count, source, target, out_dir, export, overwrite, keep,
                    options) -> tuple:
-    """(report row, new action or None) of one take."""
+    """(report row, new action or None) of one take. options: retarget()'s keywords, as check_options takes
+    them."""
     name = batch_inputs.clip_name(path, take, count, stem)
     row = batch_report.new_row(path, take if count > 1 else "", name)
     started = time.perf_counter()
@@ -65,10 +63,11 @@ def _retarget_take(path, stem, take, action, count, source, target, out_dir, exp
     made = None
     try:
         animdata.assign(source, action)
-        pairs = retargeting.auto_map(source, target) if options.get("bone_map") is None else options["bone_map"]
-        made = retargeting.retarget(source, target, **{**options, "bone_map": pairs}, action_name=name)
+        fields, rest = retargeting.split_options(options)
+        pairs = retargeting.auto_map(source, target) if rest.get("bone_map") is None else rest["bone_map"]
+        made = retargeting.retarget(source, target, options=fields, **{**rest, "bone_map": pairs}, action_name=name)
         made.use_fake_user = True
-        kept = retargeting.kept_bones(source, target, pairs, **{k: options[k] for k in _REFERENCE if k in options})
+        kept = retargeting.kept_bones(source, target, pairs, fields)
         row.update(clip_report.row_figures(source, target, pairs, kept))
         if output:
             export_clip(target, output, export)

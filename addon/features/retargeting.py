@@ -18,10 +18,12 @@ import numpy as np
 from . import bvh, contacts, control_rigs, resampling
 from ..blender import animdata, imports, pose_channels
 from ..blender.imports import remove_armature
-from ..core import bone_mapping, native_state, reference_pose, root_motion, rotation_channels, worker_thread
+from ..core import (bone_mapping, native_state, reference_pose, retarget_options, root_motion, rotation_channels,
+                    worker_thread)
 from ..core.floor import clearance, clip_floor, feet_lifts, hips_lift, reach_drops, rest_floor, sole_height
-from ..core.foot_contacts import ContactSettings
-from ..core.root_motion import FLOOR_ROOTS
+from ..core.retarget_options import (FLOOR_FITS, ROOT_MOTIONS, SOURCE_MATCHES, TARGET_MATCHES,  # noqa: F401
+                                     RetargetOptions, check_frame_range, from_keywords, is_number)
+from ..core.root_motion import FLOOR_ROOTS  # noqa: F401  (the panel's items, beside the other options')
 
 # What a file's imported armature (the source retarget() imports) becomes once the retarget is done.
 IMPORTED_SOURCES = (
@@ -32,29 +34,6 @@ IMPORTED_SOURCES = (
 )
 BVH_SOURCES = IMPORTED_SOURCES  # the older name
 
-FLOOR_FITS = (
-    ("legs", "Hips and Legs",
-     "The hips' height and, where the rigs' legs differ, the legs put each foot where the source's stands above "
-     "its floor (scaled), never into the ground"),
-    ("hips", "Hips",
-     "Only the hips' height: the legs point exactly as the source's, a foot may stand a little off the floor"),
-    ("off", "Off", "The hips at the source's height above its floor, scaled; nothing else"),
-)
-ROOT_MOTIONS = (
-    ("scaled", "Scaled", "Translation scaled by the ratio of leg lengths"),
-    ("in_place", "In place", "Keep only the vertical motion (scaled)"),
-    ("offset", "Offset Height",
-     "Horizontal translation scaled, vertical as the source's plus the difference in hip height"),
-    ("none", "None", "The root stays where the match pose has it"),
-)
-SOURCE_MATCHES = (
-    ('REST', "Rest pose", "The source's rest pose is its reference pose"),
-    ('FRAME', "Frame", "The source's pose on a frame (say a T-pose on frame 0) is its reference pose"),
-)
-TARGET_MATCHES = (
-    ('REST', "Rest pose", "The target's rest pose is its reference pose"),
-    ('CURRENT', "Current pose", "The target's current pose, set to stand like the source's reference pose"),
-)
 CONTROLS = (
     ("auto", "Auto", "A recognised control rig's controls (legs IK, arms FK); the bones on any other rig"),
     ("fk", "FK", "Every limb of the control rig in FK"),
@@ -505,19 +484,16 @@ class Plan:
             self.pending.complete(self)
 
 
-def _prepare(source, target, bone_map, frame_range, o: dict):
+def _prepare(source, target, bone_map, frame_range, o: RetargetOptions):
     """plan()'s reading and fitting: (source side, target side, pairs, clip, rigs, fit, chains), the options
-    checked first (o: plan()'s keywords)."""
+    checked first."""
     src, tgt = _side(source, "source"), _side(target, "target")
     if isinstance(tgt.obj, bpy.types.Object):
         _check_editable(tgt.obj)
     if _armature_object(src.obj) == _armature_object(tgt.obj):
         raise ValueError(f"the source and the target are the same armature '{src.obj.name}' (a cycle)")
-    _check_options(o["root"], o["floor_root"], o["floor_fit"], o["root_smoothing"], o["source_match"],
-                   o["target_match"], plant_feet=o["plant_feet"], align_facing=o["align_facing"], ground=o["ground"],
-                   frame_range=frame_range, source_floor=o["source_floor"], target_floor=o["target_floor"],
-                   contact_settings=o["contact_settings"])
-    reference_pose.check_modes(o["chain_modes"])
+    o.validate()
+    check_frame_range(frame_range)
     _check_scale(src.obj, "source")
     _check_scale(tgt.obj, "target")
     action = animdata.assigned_action(src.obj)
@@ -526,54 +502,45 @@ def _prepare(source, target, bone_map, frame_range, o: dict):
     _check_frames(action, frame_range)
     pairs = _pairs(bone_map, src, tgt)
     clip = _read_clip(src, action, pose_channels.action_frames(action, frame_range))
-    rigs = _read_rigs(src, tgt, pairs, clip, o["source_match"], o["match_frame"], o["target_match"])
-    fit = _fit(rigs, clip, o["align_facing"], o["source_floor"], o["target_floor"])
-    return src, tgt, pairs, clip, rigs, fit, _chain_poses(rigs, fit, o["chain_modes"])
+    rigs = _read_rigs(src, tgt, pairs, clip, o)
+    fit = _fit(rigs, clip, o)
+    return src, tgt, pairs, clip, rigs, fit, _chain_poses(rigs, fit, o.chain_modes)
 
 
-def _reference(source, target, bone_map, source_match, match_frame, target_match, align_facing, chain_modes):
-    """_prepare() with plan()'s defaults for everything the reference pose does not depend on."""
-    return _prepare(source, target, bone_map, None, dict(
-        root="scaled", floor_root="auto", floor_fit="legs", root_smoothing=0.25, plant_feet=None, ground=False,
-        source_floor=None, target_floor=None, contact_settings=None, source_match=source_match,
-        match_frame=match_frame, target_match=target_match, align_facing=align_facing, chain_modes=chain_modes))
+def _reference(source, target, bone_map, options) -> tuple:
+    """_prepare() with the options the reference pose depends on, the others the defaults."""
+    return _prepare(source, target, bone_map, None, options.reference())
 
 
-def reference_chains(source, target, bone_map=None, *, source_match: str = 'REST', match_frame=None,
-                     target_match: str = 'REST', align_facing: bool = True, chain_modes: dict | None = None) -> list:
+def reference_chains(source, target, bone_map=None, options: RetargetOptions | None = None, **keywords) -> list:
     """How each chain of the target stands in the reference pose (reference_pose.ChainPose: kept posture or
-    the source's direction, decided or the user's), as plan() would decide it, without retargeting."""
-    return _reference(source, target, bone_map, source_match, match_frame, target_match, align_facing,
-                      chain_modes)[-1]
+    the source's direction, decided or the user's), as plan() would decide it, without retargeting.
+    options, keywords: plan()'s; only the reference pose's (retarget_options.REFERENCE) count."""
+    return _reference(source, target, bone_map, from_keywords(options, **keywords))[-1]
 
 
-def plan(source, target, bone_map=None, frame_range=None, root: str = "scaled", *, source_match: str = 'REST',
-         match_frame: float | None = None, target_match: str = 'REST', ground: bool = False,
-         align_facing: bool = True, floor_root: str = "auto", root_smoothing: float = 0.25,
-         plant_feet: bool | None = None, contact_settings: ContactSettings | None = None,
-         source_floor: float | None = None, target_floor: float | None = None, floor_fit: str = "legs",
-         chain_modes: dict | None = None, defer_solve: bool = False) -> Plan:
-    """Compute the retargeted keys without touching the file (see retarget). defer_solve: leave the feet's
-    IK solve pending for apply(), which runs it beside writing the other bones' keys (Plan.resolve runs it
-    at once); the contacts, feet and every other bone's values are final either way."""
-    src, tgt, pairs, clip, rigs, fit, chains = _prepare(source, target, bone_map, frame_range, dict(
-        root=root, floor_root=floor_root, floor_fit=floor_fit, root_smoothing=root_smoothing,
-        source_match=source_match, match_frame=match_frame, target_match=target_match, plant_feet=plant_feet,
-        align_facing=align_facing, ground=ground, source_floor=source_floor, target_floor=target_floor,
-        contact_settings=contact_settings, chain_modes=chain_modes))
-    plant_feet = _planting(plant_feet, (src, rigs.src_body), (tgt, rigs.tgt_body))
+def plan(source, target, bone_map=None, frame_range=None, options: RetargetOptions | None = None, *,
+         defer_solve: bool = False, **keywords) -> Plan:
+    """Compute the retargeted keys without touching the file (see retarget). options: a RetargetOptions,
+    its fields replaced by keywords of the same names (plan(s, t, plant_feet=False) alone is as good).
+    defer_solve: leave the feet's IK solve pending for apply(), which runs it beside writing the other
+    bones' keys (Plan.resolve runs it at once); the contacts, feet and every other bone's values are final
+    either way."""
+    o = from_keywords(options, **keywords)
+    src, tgt, pairs, clip, rigs, fit, chains = _prepare(source, target, bone_map, frame_range, o)
+    root, ground, contact_settings = o.root, o.ground, o.contact_settings
+    plant_feet = _planting(o.plant_feet, (src, rigs.src_body), (tgt, rigs.tgt_body))
     # The source's contacts, needed to plant feet or to put them on the floor, need only the source's pose.
     # ground keeps the motion's own heights, the whole clip moved once so that its first frame touches the
     # floor: no frame's feet are fitted apart.
-    floor_fit = "off" if ground else floor_fit
+    floor_fit = "off" if ground else o.floor_fit
     wants_feet = plant_feet or (floor_fit != "off" and root != "none")
     feet = (_feet(src, rigs.src_body), _feet(tgt, rigs.tgt_body)) if wants_feet else (None, None)
     # The source's contacts count only where both rigs have feet.
     rotations, root_locations, found = _retarget_clip(rigs, clip, fit, (root, ground, chains),
                                                       None if None in feet else feet[0], contact_settings)
     _share_twist(tgt, rigs.tgt_body, rotations, {b for _, b in rigs.pairs_idx})
-    locations, located, mode = _place_roots(rigs, clip, fit, rotations, root_locations, root, floor_root,
-                                            root_smoothing)
+    locations, located, mode = _place_roots(rigs, clip, fit, rotations, root_locations, o)
     feet_lift = None
     if found is not None and root != "none" and floor_fit != "off":
         height_scale = fit.unit_scale if root == "offset" else fit.scale
@@ -599,39 +566,6 @@ def plan(source, target, bone_map=None, frame_range=None, root: str = "scaled", 
     if not (np.all(np.isfinite(plan_.values)) and np.all(np.isfinite(plan_.still_values))):
         raise ValueError("the retargeted motion is not finite; check the rigs' rest poses")
     return plan_  # a pending feet's solve is checked when it completes (contacts.cleanup and write_keys)
-
-
-def _check_options(root, floor_root, floor_fit, root_smoothing, source_match, target_match, *, plant_feet=None,
-                   align_facing=True, ground=False, frame_range=None, source_floor=None, target_floor=None,
-                   contact_settings=None) -> None:
-    """Every option's value, before anything is read: a ValueError naming the option and the value."""
-    for name, value, known in (("floor_fit", floor_fit, FLOOR_FITS), ("root motion", root, ROOT_MOTIONS),
-                               ("floor root motion", floor_root, FLOOR_ROOTS)):
-        if value not in [k[0] for k in known]:
-            raise ValueError(f"unknown {name} {value!r}; expected one of {[k[0] for k in known]}")
-    if not (_is_number(root_smoothing) and np.isfinite(root_smoothing) and root_smoothing >= 0):
-        raise ValueError(f"root_smoothing must be a non-negative number of seconds, not {root_smoothing!r}")
-    for name, value, known in (("source_match", source_match, SOURCE_MATCHES),
-                               ("target_match", target_match, TARGET_MATCHES)):
-        if value not in [k[0] for k in known]:
-            raise ValueError(f"unknown match pose {name} {value!r}; expected one of {[k[0] for k in known]}")
-    if not isinstance(plant_feet, (bool, np.bool_, type(None))):
-        raise ValueError(f"plant_feet must be True, False or None, not {plant_feet!r}")
-    for name, value in (("align_facing", align_facing), ("ground", ground)):
-        if not isinstance(value, (bool, np.bool_)):
-            raise ValueError(f"{name} must be True or False, not {value!r}")
-    if frame_range is not None and not (isinstance(frame_range, (tuple, list)) and len(frame_range) == 2
-                                        and all(_is_number(f) and np.isfinite(f) for f in frame_range)):
-        raise ValueError(f"frame_range must be (first, last) frames, not {frame_range!r}")
-    for name, value in (("source_floor", source_floor), ("target_floor", target_floor)):
-        if value is not None and not (_is_number(value) and np.isfinite(value)):
-            raise ValueError(f"{name} must be a height in metres or None, not {value!r}")
-    if contact_settings is not None and not isinstance(contact_settings, ContactSettings):
-        raise ValueError(f"contact_settings must be a ContactSettings, not {contact_settings!r}")
-
-
-def _is_number(value) -> bool:
-    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, (bool, np.bool_))
 
 
 def _check_frames(action, frame_range) -> None:
@@ -692,17 +626,15 @@ class _Rigs:
     floor_bones: tuple            # (source, target) floor roots above the hips, or None
 
 
-def _read_rigs(src: _Side, tgt: _Side, pairs, clip: _Clip, source_match, match_frame, target_match) -> _Rigs:
+def _read_rigs(src: _Side, tgt: _Side, pairs, clip: _Clip, o: RetargetOptions) -> _Rigs:
     native = native_state.native()
-    if source_match == 'FRAME':
-        if match_frame is None:
-            raise ValueError("a source match pose on a frame needs match_frame")
-        match_rot, match_heads = pose_channels.armature_motion(src.obj, clip.action, np.array([float(match_frame)]),
+    if o.source_match == 'FRAME':  # match_frame given: RetargetOptions.validate
+        match_rot, match_heads = pose_channels.armature_motion(src.obj, clip.action, np.array([float(o.match_frame)]),
                                                                src.rig, src.bones)
         source_pose = _Pose(match_rot.reshape(-1, 4), match_heads.reshape(-1, 3), _lengths(src))
     else:
         source_pose = _Pose(_rest_rotations(src), pose_channels.heads(src.bones), _lengths(src))
-    if target_match == 'CURRENT':
+    if o.target_match == 'CURRENT':
         target_basis, target_locations = pose_channels.current_pose(tgt.obj, tgt.bones)
     else:
         target_basis = np.tile(_IDENTITY, (len(tgt.bones), 1))
@@ -749,16 +681,16 @@ class _Fit:
     target_scale: float  # the target object's scale
 
 
-def _fit(rigs: _Rigs, clip: _Clip, align_facing: bool, source_floor, target_floor) -> _Fit:
+def _fit(rigs: _Rigs, clip: _Clip, o: RetargetOptions) -> _Fit:
     src, tgt = rigs.src, rigs.tgt
     source_root, target_root = rigs.roots
     _, source_scale = _world_rotation_scale(src.obj)
     _, target_scale = _world_rotation_scale(tgt.obj)
     space, up, source_up = _placement(
         (src, rigs.src_body, rigs.source_pose, clip.rotations, clip.heads, source_root),
-        (tgt, rigs.tgt_body, rigs.target_pose, target_root), rigs.pairs_idx, align_facing)
-    source_floor_height, source_clearance = _floor_height(src, rigs.src_body, source_up, source_floor, clip.heads)
-    target_floor_height, target_clearance = _floor_height(tgt, rigs.tgt_body, up, target_floor)
+        (tgt, rigs.tgt_body, rigs.target_pose, target_root), rigs.pairs_idx, o.align_facing)
+    source_floor_height, source_clearance = _floor_height(src, rigs.src_body, source_up, o.source_floor, clip.heads)
+    target_floor_height, target_clearance = _floor_height(tgt, rigs.tgt_body, up, o.target_floor)
     source_height = _leg_length(src, rigs.src_body, rigs.source_pose, source_up, source_root, clip.heads,
                                 floor=source_floor_height)
     # The target's own action (whatever is assigned now) never sets its proportions: a zero pose's feet
@@ -791,12 +723,11 @@ def _posture_bones(rigs: _Rigs, chains, by_user: bool) -> list[int]:
                                      chains, by_user)
 
 
-def kept_bones(source, target, bone_map=None, *, source_match: str = 'REST', match_frame=None,
-               target_match: str = 'REST', align_facing: bool = True, chain_modes: dict | None = None) -> list[str]:
+def kept_bones(source, target, bone_map=None, options: RetargetOptions | None = None, **keywords) -> list[str]:
     """The target bones that keep their own posture in the reference pose (the others point where the
-    source's do), as plan() decides them: the native retarget's kept_posture on the clip's first frame."""
-    _, tgt, _, clip, rigs, fit, chains = _reference(source, target, bone_map, source_match, match_frame,
-                                                    target_match, align_facing, chain_modes)
+    source's do), as plan() decides them: the native retarget's kept_posture on the clip's first frame.
+    options, keywords: plan()'s; only the reference pose's (retarget_options.REFERENCE) count."""
+    _, tgt, _, clip, rigs, fit, chains = _reference(source, target, bone_map, from_keywords(options, **keywords))
     first = _Clip(clip.action, clip.frames[:1], clip.fps, clip.basis[:1], clip.locations[:1], clip.rotations[:1],
                   clip.heads[:1])
     return [tgt.names[b] for b in _native_retarget(rigs, first, fit, "none", False, chains).kept_posture]
@@ -838,17 +769,16 @@ def _retarget_clip(rigs: _Rigs, clip: _Clip, fit: _Fit, how, source_feet, contac
     return result.rotations, result.root_locations, found
 
 
-def _place_roots(rigs: _Rigs, clip: _Clip, fit: _Fit, rotations, root_locations, root, floor_root,
-                 root_smoothing):
+def _place_roots(rigs: _Rigs, clip: _Clip, fit: _Fit, rotations, root_locations, o: RetargetOptions):
     """The target's location channels (frames, 3B): the hips' from the retarget, and a floor root's motion
-    (floor_root: FLOOR_ROOTS); returns them, the located bones and what the floor root did."""
+    (o.floor_root: FLOOR_ROOTS); returns them, the located bones and what the floor root did."""
     tgt = rigs.tgt
     source_floor_bone, target_floor_bone = rigs.floor_bones
     target_root = rigs.roots[1]
     locations = np.zeros((rotations.shape[0], 3 * len(tgt.bones)))
     locations[:, 3 * target_root:3 * target_root + 3] = root_locations
     located = [target_root]
-    mode = floor_root if floor_root != "auto" else ("copy" if source_floor_bone is not None else "still")
+    mode = o.floor_root if o.floor_root != "auto" else ("copy" if source_floor_bone is not None else "still")
     if target_floor_bone is not None and mode in ("copy", "extract"):
         if mode == "copy" and source_floor_bone is None:
             mode = "still"  # nothing to copy: the hips carry the motion
@@ -858,7 +788,8 @@ def _place_roots(rigs: _Rigs, clip: _Clip, fit: _Fit, rotations, root_locations,
                              rigs.source_pose.rotations[source_floor_bone],
                              rigs.source_pose.heads[source_floor_bone]) if source_floor_bone is not None else None
             _move_floor_root(native_state.native(), tgt, rigs.target_pose, rotations, locations, target_floor_bone,
-                             target_root, mode, source_motion, fit.space, fit.scale, root, root_smoothing * clip.fps)
+                             target_root, mode, source_motion, fit.space, fit.scale, o.root,
+                             o.root_smoothing * clip.fps)
             located.append(target_floor_bone)
     return locations, located, mode
 
@@ -1161,15 +1092,11 @@ def _write_unsolved(target, action, plan_: Plan) -> None:
         contacts.write_contacts(target, action, plan_.feet, plan_.frames, plan_.contacts)
 
 
-def retarget(source, target, bone_map=None, frame_range=None, root: str = "scaled", *,
-             source_match: str = 'REST', match_frame: float | None = None, target_match: str = 'REST',
-             ground: bool = False, align_facing: bool = True, floor_root: str = "auto",
-             root_smoothing: float = 0.25, plant_feet: bool | None = None,
-             contact_settings: ContactSettings | None = None,
-             source_floor: float | None = None, target_floor: float | None = None, floor_fit: str = "legs",
-             chain_modes: dict | None = None, action_name: str | None = None, overwrite: bool = False, bvh_scale: float | str = "auto",
+def retarget(source, target, bone_map=None, frame_range=None, options: RetargetOptions | None = None, *,
+             action_name: str | None = None, overwrite: bool = False, bvh_scale: float | str = "auto",
              imported_source: str | None = None, bvh_source: str | None = None, controls: str = "auto",
-             limbs: dict | None = None, control_map=None, keys: str = "every", reduce: bool = False, progress=None):
+             limbs: dict | None = None, control_map=None, keys: str = "every", reduce: bool = False, progress=None,
+             **keywords):
     """Retarget the source's action onto the target; returns the target's new action.
 
     source: an armature object with an action, or a file path: BVH (imported
@@ -1192,30 +1119,19 @@ def retarget(source, target, bone_map=None, frame_range=None, root: str = "scale
     bone_map: (source bone, target bone) pairs or a {source: target} dict;
     None maps automatically (motionkit.bone_mapping). frame_range: inclusive
     source frames (default: the action's), one key per frame on the same
-    frames. root: "scaled", "in_place", "offset" or "none" (ROOT_MOTIONS).
-    source_match 'REST' or 'FRAME' (with match_frame) and target_match 'REST'
-    or 'CURRENT': the poses in which the two rigs stand alike. chain_modes:
-    {chain: "KEEP" | "MATCH"} (core/reference_pose.CHAINS) overrides per chain
-    whether the target keeps its own posture (its spine's curve, its knees'
-    bend) or takes the source's direction (a T onto an A); by default the
-    trunk keeps, a limb whose rest line lies farther than 15 degrees from the
-    source's matches, the others keep, and fingers match (Plan.chains). ground: move the
-    root so that the target's lowest point touches its floor (armature Z = 0) on
-    the first frame, the clip's heights kept (no floor_fit). align_facing: turn the motion so that each rig walks the
-    way it faces. source_floor, target_floor: the floors' world Z heights
-    (default: each rig's rest soles; see core/floor.py). floor_fit: how the
-    feet are put on the target's floor where the source's stand on its own
-    (FLOOR_FITS): "legs" (hips and legs), "hips" (the legs keep the source's
-    directions exactly) or "off". floor_root: what a target's bone on the floor above the
-    hips (Unreal's root) does, "auto", "still", "copy" or "extract"
-    (FLOOR_ROOTS); root_smoothing: seconds of Gaussian smoothing for
-    "extract". plant_feet: feet that stand still in the source stay planted on
-    the target (contacts detected on the source, stored on the new action as
-    0/1 curves, held by full-body IK; contact_settings tunes the detection,
-    foot_contacts.ContactSettings); None (the default) plants where both rigs
-    have two labelled legs, True requires them (a ValueError names the rig and
-    what it lacks), False never. The hips are the body's root on both sides and the translation
-    is scaled by the ratio of leg lengths measured along the legs. The new action is assigned to the target (its previous
+    frames.
+    options: a RetargetOptions (core/retarget_options.py says what each field
+    does), its fields replaced by keywords of the same names: root (ROOT_MOTIONS),
+    source_match, match_frame and target_match (the poses in which the two rigs
+    stand alike), chain_modes (per chain, keep the target's posture or take the
+    source's direction; by default the trunk keeps, a limb whose rest line lies
+    farther than 15 degrees from the source's matches, the others keep, and
+    fingers match: Plan.chains), ground, align_facing, source_floor and
+    target_floor, floor_fit (FLOOR_FITS), floor_root and root_smoothing
+    (FLOOR_ROOTS), plant_feet and contact_settings (planted feet are stored on
+    the new action as 0/1 contact curves). The hips are the body's root on both
+    sides and the translation is scaled by the ratio of leg lengths measured
+    along the legs. The new action is assigned to the target (its previous
     action keeps a fake user rather than being lost); with overwrite the keys
     replace the target's own action's curves instead. A ValueError leaves the
     file as it was (a BVH source is removed again).
@@ -1223,25 +1139,18 @@ def retarget(source, target, bone_map=None, frame_range=None, root: str = "scale
     imported_source = _imported_source_option(imported_source, bvh_source)
     if target is not None and getattr(target, "type", None) == 'ARMATURE':
         _check_editable(target)
+    options = from_keywords(options, **keywords)
     # Before a file is imported for nothing: every option's value, and the target's scale.
-    _check_values(dict(root=root, floor_root=floor_root, floor_fit=floor_fit, root_smoothing=root_smoothing,
-                       source_match=source_match, target_match=target_match, plant_feet=plant_feet,
-                       align_facing=align_facing, ground=ground, frame_range=frame_range, source_floor=source_floor,
-                       target_floor=target_floor, contact_settings=contact_settings, keys=keys, controls=controls,
-                       reduce=reduce))
+    _check_values(options, frame_range, keys, controls, reduce)
     _check_scale(target, "target")
-    options = dict(bone_map=bone_map, frame_range=frame_range, root=root, source_match=source_match,
-                   match_frame=match_frame, target_match=target_match, ground=ground, align_facing=align_facing,
-                   floor_root=floor_root, root_smoothing=root_smoothing, plant_feet=plant_feet,
-                   contact_settings=contact_settings, source_floor=source_floor, target_floor=target_floor,
-                   floor_fit=floor_fit, chain_modes=chain_modes)
+    call = (bone_map, frame_range, options)
     imported = _import_source(source, target, bvh_scale) if isinstance(source, (str, os.PathLike)) else None
     try:
         action = _retarget_controls(imported.obj if imported else source, target, controls, limbs, control_map, keys,
-                                    reduce, action_name, overwrite, progress, options)
+                                    reduce, action_name, overwrite, progress, call)
         if action is None:
             action = _retarget_bones(imported.obj if imported else source, target, keys, reduce, action_name,
-                                     overwrite, options)
+                                     overwrite, call)
     except BaseException:
         if imported is not None:
             imported.remove()
@@ -1251,40 +1160,53 @@ def retarget(source, target, bone_map=None, frame_range=None, root: str = "scale
     return action
 
 
-def _check_values(values: dict) -> None:
-    """retarget()'s option values (all of _check_options', keys, controls and reduce)."""
-    _check_options(*(values[k] for k in ("root", "floor_root", "floor_fit", "root_smoothing", "source_match",
-                                         "target_match")),
-                   **{k: values[k] for k in ("plant_feet", "align_facing", "ground", "frame_range", "source_floor",
-                                             "target_floor", "contact_settings")})
-    if values["keys"] not in ("every", "source"):
-        raise ValueError(f"unknown keys {values['keys']!r}; expected 'every' or 'source'")
-    if values["controls"] not in [c[0] for c in CONTROLS]:
-        raise ValueError(f"unknown controls {values['controls']!r}; expected one of {[c[0] for c in CONTROLS]}")
-    if not isinstance(values["reduce"], (bool, np.bool_)):
-        raise ValueError(f"reduce must be True or False, not {values['reduce']!r}")
+def _check_values(options: RetargetOptions, frame_range, keys, controls, reduce) -> None:
+    """retarget()'s option values: the RetargetOptions', the frame range's form, keys, controls and reduce."""
+    options.validate()
+    check_frame_range(frame_range)
+    if keys not in ("every", "source"):
+        raise ValueError(f"unknown keys {keys!r}; expected 'every' or 'source'")
+    if controls not in [c[0] for c in CONTROLS]:
+        raise ValueError(f"unknown controls {controls!r}; expected one of {[c[0] for c in CONTROLS]}")
+    if not isinstance(reduce, (bool, np.bool_)):
+        raise ValueError(f"reduce must be True or False, not {reduce!r}")
 
 
 def check_options(**options) -> None:
-    """retarget()'s keyword options as a batch passes them on: an unknown name or a bad value is a
-    ValueError naming it, before any file is read."""
-    parameters = inspect.signature(retarget).parameters
-    unknown = sorted(set(options) - set(parameters) - {"source", "target"})
+    """retarget()'s keyword options as a batch passes them on (a RetargetOptions as options= among them, or
+    its fields one by one): an unknown name or a bad value is a ValueError naming it, before any file is
+    read."""
+    parameters = {n: p for n, p in inspect.signature(retarget).parameters.items()
+                  if n not in ("source", "target") and p.kind is not inspect.Parameter.VAR_KEYWORD}
+    known = [*parameters, *retarget_options.NAMES]
+    unknown = sorted(set(options) - set(known))
     if unknown:
-        raise ValueError(f"unknown retarget option {unknown[0]!r}; expected one of "
-                         f"{[n for n in parameters if n not in ('source', 'target')]}")
+        raise ValueError(f"unknown retarget option {unknown[0]!r}; expected one of {known}")
     values = {n: p.default for n, p in parameters.items() if p.default is not inspect.Parameter.empty}
-    _check_values({**values, **options})
+    values.update((n, v) for n, v in options.items() if n in parameters)
+    try:
+        fields = from_keywords(values["options"], **{n: v for n, v in options.items() if n not in parameters})
+    except TypeError as error:  # options= that is no RetargetOptions
+        raise ValueError(str(error)) from None
+    _check_values(fields, values["frame_range"], values["keys"], values["controls"], values["reduce"])
     if "bvh_scale" in options:
         _bvh_scale(options["bvh_scale"])
     _imported_source_option(options.get("imported_source"), options.get("bvh_source"))
 
 
-def _retarget_bones(source, target, keys, reduce, action_name, overwrite, options):
-    """The action keyed on target's mapped bones themselves."""
+def split_options(options: dict) -> tuple[RetargetOptions, dict]:
+    """A batch's keyword options (check_options') as (the RetargetOptions they make, the others: bone_map,
+    frame_range and retarget()'s own)."""
+    fields = {n: v for n, v in options.items() if n in retarget_options.NAMES}
+    rest = {n: v for n, v in options.items() if n not in retarget_options.NAMES and n != "options"}
+    return from_keywords(options.get("options"), **fields), rest
+
+
+def _retarget_bones(source, target, keys, reduce, action_name, overwrite, call):
+    """The action keyed on target's mapped bones themselves. call: (bone map, frame range, RetargetOptions)."""
     if keys != "every":
         raise ValueError("keys='source' is for control rigs; a plain retarget keys every frame")
-    action = apply(plan(source, target, defer_solve=True, **options), action_name=action_name, overwrite=overwrite)
+    action = apply(plan(source, target, *call, defer_solve=True), action_name=action_name, overwrite=overwrite)
     if reduce:
         resampling.reduce_keys(target)
     return action
@@ -1324,7 +1246,7 @@ class _Imported:
 
 
 def _bvh_scale(bvh_scale) -> None:
-    if not (bvh_scale == "auto" or (_is_number(bvh_scale) and np.isfinite(bvh_scale) and bvh_scale > 0)):
+    if not (bvh_scale == "auto" or (is_number(bvh_scale) and np.isfinite(bvh_scale) and bvh_scale > 0)):
         raise ValueError(f"bvh_scale must be 'auto' or a positive number, not {bvh_scale!r}")
 
 
@@ -1346,14 +1268,15 @@ def _import_source(path, target, bvh_scale) -> _Imported:
 
 
 def _retarget_controls(source, target, controls, limbs, control_map, keys, reduce, action_name, overwrite,
-                       progress, options):
-    """The action keyed on target's controls, or None when it is to be keyed bone by bone."""
+                       progress, call):
+    """The action keyed on target's controls, or None when it is to be keyed bone by bone. call: (bone map,
+    frame range, RetargetOptions)."""
     if controls not in [c[0] for c in CONTROLS]:
         raise ValueError(f"unknown controls {controls!r}; expected one of {[c[0] for c in CONTROLS]}")
     if controls == "none":
         return None
     # The deform skeleton's retarget is this module's plan(), handed over: control_rigs builds on it.
-    result = control_rigs.plan(source, target, lambda skeleton: plan(source, skeleton, **options),
+    result = control_rigs.plan(source, target, lambda skeleton: plan(source, skeleton, *call),
                                controls=controls, limbs=limbs, control_map=control_map, keys=keys,
                                progress=progress)
     if result is None:

@@ -11,6 +11,7 @@ from bpy_extras.io_utils import ExportHelper, ImportHelper
 from . import common, contacts as contact_ui
 from ..blender import pose_channels
 from ..core import bone_mapping, display_names, reference_pose
+from ..core.retarget_options import RetargetOptions
 from ..features import bvh, control_rigs, retargeting, scene_timing
 
 
@@ -158,6 +159,16 @@ class MOTIONKIT_PG_retarget(bpy.types.PropertyGroup):
     def bone_map(self) -> list[tuple[str, str]]:
         return [(p.source, p.target) for p in self.pairs if p.source and p.target]
 
+    def retarget_options(self) -> RetargetOptions:
+        """The panel's retarget options, as motionkit.retarget takes them. The panel leaves no floor height
+        to set (each rig's rest soles) and plants feet where both rigs have them, or never."""
+        return RetargetOptions(
+            root=self.root_motion, source_match=self.source_match, match_frame=self.match_frame,
+            target_match=self.target_match, ground=self.ground, align_facing=self.align_facing,
+            floor_root=self.floor_root, root_smoothing=self.root_smoothing,
+            plant_feet=None if self.plant_feet else False, contact_settings=contact_ui.settings(self.contacts),
+            floor_fit=self.floor_fit, chain_modes=self.reference_pose.chain_modes())
+
     def set_bone_map(self, pairs) -> None:
         self.pairs.clear()
         for source, target in pairs:
@@ -231,13 +242,7 @@ class MOTIONKIT_OT_retarget(bpy.types.Operator):
         def work(progress):
             progress(0, 4)
             action = retargeting.retarget(
-                source, settings.target, settings.bone_map() or None, frame_range, settings.root_motion,
-                source_match=settings.source_match, match_frame=settings.match_frame,
-                target_match=settings.target_match, ground=settings.ground, align_facing=settings.align_facing,
-                floor_root=settings.floor_root, root_smoothing=settings.root_smoothing,
-                floor_fit=settings.floor_fit, plant_feet=None if settings.plant_feet else False,
-                chain_modes=settings.reference_pose.chain_modes(),
-                contact_settings=contact_ui.settings(settings.contacts),
+                source, settings.target, settings.bone_map() or None, frame_range, settings.retarget_options(),
                 overwrite=settings.overwrite, progress=progress, **controls, **bvh_options)
             timing = scene_timing.from_clip(context.scene, action) if settings.scene_from_clip else None
             _decide_chains(settings, settings.bone_map() or None)
@@ -292,9 +297,7 @@ def _decide_chains(settings, pairs) -> None:
     source = settings.source if settings.source_kind == 'ARMATURE' else None
     if source is None or source.animation_data is None or source.animation_data.action is None:
         return
-    chains.record_chains(retargeting.reference_chains(
-        source, settings.target, pairs, source_match=settings.source_match, match_frame=settings.match_frame,
-        target_match=settings.target_match, align_facing=settings.align_facing, chain_modes=chains.chain_modes()))
+    chains.record_chains(retargeting.reference_chains(source, settings.target, pairs, settings.retarget_options()))
 
 
 class MOTIONKIT_OT_reference_pose(bpy.types.Operator):

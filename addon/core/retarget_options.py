@@ -1,0 +1,148 @@
+"""The retarget's options as one value: RetargetOptions, which the Retarget panel fills and
+motionkit.retarget / retargeting.plan take (their keywords build or replace its fields).
+
+Plain data, no Blender: validate() refuses a bad value with a ValueError naming the option and the
+value, before any rig or file is read, so that a mistake leaves the scene as it was. The bone map and
+the frame range are the call's data, not options: they stay arguments of the call (check_frame_range
+checks the latter's form; whether it holds frames of the action is for the caller to see).
+"""
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import reference_pose
+from .foot_contacts import ContactSettings
+from .root_motion import FLOOR_ROOTS
+
+# Blender EnumProperty items (id, name, description): the panel shows these, validate() accepts the ids.
+FLOOR_FITS = (
+    ("legs", "Hips and Legs",
+     "The hips' height and, where the rigs' legs differ, the legs put each foot where the source's stands above "
+     "its floor (scaled), never into the ground"),
+    ("hips", "Hips",
+     "Only the hips' height: the legs point exactly as the source's, a foot may stand a little off the floor"),
+    ("off", "Off", "The hips at the source's height above its floor, scaled; nothing else"),
+)
+ROOT_MOTIONS = (
+    ("scaled", "Scaled", "Translation scaled by the ratio of leg lengths"),
+    ("in_place", "In place", "Keep only the vertical motion (scaled)"),
+    ("offset", "Offset Height",
+     "Horizontal translation scaled, vertical as the source's plus the difference in hip height"),
+    ("none", "None", "The root stays where the match pose has it"),
+)
+SOURCE_MATCHES = (
+    ('REST', "Rest pose", "The source's rest pose is its reference pose"),
+    ('FRAME', "Frame", "The source's pose on a frame (say a T-pose on frame 0) is its reference pose"),
+)
+TARGET_MATCHES = (
+    ('REST', "Rest pose", "The target's rest pose is its reference pose"),
+    ('CURRENT', "Current pose", "The target's current pose, set to stand like the source's reference pose"),
+)
+
+# The options the reference pose depends on (RetargetOptions.reference): what Auto decides per chain,
+# and which bones keep their posture, read from these alone.
+REFERENCE = ("source_match", "match_frame", "target_match", "align_facing", "chain_modes")
+
+
+@dataclass
+class RetargetOptions:
+    """How the source's motion is laid on the target (see motionkit.retarget for the whole story)."""
+    # How the hips travel (ROOT_MOTIONS): "scaled" by the ratio of leg lengths measured along the legs,
+    # "in_place" (only the vertical motion), "offset" (vertical as the source's plus the difference in
+    # hip height) or "none" (the root stays where the match pose has it).
+    root: str = "scaled"
+    # The poses in which the two rigs stand alike: the source's 'REST' pose or its pose on match_frame
+    # ('FRAME'), and the target's 'REST' or 'CURRENT' pose (SOURCE_MATCHES, TARGET_MATCHES).
+    source_match: str = 'REST'
+    match_frame: float | None = None
+    target_match: str = 'REST'
+    # Move the root so that the target's lowest point touches its floor (armature Z = 0) on the first
+    # frame, the clip's heights kept (no floor_fit).
+    ground: bool = False
+    # Turn the motion so that each rig walks the way it faces.
+    align_facing: bool = True
+    # What a target's bone on the floor above the hips (Unreal's root) does (FLOOR_ROOTS): "auto",
+    # "still", "copy" or "extract"; root_smoothing: seconds of Gaussian smoothing for "extract".
+    floor_root: str = "auto"
+    root_smoothing: float = 0.25
+    # Feet that stand still in the source stay planted on the target (contacts detected on the source,
+    # held by full-body IK): None plants where both rigs have two labelled legs, True requires them,
+    # False never; contact_settings tunes the detection (None: foot_contacts.ContactSettings()).
+    plant_feet: bool | None = None
+    contact_settings: ContactSettings | None = None
+    # The floors' world Z heights; None: each rig's rest soles (see core/floor.py).
+    source_floor: float | None = None
+    target_floor: float | None = None
+    # How the feet are put on the target's floor where the source's stand on its own (FLOOR_FITS):
+    # "legs" (hips and legs), "hips" (the legs keep the source's directions exactly) or "off".
+    floor_fit: str = "legs"
+    # {chain: "KEEP" | "MATCH"} (reference_pose.CHAINS): whether the target keeps its own posture (its
+    # spine's curve, its knees' bend) or takes the source's direction; None or a chain left out: Auto.
+    chain_modes: dict | None = None
+
+    def validate(self) -> RetargetOptions:
+        """self, every value checked: a ValueError naming the option and the value."""
+        for name, value, known in (("floor_fit", self.floor_fit, FLOOR_FITS),
+                                   ("root motion", self.root, ROOT_MOTIONS),
+                                   ("floor root motion", self.floor_root, FLOOR_ROOTS)):
+            if value not in [k[0] for k in known]:
+                raise ValueError(f"unknown {name} {value!r}; expected one of {[k[0] for k in known]}")
+        smoothing = self.root_smoothing
+        if not (is_number(smoothing) and np.isfinite(smoothing) and smoothing >= 0):
+            raise ValueError(f"root_smoothing must be a non-negative number of seconds, not {smoothing!r}")
+        for name, value, known in (("source_match", self.source_match, SOURCE_MATCHES),
+                                   ("target_match", self.target_match, TARGET_MATCHES)):
+            if value not in [k[0] for k in known]:
+                raise ValueError(f"unknown match pose {name} {value!r}; expected one of {[k[0] for k in known]}")
+        if self.match_frame is not None and not (is_number(self.match_frame) and np.isfinite(self.match_frame)):
+            raise ValueError(f"match_frame must be a frame number or None, not {self.match_frame!r}")
+        if self.source_match == 'FRAME' and self.match_frame is None:
+            raise ValueError("a source match pose on a frame needs match_frame")
+        if not isinstance(self.plant_feet, (bool, np.bool_, type(None))):
+            raise ValueError(f"plant_feet must be True, False or None, not {self.plant_feet!r}")
+        for name, value in (("align_facing", self.align_facing), ("ground", self.ground)):
+            if not isinstance(value, (bool, np.bool_)):
+                raise ValueError(f"{name} must be True or False, not {value!r}")
+        for name, value in (("source_floor", self.source_floor), ("target_floor", self.target_floor)):
+            if value is not None and not (is_number(value) and np.isfinite(value)):
+                raise ValueError(f"{name} must be a height in metres or None, not {value!r}")
+        if self.contact_settings is not None and not isinstance(self.contact_settings, ContactSettings):
+            raise ValueError(f"contact_settings must be a ContactSettings, not {self.contact_settings!r}")
+        reference_pose.check_modes(self.chain_modes)
+        return self
+
+    def reference(self) -> RetargetOptions:
+        """These options as the reference pose sees them: its own (REFERENCE) kept, the others the
+        defaults, so that the chains decided never depend on options that only move the clip."""
+        return RetargetOptions(**{name: getattr(self, name) for name in REFERENCE})
+
+
+NAMES = tuple(f.name for f in dataclasses.fields(RetargetOptions))
+
+
+def from_keywords(options: RetargetOptions | None = None, **keywords) -> RetargetOptions:
+    """options (default: the defaults) with keywords replacing its fields; not validated (validate() is
+    the caller's, where it wants the error). An unknown keyword is a TypeError naming it, as a call's."""
+    if isinstance(options, str):  # scripts pass the root motion fifth: plan(source, target, map, range, "none")
+        options, keywords = None, {"root": options, **keywords}
+    if options is not None and not isinstance(options, RetargetOptions):
+        raise TypeError(f"options must be a RetargetOptions, not {options!r}")
+    unknown = sorted(set(keywords) - set(NAMES))
+    if unknown:
+        raise TypeError(f"unknown retarget option {unknown[0]!r}; expected one of {list(NAMES)}")
+    return dataclasses.replace(options or RetargetOptions(), **keywords)
+
+
+def check_frame_range(frame_range) -> None:
+    """frame_range's form: None or (first, last) finite frame numbers."""
+    if frame_range is not None and not (isinstance(frame_range, (tuple, list)) and len(frame_range) == 2
+                                        and all(is_number(f) and np.isfinite(f) for f in frame_range)):
+        raise ValueError(f"frame_range must be (first, last) frames, not {frame_range!r}")
+
+
+def is_number(value) -> bool:
+    """A real number, a bool excepted (True is no number of seconds or metres)."""
+    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, (bool, np.bool_))
