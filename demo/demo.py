@@ -35,6 +35,7 @@ import filters_plot  # noqa: E402
 import feet_fingers  # noqa: E402
 import ik_reach  # noqa: E402
 import interpolant_plot  # noqa: E402
+import mixamo_figure  # noqa: E402
 
 SHOW_FRAME = 22  # mid-stride: left leg forward, right arm forward
 
@@ -415,6 +416,15 @@ def main() -> None:
                                       args.samples)
     else:
         print(f"demo: {fbx} is absent, so feet_fingers.png is left out")
+    # Mixamo's own retargets (../shared/data/pairs): Kaya under Aj's clip, MotionKit beside Mixamo's answer.
+    pairs = os.path.join(os.path.dirname(ROOT), "shared", "data", "pairs")
+    why_not = mixamo_figure.available(pairs)
+    if why_not is None:
+        mixamo_figure.figure(motionkit, os.path.join(os.path.dirname(ROOT), "shared"),
+                             os.path.join(out, "mixamo_pairs.png"))
+        print(f"demo: wrote {os.path.join(out, 'mixamo_pairs.png')}")
+    else:
+        print(f"demo: {why_not}, so mixamo_pairs.png is left out")
     print(f"demo: wrote {blend}, {png} and {reach} in {time.perf_counter() - start:.1f} s")
 
 
