@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import os
 import sys
+import time
 
 import bpy
 import numpy as np
@@ -121,6 +122,10 @@ def _frame_label(joints, k: int, height: float) -> str:
     for method, name in (("MotionKit", "MotionKit"), ("copy", "plain copy")):
         e = sp.errors(joints[method][k:k + 1], joints["Mixamo"][k:k + 1], height)
         lines.append(f"{name} {e['all']:.1f} %, pose {e['pose']:.1f} %")
+    off = 100 * (joints["MotionKit"][k, 0] - joints["Mixamo"][k, 0])
+    side, front = _view(joints["Mixamo"][k], True), _view(joints["Mixamo"][k], False)
+    lines.append(f"MotionKit's hips from Mixamo's (cm):\n{off @ side[:, 0]:+.1f} ahead, "
+                 f"{off @ front[:, 0]:+.1f} to her left, {off[2]:+.1f} up")
     toe = {m: round(100 * _lower_toe(joints[m])[0][k], 1) + 0.0 for m in ("Mixamo", "MotionKit", "copy")}
     lines.append(f"lower toe joint above the floor (cm):\nMixamo {toe['Mixamo']:.1f}, "
                  f"MotionKit {toe['MotionKit']:.1f}, copy {toe['copy']:.1f}")
@@ -128,18 +133,20 @@ def _frame_label(joints, k: int, height: float) -> str:
 
 
 def _summary(joints, height: float) -> str:
-    """The clip's means, and where the pose alone differs: upper body (hips to hands) against legs."""
+    """The clip's means, where the pose alone differs (upper body, hips to hands, against the legs) and
+    how high the feet stand."""
     m = sp.errors(joints["MotionKit"], joints["Mixamo"], height)
     c = sp.errors(joints["copy"], joints["Mixamo"], height)
     per_joint = sp.joint_pose_errors(joints["MotionKit"], joints["Mixamo"], height)
     upper = per_joint[:sp.BODY_JOINTS.index("LeftUpLeg")]
-    legs = {n: per_joint[sp.BODY_JOINTS.index(side + n)] for side in sp.SIDES for n in ("Leg", "Foot")}
-    knees = np.mean([v for n, v in legs.items() if n == "Leg"])
+    toe = {k: 100 * float(_lower_toe(joints[k])[0].mean()) for k in ("Mixamo", "MotionKit", "copy")}
     return (f"Mean over the clip, distance to Mixamo's joints in % of her height: MotionKit {m['all']:.1f} % all "
             f"joints, {m['pose']:.1f} % pose alone (relative to the hips); plain rotation copy {c['all']:.1f} %, "
-            f"{c['pose']:.1f} %\nMotionKit's pose alone: trunk, head and arms at most {upper.max():.2f} %, "
+            f"{c['pose']:.1f} % (her height {100 * height:.1f} cm)\nMotionKit's pose alone: trunk, head and arms at most {upper.max():.2f} %, "
             f"knees {np.mean(per_joint[[sp.BODY_JOINTS.index(s + 'Leg') for s in sp.SIDES]]):.1f} %, "
-            f"ankles {np.mean(per_joint[[sp.BODY_JOINTS.index(s + 'Foot') for s in sp.SIDES]]):.1f} %")
+            f"ankles {np.mean(per_joint[[sp.BODY_JOINTS.index(s + 'Foot') for s in sp.SIDES]]):.1f} %\n"
+            f"The lower toe joint above the floor, mean: Mixamo {toe['Mixamo']:.1f} cm, MotionKit "
+            f"{toe['MotionKit']:.1f}, copy {toe['copy']:.1f}")
 
 
 def figure(motionkit, shared: str, path: str, clip: str = CLIP, shown=SHOWN, every: int = 1) -> None:
@@ -148,13 +155,14 @@ def figure(motionkit, shared: str, path: str, clip: str = CLIP, shown=SHOWN, eve
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    started = time.perf_counter()
     last = sp.read_bvh(mp.san_path(shared, TARGET, clip)).values.shape[0]
     frames = np.array(sorted(set(range(1, last + 1, every)) | set(shown)))
     joints = _clip_joints(motionkit, shared, clip, frames)
     height = joints["height"]
     picks = [int(np.searchsorted(frames, f)) for f in shown]
     top = max(float(joints[m][picks][..., 2].max()) for m in ("Mixamo", "MotionKit", "copy")) + 0.08
-    fig, axes = plt.subplots(3, len(shown), figsize=(2.5 * len(shown), 10.5), sharey="row",
+    fig, axes = plt.subplots(3, len(shown), figsize=(2.5 * len(shown), 10.9), sharey="row",
                              gridspec_kw={"height_ratios": [top / 1.1, 0.2 / 0.44, top / 1.1]},
                              constrained_layout=True)
     _, lower = _lower_toe(joints["Mixamo"])
@@ -172,9 +180,8 @@ def figure(motionkit, shared: str, path: str, clip: str = CLIP, shown=SHOWN, eve
                          "plain rotation copy"], loc="lower center", ncol=3, fontsize=9, frameon=False,
                bbox_to_anchor=(0.5, -0.025))
     fig.suptitle(f"Aj's \"{clip}\" on Kaya (Mixamo's BVH files, 60 fps), one stride: MotionKit against Mixamo's "
-                 f"own retarget; her right side paler, the floor dashed\n{_summary(joints, height)} "
-                 f"(her height {100 * height:.1f} cm)", fontsize=9.5)
+                 f"own retarget; her right side paler, the floor dashed\n{_summary(joints, height)}", fontsize=9.5)
     fig.savefig(path, dpi=110, bbox_inches="tight")
     plt.close(fig)
     print(f"demo: {clip}, Aj onto Kaya against Mixamo's own ({len(frames)} frames): "
-          + _summary(joints, height).replace("\n", "; "))
+          + _summary(joints, height).replace("\n", "; ") + f"; in {time.perf_counter() - started:.1f} s")
