@@ -7,9 +7,12 @@ by MotionKit's defaults (motionkit.retarget(source, target)) onto a rest copy of
 the same animation is Mixamo's. Both are imported with Blender's own BVH importer and every joint is
 Blender's evaluation (frame_set, pose bone heads through matrix_world); the plain rotation copy (each
 joint's local rotation by name, the root's path times the hip heights' ratio) is san_protocol's numpy.
-Shown: the 22 main body joints of the SAN protocol as stick figures, a side view and a front view on a few
-frames, each frame's mean distance to Mixamo's joints in % of Kaya's height under it, the clip's means
-(all joints, and the pose alone: each frame's joints relative to its hips) in the title.
+Shown: the 22 main body joints of the SAN protocol as stick figures on five frames of one stride, a side
+view, her lower foot close up against the floor and a front view, the views turned with Mixamo's hips on
+each frame (she turns on the catwalk); under each frame its mean distance to Mixamo's joints in % of Kaya's
+height (all joints, and the pose alone: the joints relative to the hips), MotionKit's hips' offset from
+Mixamo's and the lower toe joint's height; in the title the clip's means, the pose alone split between
+the upper body and the legs, and the toes' mean height (every figure measured, none assumed).
 """
 from __future__ import annotations
 
@@ -17,7 +20,6 @@ import os
 import sys
 import time
 
-import bpy
 import numpy as np
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -142,7 +144,8 @@ def _summary(joints, height: float) -> str:
     toe = {k: 100 * float(_lower_toe(joints[k])[0].mean()) for k in ("Mixamo", "MotionKit", "copy")}
     return (f"Mean over the clip, distance to Mixamo's joints in % of her height: MotionKit {m['all']:.1f} % all "
             f"joints, {m['pose']:.1f} % pose alone (relative to the hips); plain rotation copy {c['all']:.1f} %, "
-            f"{c['pose']:.1f} % (her height {100 * height:.1f} cm)\nMotionKit's pose alone: trunk, head and arms at most {upper.max():.2f} %, "
+            f"{c['pose']:.1f} % (her height {100 * height:.1f} cm)\n"
+            f"MotionKit's pose alone: trunk, head and arms at most {upper.max():.2f} %, "
             f"knees {np.mean(per_joint[[sp.BODY_JOINTS.index(s + 'Leg') for s in sp.SIDES]]):.1f} %, "
             f"ankles {np.mean(per_joint[[sp.BODY_JOINTS.index(s + 'Foot') for s in sp.SIDES]]):.1f} %\n"
             f"The lower toe joint above the floor, mean: Mixamo {toe['Mixamo']:.1f} cm, MotionKit "
