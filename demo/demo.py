@@ -35,6 +35,7 @@ import filters_plot  # noqa: E402
 import feet_fingers  # noqa: E402
 import ik_reach  # noqa: E402
 import interpolant_plot  # noqa: E402
+import mixamo_figure  # noqa: E402
 
 SHOW_FRAME = 22  # mid-stride: left leg forward, right arm forward
 
@@ -345,6 +346,17 @@ def main() -> None:
     import motionkit
     for obj in list(bpy.data.objects):
         bpy.data.objects.remove(obj)
+    # First, on an empty scene (it evaluates 909 frames, each frame_set as fast as the scene is light; its
+    # objects are removed after): Mixamo's own retargets (../shared/data/pairs), Kaya under Aj's clip,
+    # MotionKit beside Mixamo's answer.
+    pairs = os.path.join(os.path.dirname(ROOT), "shared", "data", "pairs")
+    why_not = mixamo_figure.available(pairs)
+    if why_not is None:
+        mixamo_figure.figure(motionkit, os.path.join(os.path.dirname(ROOT), "shared"),
+                             os.path.join(out, "mixamo_pairs.png"))
+        print(f"demo: wrote {os.path.join(out, 'mixamo_pairs.png')}")
+    else:
+        print(f"demo: {why_not}, so mixamo_pairs.png is left out")
     scene = bpy.context.scene
     scene.render.fps, scene.render.fps_base = SOURCE_FPS, 1.0
     camera = stage(scene)

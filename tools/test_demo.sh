@@ -9,6 +9,7 @@ scratch=$(mktemp -d)
 trap 'rm -rf "$scratch"' EXIT
 "$here/tools/with_blender.sh" 3.4 --background --factory-startup --python-exit-code 1 \
   --python "$here/demo/demo.py" -- --zip "$zip" --out "$scratch"
-for picture in demo.png demo.blend contacts.png filters.png ik_reach.png feet_fingers.png reduction.png mirror.png; do
+for picture in demo.png demo.blend contacts.png filters.png ik_reach.png feet_fingers.png reduction.png mirror.png \
+    mixamo_pairs.png; do
   [ -s "$scratch/$picture" ] || { echo "test_demo.sh: the demo wrote no $picture" >&2; exit 1; }
 done
