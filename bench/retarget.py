@@ -61,6 +61,9 @@ PLANT_FEET = False
 # Nor does it stand feet on the floor: fitting the legs to the target's floor turns them from the source's
 # directions, which the check below holds to 0.01 degrees.
 FLOOR_FIT = "off"
+# Every chain turned onto the source's direction, as the constraint way (world to world) does: the two do the
+# same job, and the check below holds MotionKit to it (by default a target keeps its own posture).
+MATCH_EVERY_CHAIN = {c: "MATCH" for c in ("trunk", "arm.L", "arm.R", "leg.L", "leg.R", "fingers.L", "fingers.R")}
 
 
 def _unit(*v) -> Vector:
@@ -191,7 +194,8 @@ def clear_action(obj) -> None:
 
 def run_motionkit(mk, source, target, pairs):
     start = time.perf_counter()
-    action = mk.retarget(source, target, bone_map=pairs, plant_feet=PLANT_FEET, floor_fit=FLOOR_FIT)
+    action = mk.retarget(source, target, bone_map=pairs, plant_feet=PLANT_FEET, floor_fit=FLOOR_FIT,
+                         chain_modes=MATCH_EVERY_CHAIN)
     return time.perf_counter() - start, action
 
 
@@ -304,7 +308,8 @@ def main() -> None:
         bpy.data.actions.remove(action)
         profile = cProfile.Profile()
         profile.enable()
-        action = mk.retarget(source, target, bone_map=pairs, plant_feet=PLANT_FEET, floor_fit=FLOOR_FIT)
+        action = mk.retarget(source, target, bone_map=pairs, plant_feet=PLANT_FEET, floor_fit=FLOOR_FIT,
+                         chain_modes=MATCH_EVERY_CHAIN)
         profile.disable()
         text = io.StringIO()
         pstats.Stats(profile, stream=text).sort_stats("tottime").print_stats(25)

@@ -48,9 +48,15 @@ def settings(holder) -> ContactSettings:
     return ContactSettings(**values)
 
 
-def draw(layout, holder) -> None:
+# What a contact may do and still be held (a slide, a pivot and a swivel are not): drawn apart, they are
+# seldom changed.
+MOTION_FIELDS = ("max_drift", "max_pivot", "max_turn")
+
+
+def draw(layout, holder, fields=None) -> None:
+    """The thresholds' fields (default: all but MOTION_FIELDS)."""
     col = layout.column(align=True)
-    for name in _FIELDS:
+    for name in fields or [f for f in _FIELDS if f not in MOTION_FIELDS]:
         col.prop(holder, name)
 
 

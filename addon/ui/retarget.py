@@ -583,6 +583,19 @@ class MOTIONKIT_PT_retarget_feet(RetargetSubPanel, bpy.types.Panel):
         layout.label(text="Keyed as 0/1 curves", icon='INFO')
 
 
+class MOTIONKIT_PT_retarget_feet_motion(common.SidebarPanel, bpy.types.Panel):
+    """Which contacts are held still: not those that slide, pivot about the other point or swivel."""
+    bl_label = "Slides and Pivots"
+    bl_parent_id = "MOTIONKIT_PT_retarget_feet"
+    bl_options = {'DEFAULT_CLOSED'}
+
+    def draw(self, context):
+        settings = context.scene.motionkit_retarget
+        layout = common.split_layout(self.layout)
+        layout.active = settings.plant_feet
+        contact_ui.draw(layout, settings.contacts, contact_ui.MOTION_FIELDS)
+
+
 BONE_MAP = common.editable_list(common.EditableList(
     "bone_map", "pair", lambda context: context.scene.motionkit_retarget, "pairs", "active_pair", "No scene"))
 
@@ -590,7 +603,7 @@ classes = (MOTIONKIT_PG_bone_pair, MOTIONKIT_PG_reference_pose, MOTIONKIT_PG_ret
            MOTIONKIT_OT_bone_map_auto, MOTIONKIT_OT_reference_pose,
            MOTIONKIT_OT_bone_map_scheme, MOTIONKIT_OT_bone_map_save, MOTIONKIT_OT_bone_map_load,
            MOTIONKIT_UL_bone_map, MOTIONKIT_PT_retarget, MOTIONKIT_PT_retarget_map, MOTIONKIT_PT_retarget_controls,
-           MOTIONKIT_PT_retarget_options, MOTIONKIT_PT_retarget_feet)
+           MOTIONKIT_PT_retarget_options, MOTIONKIT_PT_retarget_feet, MOTIONKIT_PT_retarget_feet_motion)
 
 
 def register_properties():
