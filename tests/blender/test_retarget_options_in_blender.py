@@ -56,7 +56,8 @@ def test_retarget_with_options_keys_what_keywords_key(mk, rigs):
     frames = range(1, 183, 5)
 
     def keys(action):
-        return {(c.data_path, c.array_index): [c.evaluate(f) for f in frames] for c in action.fcurves}
+        curves = mk.animdata.fcurves(action, target)  # 5.x's slotted actions have no action.fcurves
+        return {(c.data_path, c.array_index): [c.evaluate(f) for f in frames] for c in curves}
 
     by_keywords = keys(mk.retarget(source, target, **keywords))
     by_options = keys(mk.retarget(source, target, options=mk.retargeting.RetargetOptions(**keywords)))
