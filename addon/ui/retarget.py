@@ -121,7 +121,8 @@ class MOTIONKIT_PG_retarget(bpy.types.PropertyGroup):
                                   description="Seconds of smoothing of the extracted root motion")
     plant_feet: BoolProperty(name="Plant Feet", default=True,
                              description="Feet that stand still in the source stay planted on the target "
-                                         "(contacts detected on the source, held with full-body IK)")
+                                         "(contacts detected on the source, held with full-body IK, and keyed on "
+                                         "the new action as 0/1 curves)")
     contacts: PointerProperty(type=contact_ui.MOTIONKIT_PG_contacts)
     ground: BoolProperty(name="On the Floor",
                          description="Move the root so that the target's lowest point touches the floor "
@@ -580,7 +581,6 @@ class MOTIONKIT_PT_retarget_feet(RetargetSubPanel, bpy.types.Panel):
         layout = common.split_layout(self.layout)
         layout.active = settings.plant_feet
         contact_ui.draw(layout, settings.contacts)
-        layout.label(text="Keyed as 0/1 curves", icon='INFO')
 
 
 class MOTIONKIT_PT_retarget_feet_motion(common.SidebarPanel, bpy.types.Panel):

@@ -125,7 +125,7 @@ SIDEBAR_LABELS = (
     "Armature", "File", "Source", "Target", "Retarget", "Bone Map", "Load", "Save", "Auto-map", "Schemes",
     "Source Bone", "Target Bone", "Reference Pose", "Trunk", "Arms", "Legs", "Fingers", "Options", "Match Poses", "Rest pose", "Root Motion", "Scaled", "Floor Root",
     "On the Floor", "Align Facing", "Frame Range", "From Clip", "Overwrite", "Plant Feet", "Height In",
-    "Height Out", "Speed In", "Speed Out", "Shortest", "Blend", "Keyed as 0/1 curves",
+    "Height Out", "Speed In", "Speed Out", "Shortest", "Blend", "Slides and Pivots",
     # Library
     "Library", "Clips", "Names", "Output", "Keep Actions", "Folder", "Retarget Library",
     # Controls (its Arms and Legs rows are greyed out on the scene's plain rig, too faint to read)
