@@ -258,7 +258,10 @@ TEST(Retarget, APostureBoneMovesFromItsOwnRestAsTheSourceFromIts) {
   const int arm = target.Find("upper_arm"), forearm = target.Find("forearm");
   for (const bool keep : {true, false}) {
     RetargetOptions options;
-    if (keep) options.posture_bones = {arm, forearm};
+    if (keep) {
+      options.posture_bones.push_back(arm);
+      options.posture_bones.push_back(forearm);
+    }
     RowMatrixXd rotations;
     const std::vector<int> kept = KeptPosture(source, target, posed, options, &rotations);
     EXPECT_EQ(kept, keep ? std::vector<int>({arm, forearm}) : std::vector<int>{});
@@ -286,7 +289,7 @@ TEST(Retarget, APostureBone60DegreesAcrossIsTurnedUnlessAlwaysKept) {
   const int arm = target.Find("upper_arm"), a = source.Find("upper_arm");
   for (const bool always : {false, true}) {
     RetargetOptions options;
-    (always ? options.posture_always : options.posture_bones) = {arm};
+    (always ? options.posture_always : options.posture_bones).push_back(arm);
     RowMatrixXd rotations;
     const std::vector<int> kept = KeptPosture(source, target, posed, options, &rotations);
     EXPECT_EQ(kept, always ? std::vector<int>{arm} : std::vector<int>{});
@@ -297,7 +300,7 @@ TEST(Retarget, APostureBone60DegreesAcrossIsTurnedUnlessAlwaysKept) {
     }
   }
   RetargetOptions bad;
-  bad.posture_always = {target.size()};
+  bad.posture_always.push_back(target.size());
   RowMatrixXd rotations;
   EXPECT_THROW(KeptPosture(source, target, posed, bad, &rotations), Error);
 }
