@@ -85,14 +85,24 @@ class RetargetResult:
     @property
     def kept_posture(self) -> list[int]: ...
 
+class RetargetOptions:
+    root_motion: Literal["scaled", "in_place", "offset", "none"]
+    scale: float
+    unit_scale: float
+    vertical_offset: float
+    space: npt.ArrayLike
+    up: npt.ArrayLike
+    source_floor: float
+    target_floor: float
+    ground_bones: list[int]
+    posture_bones: list[int]
+    posture_always: list[int]
+    def __init__(self) -> None: ...
+
 def retarget(source: Rig, target: Rig, source_rotations: F64, source_root_heads: F64, bone_map: list[int], *,
     source_match: F64, source_match_root: npt.ArrayLike, target_match_basis: F64,
-    target_match_location: npt.ArrayLike, source_root: int, target_root: int, space: npt.ArrayLike = ...,
-    scale: float = 1.0, unit_scale: float = 1.0, vertical_offset: float = 0.0,
-    root_motion: Literal["scaled", "in_place", "offset", "none"] = "scaled", ground_bones: list[int] = ...,
-    up: npt.ArrayLike = ..., source_floor: float = 0.0, target_floor: float = 0.0, source_aims: F64 | None = None,
-    target_aims: F64 | None = None, posture_bones: list[int] = ...,
-    posture_always: list[int] = ...) -> RetargetResult: ...
+    target_match_location: npt.ArrayLike, source_root: int, target_root: int, options: RetargetOptions = ...,
+    source_aims: F64 | None = None, target_aims: F64 | None = None) -> RetargetResult: ...
 
 # Mirroring a clip across a plane (native/python/bind_mirror.cpp).
 def mirror(source: Rig, target: Rig, basis_rotations: F64, basis_locations: F64, partners: list[int],

@@ -733,23 +733,34 @@ def kept_bones(source, target, bone_map=None, options: RetargetOptions | None = 
     return [tgt.names[b] for b in _native_retarget(rigs, first, fit, "none", False, chains).kept_posture]
 
 
+def _native_options(native, rigs: _Rigs, fit: _Fit, root, ground, chains):
+    """The native retarget's options (_native.RetargetOptions) for this fit."""
+    options = native.RetargetOptions()
+    options.root_motion, options.scale, options.unit_scale = root, fit.scale, fit.unit_scale
+    options.vertical_offset = fit.heights[1] - fit.unit_scale * fit.heights[0]
+    options.space, options.up = fit.space, fit.up
+    options.source_floor, options.target_floor = fit.floors
+    options.ground_bones = list(range(len(rigs.tgt.bones))) if ground else []
+    options.posture_bones = _posture_bones(rigs, chains, False)
+    options.posture_always = _posture_bones(rigs, chains, True)
+    return options
+
+
 def _native_retarget(rigs: _Rigs, clip: _Clip, fit: _Fit, root, ground, chains):
     """The native retarget of the clip (a _native.RetargetResult); it releases the GIL."""
+    native = native_state.native()
     src, tgt = rigs.src, rigs.tgt
     source_root, target_root = rigs.roots
     source_aims, target_aims = _bone_aims(src, tgt, [int(v) for v in rigs.bone_map])
     with native_state.blender_frames(clip.frames):
-        return native_state.native().retarget(
+        return native.retarget(
             src.rig, tgt.rig, clip.rotations, np.ascontiguousarray(clip.heads[:, 3 * source_root:3 * source_root + 3]),
             [int(v) for v in rigs.bone_map], source_match=np.ascontiguousarray(rigs.source_pose.rotations),
             source_match_root=rigs.source_pose.heads[source_root],
             target_match_basis=np.ascontiguousarray(rigs.target_basis),
             target_match_location=rigs.target_locations[target_root], source_root=source_root,
-            target_root=target_root, space=fit.space, scale=fit.scale, unit_scale=fit.unit_scale,
-            vertical_offset=fit.heights[1] - fit.unit_scale * fit.heights[0], root_motion=root,
-            ground_bones=list(range(len(tgt.bones))) if ground else [], up=fit.up, source_floor=fit.floors[0],
-            target_floor=fit.floors[1], source_aims=source_aims, target_aims=target_aims,
-            posture_bones=_posture_bones(rigs, chains, False), posture_always=_posture_bones(rigs, chains, True))
+            target_root=target_root, options=_native_options(native, rigs, fit, root, ground, chains),
+            source_aims=source_aims, target_aims=target_aims)
 
 
 def _retarget_clip(rigs: _Rigs, clip: _Clip, fit: _Fit, how, source_feet, contact_settings):

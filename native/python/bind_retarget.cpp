@@ -39,17 +39,23 @@ struct RetargetResult {
   std::vector<int> kept_posture;
 };
 
+const char* RootMotionName(RootMotion motion) {
+  switch (motion) {
+    case RootMotion::kInPlace: return "in_place";
+    case RootMotion::kOffset: return "offset";
+    case RootMotion::kNone: return "none";
+    case RootMotion::kScaled: break;
+  }
+  return "scaled";
+}
+
 RetargetResult Retarget(const RigModel& source, const RigModel& target, const ConstMatrixView& source_rotations,
-                   const ConstMatrixView& source_root_heads, const std::vector<int>& bone_map,
-                   const ConstMatrixView& source_match, const PointArg& source_match_root,
-                   const ConstMatrixView& target_match_basis, const PointArg& target_match_location,
-                   int source_root, int target_root, const QuaternionArg& space, double scale, double unit_scale,
-                   double vertical_offset, const std::string& root_motion, const std::vector<int>& ground_bones,
-                   const PointArg& up, double source_floor, double target_floor,
-                   const std::optional<RowMatrixXd>& source_aims, const std::optional<RowMatrixXd>& target_aims,
-                   const std::vector<int>& posture_bones, const std::vector<int>& posture_always) {
-  const auto motion = ParseRootMotion(root_motion);
-  if (!motion) throw Error("unknown root motion '" + root_motion + "'; expected scaled, in_place, offset or none");
+                        const ConstMatrixView& source_root_heads, const std::vector<int>& bone_map,
+                        const ConstMatrixView& source_match, const PointArg& source_match_root,
+                        const ConstMatrixView& target_match_basis, const PointArg& target_match_location,
+                        int source_root, int target_root, const RetargetOptions& options,
+                        const std::optional<RowMatrixXd>& source_aims,
+                        const std::optional<RowMatrixXd>& target_aims) {
   const Eigen::Index frames = source_rotations.rows(), bones = target.size();
   Output<> rotations(frames, 4 * bones), root_locations(frames, 3);
   RetargetJob job(source, target, source_rotations, source_root_heads,
@@ -60,17 +66,7 @@ RetargetResult Retarget(const RigModel& source, const RigModel& target, const Co
   job.bone_map = bone_map;
   job.source_root = source_root;
   job.target_root = target_root;
-  job.options.root_motion = *motion;
-  job.options.scale = scale;
-  job.options.unit_scale = unit_scale;
-  job.options.vertical_offset = vertical_offset;
-  job.options.space = ToQuaternion(space);
-  job.options.ground_bones = ground_bones;
-  job.options.posture_bones = posture_bones;
-  job.options.posture_always = posture_always;
-  job.options.up = up;
-  job.options.source_floor = source_floor;
-  job.options.target_floor = target_floor;
+  job.options = options;
   if (source_aims) job.source_aims = *source_aims;
   if (target_aims) job.target_aims = *target_aims;
   RunWithoutGil(job);
@@ -79,7 +75,38 @@ RetargetResult Retarget(const RigModel& source, const RigModel& target, const Co
 
 }  // namespace
 
+void BindRetargetOptions(py::module_& m) {
+  py::class_<RetargetOptions>(m, "RetargetOptions", "The retarget's options (motionkit/retarget.hpp says what each "
+                                                    "does); checked when the retarget runs.")
+      .def(py::init<>())
+      .def_property(
+          "root_motion", [](const RetargetOptions& o) { return std::string(RootMotionName(o.root_motion)); },
+          [](RetargetOptions& o, const std::string& text) {
+            const auto motion = ParseRootMotion(text);
+            if (!motion) throw Error("unknown root motion '" + text + "'; expected scaled, in_place, offset or none");
+            o.root_motion = *motion;
+          })
+      .def_readwrite("scale", &RetargetOptions::scale, "target leg length / source leg length")
+      .def_readwrite("unit_scale", &RetargetOptions::unit_scale, "target armature units per source one")
+      .def_readwrite("vertical_offset", &RetargetOptions::vertical_offset, "offset: added to the root's height")
+      .def_property(
+          "space",
+          [](const RetargetOptions& o) { return Eigen::Vector4d(o.space.w(), o.space.x(), o.space.y(), o.space.z()); },
+          [](RetargetOptions& o, const Eigen::Vector4d& wxyz) { o.space = ToQuaternion(wxyz); },
+          "w x y z rotation from source to target armature space")
+      .def_property(
+          "up", [](const RetargetOptions& o) { return Eigen::Vector3d(o.up); },
+          [](RetargetOptions& o, const Eigen::Vector3d& up) { o.up = up; }, "the target armature's up (unit)")
+      .def_readwrite("source_floor", &RetargetOptions::source_floor, "source units, after space")
+      .def_readwrite("target_floor", &RetargetOptions::target_floor, "target armature units")
+      .def_readwrite("ground_bones", &RetargetOptions::ground_bones, "touch the floor on the first frame")
+      .def_readwrite("posture_bones", &RetargetOptions::posture_bones,
+                     "keep their own posture unless carried 45 degrees across the source's")
+      .def_readwrite("posture_always", &RetargetOptions::posture_always, "keep it whatever the angle");
+}
+
 void BindRetarget(py::module_& m) {
+  BindRetargetOptions(m);
   py::class_<RetargetResult>(m, "RetargetResult", "What retarget returns, by name.")
       .def_readonly("rotations", &RetargetResult::rotations,
                     "float64 (frames, 4b): pose quaternions per target bone, continuous per bone")
@@ -90,11 +117,8 @@ void BindRetarget(py::module_& m) {
   m.def("retarget", &Retarget, "source"_a, "target"_a, "source_rotations"_a.noconvert(),
         "source_root_heads"_a.noconvert(), "bone_map"_a, py::kw_only(), "source_match"_a.noconvert(),
         "source_match_root"_a, "target_match_basis"_a.noconvert(), "target_match_location"_a,
-        "source_root"_a, "target_root"_a, "space"_a = Eigen::Vector4d(1, 0, 0, 0), "scale"_a = 1.0,
-        "unit_scale"_a = 1.0, "vertical_offset"_a = 0.0, "root_motion"_a = "scaled", "ground_bones"_a = std::vector<int>{},
-        "up"_a = Eigen::Vector3d(0, 0, 1), "source_floor"_a = 0.0, "target_floor"_a = 0.0,
-        "source_aims"_a = py::none(), "target_aims"_a = py::none(), "posture_bones"_a = std::vector<int>{},
-        "posture_always"_a = std::vector<int>{},
+        "source_root"_a, "target_root"_a, "options"_a = RetargetOptions(), "source_aims"_a = py::none(),
+        "target_aims"_a = py::none(),
         R"pbdoc(
         Retarget a whole clip from the source rig to the target rig.
 
@@ -105,22 +129,11 @@ void BindRetarget(py::module_& m) {
         pose, source_match_root its root head there; target_match_basis:
         (b, 4) the target's match pose as pose rotations (identity rows for
         the rest pose), target_match_location the target root's location
-        there. space: w x y z rotation from source to target armature space.
-        scale: target leg length / source leg length; unit_scale: target
-        armature units per source one. root_motion: "scaled", "in_place",
-        "offset" or "none" (retarget.hpp says what each does with the root's
-        motion across up and its height above the floor); vertical_offset:
-        added to the height in "offset". ground_bones: target bones that
-        touch the target's floor on the first frame. up: the target
-        armature's up (unit); source_floor: the source floor's height along
-        up (source units, after space); target_floor: the target's, in its
-        armature units. source_aims (a, 3), target_aims (b, 3): where each
-        bone points in its own frame, for rigs whose bone axes do not run
-        along their limbs (default: every bone's Y axis). posture_bones:
-        target bones that keep their own posture in the match pose (carried
-        by their parents, not turned onto the source's direction) unless their
-        parents carry them more than 45 degrees from it; posture_always:
-        bones that keep it whatever the angle (the user's choice).
+        there. options: a RetargetOptions (root motion, scale, unit scale,
+        vertical offset, space, up, floors, ground and posture bones; each
+        field says what it is). source_aims (a, 3), target_aims (b, 3): where
+        each bone points in its own frame, for rigs whose bone axes do not run
+        along their limbs (default: every bone's Y axis).
 
         Returns a RetargetResult: rotations (frames, 4b) pose quaternions per
         target bone, continuous per bone; root_locations (frames, 3), the
