@@ -331,14 +331,16 @@ def foot_points(obj, bones, rig, rotations, locations, feet, posed=None) -> tupl
 
 
 def find_contacts(obj, bones, rig, rotations, locations, feet, settings: ContactSettings | None = None,
-                  fps: float | None = None, posed=None, floor: float = 0.0) -> np.ndarray:
+                  fps: float | None = None, posed=None, floor: float = 0.0, holds: bool = False):
     """Contacts (F, 4) bool (POINTS order) of a pose sequence (for example the retarget's source, whose
     contacts the target then keeps); fps default the scene's; posed: its armature pose, if at hand; floor:
-    the floor's world Z."""
+    the floor's world Z. holds: also which of them a cleanup holds still, read on this motion
+    (foot_contacts.plantable): (contacts, holds)."""
     if fps is None:
         fps = animdata.frame_rate(None)  # the scene's
     points, leg_length = foot_points(obj, bones, rig, rotations, locations, feet, posed)
-    return detect_contacts(points, fps, leg_length, floor, settings)
+    found = detect_contacts(points, fps, leg_length, floor, settings)
+    return (found, plantable(points, found, leg_length, settings, _RIGID)) if holds else found
 
 
 def _blender_frame(frames, f) -> str:
@@ -358,7 +360,7 @@ def cleanup(obj, bones, rig, frames, rotations, locations, feet, contacts=None,
 def staged_cleanup(obj, bones, rig, frames, rotations, locations, feet, contacts=None,
                    settings: ContactSettings | None = None, *, hips: str | None = None, fps: float | None = None,
                    in_place: bool = False, threads: int = 0, follow_heights=None,
-                   hips_move: bool = True):
+                   hips_move: bool = True, holds=None):
     """cleanup in stages, so that its native solve and what follows can run beside other work: everything
     that reads Blender data (and the checks of the arguments) happens here, and the result is
     (prepare, finish). prepare() computes the targets and limits (numpy) and returns solve; solve() calls
@@ -369,7 +371,7 @@ def staged_cleanup(obj, bones, rig, frames, rotations, locations, feet, contacts
     """
     steps = _cleanup_steps(obj, bones, rig, frames, rotations, locations, feet, contacts, settings, hips=hips,
                            fps=fps, in_place=in_place, threads=threads, follow_heights=follow_heights,
-                           hips_move=hips_move)
+                           hips_move=hips_move, holds=holds)
     next(steps)  # Blender's data read, the arguments checked
 
     def prepare():
@@ -408,7 +410,7 @@ def _keep_feet_rigid(targets, points, rise) -> None:
 def _cleanup_steps(obj, bones, rig, frames, rotations, locations, feet, contacts=None,
                    settings: ContactSettings | None = None, *, hips: str | None = None, fps: float | None = None,
                    in_place: bool = False, threads: int = 0, follow_heights=None,
-                   hips_move: bool = True):
+                   hips_move: bool = True, holds=None):
     """The cleanup as a generator: yields its solve, is sent the solve's result, returns cleanup's result.
 
     obj: the armature object (its matrix_world places the floor; Z up).
@@ -447,7 +449,7 @@ def _cleanup_steps(obj, bones, rig, frames, rotations, locations, feet, contacts
 
     _check_finite_pose(part, feet, frames, rotations, locations)
     pose, points, targets, contacts, source, holds = _plant_targets(part.leg_rig, frames, rotations, locations,
-                                                                    contacts, settings, fps, follow_heights)
+                                                                    contacts, settings, fps, follow_heights, holds)
     report = Report(frames, contacts, source=source, held=holds)
     report.bones = [part.bone_names[part.hip]] + [part.bone_names[b] for b in part.changed]
     solve_input = _LegSolve.prepare(part, feet, pose, points, report)
@@ -545,16 +547,19 @@ def _check_finite_pose(part: _SolvePart, feet, frames, rotations, locations) -> 
                                  f"{_blender_frame(frames, np.flatnonzero(bad)[0])}")
 
 
-def _plant_targets(leg_rig: _LegRig, frames, rotations, locations, contacts, settings, fps, follow_heights):
+def _plant_targets(leg_rig: _LegRig, frames, rotations, locations, contacts, settings, fps, follow_heights,
+                   holds=None):
     """(pose, foot points (F, 4, 3) armature space, IK targets (F, 4, 3) armature space, contacts, their
     source, the contacts held): the plain pose's foot points held at their plants where contacts (detected
-    when None) say, but for slides and pivots (foot_contacts.plantable)."""
+    when None) say, but for slides and pivots (holds: those held, as a retarget read them on its source;
+    None: foot_contacts.plantable on this pose)."""
     pose, points, world_points, leg_length = _pose_points(leg_rig, rotations, locations)
     source = "given"
     if contacts is None:
         contacts = detect_contacts(world_points, fps, leg_length, 0.0, settings)
         source = "detected"
-    holds = plantable(world_points, contacts, leg_length, settings, _RIGID)  # no slides, no pivots
+    if holds is None:
+        holds = plantable(world_points, contacts, leg_length, settings, _RIGID)  # no slides, no pivots
     with native_state.blender_frames(frames):
         targets_world, _ = plant_targets(native_state.native(), world_points, holds, settings.blend_frames(fps),
                                          _RIGID)

@@ -539,6 +539,7 @@ def plan(source, target, bone_map=None, frame_range=None, options: RetargetOptio
     # The source's contacts count only where both rigs have feet.
     rotations, root_locations, found = _retarget_clip(rigs, clip, fit, (root, ground, chains),
                                                       None if None in feet else feet[0], contact_settings)
+    found, holds = found if found is not None else (None, None)  # the source's stances, and those held
     _share_twist(tgt, rigs.tgt_body, rotations, {b for _, b in rigs.pairs_idx})
     locations, located, mode = _place_roots(rigs, clip, fit, rotations, root_locations, o)
     feet_lift = None
@@ -557,8 +558,8 @@ def plan(source, target, bone_map=None, frame_range=None, options: RetargetOptio
         feet_lift = None
     legs_solve = found is not None and (plant_feet or (
         feet_lift is not None and np.abs(feet_lift).max(initial=0.0) > 5e-4 * fit.target_scale * fit.heights[1]))
-    planted = _plant_feet(tgt, feet[1], found if plant_feet else np.zeros_like(found), clip.frames, rotations,
-                          locations, rigs.roots[1], contact_settings, clip.fps, beside=defer_solve,
+    planted = _plant_feet(tgt, feet[1], (found, holds) if plant_feet else (np.zeros_like(found),) * 2, clip.frames,
+                          rotations, locations, rigs.roots[1], contact_settings, clip.fps, beside=defer_solve,
                           heights=feet_lift, hips_move=plant_feet) if legs_solve else None
     plan_ = _plan_keys(rigs, clip, pairs, fit.scale, (rotations, locations), located, mode, planted, plant_feet,
                        defer_solve)
@@ -773,7 +774,7 @@ def _retarget_clip(rigs: _Rigs, clip: _Clip, fit: _Fit, how, source_feet, contac
     def source_contacts():
         return None if source_feet is None else contacts.find_contacts(
             src.obj, src.bones, src.rig, clip.basis, clip.locations, source_feet, contact_settings, fps=clip.fps,
-            posed=(clip.rotations, clip.heads), floor=_armature_height_to_world(src.obj, fit.floors[0]))
+            posed=(clip.rotations, clip.heads), floor=_armature_height_to_world(src.obj, fit.floors[0]), holds=True)
 
     result, found = worker_thread.beside(lambda: _native_retarget(rigs, clip, fit, root, ground, chains),
                                          source_contacts)
@@ -970,16 +971,18 @@ def _feet(side: _Side, body) -> list | None:
 
 def _plant_feet(tgt: _Side, tgt_feet, found, frames, rotations, locations, target_root, settings, fps,
                 beside: bool = False, heights=None, hips_move: bool = True):
-    """The source's contacts (found) to be held by the target's feet (contacts.staged_cleanup, which writes
-    the solved legs into rotations and locations): (prepare, finish, target feet, contacts). heights: (frames,
+    """The source's contacts (found: its stances, and those held still as read on the source's motion, a pivot
+    being the source's whatever the target's feet) to be held by the target's feet (contacts.staged_cleanup,
+    which writes the solved legs into rotations and locations): (prepare, finish, target feet, contacts). heights: (frames,
     legs) world lifts of the standing feet (the floor's), or None to hold the plants' own heights; hips_move:
     the hips' translation is solved for too (planting), else only the legs move."""
     # Beside the rest of the retarget (beside=True), which keeps one core busy, the solve takes the others.
+    stances, holds = found
     prepare, finish = contacts.staged_cleanup(tgt.obj, tgt.bones, tgt.rig, frames, rotations, locations, tgt_feet,
-                                              found, settings, hips=tgt.names[target_root], fps=fps, in_place=True,
+                                              stances, settings, hips=tgt.names[target_root], fps=fps, in_place=True,
                                               threads=max(1, (os.cpu_count() or 1) - 1) if beside else 0,
-                                              follow_heights=heights, hips_move=hips_move)
-    return prepare, finish, tgt_feet, found
+                                              follow_heights=heights, hips_move=hips_move, holds=holds)
+    return prepare, finish, tgt_feet, stances
 
 
 def _depths(side: _Side) -> list[int]:
