@@ -5,6 +5,7 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <array>
 #include <memory>
 #include <optional>
 #include <string>
@@ -89,14 +90,20 @@ void BindRetargetOptions(py::module_& m) {
       .def_readwrite("scale", &RetargetOptions::scale, "target leg length / source leg length")
       .def_readwrite("unit_scale", &RetargetOptions::unit_scale, "target armature units per source one")
       .def_readwrite("vertical_offset", &RetargetOptions::vertical_offset, "offset: added to the root's height")
+      // Plain arrays both ways: g++ 14 takes an Eigen temporary made in a lambda for uninitialized.
       .def_property(
           "space",
-          [](const RetargetOptions& o) { return Eigen::Vector4d(o.space.w(), o.space.x(), o.space.y(), o.space.z()); },
-          [](RetargetOptions& o, const Eigen::Vector4d& wxyz) { o.space = ToQuaternion(wxyz); },
+          [](const RetargetOptions& o) {
+            return std::array<double, 4>{o.space.w(), o.space.x(), o.space.y(), o.space.z()};
+          },
+          [](RetargetOptions& o, const std::array<double, 4>& q) {
+            o.space = Eigen::Quaterniond(q[0], q[1], q[2], q[3]);
+          },
           "w x y z rotation from source to target armature space")
       .def_property(
-          "up", [](const RetargetOptions& o) { return Eigen::Vector3d(o.up); },
-          [](RetargetOptions& o, const Eigen::Vector3d& up) { o.up = up; }, "the target armature's up (unit)")
+          "up", [](const RetargetOptions& o) { return std::array<double, 3>{o.up.x(), o.up.y(), o.up.z()}; },
+          [](RetargetOptions& o, const std::array<double, 3>& v) { o.up = Eigen::Vector3d(v[0], v[1], v[2]); },
+          "the target armature's up (unit)")
       .def_readwrite("source_floor", &RetargetOptions::source_floor, "source units, after space")
       .def_readwrite("target_floor", &RetargetOptions::target_floor, "target armature units")
       .def_readwrite("ground_bones", &RetargetOptions::ground_bones, "touch the floor on the first frame")
