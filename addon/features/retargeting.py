@@ -374,15 +374,20 @@ def _floor_height(side: _Side, body, up, given=None, heads_over_clip=None) -> tu
     """(floor, clearance): the rig's floor along up in its armature space, given (a world Z height) if set,
     else the floor its importer recorded (bvh.FLOOR), else its rest soles or the origin just below them
     (core.floor.rest_floor); a source clip (heads_over_clip) whose feet never come down to its rest soles
-    walks on the floor core.floor.clip_floor finds. clearance: how high its lowest foot joint rides above
-    that floor when it stands (core.floor.clearance)."""
+    walks on the floor core.floor.clip_floor finds. clearance: how high the lower of its ankle and ball rides
+    above that floor when it stands, as at rest (core.floor.clearance)."""
     heads, tails = pose_channels.heads(side.bones), pose_channels.tails(side.bones)
     soles = _sole_points(side, body, heads, tails)
     legs = [np.linalg.norm(heads[leg.shin] - heads[leg.thigh]) + np.linalg.norm(tails[leg.shin] - heads[leg.shin])
             for leg in _legs(side, body)]
     rest = sole_height(soles, up) if soles is not None else None
     floor = _floor_of(side, body, up, given, heads_over_clip, rest, legs)
-    return floor, clearance(rest, floor, float(np.mean(legs))) if rest is not None and legs else 0.0
+    if rest is None or not legs:
+        return floor, 0.0
+    # The points a standing foot is put down by (its ankle and ball, _foot_heights), at rest: Blender's metarig
+    # stands its ball 1.7 cm above the heel bone on its floor.
+    feet = _foot_heights(side, body, _rest_rotations(side).reshape(1, -1), heads.reshape(1, -1), up)
+    return floor, clearance(float(feet.min()), floor, float(np.mean(legs)))
 
 
 def _floor_of(side: _Side, body, up, given, heads_over_clip, soles, legs) -> float:
