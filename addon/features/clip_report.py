@@ -33,8 +33,8 @@ class _Posed:
 def _rest_world(posed: _Posed, names) -> np.ndarray:
     """(n, 4) the named bones' rest orientations in world space."""
     _, turn, _ = posed.obj.matrix_world.decompose()
-    rest = np.array([posed.obj.data.bones[n].matrix_local.to_quaternion() for n in names]).reshape(-1, 4)
-    return rotation_channels.multiply(np.array(turn), rest)
+    rest = pose_channels.rest_quaternions(posed.obj.data)
+    return rotation_channels.multiply(np.array(turn), np.array([rest[n] for n in names]).reshape(-1, 4))
 
 
 def _directions(source: _Posed, target: _Posed, pairs, kept=()) -> tuple[np.ndarray, np.ndarray]:

@@ -513,8 +513,12 @@ def _prepare(source, target, bone_map, frame_range, o: RetargetOptions):
 
 
 def _reference(source, target, bone_map, options) -> tuple:
-    """_prepare() with the options the reference pose depends on, the others the defaults."""
-    return _prepare(source, target, bone_map, None, options.reference())
+    """_prepare() with the options the reference pose depends on, the others the defaults, on the clip's first
+    frame alone: the chains are decided from the two match poses (the clip's own facing counts only for a
+    zero pose, against which every chain is matched anyway), so a whole clip is read once, by plan()."""
+    action = animdata.assigned_action(_side(source, "source").obj)
+    first = int(pose_channels.action_frames(action, None)[0]) if action is not None else None
+    return _prepare(source, target, bone_map, None if first is None else (first, first), options.reference())
 
 
 def reference_chains(source, target, bone_map=None, options: RetargetOptions | None = None, **keywords) -> list:
@@ -734,9 +738,7 @@ def kept_bones(source, target, bone_map=None, options: RetargetOptions | None = 
     source's do), as plan() decides them: the native retarget's kept_posture on the clip's first frame.
     options, keywords: plan()'s; only the reference pose's (retarget_options.REFERENCE) count."""
     _, tgt, _, clip, rigs, fit, chains = _reference(source, target, bone_map, from_keywords(options, **keywords))
-    first = _Clip(clip.action, clip.frames[:1], clip.fps, clip.basis[:1], clip.locations[:1], clip.rotations[:1],
-                  clip.heads[:1])
-    return [tgt.names[b] for b in _native_retarget(rigs, first, fit, "none", False, chains).kept_posture]
+    return [tgt.names[b] for b in _native_retarget(rigs, clip, fit, "none", False, chains).kept_posture]
 
 
 def _native_options(native, rigs: _Rigs, fit: _Fit, root, ground, chains):
