@@ -85,6 +85,7 @@ class Plan {
       d.kind = Drive::kMapped;
       d.from = a;
     }
+    CountMappedBranches();
     for (int b = 0; b < nt; ++b) {
       if (job.bone_map[static_cast<std::size_t>(b)] >= 0) PlanChain(b);
     }
@@ -216,7 +217,7 @@ class Plan {
     // reach continues a0 (a two-bone neck under a one-bone neck shares its turn), one beyond it blends the
     // source bones its tail lies between. Where a0 branches (a chest carrying arms and a head), its reach
     // is no chain's: the span runs from a0's tail, the target's from top's.
-    const bool through = MappedBranches(a0) == 1;
+    const bool through = mapped_branches_[static_cast<std::size_t>(a0)] == 1;
     const std::vector<double> source_ends = Ends(s, source_heads_, a0, path, through);
     const std::vector<double> target_ends = Ends(t, target_heads_, top, chain, through);
     for (std::size_t j = 0; j + 1 < chain.size(); ++j) {
@@ -267,7 +268,8 @@ class Plan {
   }
 
   // How many of source bone a's children lead to a mapped source bone.
-  int MappedBranches(int a) const {
+  // Per source bone, how many of its children lead to a mapped source bone; set once, before the chains.
+  void CountMappedBranches() {
     const RigModel& s = job_.source;
     std::vector<bool> leads(static_cast<std::size_t>(s.size()), false);
     for (int m : job_.bone_map) {
@@ -275,9 +277,11 @@ class Plan {
         leads[static_cast<std::size_t>(x)] = true;
       }
     }
-    int branches = 0;
-    for (int c = 0; c < s.size(); ++c) branches += s.parent(c) == a && leads[static_cast<std::size_t>(c)];
-    return branches;
+    mapped_branches_.assign(static_cast<std::size_t>(s.size()), 0);
+    for (int c = 0; c < s.size(); ++c) {
+      const int p = s.parent(c);
+      if (p >= 0 && leads[static_cast<std::size_t>(c)]) ++mapped_branches_[static_cast<std::size_t>(p)];
+    }
   }
 
   const RetargetJob& job_;
@@ -286,6 +290,7 @@ class Plan {
   std::vector<Drive> drives_;
   std::vector<bool> kept_;    // per target bone: keeps its own posture (options.posture_bones, posture_always)
   std::vector<bool> always_;  // per target bone: whatever the angle (options.posture_always)
+  std::vector<int> mapped_branches_;  // per source bone: children leading to a mapped bone
 };
 
 // Poses the target frame by frame from the plan: every bone's orientation, written as its pose basis, then
