@@ -25,15 +25,6 @@ SOURCES = {
 }
 
 
-def depth_first(armature):
-    order, stack = [], [b for b in reversed(armature.bones) if b.parent is None]
-    while stack:
-        bone = stack.pop()
-        order.append(bone)
-        stack.extend(reversed(bone.children))
-    return order
-
-
 class Skeleton:
     """A BVH hierarchy as MotionKit's native reader gives it: joints and end sites, parents first."""
 
@@ -101,6 +92,7 @@ def bvh_rig(path, skeleton=None):
 
 
 def fbx_rig(path):
+    from addon.blender.pose_channels import depth_first  # the order core.bone_mapping reads an armature in
     bpy.ops.import_scene.fbx(filepath=path)
     arm = next(o for o in bpy.context.scene.objects if o.type == 'ARMATURE')
     bones = depth_first(arm.data)
