@@ -90,12 +90,11 @@ def rigify_way(source, rig, mode: str, bake_frames: int):
 def check(mk, source, rig, frames) -> float:
     """The worst angle (degrees) between a mapped DEF bone after frame_set and the retarget engine's pose."""
     control_rigs = importlib.import_module(mk.__name__ + ".features.control_rigs")
-    skeleton = control_rigs.DeformSkeleton(rig, control_rigs.find_map(rig))
-    plan = mk.retargeting.plan(source, skeleton, plant_feet=False)
+    skeleton = control_rigs.deform_rig(rig, control_rigs.find_map(rig))
+    plan = mk.retargeting.plan(source, rig, plant_feet=False, target_rig=skeleton)
     plan.resolve()
-    native_rig, bones = mk.pose_channels.native_rig(skeleton.data)
-    rotations, heads = mk.native().armature_pose(native_rig, *[np.ascontiguousarray(a) for a in plan.pose])
-    index = {b.name: i for i, b in enumerate(bones)}
+    rotations, heads = mk.native().armature_pose(skeleton.native, *[np.ascontiguousarray(a) for a in plan.pose])
+    index = {name: i for i, name in enumerate(skeleton.names)}
     worst = 0.0
     for f in frames:
         bpy.context.scene.frame_set(int(f))

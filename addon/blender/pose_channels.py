@@ -12,6 +12,7 @@ import numpy as np
 
 from . import animdata
 from ..core import bone_axes, bone_mapping, native_state, rotation_channels
+from ..core.rig_data import FLOOR_PROPERTY, RigData
 
 
 def depth_first(armature) -> list:
@@ -84,6 +85,20 @@ def armature_mapping_rig(obj, upright: bool = False):
         turn = np.array(obj.matrix_world.to_3x3().normalized())
         head, tail = head @ turn.T, tail @ turn.T
     return bone_mapping.Rig(tuple(b.name for b in bones), tuple(parent_indices(bones)), head, tail)
+
+
+def read_rig(obj, bones=None) -> RigData:
+    """An armature object at rest as plain data (core.rig_data), read once: its bones parents first (or
+    bones, a depth-first list of some of them), the object's placement and an importer's recorded floor."""
+    bones = depth_first(obj.data) if bones is None else list(bones)
+    _, rotation, scale = obj.matrix_world.decompose()
+    recorded = obj.data.get(FLOOR_PROPERTY)
+    floor = float(recorded) if isinstance(recorded, (int, float)) and np.isfinite(recorded) else None
+    return RigData(obj.name, tuple(b.name for b in bones), tuple(parent_indices(bones)),
+                   np.array([b.matrix_local.to_quaternion() for b in bones], dtype=np.float64).reshape(-1, 4),
+                   heads(bones), tails(bones), np.array([b.length for b in bones], dtype=np.float64),
+                   tuple(b.use_connect for b in bones), np.array(obj.matrix_world, dtype=np.float64),
+                   np.array(rotation, dtype=np.float64), np.array(scale, dtype=np.float64), floor)
 
 
 def bone_path(name: str) -> str:
@@ -164,36 +179,45 @@ def rest_quaternions(armature) -> dict[str, np.ndarray]:
     return {bone.name: np.array(bone.matrix_local.to_quaternion(), dtype=np.float64) for bone in armature.bones}
 
 
+def _names(bones) -> list[str]:
+    """Bone names from names or bones (anything with a name)."""
+    return [getattr(b, "name", b) for b in bones]
+
+
 def rotations(obj, action, bones, frames) -> np.ndarray:
-    """Pose quaternions (frames, 4 * bones) from the action, in each bone's rotation mode."""
+    """Pose quaternions (frames, 4 * bones) from the action, in each bone's rotation mode. bones: names or
+    bones."""
     native = native_state.native()
+    names = _names(bones)
     channels, kinds, static = [], [], []
-    for bone in bones:
-        pose_bone = obj.pose.bones[bone.name]
+    for name in names:
+        pose_bone = obj.pose.bones[name]
         mode = pose_bone.rotation_mode
         prop, size = rotation_channels.channel_property(mode)
         kinds.append((mode, len(channels), size))
-        channels += [(f"{bone_path(bone.name)}.{prop}", k) for k in range(size)]
+        channels += [(f"{bone_path(name)}.{prop}", k) for k in range(size)]
         static += tuple(getattr(pose_bone, prop))
     values, _ = animdata.sample(action, obj, channels, frames, static)
-    out = np.empty((frames.size, 4 * len(bones)))
+    out = np.empty((frames.size, 4 * len(names)))
     for j, (mode, start, size) in enumerate(kinds):
         block = values[start:start + size].T
-        q = rotation_channels.to_quaternions(native, mode, block, f"bone '{bones[j].name}' rotation", frames)
+        q = rotation_channels.to_quaternions(native, mode, block, f"bone '{names[j]}' rotation", frames)
         out[:, 4 * j:4 * j + 4] = q
     return out
 
 
 def locations(obj, action, bones, frames) -> tuple[np.ndarray, list[bool]]:
     """Location channels (frames, 3 * bones) from the action, and per bone whether it moves at all. A value
-    that is not finite is a ValueError naming the bone and the frame, as rotations() gives for rotations."""
-    channels = [(f"{bone_path(bone.name)}.location", k) for bone in bones for k in range(3)]
-    static = np.array([obj.pose.bones[bone.name].location for bone in bones], dtype=np.float64).reshape(-1)
+    that is not finite is a ValueError naming the bone and the frame, as rotations() gives for rotations.
+    bones: names or bones."""
+    names = _names(bones)
+    channels = [(f"{bone_path(name)}.location", k) for name in names for k in range(3)]
+    static = np.array([obj.pose.bones[name].location for name in names], dtype=np.float64).reshape(-1)
     values, found = animdata.sample(action, obj, channels, frames, static)
     out = np.ascontiguousarray(values.T)
     if not np.isfinite(out).all():
         frame, column = np.argwhere(~np.isfinite(out))[0]
-        raise ValueError(f"'{obj.name}': bone '{bones[column // 3].name}' location is not finite at frame "
+        raise ValueError(f"'{obj.name}': bone '{names[column // 3]}' location is not finite at frame "
                          f"{frames[frame]:g} (action '{action.name}')")
     animated = (found.reshape(-1, 3).any(axis=1) | (static.reshape(-1, 3) != 0).any(axis=1)).tolist()
     return out, animated
@@ -234,7 +258,7 @@ def pose_basis(rig, frames, basis, moved) -> tuple[np.ndarray, np.ndarray]:
 
 def current_pose(obj, bones) -> tuple[np.ndarray, np.ndarray]:
     """The pose as it stands, read in bulk: rotations as quaternions (bones, 4), whatever each bone's
-    rotation mode, and locations (bones, 3), in the order of bones."""
+    rotation mode, and locations (bones, 3), in the order of bones (names or bones)."""
     native = native_state.native()
     pose_bones = obj.pose.bones
     count = len(pose_bones)
@@ -252,7 +276,7 @@ def current_pose(obj, bones) -> tuple[np.ndarray, np.ndarray]:
         prop, _ = rotation_channels.channel_property(mode)
         quaternions[rows] = rotation_channels.to_quaternions(native, mode, arrays[prop][rows],
                                                              f"'{obj.name}' pose rotation")
-    order = [pose_bones.find(bone.name) for bone in bones]
+    order = [pose_bones.find(name) for name in _names(bones)]
     return quaternions[order], arrays["location"][order]
 
 

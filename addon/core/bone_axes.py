@@ -102,3 +102,22 @@ def aims(heads, tails, parents, rest, continuing=None) -> tuple[np.ndarray, np.n
     out = np.tile([0.0, 1.0, 0.0], (count, 1))
     out[aimed] = rotate_each(conjugate(np.asarray(rest, dtype=np.float64)[aimed]), directions[aimed])
     return out, np.where(off, reach_of, reach)
+
+
+def paired_aims(source, target, bone_map) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """aims of two rigs' rest poses (core.rig_data.RigData; None where every bone runs along its Y axis), a
+    bone's direction meaning the same on both: a target bone points at the child mapped to the source's
+    continuing child (a hand at the same finger, whatever each rest pose's wrist does), and where one of a
+    pair has nothing to point at (a hand without fingers) both keep their own axes. bone_map: per target
+    bone its source bone, -1 for none."""
+    source_next = source.continuing_children()
+    target_next = target.continuing_children()
+    for t, a in enumerate(bone_map):
+        if a >= 0 and (source_next[a] < 0 or target_next[t] < 0):
+            source_next[a] = target_next[t] = -1
+    for child, parent in enumerate(target.parents):
+        if parent >= 0 and bone_map[parent] >= 0 and bone_map[child] >= 0 \
+                and source_next[bone_map[parent]] == bone_map[child]:
+            target_next[parent] = child
+    found = (source.aims(source_next), target.aims(target_next))
+    return tuple(None if found_aims is None else found_aims[0] for found_aims in found)

@@ -19,6 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import native_state
 from .rotation_channels import about, conjugate, multiply, rotate_each as rotate, sign_continuous, twist_angles
 
 FLOOR_ROOTS = (
@@ -174,3 +175,66 @@ def carry(rest: FloorRootRest, root_rotations, root_heads, root_parent_pose, hip
     hips_basis, hips_location = _local(rest, rest.hips, rest.hips_parent, parent_rotations, parent_heads,
                                        hips_rotations, hips_heads)
     return root_basis, root_location, sign_continuous(hips_basis, _IDENTITY), hips_location
+
+
+def body_roots(rig, body, mapped) -> tuple[int | None, int | None]:
+    """(hips, floor root) of a rig (core.rig_data.RigData) by index: the hips found by the bone map among the
+    mapped bones (else the highest mapped bone other than a floor root), and the top bone above them, if any."""
+    hips = rig.index(body.hips) if body.hips in rig and rig.index(body.hips) in mapped else None
+    if hips is None:
+        floor = rig.index(body.root) if body.root in rig else None
+        candidates = [b for b in mapped if b != floor]
+        if not candidates:
+            return None, None
+        hips = min(candidates, key=lambda b: (rig.depths[b], b))
+    top = rig.top(hips)
+    return hips, (top if top != hips else None)
+
+
+@dataclass
+class FloorRootMotion:
+    """What the floor root is to do: mode "copy" or "extract"; source_motion, for "copy": the source's floor
+    root (orientations (n, 4), heads (n, 3), match orientation, match head); space: source to target armature
+    space; scale: the motion's; root: the retarget's root motion (ROOT_MOTIONS); sigma_frames: the extracted
+    track's smoothing."""
+    mode: str
+    source_motion: tuple | None
+    space: np.ndarray
+    scale: float
+    root: str
+    sigma_frames: float
+
+
+def move_floor_root(rig, match, rotations, locations, floor: int, hips: int, how: FloorRootMotion) -> None:
+    """Gives the target's floor root its motion (copy or extract) and re-expresses the hips under it so that
+    every bone keeps its armature-space pose. rig: the target's RigData; match: its match pose
+    (core.rig_data.Pose). Writes rotations and locations (frames, 4B / 3B pose channels) in place."""
+    native = native_state.native()
+    posed_rotations, posed_heads = native.armature_pose(rig.native, rotations, locations)
+    block = lambda a, b, n: a[:, n * b:n * b + n]  # noqa: E731
+    if how.mode == "extract":
+        track = extract_track(block(posed_rotations, hips, 4), block(posed_heads, hips, 3), match.rotations[hips],
+                              match.heads[hips], match.rotations[floor], match.heads[floor], how.sigma_frames)
+    else:
+        track = copy_track(*how.source_motion, how.space, match.rotations[floor], match.heads[floor], how.scale,
+                           horizontal=how.root in ("scaled", "offset"), vertical=how.root != "none")
+    rest = FloorRootRest(floor, rig.parents[floor], hips, rig.parents[hips], rig.rest, rig.heads)
+    root_parent = rig.parents[floor]
+    parent_pose = None if root_parent < 0 else (block(posed_rotations, root_parent, 4),
+                                                block(posed_heads, root_parent, 3))
+
+    def hips_parent_pose(root_basis, root_location):
+        if rest.hips_parent == floor:  # the usual game rig: the hips hang from the floor root itself
+            return track
+        trial_rotations, trial_locations = rotations.copy(), locations.copy()
+        trial_rotations[:, 4 * floor:4 * floor + 4] = root_basis
+        trial_locations[:, 3 * floor:3 * floor + 3] = root_location
+        r, h = native.armature_pose(rig.native, trial_rotations, trial_locations)
+        return block(r, rest.hips_parent, 4), block(h, rest.hips_parent, 3)
+
+    root_basis, root_location, hips_basis, hips_location = carry(
+        rest, *track, parent_pose, hips_parent_pose, block(posed_rotations, hips, 4), block(posed_heads, hips, 3))
+    rotations[:, 4 * floor:4 * floor + 4] = root_basis
+    locations[:, 3 * floor:3 * floor + 3] = root_location
+    rotations[:, 4 * hips:4 * hips + 4] = hips_basis
+    locations[:, 3 * hips:3 * hips + 3] = hips_location

@@ -1,9 +1,12 @@
-"""Work on a thread beside Blender's. Blender's data may be touched from its own thread only, but native
+"""Work on threads beside Blender's: the one way the add-on runs work beside it (a worker Blender of a
+batch is a process: core.batch_tasks). Blender's data may be touched from its own thread only, but native
 jobs release the GIL: a native solve runs on a worker while Blender's thread reads or writes meanwhile.
 No bpy here."""
 from __future__ import annotations
 
+import os
 import threading
+from concurrent.futures import ThreadPoolExecutor
 
 
 class WorkerThread:
@@ -32,12 +35,21 @@ class WorkerThread:
     def join(self) -> None:
         self._thread.join()
 
+    def is_alive(self) -> bool:
+        return self._thread.is_alive()
+
     def result(self):
         self._thread.join()
         ok, outcome = self._outcome
         if not ok:
             raise outcome
         return outcome
+
+
+def pool(threads: int | None = None) -> ThreadPoolExecutor:
+    """A pool of worker threads (one per core by default) for many independent jobs whose work is native or
+    numpy, submitted from Blender's thread, which keeps every bpy call; use it as a context manager."""
+    return ThreadPoolExecutor(max_workers=threads or os.cpu_count() or 1, thread_name_prefix="motionkit")
 
 
 def beside(work, alongside) -> tuple:

@@ -10,12 +10,11 @@ import os
 import shutil
 import sys
 import tempfile
-import threading
 import time
 
 import bpy
 
-from ..core import batch_inputs, batch_report, batch_tasks
+from ..core import batch_inputs, batch_report, batch_tasks, worker_thread
 from . import batch
 
 _PACKAGE = __package__.rsplit(".", 1)[0]  # the add-on's module: motionkit, or bl_ext.<repo>.motionkit
@@ -104,14 +103,10 @@ def _worker_commands(files, target, blend, folder, workers, options, tasks=None)
 
 
 def _run_local(commands, folder, total, progress) -> list[dict]:
-    results = [None] * len(commands)
-
-    def run(i, command, prefix):
-        results[i] = batch_tasks.run_worker(command, prefix, prefix + ".log")
-
-    threads = [threading.Thread(target=run, args=(i, c, p)) for i, (c, p) in enumerate(commands)]
-    for thread in threads:
-        thread.start()
+    # Each thread waits on its worker Blender's process.
+    threads = [worker_thread.WorkerThread(lambda c=c, p=p: batch_tasks.run_worker(c, p, p + ".log"),
+                                          name=f"motionkit-batch-{i}").start()
+               for i, (c, p) in enumerate(commands)]
     shown = -1
     while any(t.is_alive() for t in threads):
         done = min(batch_tasks.claimed(folder), total)
@@ -119,7 +114,7 @@ def _run_local(commands, folder, total, progress) -> list[dict]:
             progress(max(done - len(threads), 0), total, f"{done} of {total} files taken by {len(threads)} workers")
             shown = done
         time.sleep(0.2)
-    return results
+    return [t.result() for t in threads]
 
 
 TASKS_PER_DASK_WORKER = 3

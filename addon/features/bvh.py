@@ -20,12 +20,13 @@ from mathutils import Quaternion
 
 from ..blender import animdata, imports, pose_channels
 from ..core import bone_mapping, frame_rates, native_state, rotation_channels
+from ..core.rig_data import FLOOR_PROPERTY
 from .resampling import check_keys_finite
 
 ROTATION_MODES = ('QUATERNION', 'NATIVE', 'XYZ', 'XZY', 'YXZ', 'YZX', 'ZXY', 'ZYX')
 # An armature's custom property: its floor's height along its Z (a capture's floor is its origin's level,
 # wherever its rest pose stands: a root OFFSET of zero hangs the rest pose below it). Retargeting reads it.
-FLOOR = "motionkit_floor"
+FLOOR = FLOOR_PROPERTY
 
 
 @dataclass

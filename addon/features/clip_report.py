@@ -20,21 +20,19 @@ class _Posed:
 
     def __init__(self, obj, frames):
         self.obj = obj
-        self.rig, self.bones = pose_channels.native_rig(obj.data)
-        self.index = {b.name: i for i, b in enumerate(self.bones)}
+        self.rig = pose_channels.read_rig(obj)
+        self.index = {n: i for i, n in enumerate(self.rig.names)}
         action = animdata.assigned_action(obj)
-        self.basis = pose_channels.rotations(obj, action, self.bones, frames)
-        self.moved = np.ascontiguousarray(pose_channels.locations(obj, action, self.bones, frames)[0])
-        self.pose = pose_channels.pose_basis(self.rig, frames, self.basis, self.moved)
-        _, turn, _ = obj.matrix_world.decompose()
-        self.rotations = rotation_channels.multiply(np.array(turn), self.pose[0].reshape(len(frames), -1, 4))
+        self.basis = pose_channels.rotations(obj, action, self.rig.names, frames)
+        self.moved = np.ascontiguousarray(pose_channels.locations(obj, action, self.rig.names, frames)[0])
+        self.pose = pose_channels.pose_basis(self.rig.native, frames, self.basis, self.moved)
+        self.rotations = rotation_channels.multiply(self.rig.world_rotation, self.pose[0].reshape(len(frames), -1, 4))
 
 
 def _rest_world(posed: _Posed, names) -> np.ndarray:
     """(n, 4) the named bones' rest orientations in world space."""
-    _, turn, _ = posed.obj.matrix_world.decompose()
-    rest = pose_channels.rest_quaternions(posed.obj.data)
-    return rotation_channels.multiply(np.array(turn), np.array([rest[n] for n in names]).reshape(-1, 4))
+    rig = posed.rig
+    return rotation_channels.multiply(rig.world_rotation, rig.rest[[rig.index(n) for n in names]].reshape(-1, 4))
 
 
 def _directions(source: _Posed, target: _Posed, pairs, kept=()) -> tuple[np.ndarray, np.ndarray]:
@@ -62,8 +60,8 @@ def _stance(source: _Posed, fps: float) -> np.ndarray | None:
         feet = contacts.find_feet(source.obj)
     except ValueError:
         return None  # a rig without two recognised legs has no feet to judge
-    return contacts.find_contacts(source.obj, source.bones, source.rig, source.basis, source.moved, feet, fps=fps,
-                                  posed=source.pose, floor=None)
+    return contacts.find_contacts(source.rig, source.basis, source.moved, feet, fps=fps, posed=source.pose,
+                                  floor=None)
 
 
 def source_stance(source, target) -> np.ndarray | None:
@@ -81,11 +79,9 @@ def _feet(source: _Posed, target: _Posed, fps: float) -> clip_quality.FeetMotion
         return None
     if stance is None:
         return None
-    points, _ = contacts.foot_points(target.obj, target.bones, target.rig, target.basis, target.moved, target_feet,
-                                     posed=target.pose)
-    rest_basis = np.tile([1.0, 0.0, 0.0, 0.0], (1, len(target.bones)))
-    rest, _ = contacts.foot_points(target.obj, target.bones, target.rig, rest_basis,
-                                   np.zeros((1, 3 * len(target.bones))), target_feet)
+    points, _ = contacts.foot_points(target.rig, target.basis, target.moved, target_feet, posed=target.pose)
+    rest_basis = np.tile([1.0, 0.0, 0.0, 0.0], (1, len(target.rig)))
+    rest, _ = contacts.foot_points(target.rig, rest_basis, np.zeros((1, 3 * len(target.rig))), target_feet)
     return clip_quality.FeetMotion(points=points, rest=rest[0], stance=stance, up=WORLD_UP, feet=FEET)
 
 

@@ -30,6 +30,7 @@ import numpy as np
 
 from ..blender import animdata, pose_channels
 from ..core import bone_mapping, native_state, rotation_channels
+from ..core.rig_data import RigData
 from ..core.rotation_channels import conjugate as _conj, multiply as _mul, rotate_each as _rotate
 from ..core.foot_contacts import ContactSettings, all_intervals, detect as detect_contacts, plant_targets, plantable
 
@@ -105,30 +106,29 @@ def _as_feet(feet) -> list[Foot]:
     return out
 
 
-def _leg_indices(bones, feet: list[Foot]) -> list[tuple[int, int, int]]:
-    index = {b.name: i for i, b in enumerate(bones)}
+def _leg_indices(rig: RigData, feet: list[Foot]) -> list[tuple[int, int, int]]:
     out = []
     for foot in feet:
         chain = []
         for part in ("thigh", "shin", "foot"):
             name = getattr(foot, part)
-            if name not in index:
+            if name not in rig:
                 raise ValueError(f"foot {foot.side}: {part} bone '{name}' is not in the armature")
-            chain.append(index[name])
+            chain.append(rig.index(name))
         for child, parent in ((foot.shin, foot.thigh), (foot.foot, foot.shin)):
-            bone = bones[index[child]]
-            if bone.parent is None or bone.parent.name != parent:
+            above = rig.parents[rig.index(child)]
+            if above < 0 or rig.names[above] != parent:
                 raise ValueError(f"foot {foot.side}: bone '{child}' is not a child of '{parent}'")
         out.append(tuple(chain))
     return out
 
 
-def _hips(bones, legs) -> int:
+def _hips(rig: RigData, legs) -> int:
     """The thighs' nearest common ancestor: the bone whose translation carries the body."""
-    paths = [_above(bones, thigh) for thigh, _, _ in legs]
+    paths = [rig.ancestors(thigh) for thigh, _, _ in legs]
     common = [i for i in paths[0] if i in paths[1]]
     if not common:
-        raise ValueError(f"the thighs '{bones[legs[0][0]].name}' and '{bones[legs[1][0]].name}' share no "
+        raise ValueError(f"the thighs '{rig.names[legs[0][0]]}' and '{rig.names[legs[1][0]]}' share no "
                          "parent: no hips to move")
     return common[0]
 
@@ -239,12 +239,6 @@ def _rolled(angles, roll):
     return np.stack([c * x - s * z, angles[:, 1], s * x + c * z], axis=1)
 
 
-def _above(bones, b) -> list[int]:
-    """Indices of bone b's ancestors in bones (depth-first)."""
-    index = {bone.name: i for i, bone in enumerate(bones)}
-    return [index[bone.name] for bone in pose_channels.ancestors(bones[b])]
-
-
 class _Posed:
     """Armature-space orientations and heads of some bones over a clip, by bone index: views into the
     (F, 4n) and (F, 3n) arrays of a native pose, no copies; basis: those bones' pose-basis rotations
@@ -276,17 +270,16 @@ class _LegRig:
     aims: np.ndarray | None = None  # (B, 3) where each bone points in its own frame (None: along its Y)
 
     @classmethod
-    def read(cls, obj, bones, legs, whole: bool = False) -> "_LegRig":
+    def read(cls, rig: RigData, legs, whole: bool = False) -> "_LegRig":
         # Only the legs and the bones above them place the feet: posed alone (the rest is never read).
-        sub = sorted(set(b for chain in legs for b in chain).union(*(_above(bones, chain[0]) for chain in legs)))
-        rig = None if whole else pose_channels.native_rig(obj.data, [bones[b] for b in sub])[0]
-        lengths, aims = np.array([b.length for b in bones]), None
+        sub = sorted(set(b for chain in legs for b in chain).union(*(rig.ancestors(chain[0]) for chain in legs)))
+        lengths, aims = rig.lengths, None
         # A rig whose bones do not run along their Y axes (an FBX import): each leg bone's point is the next
         # joint, not its tail (core.bone_axes).
-        found = pose_channels.bone_aims(obj.data, bones)
+        found = rig.aims()
         if found is not None:
             aims, lengths = found
-        return cls(legs, sub, rig, lengths, np.array(obj.matrix_world), aims)
+        return cls(legs, sub, None if whole else rig.native_rig(sub), lengths, rig.world, aims)
 
     def aim_rotations(self, bones) -> np.ndarray:
         """(len(bones), 4) per bone the rotation that turns its Y axis onto where it points."""
@@ -320,17 +313,18 @@ def _pose_points(leg_rig: _LegRig, rotations, locations, posed=None):
     return pose, points, world_points, leg_length
 
 
-def foot_points(obj, bones, rig, rotations, locations, feet, posed=None) -> tuple[np.ndarray, float]:
-    """World positions (F, 4, 3) of the foot points (POINTS order) of a pose sequence, and the leg length
-    (thigh + shin, world units): what detection sees. posed: its armature pose, if already at hand."""
+def foot_points(rig: RigData, rotations, locations, feet, posed=None) -> tuple[np.ndarray, float]:
+    """World positions (F, 4, 3) of the foot points (POINTS order) of a pose sequence of a rig
+    (core.rig_data: pose_channels.read_rig), and the leg length (thigh + shin, world units): what detection
+    sees. posed: its armature pose, if already at hand."""
     feet = _as_feet(feet)
-    legs = _leg_indices(bones, feet)
-    leg_rig = _LegRig.read(obj, bones, legs, whole=posed is not None)
+    legs = _leg_indices(rig, feet)
+    leg_rig = _LegRig.read(rig, legs, whole=posed is not None)
     _, _, world_points, leg_length = _pose_points(leg_rig, rotations, locations, posed)
     return world_points, leg_length
 
 
-def find_contacts(obj, bones, rig, rotations, locations, feet, settings: ContactSettings | None = None,
+def find_contacts(rig: RigData, rotations, locations, feet, settings: ContactSettings | None = None,
                   fps: float | None = None, posed=None, floor: float = 0.0, holds: bool = False):
     """Contacts (F, 4) bool (POINTS order) of a pose sequence (for example the retarget's source, whose
     contacts the target then keeps); fps default the scene's; posed: its armature pose, if at hand; floor:
@@ -338,7 +332,7 @@ def find_contacts(obj, bones, rig, rotations, locations, feet, settings: Contact
     (foot_contacts.plantable): (contacts, holds)."""
     if fps is None:
         fps = animdata.frame_rate(None)  # the scene's
-    points, leg_length = foot_points(obj, bones, rig, rotations, locations, feet, posed)
+    points, leg_length = foot_points(rig, rotations, locations, feet, posed)
     found = detect_contacts(points, fps, leg_length, floor, settings)
     return (found, plantable(points, found, leg_length, settings, _RIGID)) if holds else found
 
@@ -347,17 +341,17 @@ def _blender_frame(frames, f) -> str:
     return f"{frames[f]:g}"
 
 
-def cleanup(obj, bones, rig, frames, rotations, locations, feet, contacts=None,
+def cleanup(rig: RigData, frames, rotations, locations, feet, contacts=None,
             settings: ContactSettings | None = None, *, hips: str | None = None, fps: float | None = None,
             in_place: bool = False, threads: int = 0):
     """Footskate cleanup of a pose sequence; returns (rotations, locations, Report). Changes nothing in
     the file. The arguments are staged_cleanup's."""
-    prepare, finish = staged_cleanup(obj, bones, rig, frames, rotations, locations, feet, contacts, settings,
+    prepare, finish = staged_cleanup(rig, frames, rotations, locations, feet, contacts, settings,
                                      hips=hips, fps=fps, in_place=in_place, threads=threads)
     return finish(prepare()())
 
 
-def staged_cleanup(obj, bones, rig, frames, rotations, locations, feet, contacts=None,
+def staged_cleanup(rig: RigData, frames, rotations, locations, feet, contacts=None,
                    settings: ContactSettings | None = None, *, hips: str | None = None, fps: float | None = None,
                    in_place: bool = False, threads: int = 0, follow_heights=None,
                    hips_move: bool = True, holds=None):
@@ -369,7 +363,7 @@ def staged_cleanup(obj, bones, rig, frames, rotations, locations, feet, contacts
     keys (prepare too, but it holds the GIL most of its time). A ValueError from any stage names the foot,
     bone and frame. threads: the solve's (0: every core; the same numbers whatever the count).
     """
-    steps = _cleanup_steps(obj, bones, rig, frames, rotations, locations, feet, contacts, settings, hips=hips,
+    steps = _cleanup_steps(rig, frames, rotations, locations, feet, contacts, settings, hips=hips,
                            fps=fps, in_place=in_place, threads=threads, follow_heights=follow_heights,
                            hips_move=hips_move, holds=holds)
     next(steps)  # Blender's data read, the arguments checked
@@ -407,16 +401,15 @@ def _keep_feet_rigid(targets, points, rise) -> None:
         targets[frames, moving] = free
 
 
-def _cleanup_steps(obj, bones, rig, frames, rotations, locations, feet, contacts=None,
+def _cleanup_steps(rig: RigData, frames, rotations, locations, feet, contacts=None,
                    settings: ContactSettings | None = None, *, hips: str | None = None, fps: float | None = None,
                    in_place: bool = False, threads: int = 0, follow_heights=None,
                    hips_move: bool = True, holds=None):
     """The cleanup as a generator: yields its solve, is sent the solve's result, returns cleanup's result.
 
-    obj: the armature object (its matrix_world places the floor; Z up).
-    bones, rig: the depth-first bone list and native rig (pose_channels.native_rig(obj.data)).
-    frames: (F,) Blender frames. rotations (F, 4B) pose-basis quaternions w x y z, locations (F, 3B)
-    pose location channels, both in the order of bones.
+    rig: the armature at rest (core.rig_data.RigData, pose_channels.read_rig; its world matrix places the
+    floor, Z up). frames: (F,) Blender frames. rotations (F, 4B) pose-basis quaternions w x y z, locations
+    (F, 3B) pose location channels, both in the rig's bone order.
     feet: per side L, R a Foot or (thigh, shin, foot, toe or None) bone names.
     contacts: (F, 4) bool in POINTS order, or None to detect them on this pose sequence.
     hips: the bone whose location channel carries the body (default: the thighs' common parent).
@@ -436,13 +429,13 @@ def _cleanup_steps(obj, bones, rig, frames, rotations, locations, feet, contacts
     frames = np.asarray(frames, dtype=np.float64)
     rotations = np.ascontiguousarray(rotations, dtype=np.float64)
     locations = np.ascontiguousarray(locations, dtype=np.float64)
-    _check_clip(bones, frames, rotations, locations, contacts)
+    _check_clip(rig, frames, rotations, locations, contacts)
     contacts = None if contacts is None else np.asarray(contacts, dtype=bool)
     if fps is None:
         fps = animdata.frame_rate(None)  # the scene's
     # Everything the cleanup takes from Blender, read here: after the first stage it reads no Blender data.
-    legs = _leg_indices(bones, feet)
-    part = _SolvePart.read(obj, bones, legs, _hip_index(bones, feet, legs, hips))
+    legs = _leg_indices(rig, feet)
+    part = _SolvePart.read(rig, legs, _hip_index(rig, feet, legs, hips))
     own = time.perf_counter() - started  # report.seconds: the cleanup's own time, its stages summed
     yield
     started = time.perf_counter()
@@ -454,13 +447,13 @@ def _cleanup_steps(obj, bones, rig, frames, rotations, locations, feet, contacts
     report.bones = [part.bone_names[part.hip]] + [part.bone_names[b] for b in part.changed]
     solve_input = _LegSolve.prepare(part, feet, pose, points, report)
     solve = _solve_call(part, solve_input, targets, frames, report, hips_move=hips_move, threads=threads,
-                        name=obj.name)
+                        name=rig.name)
     own += time.perf_counter() - started
     solved = yield solve
     started = time.perf_counter()
 
     out_rot, out_loc = _solved_channels(part, solve_input, pose, solved, frames, rotations, locations, in_place,
-                                        obj.name)
+                                        rig.name)
     report.errors = solved.errors
     report.max_error = solved.errors.max(axis=0) if frames.size else np.zeros(len(POINTS))
     report.iterations = int(solved.iterations.sum())
@@ -469,8 +462,8 @@ def _cleanup_steps(obj, bones, rig, frames, rotations, locations, feet, contacts
     return out_rot, out_loc, report
 
 
-def _check_clip(bones, frames, rotations, locations, contacts) -> None:
-    count, nb = frames.size, len(bones)
+def _check_clip(rig: RigData, frames, rotations, locations, contacts) -> None:
+    count, nb = frames.size, len(rig)
     if rotations.shape != (count, 4 * nb) or locations.shape != (count, 3 * nb):
         raise ValueError(f"rotations and locations must be ({count}, {4 * nb}) and ({count}, {3 * nb}), "
                          f"not {rotations.shape} and {locations.shape}")
@@ -478,17 +471,17 @@ def _check_clip(bones, frames, rotations, locations, contacts) -> None:
         raise ValueError(f"contacts must have shape ({count}, {len(POINTS)}), not {np.shape(contacts)}")
 
 
-def _hip_index(bones, feet, legs, hips) -> int:
+def _hip_index(rig: RigData, feet, legs, hips) -> int:
     """The bone whose location channel carries the body: hips (a name), else the thighs' common parent."""
-    hip = _hips(bones, legs) if hips is None else next((i for i, b in enumerate(bones) if b.name == hips), None)
+    hip = _hips(rig, legs) if hips is None else (rig.index(hips) if hips in rig else None)
     if hip is None:
         raise ValueError(f"hips bone '{hips}' is not in the armature")
     for foot, chain in zip(feet, legs):
-        if hip not in _above(bones, chain[0]):
-            raise ValueError(f"foot {foot.side}: hips bone '{bones[hip].name}' is not above the thigh "
-                             f"'{bones[chain[0]].name}'")
-    if bones[hip].use_connect:
-        raise ValueError(f"hips bone '{bones[hip].name}' is connected to its parent: its location cannot move")
+        if hip not in rig.ancestors(chain[0]):
+            raise ValueError(f"foot {foot.side}: hips bone '{rig.names[hip]}' is not above the thigh "
+                             f"'{rig.names[chain[0]]}'")
+    if rig.connected[hip]:
+        raise ValueError(f"hips bone '{rig.names[hip]}' is connected to its parent: its location cannot move")
     return hip
 
 
@@ -504,15 +497,15 @@ class _SolvePart:
     parents: list        # parent indices within part
     rest_q: np.ndarray   # (part, 4) unit rest orientations
     rest_heads: np.ndarray
-    size: float          # the whole rig's (pose_channels.rig_size)
+    size: float          # the whole rig's (RigData.size)
     bone_names: list     # every bone's name
     changed: list        # the legs' bones, whose rotations the cleanup changes
     effectors: list      # native.IkEffector per foot point, POINTS order
 
     @classmethod
-    def read(cls, obj, bones, legs, hip) -> "_SolvePart":
-        leg_rig = _LegRig.read(obj, bones, legs)
-        parent = pose_channels.parent_indices(bones)
+    def read(cls, rig: RigData, legs, hip) -> "_SolvePart":
+        leg_rig = _LegRig.read(rig, legs)
+        parent = rig.parents
         between = set()
         for thigh, _, _ in legs:
             b = parent[thigh]
@@ -522,15 +515,14 @@ class _SolvePart:
         part = [hip] + sorted(between) + [b for chain in legs for b in chain]
         part.sort(key=lambda i: (i != hip, i))  # bones is depth-first: parents stay before children
         local = {b: k for k, b in enumerate(part)}
-        rest = pose_channels.rest_quaternions(obj.data)
-        rest_q = np.array([rest[bones[b].name] for b in part])
+        rest_q = rig.rest[part]  # a copy
         rest_q /= np.linalg.norm(rest_q, axis=1, keepdims=True)
-        bone_names = [b.name for b in bones]
+        bone_names = list(rig.names)
         effectors = [native_state.native().IkEffector(local[b], name=f"foot {side} {what} ('{bone_names[b]}' tail)")
                      for side, (_, shin, foot_bone) in zip(SIDES, legs)
                      for what, b in (("ankle", shin), ("ball", foot_bone))]
         return cls(leg_rig, hip, between, part, local, [local[parent[b]] if b != hip else -1 for b in part],
-                   rest_q, pose_channels.heads([bones[b] for b in part]), pose_channels.rig_size(obj.data),
+                   rest_q, rig.heads[part], rig.size,
                    bone_names, [b for chain in legs for b in chain], effectors)
 
 
@@ -698,13 +690,13 @@ def _solved_channels(part: _SolvePart, solve: _LegSolve, pose, solved, frames, r
 # ---------------------------------------------------------------------------
 # Fix foot sliding on any armature's action
 
-def _channels(obj, bones, names, rotations, locations, hip):
+def _channels(obj, rig: RigData, names, rotations, locations, hip):
     """Channels and values (c, frames) for the changed bones' rotations (each in its rotation mode) and
     the hips' location."""
-    index = {b.name: i for i, b in enumerate(bones)}
     channels = [(f"{pose_channels.bone_path(hip)}.location", k, hip) for k in range(3)]
-    rows = [locations[:, 3 * index[hip]:3 * index[hip] + 3].T]
-    columns = (4 * np.array([index[name] for name in names], dtype=np.int64)[:, None] + np.arange(4)).ravel()
+    h = rig.index(hip)
+    rows = [locations[:, 3 * h:3 * h + 3].T]
+    columns = (4 * np.array([rig.index(name) for name in names], dtype=np.int64)[:, None] + np.arange(4)).ravel()
     bone_channels, values = pose_channels.rotation_keys(obj, names, rotations[:, columns])
     return channels + bone_channels, np.vstack(rows + [values])
 
@@ -745,10 +737,10 @@ def plant(armature, frame_range=None, settings: ContactSettings | None = None, d
         if not inside.any():
             raise ValueError(f"frame range {wanted[0]:g}..{wanted[-1]:g} is outside action '{action.name}' "
                              f"({frames[0]:g}..{frames[-1]:g})")
-    rig, bones = pose_channels.native_rig(obj.data)
+    rig = pose_channels.read_rig(obj)
     try:
-        rotations = pose_channels.rotations(obj, action, bones, frames)
-        locations, _ = pose_channels.locations(obj, action, bones, frames)  # both refuse values not finite
+        rotations = pose_channels.rotations(obj, action, rig.names, frames)
+        locations, _ = pose_channels.locations(obj, action, rig.names, frames)  # both refuse values not finite
     except ValueError as error:
         # The message names the bone and frame; say which foot when it is a leg's.
         side = next((f.side for f in feet for b in (f.thigh, f.shin, f.foot, f.toe)
@@ -759,14 +751,12 @@ def plant(armature, frame_range=None, settings: ContactSettings | None = None, d
     stored = None if redetect else read_contacts(obj, action, feet, frames)
     if stored is None and not detect:
         raise ValueError(f"'{obj.name}': action '{action.name}' has no contact curves and detect=False")
-    found = stored if stored is not None else find_contacts(obj, bones, rig, rotations, locations, feet, settings,
-                                                            fps)
+    found = stored if stored is not None else find_contacts(rig, rotations, locations, feet, settings, fps)
     used = found & inside[:, None]
-    out_rot, out_loc, report = cleanup(obj, bones, rig, frames, rotations, locations, feet, used, settings,
-                                       fps=fps)
+    out_rot, out_loc, report = cleanup(rig, frames, rotations, locations, feet, used, settings, fps=fps)
     report.source = "detected" if stored is None else "curves"
     hip = report.bones[0]
-    channels, values = _channels(obj, bones, report.bones[1:], out_rot, out_loc, hip)
+    channels, values = _channels(obj, rig, report.bones[1:], out_rot, out_loc, hip)
     if not np.isfinite(values).all():
         raise ValueError(f"foot cleanup on '{obj.name}': the keys are not finite")
     animdata.write_keys(obj, action, channels, frames, values)

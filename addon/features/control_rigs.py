@@ -1,7 +1,7 @@
 """Retarget onto a control rig's controls (Rigify's or any rig a control rig map describes).
 
 The motion is first retargeted onto the rig's deform skeleton (the map's
-deform bones, seen as an armature of their own: DeformSkeleton), by the same
+deform bones, seen as a rig of their own: deform_rig), by the same
 engine as any retarget (proportions, facing, root motion, planted feet). Each
 control is then keyed so that it stands where it stood at rest relative to the
 deform bone it drives; IK limbs get their effector from the limb's end bone and
@@ -28,6 +28,7 @@ from . import contacts
 from ..blender import animdata, pose_channels
 from ..core import control_rig, native_state
 from ..core.control_rig import ControlRigMap
+from ..core.rig_data import RigData
 
 KEYS = (
     ("every", "Every Frame", "A key on every frame of the range"),
@@ -40,93 +41,73 @@ _UNKEYED_MOVE = 1e-4  # times the rig's size: a rotation-only control's translat
 
 
 # ---------------------------------------------------------------------------
-# The deform skeleton as an armature of its own
+# The deform skeleton as a rig of its own
 
-class _Bone:
-    """A deform bone as the retarget engine reads bones (name, parent, rest, length)."""
-
-    def __init__(self, name, real, tail):
-        self.name = name
-        self.parent = None
-        self.children = []
-        self.head_local = real.head_local.copy()
-        self.tail_local = tail.copy()
-        self.length = (self.tail_local - self.head_local).length
-        self.matrix_local = real.matrix_local.copy()
-        self.use_connect = False  # set once the parent is known: the head on the parent's tail
-
-
-class _Bones(list):
-    def __init__(self, bones):
-        super().__init__(bones)
-        self._by_name = {b.name: b for b in bones}
-
-    def __getitem__(self, key):
-        return self._by_name[key] if isinstance(key, str) else super().__getitem__(key)
-
-    def __contains__(self, key):
-        return key in self._by_name if isinstance(key, str) else super().__contains__(key)
-
-    def get(self, name, default=None):
-        return self._by_name.get(name, default)
-
-    def foreach_get(self, attr, out):
-        out[:] = np.array([tuple(getattr(b, attr)) for b in self], dtype=out.dtype).ravel()
+def _deform_parents(obj, rig_map: ControlRigMap, names: set) -> dict:
+    """Each deform bone's parent in the skeleton: the map's, else its nearest ancestor among the deform
+    bones (through the rig's mechanism bones), None for a root."""
+    real, parents = obj.data.bones, {}
+    for entry in rig_map.skeleton:
+        parent = entry.parent
+        if parent is None and not entry.root:
+            above = real[entry.bone].parent
+            while above is not None and above.name not in names:
+                above = above.parent
+            parent = above.name if above is not None else None
+        if parent is not None and parent not in names:
+            raise ValueError(f"control rig '{rig_map.id}': the parent '{parent}' of '{entry.bone}' is not in its "
+                             "skeleton")
+        parents[entry.bone] = parent
+    return parents
 
 
-class _Armature:
-    def __init__(self, name, bones):
-        self.name = name
-        self.bones = _Bones(bones)
+def _parents_first(order: list, parents: dict) -> list:
+    """The bones depth first (roots and children in the map's order), as Blender lists an armature's."""
+    children = {name: [n for n in order if parents[n] == name] for name in order}
+    out, stack, seen = [], [n for n in reversed(order) if parents[n] is None], set()
+    while stack:
+        name = stack.pop()
+        if name in seen:  # a cycle among the given parents
+            raise ValueError(f"control rig map: the bone '{name}' is its own ancestor")
+        seen.add(name)
+        out.append(name)
+        stack.extend(reversed(children[name]))
+    if len(out) != len(order):
+        raise ValueError(f"control rig map: the bones {sorted(set(order) - set(out))} hang from no root")
+    return out
 
 
-class DeformSkeleton:
-    """A control rig's deform bones as the armature the retarget poses: the map's parents and tails where
-    the rig's own hierarchy goes through mechanism bones. It offers what the retarget reads of an armature
-    object (name, type, data.bones, matrix_world, pose, animation_data) without being one, and writes
-    nothing; obj is the rig itself. It equals only itself (retargeting compares obj where the rig is meant)."""
-    type = 'ARMATURE'
-
-    def __init__(self, obj, rig_map: ControlRigMap):
-        self.obj = obj
-        real = obj.data.bones
-        missing = [s.bone for s in rig_map.skeleton if s.bone not in real]
-        if missing:
-            raise ValueError(f"'{obj.name}' lacks the deform bones {missing} of control rig '{rig_map.id}'")
-        names = {s.bone for s in rig_map.skeleton}
-        bones = {}
-        for entry in rig_map.skeleton:
-            bone = real[entry.bone]
-            tail = real[entry.tail].head_local if entry.tail else bone.tail_local
-            if entry.tail and entry.tail not in real:
-                raise ValueError(f"control rig '{rig_map.id}': the tail bone '{entry.tail}' is not in '{obj.name}'")
-            made = _Bone(entry.bone, bone, tail)
-            axis = bone.matrix_local.to_3x3().col[1]
-            if made.length < 1e-9 or axis.angle(made.tail_local - made.head_local) > np.radians(1.0):
-                raise ValueError(f"control rig '{rig_map.id}': '{entry.bone}' does not point at its tail "
-                                 f"'{entry.tail}'")
-            bones[entry.bone] = made
-        for entry in rig_map.skeleton:
-            parent = entry.parent
-            if parent is None and not entry.root:
-                above = real[entry.bone].parent
-                while above is not None and above.name not in names:
-                    above = above.parent
-                parent = above.name if above is not None else None
-            if parent is not None:
-                if parent not in bones:
-                    raise ValueError(f"control rig '{rig_map.id}': the parent '{parent}' of '{entry.bone}' is not "
-                                     "in its skeleton")
-                child, above = bones[entry.bone], bones[parent]
-                child.parent = above
-                above.children.append(child)
-                child.use_connect = (child.head_local - above.tail_local).length < 1e-6 * max(above.length, 1e-3)
-        self.name = obj.name
-        self.data = _Armature(obj.data.name, list(bones.values()))
-        pose_channels.depth_first(self.data)  # a cycle in the given parents would never end: none can be given
-        self.pose = obj.pose
-        self.matrix_world = obj.matrix_world
-        self.animation_data = obj.animation_data
+def deform_rig(obj, rig_map: ControlRigMap) -> RigData:
+    """A control rig's deform bones as a rig of their own (plain data, core.rig_data): the map's parents and
+    tails where the rig's own hierarchy goes through mechanism bones; everything else is obj's (its name,
+    placement, each bone's rest orientation and head)."""
+    real = obj.data.bones
+    missing = [s.bone for s in rig_map.skeleton if s.bone not in real]
+    if missing:
+        raise ValueError(f"'{obj.name}' lacks the deform bones {missing} of control rig '{rig_map.id}'")
+    tails = {}
+    for entry in rig_map.skeleton:
+        if entry.tail and entry.tail not in real:
+            raise ValueError(f"control rig '{rig_map.id}': the tail bone '{entry.tail}' is not in '{obj.name}'")
+        bone = real[entry.bone]
+        tail = real[entry.tail].head_local if entry.tail else bone.tail_local
+        axis = bone.matrix_local.to_3x3().col[1]
+        if (tail - bone.head_local).length < 1e-9 or axis.angle(tail - bone.head_local) > np.radians(1.0):
+            raise ValueError(f"control rig '{rig_map.id}': '{entry.bone}' does not point at its tail "
+                             f"'{entry.tail}'")
+        tails[entry.bone] = np.array(tail, dtype=np.float64)
+    parents = _deform_parents(obj, rig_map, set(tails))
+    order = _parents_first(list(tails), parents)
+    where = {name: i for i, name in enumerate(order)}
+    whole = pose_channels.read_rig(obj, [real[name] for name in order])
+    tail_points = np.array([tails[name] for name in order])
+    parent = [where[parents[name]] if parents[name] is not None else -1 for name in order]
+    lengths = np.linalg.norm(tail_points - whole.heads, axis=1)
+    # A head on its parent's tail: the parent's tail as the map sets it.
+    connected = [p >= 0 and np.linalg.norm(whole.heads[i] - tail_points[p]) < 1e-6 * max(lengths[p], 1e-3)
+                 for i, p in enumerate(parent)]
+    return RigData(obj.name, tuple(order), tuple(parent), whole.rest, whole.heads, tail_points, lengths,
+                   tuple(connected), whole.world, whole.world_rotation, whole.world_scale, whole.floor)
 
 
 # ---------------------------------------------------------------------------
@@ -429,9 +410,9 @@ def _source_key_frames(source, frames) -> np.ndarray:
 
 def plan(source, target, deform_plan, *, controls: str = "auto", limbs=None, control_map=None,
          keys: str = "every", progress=None):
-    """A ControlPlan, or None when target is not a control rig (and controls is "auto"). deform_plan(skeleton):
-    the retarget onto the rig's DeformSkeleton (retargeting.plan with the retarget's options: a bone map
-    then pairs source bones with the deform skeleton's)."""
+    """A ControlPlan, or None when target is not a control rig (and controls is "auto"). deform_plan(rig):
+    the retarget onto the rig's deform skeleton, rig (deform_rig: retargeting.plan with target_rig=rig and
+    the retarget's options; a bone map then pairs source bones with the deform skeleton's)."""
     if keys not in [k[0] for k in KEYS]:
         raise ValueError(f"keys must be one of {[k[0] for k in KEYS]}, not {keys!r}")
     rig_map = find_map(target, control_map)
@@ -442,7 +423,7 @@ def plan(source, target, deform_plan, *, controls: str = "auto", limbs=None, con
         return None
     modes = control_rig.limb_modes(rig_map, controls, limbs)
     native = native_state.native()
-    skeleton = DeformSkeleton(target, rig_map)
+    skeleton = deform_rig(target, rig_map)
     if source is target:
         raise ValueError(f"the source and the target are the same armature '{target.name}' (a cycle)")
     deform_plan = deform_plan(skeleton)
@@ -453,9 +434,9 @@ def plan(source, target, deform_plan, *, controls: str = "auto", limbs=None, con
     mapped = {tgt for _, tgt in deform_plan.pairs}
     posed = set(mapped)
     for name in mapped:  # bones between the hips and a mapped bone are posed too
-        posed.update(b.name for b in pose_channels.ancestors(skeleton.data.bones[name]))
+        posed.update(skeleton.names[b] for b in skeleton.ancestors(skeleton.index(name)))
     layout = _layout(rig_map, modes, posed)
-    size = float(max(b.length for b in skeleton.data.bones)) * 4 or 1.0
+    size = float(skeleton.lengths.max()) * 4 or 1.0
     relations, standing = _calibrate(target, rig_map, layout, [n for n in deform_world if n in posed], size)
     if progress:
         progress(2, 4)
@@ -478,14 +459,14 @@ def plan(source, target, deform_plan, *, controls: str = "auto", limbs=None, con
     return result
 
 
-def _deform_worlds(native, skeleton, deform_plan) -> dict:
+def _deform_worlds(native, skeleton: RigData, deform_plan) -> dict:
     """The deform skeleton's armature-space matrices (frames, 4, 4) by bone, as the retarget posed it."""
-    rig, bones = pose_channels.native_rig(skeleton.data)
+    rig = skeleton.native
     rotations, locations = deform_plan.pose
     world_rot, world_heads = native.armature_pose(rig, np.ascontiguousarray(rotations),
                                                   np.ascontiguousarray(locations))
-    return {b.name: control_rig.matrices(world_rot[:, 4 * i:4 * i + 4], world_heads[:, 3 * i:3 * i + 3])
-            for i, b in enumerate(bones)}
+    return {name: control_rig.matrices(world_rot[:, 4 * i:4 * i + 4], world_heads[:, 3 * i:3 * i + 3])
+            for i, name in enumerate(skeleton.names)}
 
 
 def _solve(target, rig_map, layout, relations, standing, deform_world, size) -> dict:

@@ -9,8 +9,6 @@ error leaves the action as it was.
 """
 from __future__ import annotations
 
-import os
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import bpy
@@ -18,7 +16,7 @@ import numpy as np
 
 from . import world_reduction
 from ..blender import animdata, channel_groups
-from ..core import native_state, resample_plan, rotation_channels
+from ..core import native_state, resample_plan, rotation_channels, worker_thread
 from ..core.resample_plan import ChannelGroup
 
 POLYNOMIAL_MAX_KEYS = 64
@@ -249,7 +247,7 @@ def resample(targets, step: float | None = None, fps: float | None = None, *, ro
     # keys; everything that touches bpy stays on this thread.
     total = sum(len(groups) for *_, groups in work)
     planned, done = [], 0
-    with ThreadPoolExecutor(max_workers=os.cpu_count() or 1) as pool:
+    with worker_thread.pool() as pool:
         for obj, action, groups in work:
             futures = []
             for group in groups:

@@ -288,20 +288,20 @@ def test_plain_contacts_given_and_cleanup_signature(mk, contacts, pose_channels,
     """The call retargeting makes: contacts given, arrays in, arrays out, the file untouched."""
     obj, action = load(mk, walk60, "given")
     frames = frames_of(action).astype(np.float64)
-    rig, bones = pose_channels.native_rig(obj.data)
-    rotations = pose_channels.rotations(obj, action, bones, frames)
-    locations, _ = pose_channels.locations(obj, action, bones, frames)
+    rig = pose_channels.read_rig(obj)
+    rotations = pose_channels.rotations(obj, action, rig.names, frames)
+    locations, _ = pose_channels.locations(obj, action, rig.names, frames)
     feet = contacts.find_feet(obj)
     none = np.zeros((frames.size, 4), dtype=bool)
     before = _all_keys(obj)
-    rot, loc, report = contacts.cleanup(obj, bones, rig, frames, rotations, locations, feet, none, None)
+    rot, loc, report = contacts.cleanup(rig, frames, rotations, locations, feet, none, None)
     # Nothing to hold: the legs keep their pose (to the solver's round trip) and the hips stay.
     assert quaternion_angles(rot.reshape(len(frames), -1, 4), rotations.reshape(len(frames), -1, 4)).max() < 1e-6
     assert np.max(np.abs(loc - locations)) < 1e-9
     assert report.source == "given"
     assert _all_keys(obj).keys() == before.keys()
     with pytest.raises(ValueError, match="contacts must have shape"):
-        contacts.cleanup(obj, bones, rig, frames, rotations, locations, feet, none[:, :2], None)
+        contacts.cleanup(rig, frames, rotations, locations, feet, none[:, :2], None)
 
 
 def test_frame_range_holds_contacts_there_only_and_keeps_the_rest(mk, contacts, walk60):
@@ -333,21 +333,19 @@ def test_source_contacts_kept_on_a_retarget(mk, contacts, pose_channels, walk60)
     target = generate.build_armature(characters.RIGIFY_A)
     mk.retarget(source, target)
     frames = frames_of(source_action).astype(np.float64)
-    rig_s, bones_s = pose_channels.native_rig(source.data)
-    found = contacts.find_contacts(source, bones_s, rig_s,
-                                   pose_channels.rotations(source, source_action, bones_s, frames),
-                                   pose_channels.locations(source, source_action, bones_s, frames)[0],
+    rig_s = pose_channels.read_rig(source)
+    found = contacts.find_contacts(rig_s, pose_channels.rotations(source, source_action, rig_s.names, frames),
+                                   pose_channels.locations(source, source_action, rig_s.names, frames)[0],
                                    contacts.find_feet(source), fps=60)
     assert found.sum() > 100
     action = target.animation_data.action
-    rig, bones = pose_channels.native_rig(target.data)
-    rotations = pose_channels.rotations(target, action, bones, frames)
-    locations, _ = pose_channels.locations(target, action, bones, frames)
+    rig = pose_channels.read_rig(target)
+    rotations = pose_channels.rotations(target, action, rig.names, frames)
+    locations, _ = pose_channels.locations(target, action, rig.names, frames)
     feet = contacts.find_feet(target)
-    rot, loc, report = contacts.cleanup(target, bones, rig, frames, rotations, locations, feet, found, None,
-                                        fps=60)
+    rot, loc, report = contacts.cleanup(rig, frames, rotations, locations, feet, found, None, fps=60)
     assert report.source == "given" and np.array_equal(report.contacts, found)
-    names = [b.name for b in bones]
+    names = list(rig.names)
     channels, values = pose_channels.rotation_keys(target, names, rot)
     channels += [(f"{pose_channels.bone_path(n)}.location", k) for n in names for k in range(3)]
     values = np.vstack([values, loc.T])

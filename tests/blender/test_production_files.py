@@ -610,7 +610,7 @@ def test_rigify_finger_controls_are_keyed_and_its_fingers_close_the_fist(mk, fbx
     action = mk.retarget(os.path.join(fbx_dir, "ybot@punch.fbx"), rig, imported_source="keep")
     remove_skins()
     source = next(o for o in bpy.data.objects if o not in before and o.type == 'ARMATURE')
-    skeleton = mk.control_rigs.DeformSkeleton(rig, mk.control_rigs.find_map(rig))
+    skeleton = mk.control_rigs.deform_rig(rig, mk.control_rigs.find_map(rig))
     pairs = [(a, b) for a, b in mk.retargeting.auto_map(source, skeleton) if "Hand" in a and not a.endswith("Hand")]
     assert len(pairs) == 30 and all(b.startswith("DEF-") for _, b in pairs)
     keyed = {fc.data_path.split('"')[1] for fc in mk.animdata.fcurves(action, rig)

@@ -40,3 +40,13 @@ def shared_files():
             pytest.fail(f"{SHARED_BVH} is missing, and CI=true requires it")
         pytest.skip(f"{SHARED_BVH} is absent: the real-data checks need ../shared")
     return files
+
+
+@pytest.fixture()
+def core_native(native, monkeypatch):
+    """core's own handle on the native module (core.native_state) pointed at the one built for this
+    interpreter, for the core stages that pose natively (a source tree has no package to load it from)."""
+    import types
+    from core import native_state
+    monkeypatch.setattr(native_state, "status", types.SimpleNamespace(ok=True, module=native, message=""))
+    return native

@@ -1,0 +1,170 @@
+"""Where each rig's floor is, how long its legs are, and how the retargeted body comes to stand on the
+target's floor (numpy and native posing, no bpy). The retarget's root-and-floor stage: every decision
+about a floor is made here, on plain rig data (core.rig_data); core.floor holds the arithmetic.
+
+Heights are along a unit `up` in a rig's armature space and in its units.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import bone_mapping, native_state, rotation_channels
+from .floor import clearance, clip_floor, feet_lifts, hips_lift, reach_drops, rest_floor, sole_height
+from .rig_data import Pose, RigData
+from .root_motion import Leg, leg_length as _one_leg
+
+
+def legs(rig: RigData, body: bone_mapping.Body) -> list[Leg]:
+    """The labelled legs (thigh and shin at least) as root_motion.Leg, by bone index."""
+    out = []
+    for s in bone_mapping.SIDES:
+        thigh, shin, foot = (body.limbs.get(f"{k}.{s}") for k in ("thigh", "shin", "foot"))
+        if thigh in rig and shin in rig:
+            f = rig.index(foot) if foot in rig else -1
+            below = () if f < 0 else tuple(i for i in range(len(rig)) if rig.is_below(i, f))
+            out.append(Leg(rig.index(thigh), rig.index(shin), f, below))
+    return out
+
+
+def hip_height(pose: Pose, root: int, up: np.ndarray) -> float:
+    """How high the root stands above the rig's lowest point, along up."""
+    return float(pose.heads[root] @ up - (pose.points @ up).min())
+
+
+def leg_length(rig: RigData, body, pose: Pose, up, hips: int, heads_over_clip=None, floor: float = 0.0) -> float:
+    """The rig's leg length in its own armature units.
+
+    thigh + shin + the ankle's height above the sole (the legs' mean), so
+    that the same skeleton in any rest pose measures the same: the stride and
+    the hips' rise scale with the legs, not with how far the hips bone's head
+    stands above the hip joints (a rig's own choice: Mixamo's own retargets
+    scale the root's path between Aj and Kaya by 0.88, their legs' ratio,
+    where their hips' heads stand 0.86 apart); the hips' height above the
+    lowest point only for a rig without labelled legs.
+    heads_over_clip (frames, 3B): the rig's motion, for a zero pose's feet above the floor's height.
+    """
+    found = legs(rig, body)
+    if not found:
+        return hip_height(pose, hips, up)
+    tails = pose.tails
+    lengths = []
+    for leg in found:
+        lowest = None
+        if heads_over_clip is not None and leg.foot >= 0:
+            lowest = float(np.min(heads_over_clip[:, 3 * leg.foot:3 * leg.foot + 3] @ up)) - floor
+            lowest = lowest if lowest > 0 else None
+        lengths.append(_one_leg(leg, pose.heads, tails, lowest))
+    return float(np.mean(lengths))
+
+
+def foot_heights(rig: RigData, body, rotations, heads, up, column=None) -> np.ndarray:
+    """(frames, legs) the lowest of each foot's ankle (its head) and ball (the toe's head, else the foot's tail)
+    along up: the points a standing foot is put down by. column: bone index -> its column in rotations and
+    heads (default: the same)."""
+    column = column or (lambda b: b)
+    out = []
+    for leg, s in zip(legs(rig, body), bone_mapping.SIDES):
+        foot = column(leg.foot)
+        ankle = heads[:, 3 * foot:3 * foot + 3]
+        toe = body.limbs.get(f"toe.{s}")
+        # The toe's head is the ball wherever the rig has one (the foot's tail need not lie there).
+        ball = heads[:, 3 * column(rig.index(toe)):3 * column(rig.index(toe)) + 3] if toe in rig else ankle + \
+            rig.lengths[leg.foot] * rotation_channels.y_axes(rotations[:, 4 * foot:4 * foot + 4])
+        out.append(np.minimum(ankle @ up, ball @ up))
+    return np.stack(out, axis=1)
+
+
+def floor_height(rig: RigData, body, up, given=None, heads_over_clip=None) -> tuple[float, float]:
+    """(floor, clearance): the rig's floor along up in its armature space, given (a world Z height) if set,
+    else the floor its importer recorded (RigData.floor), else its rest soles or the origin just below them
+    (core.floor.rest_floor); a source clip (heads_over_clip) whose feet never come down to its rest soles
+    walks on the floor core.floor.clip_floor finds. clearance: how high the lower of its ankle and ball rides
+    above that floor when it stands, as at rest (core.floor.clearance)."""
+    found = legs(rig, body)
+    below = [b for leg in found for b in leg.below_ankle]
+    soles = np.vstack([rig.heads[below], rig.tails[below]]) if below else None
+    lengths = [np.linalg.norm(rig.heads[leg.shin] - rig.heads[leg.thigh])
+               + np.linalg.norm(rig.tails[leg.shin] - rig.heads[leg.shin]) for leg in found]
+    rest = sole_height(soles, up) if soles is not None else None
+    floor = _floor_of(rig, found, up, given, heads_over_clip, rest, lengths)
+    if rest is None or not lengths:
+        return floor, 0.0
+    # Blender's metarig stands its ball 1.7 cm above the heel bone on its floor.
+    feet = foot_heights(rig, body, rig.rest.reshape(1, -1), rig.heads.reshape(1, -1), up)
+    return floor, clearance(float(feet.min()), floor, float(np.mean(lengths)))
+
+
+def _floor_of(rig: RigData, found, up, given, heads_over_clip, soles, lengths) -> float:
+    if given is not None:
+        return rig.world_height_to_armature(given)
+    if rig.floor is not None:  # as its importer knew it
+        return rig.floor
+    if soles is None:
+        return 0.0  # no feet: the armature's origin, as a capture's floor
+    rest = rest_floor(soles, float(np.mean(lengths))) if lengths else soles
+    feet = [leg.foot for leg in found if leg.foot >= 0]
+    if heads_over_clip is None or not feet:
+        return rest
+    lowest = np.min(np.stack([heads_over_clip[:, 3 * f:3 * f + 3] @ up for f in feet], axis=1), axis=1)
+    return clip_floor(rest, lowest, float(np.mean(lengths)))
+
+
+def pose_legs(rig: RigData, body, rotations, locations, hips: int):
+    """The armature pose of the legs, the hips and the bones above them only (the rest place no foot):
+    (rotations, heads) of those bones and their column by bone index."""
+    leg_bones = [b for leg, s in zip(legs(rig, body), bone_mapping.SIDES)
+                 for b in (leg.thigh, leg.shin, leg.foot) + ((rig.index(body.limbs[f"toe.{s}"]),)
+                                                             if body.limbs.get(f"toe.{s}") in rig else ())]
+    sub = sorted(set(leg_bones + [hips]).union(*(rig.ancestors(b) for b in leg_bones + [hips])))
+    where = {b: i for i, b in enumerate(sub)}
+    columns4 = (4 * np.array(sub)[:, None] + np.arange(4)).ravel()
+    columns3 = (3 * np.array(sub)[:, None] + np.arange(3)).ravel()
+    posed = native_state.native().armature_pose(rig.native_rig(sub), np.ascontiguousarray(rotations[:, columns4]),
+                                                np.ascontiguousarray(locations[:, columns3]))
+    return posed[0], posed[1], where.__getitem__
+
+
+@dataclass
+class Ground:
+    """A rig standing on its floor: its labels, Blender's up in its armature space, and the height its lowest
+    foot joint stands at when it stands (its floor plus its clearance)."""
+    rig: RigData
+    body: bone_mapping.Body
+    up: np.ndarray
+    standing: float
+
+
+def stand_on_floor(source: Ground, source_pose, target: Ground, rotations, locations, hips: int, stances,
+                   height_scale: float, leg: float, fps: float) -> np.ndarray:
+    """Lifts the target's hips (its location channel, in place) where a standing leg cannot reach down to the
+    height the source's foot stands at, scaled (height_scale), and returns how far each foot is still to
+    rise (frames, legs) for the legs' solve, core.floor.feet_lifts. source_pose: the source clip's
+    (orientations (frames, 4B), heads (frames, 3B)); rotations, locations: the target's pose channels;
+    stances: (frames, 4) the source's contacts (foot_contacts.POINTS order); leg: the target's leg length."""
+    wanted = target.standing + height_scale * (
+        foot_heights(source.rig, source.body, *source_pose, source.up) - source.standing)
+    tgt, up = target.rig, target.up
+    posed_rotations, posed_heads, column = pose_legs(tgt, target.body, rotations, locations, hips)
+    heights = foot_heights(tgt, target.body, posed_rotations, posed_heads, up, column)
+    stance = stances[:, 0::2] | stances[:, 1::2]  # per leg: its ankle or its ball stands
+    joint = lambda b: posed_heads[:, 3 * column(b):3 * column(b) + 3]  # noqa: E731
+    ends = [(joint(leg_.thigh), joint(leg_.shin), joint(leg_.foot) if leg_.foot >= 0 else None)
+            for leg_ in legs(tgt, target.body)]
+    if all(ankle is not None for _, _, ankle in ends):
+        # A leg straightened to a thousandth short of its joints' reach: the solve stays well-conditioned.
+        reach = 0.999 * np.array([np.linalg.norm(k[0] - h[0]) + np.linalg.norm(a[0] - k[0]) for h, k, a in ends])
+        drops = reach_drops(np.stack([h for h, _, _ in ends], axis=1), np.stack([a for _, _, a in ends], axis=1),
+                            wanted - heights, up, reach)
+        lift = hips_lift(drops, stance, slope=0.5 * leg / fps)
+    else:
+        lift = np.zeros(len(heights))
+    # The location channel moves the head in the bone's posed frame less its own rotation.
+    orient = posed_rotations[:, 4 * column(hips):4 * column(hips) + 4]
+    basis = rotations[:, 4 * hips:4 * hips + 4]
+    frame = rotation_channels.multiply(orient, rotation_channels.conjugate(
+        basis / np.linalg.norm(basis, axis=1, keepdims=True)))
+    locations[:, 3 * hips:3 * hips + 3] += rotation_channels.rotate_each(rotation_channels.conjugate(frame),
+                                                                           lift[:, None] * up)
+    return feet_lifts(wanted, heights + lift[:, None], stance, target.standing, blend_frames=0.1 * fps)
