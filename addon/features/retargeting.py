@@ -246,8 +246,10 @@ def plan(source, target, bone_map=None, frame_range=None, options: RetargetOptio
     twist.share_twist(rigs.tgt, rigs.tgt.body, rotations, {b for _, b in rigs.pairs_idx})
     locations, located, mode = _place_roots(rigs, clip, fit, rotations, root_locations, o)
     feet_lift = None
-    if found is not None and root != "none" and floor_fit == "legs":
+    if found is not None and root != "none" and floor_fit != "off":
+        # The hips come down where a leg cannot reach; "legs" also has the legs' solve put the feet down.
         feet_lift = _stand_on_floor(rigs, clip, fit, rotations, locations, found, root)
+        feet_lift = feet_lift if floor_fit == "legs" else None
     # The legs' solve plants the feet, and puts right what the hips' lift leaves (feet the legs' proportions
     # keep off the floor); without planting it runs only where that is more than a twentieth of a percent of
     # the leg, so that a retarget between alike legs keeps every bone's direction exactly.
