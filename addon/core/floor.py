@@ -99,6 +99,21 @@ def reach_drops(hip_joints, ankles, rise, up, reach) -> np.ndarray:
     return np.minimum(0.0, along + np.sqrt(np.maximum(reach ** 2 - across ** 2, 0.0)))
 
 
+# A leg reaches a thousandth of its length short of what its knee allows: the feet's solve stays
+# well-conditioned.
+_REACH_MARGIN = 1e-3
+
+
+def leg_reaches(straight, rest, farthest) -> np.ndarray:
+    """(legs,) how far each leg reaches from its hip joint to its ankle in the feet's solve, a thousandth of
+    its length short (the reach reach_drops takes): its knee straightens as far as its rest pose has it (a
+    knee bent by design: Blender's metarig's, 10 degrees) or the clip itself does, never beyond straight,
+    as the solve's knee limits allow (features.contacts). straight: (legs,) thigh + shin, joint to joint;
+    rest: (legs,) hip joint to ankle at rest; farthest: (legs,) the most hip joint to ankle over the clip."""
+    straight = np.asarray(straight, dtype=np.float64)
+    return np.minimum(straight, np.maximum(rest, farthest)) - _REACH_MARGIN * straight
+
+
 def hips_lift(drops, stance, slope: float) -> np.ndarray:
     """How far to move the hips along up on each frame (frames,), <= 0: on stance frames the most any
     standing leg needs (reach_drops), eased in beforehand and out afterwards at most slope a frame, never

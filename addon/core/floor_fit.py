@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import bone_mapping, native_state, rotation_channels
-from .floor import clearance, clip_floor, feet_lifts, hips_lift, reach_drops, rest_floor, sole_height
+from .floor import clearance, clip_floor, feet_lifts, hips_lift, leg_reaches, reach_drops, rest_floor, sole_height
 from .rig_data import Pose, RigData
 from .root_motion import Leg, leg_length as _one_leg
 
@@ -80,8 +80,8 @@ def floor_height(rig: RigData, body, up, given=None, heads_over_clip=None) -> tu
     """(floor, clearance): the rig's floor along up in its armature space, given (a world Z height) if set,
     else the floor its importer recorded (RigData.floor), else its rest soles or the origin just below them
     (core.floor.rest_floor); a source clip (heads_over_clip) whose feet never come down to its rest soles
-    walks on the floor core.floor.clip_floor finds. clearance: how high the lower of its ankle and ball rides
-    above that floor when it stands, as at rest (core.floor.clearance)."""
+    walks on the floor core.floor.clip_floor finds. clearance: how high its rest soles (the lowest point of
+    every bone of its feet, a heel bone's too) ride above that floor (core.floor.clearance)."""
     found = legs(rig, body)
     below = [b for leg in found for b in leg.below_ankle]
     soles = np.vstack([rig.heads[below], rig.tails[below]]) if below else None
@@ -89,11 +89,7 @@ def floor_height(rig: RigData, body, up, given=None, heads_over_clip=None) -> tu
                + np.linalg.norm(rig.tails[leg.shin] - rig.heads[leg.shin]) for leg in found]
     rest = sole_height(soles, up) if soles is not None else None
     floor = _floor_of(rig, found, up, given, heads_over_clip, rest, lengths)
-    if rest is None or not lengths:
-        return floor, 0.0
-    # Blender's metarig stands its ball 1.7 cm above the heel bone on its floor.
-    feet = foot_heights(rig, body, rig.rest.reshape(1, -1), rig.heads.reshape(1, -1), up)
-    return floor, clearance(float(feet.min()), floor, float(np.mean(lengths)))
+    return floor, clearance(rest, floor, float(np.mean(lengths))) if rest is not None and lengths else 0.0
 
 
 def _floor_of(rig: RigData, found, up, given, heads_over_clip, soles, lengths) -> float:
@@ -150,11 +146,13 @@ def stand_on_floor(source: Ground, source_pose, target: Ground, rotations, locat
     heights = foot_heights(tgt, target.body, posed_rotations, posed_heads, up, column)
     stance = stances[:, 0::2] | stances[:, 1::2]  # per leg: its ankle or its ball stands
     joint = lambda b: posed_heads[:, 3 * column(b):3 * column(b) + 3]  # noqa: E731
-    ends = [(joint(leg_.thigh), joint(leg_.shin), joint(leg_.foot) if leg_.foot >= 0 else None)
-            for leg_ in legs(tgt, target.body)]
+    found = legs(tgt, target.body)
+    ends = [(joint(leg_.thigh), joint(leg_.shin), joint(leg_.foot) if leg_.foot >= 0 else None) for leg_ in found]
     if all(ankle is not None for _, _, ankle in ends):
-        # A leg straightened to a thousandth short of its joints' reach: the solve stays well-conditioned.
-        reach = 0.999 * np.array([np.linalg.norm(k[0] - h[0]) + np.linalg.norm(a[0] - k[0]) for h, k, a in ends])
+        # As straight as the solve's knee allows (its rest bend, or the clip's straightest), a little short.
+        reach = leg_reaches([np.linalg.norm(k[0] - h[0]) + np.linalg.norm(a[0] - k[0]) for h, k, a in ends],
+                            [np.linalg.norm(tgt.heads[leg_.foot] - tgt.heads[leg_.thigh]) for leg_ in found],
+                            [np.linalg.norm(a - h, axis=1).max() for h, _, a in ends])
         drops = reach_drops(np.stack([h for h, _, _ in ends], axis=1), np.stack([a for _, _, a in ends], axis=1),
                             wanted - heights, up, reach)
         lift = hips_lift(drops, stance, slope=0.5 * leg / fps)

@@ -270,13 +270,13 @@ class _LegRig:
     aims: np.ndarray | None = None  # (B, 3) where each bone points in its own frame (None: along its Y)
 
     @classmethod
-    def read(cls, rig: RigData, legs, whole: bool = False) -> "_LegRig":
+    def read(cls, rig: RigData, legs, feet, whole: bool = False) -> "_LegRig":
         # Only the legs and the bones above them place the feet: posed alone (the rest is never read).
         sub = sorted(set(b for chain in legs for b in chain).union(*(rig.ancestors(chain[0]) for chain in legs)))
         lengths, aims = rig.lengths, None
         # A rig whose bones do not run along their Y axes (an FBX import): each leg bone's point is the next
-        # joint, not its tail (core.bone_axes).
-        found = rig.aims()
+        # joint, not its tail (core.bone_axes); a foot's is its ball.
+        found = rig.aims(_continuing(rig, legs, feet))
         if found is not None:
             aims, lengths = found
         return cls(legs, sub, None if whole else rig.native_rig(sub), lengths, rig.world, aims)
@@ -286,6 +286,21 @@ class _LegRig:
         if self.aims is None:
             return np.tile([1.0, 0.0, 0.0, 0.0], (len(bones), 1))
         return np.array([rotation_channels.between([0.0, 1.0, 0.0], self.aims[b]) for b in bones])
+
+
+def _continuing(rig: RigData, legs, feet) -> np.ndarray:
+    """Each bone's continuing child (core.bone_axes), but a foot's is its toe wherever the toe hangs from it:
+    the foot's second point is the ball, the toe's head, as the retarget and the floor take it. By shape alone
+    a heel bone beside the toe can continue the shin more straightly (Blender's metarig: heel.02's head on
+    the floor behind the ankle), and a point there leaves the ball free to roll about the ankle-heel line."""
+    continuing = rig.continuing_children()
+    for foot, (_, _, f) in zip(feet, legs):
+        toe = rig.index(foot.toe) if foot.toe and foot.toe in rig else None
+        # A toe whose head sits on the foot's says nothing of where the foot points.
+        if toe is not None and rig.parents[toe] == f and \
+                np.linalg.norm(rig.heads[toe] - rig.heads[f]) > 1e-4 * rig.lengths[f]:
+            continuing[f] = toe
+    return continuing
 
 
 def _pose_points(leg_rig: _LegRig, rotations, locations, posed=None):
@@ -319,7 +334,7 @@ def foot_points(rig: RigData, rotations, locations, feet, posed=None) -> tuple[n
     sees. posed: its armature pose, if already at hand."""
     feet = _as_feet(feet)
     legs = _leg_indices(rig, feet)
-    leg_rig = _LegRig.read(rig, legs, whole=posed is not None)
+    leg_rig = _LegRig.read(rig, legs, feet, whole=posed is not None)
     _, _, world_points, leg_length = _pose_points(leg_rig, rotations, locations, posed)
     return world_points, leg_length
 
@@ -435,7 +450,7 @@ def _cleanup_steps(rig: RigData, frames, rotations, locations, feet, contacts=No
         fps = animdata.frame_rate(None)  # the scene's
     # Everything the cleanup takes from Blender, read here: after the first stage it reads no Blender data.
     legs = _leg_indices(rig, feet)
-    part = _SolvePart.read(rig, legs, _hip_index(rig, feet, legs, hips))
+    part = _SolvePart.read(rig, legs, feet, _hip_index(rig, feet, legs, hips))
     own = time.perf_counter() - started  # report.seconds: the cleanup's own time, its stages summed
     yield
     started = time.perf_counter()
@@ -503,8 +518,8 @@ class _SolvePart:
     effectors: list      # native.IkEffector per foot point, POINTS order
 
     @classmethod
-    def read(cls, rig: RigData, legs, hip) -> "_SolvePart":
-        leg_rig = _LegRig.read(rig, legs)
+    def read(cls, rig: RigData, legs, feet, hip) -> "_SolvePart":
+        leg_rig = _LegRig.read(rig, legs, feet)
         parent = rig.parents
         between = set()
         for thigh, _, _ in legs:
