@@ -256,6 +256,125 @@ def write_keys(id_data: bpy.types.ID, action: bpy.types.Action, channels: Iterab
     return written
 
 
+def merge_keys(id_data: bpy.types.ID, action: bpy.types.Action, channels: Iterable, frames, values) -> None:
+    """write_keys over frames' span only: each channel's keys from frames[0] to frames[-1] replaced by one key
+    per frame, its keys before and after kept as they were (every byte: frame, value, handles,
+    interpolation, easing); a channel without a curve gets one. Checked as write_keys checks."""
+    channels = [c if isinstance(c, Channel) else Channel(*c) for c in channels]
+    frames = np.ascontiguousarray(frames, dtype=np.float64)
+    curves = _curve_collection(action, id_data)
+    found = [curves.find(c.data_path, index=c.index) for c in channels]
+    kept = [None if fc is None else _key_rows(fc.keyframe_points, frames[0], frames[-1]) for fc in found]
+    written = write_keys(id_data, action, channels, frames, values)
+    for fcurve, outside in zip(written, kept):
+        if outside is not None and (len(outside[0]) or len(outside[1])):
+            _splice(fcurve, *outside)
+
+
+def _key_rows(points, first: float, last: float) -> tuple[np.ndarray, np.ndarray]:
+    """The keys before first and after last as BezTriple rows (n, 72) bytes, copies."""
+    count = len(points)
+    keys = _key_view(points) if count >= 2 else None
+    if keys is None:
+        if count:
+            keys = np.zeros((count, _BEZTRIPLE_SIZE), dtype=np.uint8)
+            _fill_rows(keys, points)
+        else:
+            keys = np.zeros((0, _BEZTRIPLE_SIZE), dtype=np.uint8)
+    at = keys.view(np.float32)[:, _POINT_FLOATS["co"]][:, 0].astype(np.float64)
+    # Keys are float32 frames: within half a float32 step of the span's ends they are the span's.
+    tolerance = 1e-6 * max(1.0, abs(first), abs(last))
+    return keys[at < first - tolerance].copy(), keys[at > last + tolerance].copy()
+
+
+def _fill_rows(rows: np.ndarray, points) -> None:
+    """rows' co, handles, interpolation and handle types from RNA (where the keys' array is not at hand)."""
+    floats = rows.view(np.float32)
+    for prop in ("co", "handle_left", "handle_right"):
+        flat = np.empty(2 * len(points), dtype=np.float32)
+        points.foreach_get(prop, flat)
+        floats[:, _POINT_FLOATS[prop]] = flat.reshape(-1, 2)
+    for i, key in enumerate(points):  # one or no key: nothing to do in bulk
+        rows[i, _KEY_BYTE["interpolation"]] = _INTERPOLATION[key.interpolation]
+        rows[i, _KEY_BYTE["handle_left_type"]] = _HANDLE_TYPE[key.handle_left_type]
+        rows[i, _KEY_BYTE["handle_right_type"]] = _HANDLE_TYPE[key.handle_right_type]
+
+
+def _splice(fcurve: bpy.types.FCurve, before: np.ndarray, after: np.ndarray) -> None:
+    """fcurve's keys (just written) with before's and after's rows around them, byte for byte."""
+    points = fcurve.keyframe_points
+    new = _key_view(points) if len(points) >= 2 else None
+    if new is None:
+        new = np.zeros((len(points), _BEZTRIPLE_SIZE), dtype=np.uint8)
+        _fill_rows(new, points)
+    rows = np.vstack([before, new.copy(), after])
+    points.clear()
+    points.add(len(rows))
+    keys = _write_co(points, np.ascontiguousarray(rows.view(np.float32)[:, _POINT_FLOATS["co"]]).reshape(-1))
+    if keys is None:
+        raise RuntimeError("MotionKit: this Blender's keys are not laid out as expected; please report its "
+                           "version")
+    keys[:] = rows
+    fcurve.update()
+
+
+def copy_action(action: bpy.types.Action, name: str) -> bpy.types.Action:
+    """A copy of action (every curve, slot and key as it is), named name."""
+    copied = action.copy()
+    copied.name = name
+    copied.use_fake_user = False
+    return copied
+
+
+def remove_curves(action: bpy.types.Action, id_data: bpy.types.ID, prefixes: Iterable[str]) -> None:
+    """Removes the action's curves of id_data whose data path starts with one of prefixes."""
+    prefixes = tuple(prefixes)
+    curves = fcurves(action, id_data)
+    if not curves or not prefixes:
+        return
+    for fcurve in [fc for fc in curves if fc.data_path.startswith(prefixes)]:
+        curves.remove(fcurve)
+
+
+BLEND_TYPES = {"replace": 'REPLACE', "add": 'COMBINE'}
+
+
+def push_track(id_data: bpy.types.ID, action: bpy.types.Action, start: float, blend: str,
+               influence: float) -> bpy.types.NlaStrip:
+    """action as a strip from frame start on a new NLA track above id_data's others, blended (BLEND_TYPES:
+    "add" is Blender's Combine: rotations compose, locations add) by influence, and nothing outside its
+    frames. Blender plays an assigned action above every track: id_data's own goes down onto a track of its
+    own first (at its own frames, held), so that the new track lies above it."""
+    anim = id_data.animation_data or id_data.animation_data_create()
+    own = anim.action
+    if own is not None:
+        slot = anim.action_slot if LAYERED else None
+        below = _new_track(anim, own, int(round(own.frame_range[0])), slot)
+        below.blend_type = 'REPLACE'
+        anim.action = None
+    strip = _new_track(anim, action, int(round(start)), _slot_for(action, id_data, create=True) if LAYERED else None)
+    strip.blend_type = BLEND_TYPES[blend]
+    strip.extrapolation = 'NOTHING'
+    if influence < 1.0:
+        # Blender reads a strip's influence only when it is animated: one constant key holds it.
+        strip.use_animated_influence = True
+        curve = strip.fcurves.find("influence")
+        curve.keyframe_points.clear()
+        curve.keyframe_points.insert(float(start), float(influence)).interpolation = 'CONSTANT'
+    return strip
+
+
+def _new_track(anim, action: bpy.types.Action, start: int, slot) -> bpy.types.NlaStrip:
+    """A strip of action from start on a new track above anim's others."""
+    tracks = anim.nla_tracks
+    track = tracks.new(prev=tracks[-1] if len(tracks) else None)
+    track.name = action.name
+    strip = track.strips.new(action.name, start, action)
+    if slot is not None:
+        strip.action_slot = slot
+    return strip
+
+
 class NonFinite(NamedTuple):
     """A key of a curve that is not a finite number: what ('key': its frame or value; 'handle': one of its
     handles), its index and its frame (NaN when the frame itself is not a number)."""

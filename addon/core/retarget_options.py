@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import reference_pose
+from . import reference_pose, retarget_parts
 from .foot_contacts import ContactSettings
 from .root_motion import FLOOR_ROOTS
 
@@ -82,6 +82,15 @@ class RetargetOptions:
     # {chain: "KEEP" | "MATCH"} (reference_pose.CHAINS): whether the target keeps its own posture (its
     # spine's curve, its knees' bend) or takes the source's direction; None or a chain left out: Auto.
     chain_modes: dict | None = None
+    # Which parts of the target are written (retarget_parts: a preset such as "arms", or a list of PARTS),
+    # or bones, the target bones by name (given, it replaces parts): the others keep their own keys.
+    parts: str | tuple = "whole"
+    bones: tuple | None = None
+    # Where the keys go (retarget_parts.INTO): a "new" action, the target's "current" action over the clip's
+    # frames, or an "nla" track above it, its blend ("replace" or "add") and influence (0..1).
+    into: str = "new"
+    blend: str = "replace"
+    influence: float = 1.0
 
     def validate(self) -> RetargetOptions:
         """self, every value checked: a ValueError naming the option and the value."""
@@ -112,7 +121,20 @@ class RetargetOptions:
         if self.contact_settings is not None and not isinstance(self.contact_settings, ContactSettings):
             raise ValueError(f"contact_settings must be a ContactSettings, not {self.contact_settings!r}")
         reference_pose.check_modes(self.chain_modes)
+        self._validate_output()
         return self
+
+    def _validate_output(self) -> None:
+        retarget_parts.check_parts(self.parts)
+        if self.bones is not None and (isinstance(self.bones, str) or not all(isinstance(b, str) for b in self.bones)
+                                       or not len(self.bones)):
+            raise ValueError(f"bones must be a non-empty list of target bone names or None, not {self.bones!r}")
+        for name, value, known in (("into", self.into, retarget_parts.INTO),
+                                   ("blend", self.blend, retarget_parts.BLENDS)):
+            if value not in [k[0] for k in known]:
+                raise ValueError(f"unknown {name} {value!r}; expected one of {[k[0] for k in known]}")
+        if not (is_number(self.influence) and 0.0 <= self.influence <= 1.0):
+            raise ValueError(f"influence must be a number from 0 to 1, not {self.influence!r}")
 
     def reference(self) -> RetargetOptions:
         """These options as the reference pose sees them: its own (REFERENCE) kept, the others the

@@ -19,7 +19,7 @@ from . import bvh, contacts, control_rigs, resampling
 from ..blender import animdata, imports, pose_channels
 from ..blender.imports import remove_armature
 from ..core import (bone_axes, bone_mapping, facing, floor_fit, native_state, reference_pose, retarget_options,
-                    root_motion, rotation_channels, twist, worker_thread)
+                    retarget_parts, root_motion, rotation_channels, twist, worker_thread)
 from ..core.rig_data import Pose, RigData
 from ..core.retarget_options import (FLOOR_FITS, ROOT_MOTIONS, SOURCE_MATCHES, TARGET_MATCHES,  # noqa: F401
                                      RetargetOptions, check_frame_range, from_keywords, is_number)
@@ -173,6 +173,9 @@ class Plan:
     pose: tuple = ()  # (rotations (frames, 4B), locations (frames, 3B)): every target bone's basis, final once
     #                   resolved (the feet's solve writes into them)
     chains: list = field(default_factory=list)  # reference_pose.ChainPose per chain: kept posture or matched
+    options: RetargetOptions = field(default_factory=RetargetOptions)  # what made it: apply() writes by its into
+    written: list = field(default_factory=list)  # the target bones whose keys it writes (names)
+    partial: bool = False  # only some of the target's bones are written (RetargetOptions.parts, bones)
 
     def resolve(self) -> None:
         """Runs a pending feet's IK solve here and now: values, contact_report and all are then final."""
@@ -232,7 +235,10 @@ def plan(source, target, bone_map=None, frame_range=None, options: RetargetOptio
     o = from_keywords(options, **keywords)
     pairs, clip, rigs, fit, chains = _prepare(source, target, bone_map, frame_range, o, target_rig)
     root, ground, contact_settings = o.root, o.ground, o.contact_settings
-    plant_feet = _planting(o.plant_feet, rigs.src, rigs.tgt)
+    written = _written_bones(rigs.tgt, o)
+    # The feet's solve moves the hips and the legs: it runs only where both are written.
+    lower_body = written is None or {rigs.roots[1], *_leg_bones(rigs.tgt)} <= written
+    plant_feet = _planting(o.plant_feet if lower_body else False, rigs.src, rigs.tgt)
     # The source's contacts, needed to plant feet or to put them on the floor, need only the source's pose.
     # ground keeps the motion's own heights, the whole clip moved once so that its first frame touches the
     # floor: no frame's feet are fitted apart.
@@ -246,24 +252,42 @@ def plan(source, target, bone_map=None, frame_range=None, options: RetargetOptio
     twist.share_twist(rigs.tgt, rigs.tgt.body, rotations, {b for _, b in rigs.pairs_idx})
     locations, located, mode = _place_roots(rigs, clip, fit, rotations, root_locations, o)
     feet_lift = None
-    if found is not None and root != "none" and floor_fit != "off":
+    if found is not None and root != "none" and floor_fit != "off" and (written is None or rigs.roots[1] in written):
         # The hips come down where a leg cannot reach; "legs" also has the legs' solve put the feet down.
         feet_lift = _stand_on_floor(rigs, clip, fit, rotations, locations, found, root)
         feet_lift = feet_lift if floor_fit == "legs" else None
     # The legs' solve plants the feet, and puts right what the hips' lift leaves (feet the legs' proportions
     # keep off the floor); without planting it runs only where that is more than a twentieth of a percent of
     # the leg, so that a retarget between alike legs keeps every bone's direction exactly.
-    legs_solve = found is not None and (plant_feet or (
+    legs_solve = found is not None and lower_body and (plant_feet or (
         feet_lift is not None and np.abs(feet_lift).max(initial=0.0) > 5e-4 * fit.target_scale * fit.heights[1]))
     planted = _plant_feet(rigs.tgt, feet[1], (found, holds) if plant_feet else (np.zeros_like(found),) * 2,
                           clip.frames, rotations, locations, rigs.roots[1], contact_settings, clip.fps,
                           beside=defer_solve, heights=feet_lift, hips_move=plant_feet) if legs_solve else None
     plan_ = _plan_keys(rigs, clip, pairs, fit.scale, (rotations, locations), located, mode, planted, plant_feet,
-                       defer_solve)
-    plan_.chains = chains
+                       defer_solve, written)
+    plan_.chains, plan_.options = chains, o
+    plan_.written = [rigs.tgt.names[b] for b in sorted(written)] if written is not None else list(rigs.tgt.names)
+    plan_.partial = written is not None
     if not (np.all(np.isfinite(plan_.values)) and np.all(np.isfinite(plan_.still_values))):
         raise ValueError("the retargeted motion is not finite; check the rigs' rest poses")
     return plan_  # a pending feet's solve is checked when it completes (contacts.cleanup and write_keys)
+
+
+def _written_bones(rig: RigData, o: RetargetOptions) -> set | None:
+    """The target bones the plan writes (indices; None: every one), from o.bones or o.parts."""
+    if o.bones is not None:
+        missing = [b for b in o.bones if b not in rig]
+        if missing:
+            raise ValueError(f"bones: '{missing[0]}' is not a bone of the target '{rig.name}'")
+        return {rig.index(b) for b in o.bones}
+    if retarget_parts.check_parts(o.parts) == retarget_parts.PARTS:
+        return None
+    return set(retarget_parts.chosen_bones(o.parts, rig.names, rig.parents, rig.body))
+
+
+def _leg_bones(rig: RigData) -> set:
+    return {b for leg in floor_fit.legs(rig, rig.body) for b in (leg.thigh, leg.shin, leg.foot) if b >= 0}
 
 
 def _stand_on_floor(rigs, clip, fit, rotations, locations, found, root) -> np.ndarray:
@@ -521,9 +545,10 @@ def _place_roots(rigs: _Rigs, clip: _Clip, fit: _Fit, rotations, root_locations,
 
 
 def _plan_keys(rigs: _Rigs, clip: _Clip, pairs, scale, pose, located, mode, planted, plant_feet,
-               defer_solve) -> Plan:
-    """The Plan of the target's keys; with planted feet, their solve pending (started beside, defer_solve)
-    or resolved here. pose: the target's (rotations, locations), which the feet's solve writes into."""
+               defer_solve, written=None) -> Plan:
+    """The Plan of the target's keys (of the written bones: indices, None for all); with planted feet, their
+    solve pending (started beside, defer_solve) or resolved here. pose: the target's (rotations,
+    locations), which the feet's solve writes into."""
     tgt = rigs.tgt
     source_root, target_root = rigs.roots
     rotations, locations = pose
@@ -536,7 +561,8 @@ def _plan_keys(rigs: _Rigs, clip: _Clip, pairs, scale, pose, located, mode, plan
         if defer_solve:
             pending.start()  # beside the rest of the plan and apply()'s writing
     # Bones the feet's solve may change get a key per frame even where the plain retarget keeps them still.
-    moving, still = _target_channels(rigs, rotations, located, locations, keyed=keyed, placeholders=True)
+    moving, still = _target_channels(rigs, rotations, located, locations, only=written, keyed=keyed,
+                                     placeholders=True)
     floor_bones = tuple(rig.names[b] if b is not None else None for rig, b in zip((rigs.src, tgt), rigs.floor_bones))
     plan_ = Plan(rigs.target, clip.frames, *moving, rigs.source.name, pairs, *still, leg_ratio=scale,
                  hips=(rigs.src.names[source_root], tgt.names[target_root]), floor_roots=floor_bones,
@@ -623,18 +649,44 @@ def _target_channels(rigs: _Rigs, rotations, located, locations, only=None, keye
 
 
 def apply(plan_: Plan, *, action_name: str | None = None, overwrite: bool = False) -> bpy.types.Action:
-    """Write a plan's keys: a new action on the target, or its own one with overwrite."""
-    target = plan_.target
+    """Write a plan's keys where its options say (RetargetOptions.into, retarget_parts.INTO): a new action
+    on the target (for a part of the body, a copy of its own action with the written bones' curves
+    replaced, so that the others keep every key); its own action over the clip's frames ("current": each
+    written curve's keys before and after kept); or a new action on an NLA track above its own ("nla").
+    overwrite: the target's own action, the written bones' curves replaced whole. Returns the action keyed."""
+    target, o = plan_.target, plan_.options
     previous = animdata.assigned_action(target)
     if overwrite and previous is not None:
         plan_.resolve()  # everything computed before the user's own action changes
         _write(target, previous, plan_)
         return previous
-    return animdata.install_action(target, animdata.new_action(action_name or f"{plan_.source_name} -> {target.name}"),
-                                   lambda action: _write(target, action, plan_))
+    name = action_name or f"{plan_.source_name} -> {target.name}"
+    if o.into == "current":
+        if previous is None:
+            raise ValueError(f"into='current': the target '{target.name}' has no action to retarget into")
+        plan_.resolve()
+        _write(target, previous, plan_, merge=True)
+        return previous
+    if o.into == "nla":
+        action = animdata.new_action(name)
+        try:
+            _write(target, action, plan_)
+            animdata.push_track(target, action, plan_.frames[0], o.blend, o.influence)
+        except BaseException:
+            bpy.data.actions.remove(action)
+            raise
+        return action
+    if plan_.partial and previous is not None:
+        action = animdata.copy_action(previous, name)
+        animdata.remove_curves(action, target, [pose_channels.bone_path(n) for n in plan_.written])
+    else:
+        action = animdata.new_action(name)
+    return animdata.install_action(target, action, lambda keyed: _write(target, keyed, plan_))
 
 
-def _write(target, action, plan_: Plan) -> None:
+def _write(target, action, plan_: Plan, merge: bool = False) -> None:
+    """The plan's keys into action; merge: over the clip's frames only (animdata.merge_keys)."""
+    write = animdata.merge_keys if merge else animdata.write_keys
     pending = plan_.pending
     if pending is not None and plan_.channels:
         # The solve releases the GIL: the other bones' keys are written meanwhile (a failure of either
@@ -642,22 +694,27 @@ def _write(target, action, plan_: Plan) -> None:
         changed = [bone in pending.bones for _, _, bone in plan_.channels]
         later = [row for row, change in enumerate(changed) if change]
         now = [row for row, change in enumerate(changed) if not change]
-        animdata.write_keys(target, action, [plan_.channels[r] for r in now], plan_.frames, plan_.values[now])
-        _write_unsolved(target, action, plan_)
+        write(target, action, [plan_.channels[r] for r in now], plan_.frames, plan_.values[now])
+        _write_unsolved(target, action, plan_, merge)
         pending.complete(plan_)  # waits for the solve, if it still runs
-        animdata.write_keys(target, action, [plan_.channels[r] for r in later], plan_.frames,
-                            plan_.values[later])
+        write(target, action, [plan_.channels[r] for r in later], plan_.frames, plan_.values[later])
     else:
         if plan_.channels:
             plan_.resolve()
-            animdata.write_keys(target, action, plan_.channels, plan_.frames, plan_.values)
-        _write_unsolved(target, action, plan_)
-    animdata.record_frame_rate(action, plan_.frame_rate)
+            write(target, action, plan_.channels, plan_.frames, plan_.values)
+        _write_unsolved(target, action, plan_, merge)
+    if not merge:  # the target's own action keeps its own rate
+        animdata.record_frame_rate(action, plan_.frame_rate)
 
 
-def _write_unsolved(target, action, plan_: Plan) -> None:
-    """The keys that do not wait for the feet's solve: the bones that keep the match pose, and the contacts."""
-    if plan_.still_channels:
+def _write_unsolved(target, action, plan_: Plan, merge: bool = False) -> None:
+    """The keys that do not wait for the feet's solve: the bones that keep the match pose, and the contacts.
+    merge: the match pose held over the clip's frames (a key at each end) within the target's own keys."""
+    if plan_.still_channels and merge:
+        ends = np.unique(plan_.frames[[0, -1]])
+        animdata.merge_keys(target, action, plan_.still_channels, ends,
+                            np.repeat(plan_.still_values, len(ends), axis=1))
+    elif plan_.still_channels:
         animdata.write_keys(target, action, plan_.still_channels, plan_.frames[:1], plan_.still_values)
     if plan_.contacts is not None:  # where the animator sees and edits them; "Fix foot sliding" reads them
         contacts.write_contacts(target, action, plan_.feet, plan_.frames, plan_.contacts)

@@ -17,7 +17,8 @@ from core.retarget_options import RetargetOptions, check_frame_range, from_keywo
 DOCUMENTED_DEFAULTS = dict(
     root="scaled", source_match="REST", match_frame=None, target_match="REST", ground=False, align_facing=True,
     floor_root="auto", root_smoothing=0.25, plant_feet=None, contact_settings=None, source_floor=None,
-    target_floor=None, floor_fit="legs", chain_modes=None)
+    target_floor=None, floor_fit="legs", chain_modes=None, parts="whole", bones=None, into="new", blend="replace",
+    influence=1.0)
 
 
 def test_defaults_are_the_documented_ones_and_valid():
@@ -41,6 +42,8 @@ GOOD = [
     dict(plant_feet=True), dict(plant_feet=np.bool_(False)), dict(ground=np.bool_(True)), dict(align_facing=False),
     dict(source_floor=-0.02, target_floor=np.int64(1)), dict(contact_settings=ContactSettings(min_gap=0.0)),
     dict(chain_modes={"trunk": "MATCH", "leg.L": "KEEP"}), dict(chain_modes={}),
+    dict(parts="arms"), dict(parts=("arm.L", "hand.L")), dict(bones=("mixamorig:LeftArm",)),
+    dict(into="current"), dict(into="nla", blend="add", influence=0.25), dict(influence=np.float32(0.0)),
 ]
 
 
@@ -74,6 +77,15 @@ BAD = [  # (field values, what the message must say: the option and the value)
     (dict(contact_settings={"blend": 0.1}), r"contact_settings must be a ContactSettings, not \{'blend': 0\.1\}"),
     (dict(chain_modes={"tail": "KEEP"}), r"chain_modes: unknown chain 'tail'"),
     (dict(chain_modes={"arm.L": "BEND"}), r"chain_modes\['arm\.L'\]: unknown mode 'BEND'"),
+    (dict(parts="torso"), r"unknown body parts preset 'torso'"),
+    (dict(parts=("arm.L", "tail")), r"unknown body part 'tail'"),
+    (dict(parts=()), r"parts is empty"),
+    (dict(bones="LeftArm"), r"bones must be a non-empty list of target bone names or None, not 'LeftArm'"),
+    (dict(bones=()), r"bones must be a non-empty list"),
+    (dict(into="old"), r"unknown into 'old'"),
+    (dict(blend="multiply"), r"unknown blend 'multiply'"),
+    (dict(influence=1.5), r"influence must be a number from 0 to 1, not 1\.5"),
+    (dict(influence=True), r"influence must be a number from 0 to 1, not True"),
 ]
 
 
