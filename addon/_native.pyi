@@ -1,6 +1,6 @@
 # Hand-kept stub of the compiled module native/python/module.cpp (tests/python/test_native_stub.py checks it).
 # Inputs are float64 C-contiguous arrays taken without a copy; every output is an array the function returns.
-from typing import Literal, overload
+from typing import Literal, TypedDict, Unpack, overload
 
 import numpy as np
 import numpy.typing as npt
@@ -135,16 +135,82 @@ class IkResult:
     @property
     def iterations(self) -> I32: ...
 
+class _IkJointsFields(TypedDict, total=False):
+    limit_min: F64 | None
+    limit_max: F64 | None
+    locked: Bools | None
+    stiffness: F64 | None
+    excluded: Bools | None
+    stretch: F64 | None
+    scale_range: F64 | None
+    soft: Bools | None
+    stage: I32 | None
+    mass: F64 | None
+
+class IkJoints:
+    """ik_solve's per-bone tables, each optional (b bones): limit_min, limit_max float64 (b, 3) radians,
+    locked bool (b, 3), stiffness float64 (b, 3), excluded bool (b,), stretch float64 (b,), scale_range
+    float64 (b, 2), soft bool (b, 3), stage int32 (b,), mass float64 (b,). Float and bool tables are taken as
+    they are (C order, that dtype); shapes are checked against the rig by ik_solve."""
+
+    def __init__(self, **kwargs: Unpack[_IkJointsFields]) -> None: ...
+    limit_min: F64 | None
+    limit_max: F64 | None
+    locked: Bools | None
+    stiffness: F64 | None
+    excluded: Bools | None
+    stretch: F64 | None
+    scale_range: F64 | None
+    soft: Bools | None
+    stage: I32 | None
+    mass: F64 | None
+
+class _IkOptionsFields(TypedDict, total=False):
+    method: Literal["dls", "pinv", "transpose", "ccd"]
+    max_iterations: int
+    tolerance: float
+    max_step: float
+    damping: float
+    regularization: float
+    reference: Literal["previous", "input"]
+    orientation_scale: float
+    root_translation: bool
+    root_rotation: bool
+    warm_start: bool
+    threads: int
+    size: float
+    priorities: bool
+    balance: bool
+    up: npt.ArrayLike
+    balance_margin: float
+
+class IkOptions:
+    """ik_solve's options; IkOptions(**fields) sets the named ones. Defaults: method "dls", max_iterations 64,
+    tolerance 0.0, max_step 0.3, damping 0.0, regularization 1e-4, reference "previous", orientation_scale 0.0,
+    root_translation False, root_rotation False, warm_start True, threads 0, size 0.0, priorities True,
+    balance False, up (0, 0, 1), balance_margin 0.0. An unknown method or reference raises MotionKitError."""
+
+    def __init__(self, **kwargs: Unpack[_IkOptionsFields]) -> None: ...
+    method: Literal["dls", "pinv", "transpose", "ccd"]
+    max_iterations: int
+    tolerance: float
+    max_step: float
+    damping: float
+    regularization: float
+    reference: Literal["previous", "input"]
+    orientation_scale: float
+    root_translation: bool
+    root_rotation: bool
+    warm_start: bool
+    threads: int
+    size: float
+    priorities: bool
+    balance: bool
+    up: npt.ArrayLike
+    balance_margin: float
+
 def ik_solve(rig: Rig, input_rotations: F64, input_locations: F64, target_positions: F64, target_orientations: F64,
-    effectors: list[IkEffector], *, limit_min: F64 | None = None, limit_max: F64 | None = None,
-    locked: Bools | None = None, stiffness: F64 | None = None, excluded: Bools | None = None,
-    stretch: F64 | None = None, scale_range: F64 | None = None, soft: Bools | None = None,
-    stage: I32 | None = None, mass: F64 | None = None, method: Literal["dls", "pinv", "transpose", "ccd"] = "dls",
-    max_iterations: int = 64, tolerance: float = 0.0, max_step: float = 0.3, damping: float = 0.0,
-    regularization: float = 1e-4, reference: Literal["previous", "input"] = "previous",
-    orientation_scale: float = 0.0, root_translation: bool = False, root_rotation: bool = False,
-    warm_start: bool = True, threads: int = 0, size: float = 0.0, priorities: bool = True, balance: bool = False,
-    up: tuple[float, float, float] = (0.0, 0.0, 1.0), balance_margin: float = 0.0) -> IkResult:
+    effectors: list[IkEffector], *, joints: IkJoints | None = None, options: IkOptions | None = None) -> IkResult:
     """Whole-clip full-body IK; see native/include/motionkit/ik.hpp. Bones the solver does not move keep their input."""
 
 # Foot contacts (native/python/bind_contacts.cpp).

@@ -38,7 +38,7 @@ SIDES = ("L", "R")
 POINTS = ("L ankle", "L ball", "R ankle", "R ball")
 PROPERTIES = ("motionkit_contact_heel", "motionkit_contact_ball")  # per foot: ankle, ball
 _RIGID = ((0, 1), (2, 3))  # each foot's two points, a bone's length apart
-_SOLVE_OPTIONS = {}  # overrides of the solver's options (experiments)
+_SOLVE_OPTIONS = {}  # overrides of the solver's IkOptions fields (experiments)
 _KNEE_SLACK = 0.0  # radians of twist and side swing beyond the clip's own range
 
 
@@ -649,17 +649,16 @@ def _solve_call(part: _SolvePart, solve: _LegSolve, targets, frames, report, *, 
     arguments = (solve.rig, np.ascontiguousarray(solve.basis.reshape(count, -1)),
                  np.ascontiguousarray(solve.hip_loc), np.ascontiguousarray(targets.reshape(count, -1)),
                  np.zeros((count, 0)), part.effectors)
-    options = dict(limit_min=solve.limit_min, limit_max=solve.limit_max, excluded=excluded,
-                   **{"method": "dls", "max_iterations": 64, "reference": "input",
-                      **_SOLVE_OPTIONS},
-                   root_translation=hips_move, root_rotation=False, warm_start=False, size=part.size,
-                   threads=threads)
+    joints = native.IkJoints(limit_min=solve.limit_min, limit_max=solve.limit_max, excluded=excluded)
+    options = native.IkOptions(**{"method": "dls", "max_iterations": 64, "reference": "input", **_SOLVE_OPTIONS},
+                               root_translation=hips_move, root_rotation=False, warm_start=False, size=part.size,
+                               threads=threads)
 
     def run():
         solve_started = time.perf_counter()
         try:
             with native_state.blender_frames(frames):
-                result = native.ik_solve(*arguments, **options)
+                result = native.ik_solve(*arguments, joints=joints, options=options)
         except ValueError as error:
             # The native message names the effector (foot, bone) and the frame.
             raise ValueError(f"foot cleanup on '{name}': {error}") from None

@@ -191,29 +191,29 @@ def plan(obj, effectors, frame_range=None, method: str = "dls", *, root_translat
     if above:  # into the hips' parent's frame (its turn about up, a floor root's facing, keeps up)
         positions, orientations = _into_parent_frame(obj, above, frames, action, positions, orientations)
         up = rotation_channels.rotate(rotation_channels.conjugate(_parent_rest(obj, above)), up)
-    options = pose_channels.ik_settings(obj, bones) if use_limits else {}
+    tables = pose_channels.ik_settings(obj, bones) if use_limits else {}
     if natural_joints is not None:
-        options = _with_defaults(options, natural_joints, [all_names.index(n) for n in names], len(names))
+        tables = _with_defaults(tables, natural_joints, [all_names.index(n) for n in names], len(names))
     if any(e.chain_count > 0 for e in effectors):
-        options["excluded"] = _outside_chains(bones, names, effectors)
+        tables["excluded"] = _outside_chains(bones, names, effectors)
+    arguments = (rig, np.ascontiguousarray(input_rotations), np.ascontiguousarray(input_locations),
+                 np.ascontiguousarray(positions), np.ascontiguousarray(orientations),
+                 [native.IkEffector(names.index(e.bone), name=e.label(), weight=float(e.weight), position=e.position,
+                                    orientation=e.orientation, pin=e.pin) for e in effectors])
+    joints = native.IkJoints(**tables)
+    options = native.IkOptions(
+        method=method, max_iterations=max_iterations, tolerance=float(tolerance or 0.0), damping=damping,
+        regularization=regularization, reference=reference, root_translation=root_translation,
+        root_rotation=root_rotation, size=float(np.linalg.norm(np.ptp(rest, axis=0))), priorities=priorities,
+        balance=balance, up=tuple(float(v) for v in up / np.linalg.norm(up)))
 
     def run():
         with native_state.blender_frames(frames):
-            return native.ik_solve(
-                rig, np.ascontiguousarray(input_rotations), np.ascontiguousarray(input_locations),
-                np.ascontiguousarray(positions), np.ascontiguousarray(orientations),
-                [native.IkEffector(names.index(e.bone), name=e.label(), weight=float(e.weight), position=e.position,
-                                   orientation=e.orientation, pin=e.pin) for e in effectors],
-                method=method, max_iterations=max_iterations,
-                tolerance=float(tolerance or 0.0),
-                damping=damping, regularization=regularization, reference=reference,
-                root_translation=root_translation, root_rotation=root_rotation,
-                size=float(np.linalg.norm(np.ptp(rest, axis=0))), priorities=priorities, balance=balance,
-                up=tuple(float(v) for v in up / np.linalg.norm(up)), **options)
+            return native.ik_solve(*arguments, joints=joints, options=options)
 
     solved = run() if alongside is None else worker_thread.beside(run, alongside)[0]
     return _plan_of(obj, bones, frames, input_rotations, solved, root_translation,
-                    options if natural_joints is not None or balance else None, balance)
+                    tables if natural_joints is not None or balance else None, balance)
 
 
 def _refuse_constraints(obj, bones) -> None:
@@ -381,22 +381,22 @@ def _axes(q) -> np.ndarray:
     return rotation_channels.rotate(q / np.linalg.norm(q), np.eye(3)).T
 
 
-def _with_defaults(options, joints, index, count) -> dict:
-    """The solver's per-bone arrays with the natural defaults where the rig sets nothing of its own
-    (no IK limit, lock or stiffness on that bone); stages and masses from the defaults."""
-    out = dict(options)
+def _with_defaults(tables, joints, index, count) -> dict:
+    """The solver's per-bone tables (IkJoints' fields) with the natural defaults where the rig sets nothing of
+    its own (no IK limit, lock or stiffness on that bone); stages and masses from the defaults."""
+    out = dict(tables)
     own_limits = np.zeros(count, dtype=bool)
-    if "limit_min" in options:
-        own_limits = (np.isfinite(options["limit_min"]).any(axis=1) | np.isfinite(options["limit_max"]).any(axis=1)
-                      | options["locked"].any(axis=1))
+    if "limit_min" in tables:
+        own_limits = (np.isfinite(tables["limit_min"]).any(axis=1) | np.isfinite(tables["limit_max"]).any(axis=1)
+                      | tables["locked"].any(axis=1))
     lo, hi = joints.limit_min[index], joints.limit_max[index]
-    out["limit_min"] = np.where(own_limits[:, None], options.get("limit_min", lo), lo)
-    out["limit_max"] = np.where(own_limits[:, None], options.get("limit_max", hi), hi)
+    out["limit_min"] = np.where(own_limits[:, None], tables.get("limit_min", lo), lo)
+    out["limit_max"] = np.where(own_limits[:, None], tables.get("limit_max", hi), hi)
     out["soft"] = np.where(own_limits[:, None], False, joints.soft[index])
     stiffness = joints.stiffness[index]
-    if "stiffness" in options:
-        own = options["stiffness"].any(axis=1)
-        stiffness = np.where(own[:, None], options["stiffness"], stiffness)
+    if "stiffness" in tables:
+        own = tables["stiffness"].any(axis=1)
+        stiffness = np.where(own[:, None], tables["stiffness"], stiffness)
     out["stiffness"] = np.ascontiguousarray(stiffness)
     out["stage"] = np.ascontiguousarray(joints.stage[index])
     out["mass"] = np.ascontiguousarray(joints.mass[index])

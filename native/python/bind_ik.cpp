@@ -7,6 +7,8 @@
 #include <array>
 #include <optional>
 #include <string>
+#include <type_traits>
+#include <utility>
 #include <vector>
 
 #include "bindings.hpp"
@@ -37,48 +39,50 @@ struct IkArrays {
   py::array rotations, root_locations, scales, errors, iterations;
 };
 
-// The per-bone tables ik_solve takes, each optional, checked and gathered into one IkJoint per bone; none
-// when no table is given.
-std::vector<IkJoint> JointsFromTables(py::ssize_t bones, const std::optional<DoubleArray>& limit_min,
-                                      const std::optional<DoubleArray>& limit_max,
-                                      const std::optional<BoolArray>& locked,
-                                      const std::optional<DoubleArray>& stiffness,
-                                      const std::optional<BoolArray>& excluded,
-                                      const std::optional<DoubleArray>& stretch,
-                                      const std::optional<DoubleArray>& scale_range,
-                                      const std::optional<BoolArray>& soft, const std::optional<IntArray>& stage,
-                                      const std::optional<DoubleArray>& mass) {
-  if (!(limit_min || limit_max || locked || stiffness || excluded || stretch || scale_range || soft || stage || mass)) {
-    return {};
+// The per-bone tables ik_solve takes (Python's IkJoints), each optional; their shapes are checked against
+// the rig when the solve runs.
+struct IkJointTables {
+  std::optional<DoubleArray> limit_min, limit_max, stiffness, stretch, scale_range, mass;
+  std::optional<BoolArray> locked, excluded, soft;
+  std::optional<IntArray> stage;
+
+  bool Empty() const {
+    return !(limit_min || limit_max || locked || stiffness || excluded || stretch || scale_range || soft || stage ||
+             mass);
   }
-  if (limit_min) CheckShape(*limit_min, bones, 3, "limit_min");
-  if (limit_max) CheckShape(*limit_max, bones, 3, "limit_max");
-  if (locked) CheckShape(*locked, bones, 3, "locked");
-  if (stiffness) CheckShape(*stiffness, bones, 3, "stiffness");
-  if (excluded) CheckShape(*excluded, bones, 0, "excluded");
-  if (stretch) CheckShape(*stretch, bones, 0, "stretch");
-  if (scale_range) CheckShape(*scale_range, bones, 2, "scale_range");
-  if (soft) CheckShape(*soft, bones, 3, "soft");
-  if (stage) CheckShape(*stage, bones, 0, "stage");
-  if (mass) CheckShape(*mass, bones, 0, "mass");
+};
+
+// The tables checked and gathered into one IkJoint per bone; none when no table is given (every joint free).
+std::vector<IkJoint> JointsFromTables(py::ssize_t bones, const IkJointTables& t) {
+  if (t.Empty()) return {};
+  if (t.limit_min) CheckShape(*t.limit_min, bones, 3, "limit_min");
+  if (t.limit_max) CheckShape(*t.limit_max, bones, 3, "limit_max");
+  if (t.locked) CheckShape(*t.locked, bones, 3, "locked");
+  if (t.stiffness) CheckShape(*t.stiffness, bones, 3, "stiffness");
+  if (t.excluded) CheckShape(*t.excluded, bones, 0, "excluded");
+  if (t.stretch) CheckShape(*t.stretch, bones, 0, "stretch");
+  if (t.scale_range) CheckShape(*t.scale_range, bones, 2, "scale_range");
+  if (t.soft) CheckShape(*t.soft, bones, 3, "soft");
+  if (t.stage) CheckShape(*t.stage, bones, 0, "stage");
+  if (t.mass) CheckShape(*t.mass, bones, 0, "mass");
   std::vector<IkJoint> joints(static_cast<std::size_t>(bones));
   for (py::ssize_t b = 0; b < bones; ++b) {
     IkJoint& j = joints[static_cast<std::size_t>(b)];
     for (py::ssize_t k = 0; k < 3; ++k) {
       const auto i = static_cast<Eigen::Index>(k);
-      if (limit_min) j.min[i] = limit_min->at(b, k);
-      if (limit_max) j.max[i] = limit_max->at(b, k);
-      if (locked) j.locked[static_cast<std::size_t>(k)] = locked->at(b, k);
-      if (stiffness) j.stiffness[i] = stiffness->at(b, k);
-      if (soft) j.soft[static_cast<std::size_t>(k)] = soft->at(b, k);
+      if (t.limit_min) j.min[i] = t.limit_min->at(b, k);
+      if (t.limit_max) j.max[i] = t.limit_max->at(b, k);
+      if (t.locked) j.locked[static_cast<std::size_t>(k)] = t.locked->at(b, k);
+      if (t.stiffness) j.stiffness[i] = t.stiffness->at(b, k);
+      if (t.soft) j.soft[static_cast<std::size_t>(k)] = t.soft->at(b, k);
     }
-    if (stage) j.stage = stage->at(b);
-    if (mass) j.mass = mass->at(b);
-    if (excluded) j.excluded = excluded->at(b);
-    if (stretch) j.stretch = stretch->at(b);
-    if (scale_range) {
-      j.min_scale = scale_range->at(b, 0);
-      j.max_scale = scale_range->at(b, 1);
+    if (t.stage) j.stage = t.stage->at(b);
+    if (t.mass) j.mass = t.mass->at(b);
+    if (t.excluded) j.excluded = t.excluded->at(b);
+    if (t.stretch) j.stretch = t.stretch->at(b);
+    if (t.scale_range) {
+      j.min_scale = t.scale_range->at(b, 0);
+      j.max_scale = t.scale_range->at(b, 1);
     }
   }
   return joints;
@@ -95,49 +99,18 @@ void CheckEffectorsHaveBones(const std::vector<IkEffector>& effectors) {
 
 IkArrays IkSolve(const RigModel& rig, const ConstMatrixView& input_rotations, const ConstMatrixView& input_locations,
                  const ConstMatrixView& target_positions, const ConstMatrixView& target_orientations,
-                 std::vector<IkEffector> effectors, const std::optional<DoubleArray>& limit_min,
-                 const std::optional<DoubleArray>& limit_max, const std::optional<BoolArray>& locked,
-                 const std::optional<DoubleArray>& stiffness, const std::optional<BoolArray>& excluded,
-                 const std::optional<DoubleArray>& stretch, const std::optional<DoubleArray>& scale_range,
-                 const std::optional<BoolArray>& soft, const std::optional<IntArray>& stage,
-                 const std::optional<DoubleArray>& mass,
-                 const std::string& method, int max_iterations, double tolerance, double max_step, double damping,
-                 double regularization, const std::string& reference, double orientation_scale,
-                 bool root_translation, bool root_rotation, bool warm_start, int threads, double size,
-                 bool priorities, bool balance, const std::array<double, 3>& up, double balance_margin) {
-  const auto parsed = ParseIkMethod(method);
-  if (!parsed) throw Error("ik_solve: unknown method '" + method + "'; expected ccd, transpose, pinv or dls");
-  if (reference != "previous" && reference != "input") {
-    throw Error("ik_solve: unknown reference '" + reference + "'; expected previous or input");
-  }
-  const Eigen::Index bones = rig.size();
-  std::vector<IkJoint> joints = JointsFromTables(bones, limit_min, limit_max, locked, stiffness, excluded, stretch,
-                                                 scale_range, soft, stage, mass);
+                 std::vector<IkEffector> effectors, const IkJointTables* joints, const IkOptions* options) {
+  std::vector<IkJoint> joint_list = joints ? JointsFromTables(rig.size(), *joints) : std::vector<IkJoint>();
   CheckEffectorsHaveBones(effectors);
+  const Eigen::Index bones = rig.size();
   const Eigen::Index frames = target_positions.rows(), count = static_cast<Eigen::Index>(effectors.size());
   Output<> rotations(frames, 4 * bones), root_locations(frames, 3), scales(frames, bones), errors(frames, count);
   OutputVector<int> iterations(frames);
   IkClipJob job(rig, input_rotations, input_locations, target_positions, target_orientations, rotations.view,
                 root_locations.view, scales.view, errors.view, iterations.view);
-  job.joints = std::move(joints);
+  job.joints = std::move(joint_list);
   job.effectors = std::move(effectors);
-  job.options.method = *parsed;
-  job.options.max_iterations = max_iterations;
-  job.options.tolerance = tolerance;
-  job.options.max_step = max_step;
-  job.options.damping = damping;
-  job.options.regularization = regularization;
-  job.options.reference = reference == "input" ? IkReference::kInput : IkReference::kPrevious;
-  job.options.orientation_scale = orientation_scale;
-  job.options.root_translation = root_translation;
-  job.options.root_rotation = root_rotation;
-  job.options.warm_start = warm_start;
-  job.options.threads = threads;
-  job.options.size = size;
-  job.options.priorities = priorities;
-  job.options.balance = balance;
-  job.options.up = Eigen::Vector3d(up[0], up[1], up[2]);
-  job.options.balance_margin = balance_margin;
+  if (options) job.options = *options;
   RunWithoutGil(job);
   return IkArrays{rotations.array, root_locations.array, scales.array, errors.array, iterations.array};
 }
@@ -152,38 +125,12 @@ constexpr const char* kIkSolveDoc = R"pbdoc(
         (frames, 4e) w x y z, or (frames, 0) when no effector asks for one.
         effectors: a list of IkEffector; an effector is its bone's tail, a
         pin holds where the frame's input pose has it.
-        priorities (DLS): strict levels, each in the null space of those
-        above: pins, then balance, then targets, then the pull towards the
-        reference; off, pins are weighted like targets and share the error.
-
-        Per bone (all optional): limit_min, limit_max float64 (b, 3) radians
-        (swing x, twist y, swing z; Blender's ik_min/ik_max), locked bool
-        (b, 3), stiffness float64 (b, 3) in [0, 1), excluded bool (b,),
-        stretch float64 (b,) (0: rigid), scale_range float64 (b, 2) (min and
-        max length scale of a stretching bone), soft bool (b, 3) (that
-        axis's limits widen to take in each frame's input), stage int32 (b,)
-        (recruitment: stage 0 first, each later stage joins, from the input,
-        only while a target stays out of reach), mass float64 (b,) (balance;
-        negative: the bone's length).
-        balance (with priorities and a pin): the centre of mass, projected
-        along `up` (armature space), stays inside the support polygon of the
-        pinned bones (heads and tails, theirs and their descendants'),
-        balance_margin in from its edges (0: 0.005 of the rig's size).
-
-        method: "dls" (damped least squares), "pinv", "transpose" or "ccd".
-        tolerance: armature units (0: 3e-7 of the rig's size); max_step: radians per joint per iteration;
-        damping: 0 picks 1e-3 of the rig's size; regularization: the pull
-        towards the reference ("previous": the previous frame's solution,
-        "input": the frame's input pose); orientation_scale: armature units
-        per radian (0: a tenth of the rig's size). root_translation and
-        root_rotation make the root bone's location and rotation unknowns;
-        warm_start starts each frame from the previous one's solution.
-        Effectors that share no unknown (say, chains cut off by excluded
-        bones) are solved as separate problems, on up to `threads` threads
-        (0, the default: all; the result does not depend on it). size: the
-        rig's size, which the defaults scale with (0: the diagonal of the
-        rest pose's bounding box; give the whole rig's when solving part of
-        one).
+        joints: an IkJoints, the per-bone tables (limits, locks, stiffness,
+        exclusion, stretch, recruitment stages, masses), each checked against
+        the rig's bone count here; None: every joint free.
+        options: an IkOptions (method, stopping, damping, the reference pose,
+        unknowns, threads, priorities, balance; each field says what it is);
+        None: the defaults.
 
         Returns an IkResult: rotations (frames, 4b) pose quaternions (bones the
         solver does not move keep their input), root_locations (frames, 3),
@@ -193,6 +140,149 @@ constexpr const char* kIkSolveDoc = R"pbdoc(
         int32, the steps tried (by the slowest group). Errors name the effector or bone and the frame. The GIL is
         released while it runs.
       )pbdoc";
+
+const char* IkMethodName(IkMethod method) {
+  switch (method) {
+    case IkMethod::kCcd: return "ccd";
+    case IkMethod::kTranspose: return "transpose";
+    case IkMethod::kPseudoInverse: return "pinv";
+    case IkMethod::kDls: break;
+  }
+  return "dls";
+}
+
+// A class's instance built from keywords, each set as Python would set that field (through its checks); a
+// keyword that names no field is a TypeError, as for any constructor.
+template <class T>
+T FromKeywords(const py::kwargs& fields, const char* class_name) {
+  T value;
+  const py::object self = py::cast(&value, py::return_value_policy::reference);
+  const py::object property = py::module_::import("builtins").attr("property");
+  for (const auto& item : fields) {
+    const auto key = py::cast<std::string>(item.first);
+    const py::object field = py::getattr(py::type::of<T>(), key.c_str(), py::none());
+    if (!py::isinstance(field, property)) {
+      throw py::type_error(std::string(class_name) + ": no field '" + key + "'");
+    }
+    py::setattr(self, key.c_str(), item.second);
+  }
+  return value;
+}
+
+// A table field of IkJoints: None or an array as ik_solve always took it (C order, the exact dtype, never
+// converted; IntArray converts, as stage always did), its shape checked at the solve.
+template <class Array>
+void DefTable(py::class_<IkJointTables>& c, const char* name, std::optional<Array> IkJointTables::*field,
+              const char* doc) {
+  const std::string what = std::string("IkJoints.") + name;
+  c.def_property(
+      name,
+      [field](const IkJointTables& t) -> py::object {
+        if (!(t.*field)) return py::none();
+        return *(t.*field);
+      },
+      [field, what](IkJointTables& t, const py::object& value) {
+        if (value.is_none()) {
+          (t.*field).reset();
+          return;
+        }
+        if constexpr (std::is_same_v<Array, IntArray>) {
+          Array array = Array::ensure(value);
+          if (!array) throw py::type_error(what + ": expected an int32 array or None");
+          t.*field = std::move(array);
+        } else {
+          if (!py::isinstance<Array>(value)) {
+            const char* dtype = std::is_same_v<Array, BoolArray> ? "bool" : "float64";
+            throw py::type_error(what + ": expected a C-order " + dtype + " array or None");
+          }
+          t.*field = py::reinterpret_borrow<Array>(value);
+        }
+      },
+      doc);
+}
+
+void BindIkJoints(py::module_& m) {
+  py::class_<IkJointTables> c(m, "IkJoints", R"pbdoc(
+        ik_solve's per-bone tables, each optional (None: that setting's
+        default on every bone); IkJoints(**fields) sets the named ones. Each
+        is checked against the rig's bone count b when the solve runs.
+      )pbdoc");
+  c.def(py::init([](const py::kwargs& fields) { return FromKeywords<IkJointTables>(fields, "IkJoints"); }));
+  DefTable(c, "limit_min", &IkJointTables::limit_min,
+           "float64 (b, 3) radians (swing x, twist y, swing z; Blender's ik_min)");
+  DefTable(c, "limit_max", &IkJointTables::limit_max, "float64 (b, 3) radians (Blender's ik_max)");
+  DefTable(c, "locked", &IkJointTables::locked, "bool (b, 3)");
+  DefTable(c, "stiffness", &IkJointTables::stiffness, "float64 (b, 3), each in [0, 1)");
+  DefTable(c, "excluded", &IkJointTables::excluded, "bool (b,): never moved by the solver");
+  DefTable(c, "stretch", &IkJointTables::stretch, "float64 (b,) (0: rigid)");
+  DefTable(c, "scale_range", &IkJointTables::scale_range,
+           "float64 (b, 2): min and max length scale of a stretching bone");
+  DefTable(c, "soft", &IkJointTables::soft,
+           "bool (b, 3): that axis's limits widen to take in each frame's input");
+  DefTable(c, "stage", &IkJointTables::stage,
+           "int32 (b,): recruitment; stage 0 first, each later stage joins, from the input, only while a target "
+           "stays out of reach");
+  DefTable(c, "mass", &IkJointTables::mass, "float64 (b,): for balance; negative: the bone's length");
+}
+
+void BindIkOptions(py::module_& m) {
+  py::class_<IkOptions>(m, "IkOptions", R"pbdoc(
+        ik_solve's options (motionkit/ik.hpp says what each does);
+        IkOptions(**fields) sets the named ones, the others keep their
+        defaults. The numbers are checked when the solve runs.
+      )pbdoc")
+      .def(py::init([](const py::kwargs& fields) { return FromKeywords<IkOptions>(fields, "IkOptions"); }))
+      .def_property(
+          "method", [](const IkOptions& o) { return std::string(IkMethodName(o.method)); },
+          [](IkOptions& o, const std::string& text) {
+            const auto method = ParseIkMethod(text);
+            if (!method) {
+              throw Error("IkOptions.method: unknown method '" + text + "'; expected ccd, transpose, pinv or dls");
+            }
+            o.method = *method;
+          },
+          "\"dls\" (damped least squares), \"pinv\", \"transpose\" or \"ccd\"")
+      .def_readwrite("max_iterations", &IkOptions::max_iterations)
+      .def_readwrite("tolerance", &IkOptions::tolerance, "armature units (0: 3e-7 of the rig's size)")
+      .def_readwrite("max_step", &IkOptions::max_step, "radians per joint per iteration")
+      .def_readwrite("damping", &IkOptions::damping, "0: 1e-3 of the rig's size")
+      .def_readwrite("regularization", &IkOptions::regularization, "the pull towards the reference")
+      .def_property(
+          "reference",
+          [](const IkOptions& o) { return std::string(o.reference == IkReference::kInput ? "input" : "previous"); },
+          [](IkOptions& o, const std::string& text) {
+            if (text == "input") {
+              o.reference = IkReference::kInput;
+            } else if (text == "previous") {
+              o.reference = IkReference::kPrevious;
+            } else {
+              throw Error("IkOptions.reference: unknown reference '" + text + "'; expected previous or input");
+            }
+          },
+          "\"previous\" (the previous frame's solution) or \"input\" (the frame's input pose)")
+      .def_readwrite("orientation_scale", &IkOptions::orientation_scale,
+                     "armature units per radian (0: a tenth of the rig's size)")
+      .def_readwrite("root_translation", &IkOptions::root_translation, "the root bone's location is an unknown")
+      .def_readwrite("root_rotation", &IkOptions::root_rotation, "the root bone's rotation is an unknown")
+      .def_readwrite("warm_start", &IkOptions::warm_start, "start each frame from the previous one's solution")
+      .def_readwrite("threads", &IkOptions::threads,
+                     "independent effector groups on up to this many threads (0: all cores; same result)")
+      .def_readwrite("size", &IkOptions::size,
+                     "the rig's size the defaults scale with (0: its rest pose's bounding-box diagonal; give the "
+                     "whole rig's when solving part of one)")
+      .def_readwrite("priorities", &IkOptions::priorities,
+                     "DLS: pins, then balance, then targets, then the reference, each in the null space of those "
+                     "above")
+      .def_readwrite("balance", &IkOptions::balance,
+                     "keep the centre of mass, along up, inside the pinned bones' support polygon")
+      // Plain arrays both ways: g++ 14 takes an Eigen temporary made in a lambda for uninitialized.
+      .def_property(
+          "up", [](const IkOptions& o) { return std::array<double, 3>{o.up.x(), o.up.y(), o.up.z()}; },
+          [](IkOptions& o, const std::array<double, 3>& v) { o.up = Eigen::Vector3d(v[0], v[1], v[2]); },
+          "armature space, for balance")
+      .def_readwrite("balance_margin", &IkOptions::balance_margin,
+                     "in from the support polygon's edges (0: 0.005 of the rig's size)");
+}
 
 void BindIkEffector(py::module_& m) {
   py::class_<IkEffector>(m, "IkEffector", R"pbdoc(
@@ -236,18 +326,11 @@ void BindIkResult(py::module_& m) {
 void BindIk(py::module_& m) {
   BindIkEffector(m);
   BindIkResult(m);
+  BindIkJoints(m);
+  BindIkOptions(m);
   m.def("ik_solve", &IkSolve, "rig"_a, "input_rotations"_a.noconvert(), "input_locations"_a.noconvert(),
         "target_positions"_a.noconvert(), "target_orientations"_a.noconvert(), "effectors"_a, py::kw_only(),
-        "limit_min"_a.noconvert() = py::none(), "limit_max"_a.noconvert() = py::none(),
-        "locked"_a.noconvert() = py::none(), "stiffness"_a.noconvert() = py::none(),
-        "excluded"_a.noconvert() = py::none(), "stretch"_a.noconvert() = py::none(),
-        "scale_range"_a.noconvert() = py::none(), "soft"_a.noconvert() = py::none(),
-        "stage"_a = py::none(), "mass"_a.noconvert() = py::none(), "method"_a = "dls", "max_iterations"_a = 64,
-        "tolerance"_a = 0.0, "max_step"_a = 0.3, "damping"_a = 0.0, "regularization"_a = 1e-4,
-        "reference"_a = "previous", "orientation_scale"_a = 0.0, "root_translation"_a = false,
-        "root_rotation"_a = false, "warm_start"_a = true, "threads"_a = 0, "size"_a = 0.0, "priorities"_a = true,
-        "balance"_a = false, "up"_a = std::array<double, 3>{{0.0, 0.0, 1.0}}, "balance_margin"_a = 0.0,
-        kIkSolveDoc);
+        "joints"_a = py::none(), "options"_a = py::none(), kIkSolveDoc);
 }
 
 }  // namespace motionkit::python

@@ -146,8 +146,9 @@ def solve(native, built, a, locations, targets, method, **options):
     rig, _, _, _, hands, feet = built
     effectors = ([native.IkEffector(h, name=f"hand {i}") for i, h in enumerate(hands)] +
                  [native.IkEffector(f, name=f"foot {i}", pin=True) for i, f in enumerate(feet)])
-    return native.ik_solve(rig, a, locations, targets, np.zeros((len(a), 0)), effectors, method=method,
-                           root_translation=True, root_rotation=True, warm_start=False, **options)
+    return native.ik_solve(rig, a, locations, targets, np.zeros((len(a), 0)), effectors,
+                           options=native.IkOptions(method=method, root_translation=True, root_rotation=True,
+                                                    warm_start=False, **options))
 
 
 def fk_errors(native, built, a, locations, targets, out):
