@@ -10,7 +10,7 @@ from bpy_extras.io_utils import ExportHelper, ImportHelper
 
 from . import common, contacts as contact_ui
 from ..blender import pose_channels
-from ..core import bone_mapping, display_names, reference_pose
+from ..core import bone_mapping, display_names, reference_pose, retarget_parts
 from ..core.retarget_options import RetargetOptions
 from ..features import bvh, control_rigs, retargeting, scene_timing
 
@@ -57,9 +57,44 @@ def _chain_properties() -> dict:
             for c in reference_pose.CHAINS}
 
 
+# Set while a preset ticks the rows: their updates must not turn the preset into "custom".
+_TICKING = {"now": False}
+
+
+def _pair_use_changed(self, context):
+    settings = context.scene.motionkit_retarget
+    if settings.parts != "custom" and not _TICKING["now"]:
+        settings.parts = "custom"
+
+
 class MOTIONKIT_PG_bone_pair(bpy.types.PropertyGroup):
     source: StringProperty(name="Source", description="Bone of the source armature (or BVH joint)")
     target: StringProperty(name="Target", description="Bone of the target armature")
+    use: BoolProperty(name="Retarget", default=True, update=_pair_use_changed,
+                      description="Write this bone's keys (off: the target bone keeps its own keys); the map still "
+                                  "pairs it, so the bones written move as in a whole-body retarget")
+
+
+_PARTS = retarget_parts.PRESETS + (("custom", "Custom", "The bones ticked in the bone map"),)
+
+
+def _parts_changed(self, context):
+    if self.parts != "custom":
+        _tick_parts(self)
+
+
+def _tick_parts(settings) -> None:
+    """Each pair's Retarget as the preset says, read off the target's labelled body."""
+    if settings.target is None or not settings.pairs:
+        return
+    rig = pose_channels.read_rig(settings.target)
+    chosen = {rig.names[b] for b in retarget_parts.chosen_bones(settings.parts, rig.names, rig.parents, rig.body)}
+    _TICKING["now"] = True
+    try:
+        for pair in settings.pairs:
+            pair.use = pair.target in chosen
+    finally:
+        _TICKING["now"] = False
 
 
 class MOTIONKIT_PG_reference_pose(bpy.types.PropertyGroup):
@@ -156,6 +191,13 @@ class MOTIONKIT_PG_retarget(bpy.types.PropertyGroup):
                                      "the result stays editable")
 
     reference_pose: PointerProperty(type=MOTIONKIT_PG_reference_pose)
+    parts: EnumProperty(name="Body", items=_PARTS, default="whole", update=_parts_changed,
+                        description="Which parts of the target are written; the others keep their own keys")
+    into: EnumProperty(name="Into", items=retarget_parts.INTO, default="new", description="Where the keys go")
+    blend: EnumProperty(name="Blend", items=retarget_parts.BLENDS, default="replace",
+                        description="How the NLA track blends over the motion below it")
+    influence: FloatProperty(name="Influence", default=1.0, min=0.0, max=1.0, subtype='FACTOR',
+                             description="How much of the NLA track shows")
 
     def bone_map(self) -> list[tuple[str, str]]:
         return [(p.source, p.target) for p in self.pairs if p.source and p.target]
@@ -168,7 +210,15 @@ class MOTIONKIT_PG_retarget(bpy.types.PropertyGroup):
             target_match=self.target_match, ground=self.ground, align_facing=self.align_facing,
             floor_root=self.floor_root, root_smoothing=self.root_smoothing,
             plant_feet=None if self.plant_feet else False, contact_settings=contact_ui.settings(self.contacts),
-            floor_fit=self.floor_fit, chain_modes=self.reference_pose.chain_modes())
+            floor_fit=self.floor_fit, chain_modes=self.reference_pose.chain_modes(), **self._written())
+
+    def _written(self) -> dict:
+        """What the panel writes and where: the preset's parts, or the ticked rows' target bones."""
+        chosen = {"into": self.into, "blend": self.blend, "influence": self.influence}
+        if self.parts != "custom":
+            return {**chosen, "parts": self.parts}
+        bones = tuple(p.target for p in self.pairs if p.use and p.source and p.target)
+        return {**chosen, "bones": bones or None}
 
     def set_bone_map(self, pairs) -> None:
         self.pairs.clear()
@@ -176,6 +226,8 @@ class MOTIONKIT_PG_retarget(bpy.types.PropertyGroup):
             item = self.pairs.add()
             item.source, item.target = source, target
         self.active_pair = 0
+        if self.parts != "custom":
+            _tick_parts(self)
 
 
 def _settings(context):
@@ -423,6 +475,7 @@ class MOTIONKIT_UL_bone_map(bpy.types.UIList):
         # middle instead, to what a column of the list holds, measured in the interface's own font.
         scale = common.set_interface_font(context)
         split = layout.split(factor=_SHOWN["split"])
+        layout.active = item.use  # a row not retargeted is drawn dim
         for name, prefix, share in ((item.source, _SHOWN["prefixes"][0], _SHOWN["split"]),
                                     (item.target, _SHOWN["prefixes"][1], 1.0 - _SHOWN["split"])):
             shown = display_names.strip(name, prefix)
@@ -499,6 +552,7 @@ class MOTIONKIT_PT_retarget_map(RetargetSubPanel, bpy.types.Panel):
         row = layout.row(align=True)
         row.operator("motionkit.bone_map_auto", text="Auto-map", icon='AUTO')
         row.operator("motionkit.bone_map_scheme", text="Schemes", icon='PRESET')
+        _labelled(layout, "Body").prop(settings, "parts", text="")
         if not settings.pairs:
             layout.label(text="Empty: auto-mapped", icon='INFO')
         elif 0 <= settings.active_pair < len(settings.pairs):
@@ -507,6 +561,7 @@ class MOTIONKIT_PT_retarget_map(RetargetSubPanel, bpy.types.Panel):
             _draw_bone_field(col, item, "source", settings.source if settings.source_kind == 'ARMATURE' else None,
                              "Source Bone")
             _draw_bone_field(col, item, "target", settings.target, "Target Bone")
+            col.prop(item, "use")
         _draw_reference_pose(layout.box(), settings)
 
 
@@ -565,7 +620,14 @@ class MOTIONKIT_PT_retarget_options(RetargetSubPanel, bpy.types.Panel):
             col.prop(settings, "root_smoothing")
         common.draw_groups(layout, settings, (("Feet", ("ground", "floor_fit")), ("Motion", ("align_facing",))))
         common.draw_frame_range(layout, settings, "use_frame_range", "Source")
-        common.draw_groups(layout, settings, (("Scene", ("scene_from_clip",)), ("Action", ("overwrite",))))
+        common.draw_groups(layout, settings, (("Scene", ("scene_from_clip",)),))
+        col = layout.column()
+        col.prop(settings, "into")
+        if settings.into == "nla":
+            col.prop(settings, "blend")
+            col.prop(settings, "influence")
+        elif settings.into == "new":
+            col.prop(settings, "overwrite")
 
 
 class MOTIONKIT_PT_retarget_feet(RetargetSubPanel, bpy.types.Panel):

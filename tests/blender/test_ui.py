@@ -123,7 +123,7 @@ SIDEBAR_LABELS = (
     "Fix Foot Sliding",
     # Retarget, Bone Map, Options, Plant Feet
     "Armature", "File", "Source", "Target", "Retarget", "Bone Map", "Load", "Save", "Auto-map", "Schemes",
-    "Source Bone", "Target Bone", "Reference Pose", "Trunk", "Arms", "Legs", "Fingers", "Options", "Match Poses", "Rest pose", "Root Motion", "Scaled", "Floor Root",
+    "Source Bone", "Target Bone", "Body", "Whole Body", "Into", "Reference Pose", "Trunk", "Arms", "Legs", "Fingers", "Options", "Match Poses", "Rest pose", "Root Motion", "Scaled", "Floor Root",
     "On the Floor", "Align Facing", "Frame Range", "From Clip", "Overwrite", "Plant Feet", "Height In",
     "Height Out", "Speed In", "Speed Out", "Shortest", "Blend", "Slides and Pivots",
     # Library
