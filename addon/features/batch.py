@@ -6,6 +6,8 @@ motionkit.batch.retarget_library(["clips/"], target, out_dir="out", export="fbx"
 """
 from __future__ import annotations
 
+import contextlib
+import math
 import os
 import time
 from dataclasses import dataclass, field
@@ -188,36 +190,57 @@ def retarget_files(paths, target, **options) -> list:
 
 
 def export_clip(target, path: str, kind: str) -> None:
-    """The target playing its action, written by MotionKit's BVH writer or Blender's exporters."""
-    if kind == "bvh":
-        bvh.save(target, path)
-        return
-    selected = [o for o in bpy.context.view_layer.objects if o.select_get()]
-    active = bpy.context.view_layer.objects.active
-    try:
-        for obj in selected:
-            obj.select_set(False)
-        target.select_set(True)
-        bpy.context.view_layer.objects.active = target
-        if kind == "fbx":
+    """The target's action alone, over its own frames, written by MotionKit's BVH writer or Blender's
+    exporters. Alone: no NLA track under it, and no other action of the file (Blender 3.4's glTF exporter
+    otherwise takes in every armature action of the file when one armature is exported and merges them into
+    one animation); its frames: the action's range, not the scene's. The scene is as it was afterwards."""
+    action = animdata.assigned_action(target)
+    if action is None:
+        raise ValueError(f"export_clip: '{target.name}' plays no action to export")
+    first, last = math.floor(action.frame_range[0]), math.ceil(action.frame_range[1])
+    with _clip_alone(target, first, last):
+        if kind == "bvh":
+            bvh.save(target, path, frame_range=(first, last))
+        elif kind == "fbx":
+            # Every frame keyed (no simplify), so that the file plays Blender's evaluation, not a curve fit of it.
             bpy.ops.export_scene.fbx(filepath=path, use_selection=True, object_types={'ARMATURE'},
                                      add_leaf_bones=False, bake_anim_use_all_actions=False,
-                                     bake_anim_use_nla_strips=False)
+                                     bake_anim_use_nla_strips=False, bake_anim_simplify_factor=0.0)
         else:
-            bpy.ops.export_scene.gltf(**_gltf_options(path, kind))
+            bpy.ops.export_scene.gltf(**_gltf_options(path, kind, action.name))
+
+
+@contextlib.contextmanager
+def _clip_alone(target, first: int, last: int):
+    """The target alone selected and active, its NLA off, the scene's range the clip's; all put back after."""
+    scene, layer = bpy.context.scene, bpy.context.view_layer
+    kept = (scene.frame_start, scene.frame_end, scene.frame_current, layer.objects.active,
+            [o for o in layer.objects if o.select_get()], target.animation_data.use_nla)
+    try:
+        for obj in kept[4]:
+            obj.select_set(False)
+        target.select_set(True)
+        layer.objects.active = target
+        target.animation_data.use_nla = False
+        scene.frame_start, scene.frame_end = first, last
+        yield
     finally:
+        target.animation_data.use_nla = kept[5]
         target.select_set(False)
-        for obj in selected:
+        for obj in kept[4]:
             obj.select_set(True)
-        bpy.context.view_layer.objects.active = active
+        layer.objects.active = kept[3]
+        scene.frame_start, scene.frame_end = kept[0], kept[1]
+        scene.frame_set(kept[2])
 
 
-def _gltf_options(path: str, kind: str) -> dict:
-    """Only the active action, in whichever words this Blender's glTF exporter has for it."""
+def _gltf_options(path: str, kind: str, name: str) -> dict:
+    """Only the active action, as one animation named after it, in whichever words this Blender's glTF
+    exporter has: 3.4's export_anim_single_armature (on by default) would add every other armature action."""
     known = bpy.ops.export_scene.gltf.get_rna_type().properties.keys()
     options = {"filepath": path, "use_selection": True, "export_format": 'GLB' if kind == "glb" else 'GLTF_SEPARATE'}
-    if "export_animation_mode" in known:
-        options["export_animation_mode"] = 'ACTIVE_ACTIONS'
-    elif "export_nla_strips" in known:
-        options["export_nla_strips"] = False
+    wanted = {"export_animation_mode": 'ACTIVE_ACTIONS', "export_nla_strips": False,
+              "export_anim_single_armature": False, "export_frame_range": True,
+              "export_nla_strips_merged_animation_name": name}
+    options.update({key: value for key, value in wanted.items() if key in known})
     return options
