@@ -98,6 +98,13 @@ def retarget_file(path: str, target, *, out_dir=None, export=None, overwrite=Fal
     """Every take of one file onto target; everything the file brought is removed again, whatever happens.
     stem: the file's name for its clips (batch_inputs.stems), by default its own stem; keep: False removes
     each new action once it is written out (a pipeline that wants the files only)."""
+    with _selection_kept():
+        result = _retarget_takes(path, target, out_dir, export, overwrite, stem, keep, options)
+    return result
+
+
+def _retarget_takes(path, target, out_dir, export, overwrite, stem, keep, options) -> BatchResult:
+    """retarget_file's work, the view layer's selection aside."""
     result, named = BatchResult(), []
     before = imports.snapshot()
     try:
@@ -211,27 +218,39 @@ def export_clip(target, path: str, kind: str) -> None:
 
 
 @contextlib.contextmanager
-def _clip_alone(target, first: int, last: int):
-    """The target alone selected and active, its NLA off, the scene's range the clip's; all put back after."""
-    scene, layer = bpy.context.scene, bpy.context.view_layer
-    kept = (scene.frame_start, scene.frame_end, scene.frame_current, layer.objects.active,
-            [o for o in layer.objects if o.select_get()], target.animation_data.use_nla)
+def _selection_kept():
+    """The view layer's selected and active objects as they were, afterwards (an importer selects what it
+    brings and nothing else); those removed meanwhile left out, known by address, never touched."""
+    layer = bpy.context.view_layer
+    layer.update()  # objects linked or removed since (an import, its clean-up) listed as they are (4.x syncs lazily)
+    selected = {o.as_pointer() for o in layer.objects if o.select_get()}
+    active = layer.objects.active.as_pointer() if layer.objects.active is not None else None
     try:
-        for obj in kept[4]:
-            obj.select_set(False)
-        target.select_set(True)
-        layer.objects.active = target
-        target.animation_data.use_nla = False
-        scene.frame_start, scene.frame_end = first, last
         yield
     finally:
-        target.animation_data.use_nla = kept[5]
-        target.select_set(False)
-        for obj in kept[4]:
-            obj.select_set(True)
-        layer.objects.active = kept[3]
-        scene.frame_start, scene.frame_end = kept[0], kept[1]
-        scene.frame_set(kept[2])
+        layer.update()
+        for obj in layer.objects:
+            obj.select_set(obj.as_pointer() in selected)
+        layer.objects.active = next((o for o in layer.objects if o.as_pointer() == active), None)
+
+
+@contextlib.contextmanager
+def _clip_alone(target, first: int, last: int):
+    """The target alone selected and active, its NLA off, the scene's range the clip's; all put back after."""
+    scene, layer, anim = bpy.context.scene, bpy.context.view_layer, target.animation_data
+    kept = (scene.frame_start, scene.frame_end, scene.frame_current, anim.use_nla)
+    with _selection_kept():
+        try:
+            for obj in layer.objects:
+                obj.select_set(obj == target)
+            layer.objects.active = target
+            anim.use_nla = False
+            scene.frame_start, scene.frame_end = first, last
+            yield
+        finally:
+            anim.use_nla = kept[3]
+            scene.frame_start, scene.frame_end = kept[0], kept[1]
+            scene.frame_set(kept[2])
 
 
 def _gltf_options(path: str, kind: str, name: str) -> dict:

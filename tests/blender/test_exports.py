@@ -96,11 +96,15 @@ def _user_scene(target):
     anim.action = None
     anim.nla_tracks.new().strips.new("layer", 1, made[1])
     anim.action = made[0]
+    for obj in bpy.context.view_layer.objects:  # as a user leaves it: the character selected and active
+        obj.select_set(obj == target)
+    bpy.context.view_layer.objects.active = target
     return made
 
 
 def _state(target):
     scene, anim = bpy.context.scene, target.animation_data
+    bpy.context.view_layer.update()  # the objects the batch imported and removed again no longer listed
     return dict(frames=(scene.frame_start, scene.frame_end, scene.frame_current),
                 selected=sorted(o.name for o in bpy.context.view_layer.objects if o.select_get()),
                 active=getattr(bpy.context.view_layer.objects.active, "name", None),
