@@ -234,21 +234,35 @@ def _selection_kept():
         layer.objects.active = next((o for o in layer.objects if o.as_pointer() == active), None)
 
 
+_POSE_CHANNELS = {"location": (0.0, 0.0, 0.0), "rotation_quaternion": (1.0, 0.0, 0.0, 0.0),
+                  "rotation_euler": (0.0, 0.0, 0.0), "rotation_axis_angle": (0.0, 0.0, 1.0, 0.0),
+                  "scale": (1.0, 1.0, 1.0)}
+
+
 @contextlib.contextmanager
 def _clip_alone(target, first: int, last: int):
-    """The target alone selected and active, its NLA off, the scene's range the clip's; all put back after."""
+    """The target alone selected and active, its NLA off, every pose channel at rest where the action keys
+    none (the clip keys no scale: what an earlier action left there is no part of it), the scene's range
+    the clip's; all put back after."""
     scene, layer, anim = bpy.context.scene, bpy.context.view_layer, target.animation_data
     kept = (scene.frame_start, scene.frame_end, scene.frame_current, anim.use_nla)
+    pose = [(b, {k: tuple(getattr(b, k)) for k in _POSE_CHANNELS}) for b in target.pose.bones]
     with _selection_kept():
         try:
             for obj in layer.objects:
                 obj.select_set(obj == target)
             layer.objects.active = target
             anim.use_nla = False
+            for bone, _ in pose:
+                for key, rest in _POSE_CHANNELS.items():
+                    setattr(bone, key, rest)
             scene.frame_start, scene.frame_end = first, last
             yield
         finally:
             anim.use_nla = kept[3]
+            for bone, values in pose:
+                for key, value in values.items():
+                    setattr(bone, key, value)
             scene.frame_start, scene.frame_end = kept[0], kept[1]
             scene.frame_set(kept[2])
 

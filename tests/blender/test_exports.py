@@ -14,6 +14,7 @@ import subprocess
 import bpy
 import numpy as np
 import pytest
+from mathutils import Matrix
 
 import conftest
 import mixamo_pairs
@@ -23,6 +24,17 @@ from test_production_files import fbx_dir, import_fbx  # noqa: F401  (fbx_dir is
 JS = os.path.join(conftest.ROOT, "tools", "js")
 # glTF is +Y up, -Z forward out of Blender's exporter: Blender's (x, y, z) is glTF's (x, -z, y).
 GLTF_TO_BLENDER = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
+
+
+# Worst joint distance over the clip, as a fraction of the target's height (the issue asks 1e-4 at most).
+# glTF: float32 translations and quaternions; a joint 10-20 bones from the root moves by the sum of its
+# chain's roundings (2^-24 each, times a lever under the height): measured 4.7e-7 (3.4), 5.4e-7 (4.3, 5.2).
+# FBX: float32 key values read back into Blender's float32 matrices, the same order: measured 5.8e-7 (3.4),
+# 6.2e-7 (4.3, 5.2). BVH: the file holds full doubles, but Blender's importer turns each Euler triple into
+# a matrix and back into the bone's Euler in float32, ill-conditioned near gimbal lock (the worst, a right
+# finger, hangs on a forearm bent 89 degrees about its ZXY Euler's middle axis): measured 4.3e-6 (3.4),
+# 5.1e-6 (4.3, 5.2). Each bound about 10x its measure.
+JOINT_BOUND = {"glb": 6e-6, "gltf": 6e-6, "fbx": 6e-6, "bvh": 5e-5}
 
 
 @pytest.fixture(scope="session")
@@ -78,7 +90,8 @@ def _blender_joints(obj, frames) -> dict:
 
 def _user_scene(target):
     """The target as a user's scene has it before a batch: its own action (fake user) playing, and an NLA
-    track under it with another action; both key every bone away from the clip."""
+    track under it with another action; both key every bone away from the clip, its scale too, which the
+    retargeted clip leaves unkeyed (an NLA track evaluated under it would show through there)."""
     anim = target.animation_data_create()
     made = []
     for name in ("own", "layer"):
@@ -88,9 +101,10 @@ def _user_scene(target):
             pose_bone.rotation_mode = 'QUATERNION'
             pose_bone.rotation_quaternion = (0.9, 0.3 if name == "own" else 0.0, 0.0, 0.3 if i % 2 else -0.3)
             pose_bone.location = (0.0, 0.1, 0.0)
+            pose_bone.scale = (1.2, 0.9, 1.1)
             for frame in (1, 200):
-                pose_bone.keyframe_insert("rotation_quaternion", frame=frame)
-                pose_bone.keyframe_insert("location", frame=frame)
+                for path in ("rotation_quaternion", "location", "scale"):
+                    pose_bone.keyframe_insert(path, frame=frame)
         action.use_fake_user = True
         made.append(action)
     anim.action = None
@@ -170,7 +184,11 @@ def test_an_export_plays_the_retargeted_clip_alone(mk, node_js, target, clip, tm
     first, last = (int(round(v)) for v in action.frame_range)
     frames = list(range(first, last + 1))
     fps = bpy.context.scene.render.fps / bpy.context.scene.render.fps_base
-    target.animation_data.use_nla = False  # the clip alone, as the export holds it
+    # The clip alone, as the export holds it: no NLA under it, and the channels it keys none of (scale) at
+    # rest, not where the user's own action left them.
+    target.animation_data.use_nla = False
+    for pose_bone in target.pose.bones:
+        pose_bone.matrix_basis = Matrix.Identity(4)
     expected = _blender_joints(target, frames)
     height = _height(target)
     if kind in ("glb", "gltf"):
@@ -178,7 +196,10 @@ def test_an_export_plays_the_retargeted_clip_alone(mk, node_js, target, clip, tm
     else:
         got = _reimported_joints(row["output"], kind, frames)
     assert set(expected) <= set(got), sorted(set(expected) - set(got))
-    errors = np.array([np.linalg.norm(got[n] - expected[n], axis=1) for n in expected]) / height
-    print(f"\n{kind}: Blender {bpy.app.version_string}: joints median {np.median(errors):.3e}, "
-          f"worst {errors.max():.3e} of the height {height:.4f} ({len(frames)} frames)")
-    assert errors.max() < 1e-4
+    names = sorted(expected)
+    errors = np.array([np.linalg.norm(got[n] - expected[n], axis=1) for n in names]) / height
+    worst = np.unravel_index(errors.argmax(), errors.shape)
+    print(f"\n{kind}: Blender {bpy.app.version_string}: joints median {np.median(errors):.3e}, worst "
+          f"{errors.max():.3e} of the height {height:.4f} ({names[worst[0]]}, frame {frames[worst[1]]}; "
+          f"{len(frames)} frames)")
+    assert errors.max() < JOINT_BOUND[kind], (names[worst[0]], frames[worst[1]])
