@@ -203,3 +203,14 @@ def test_an_export_plays_the_retargeted_clip_alone(mk, node_js, target, clip, tm
           f"{errors.max():.3e} of the height {height:.4f} ({names[worst[0]]}, frame {frames[worst[1]]}; "
           f"{len(frames)} frames)")
     assert errors.max() < JOINT_BOUND[kind], (names[worst[0]], frames[worst[1]])
+
+
+def test_a_target_that_plays_no_action_is_refused_by_name(mk, target, tmp_path):  # noqa: F811
+    """export_clip on an armature with no action: a ValueError naming it, no file, the scene as it was."""
+    target.animation_data_create().action = None  # Y Bot's file brings a take of its own
+    bpy.context.scene.frame_start, bpy.context.scene.frame_end = 1, 250
+    before = _state(target)
+    path = tmp_path / "nothing.glb"
+    with pytest.raises(ValueError, match=f"'{target.name}' plays no action"):
+        mk.batch.export_clip(target, str(path), "glb")
+    assert not path.exists() and _state(target) == before
