@@ -684,6 +684,22 @@ def apply(plan_: Plan, *, action_name: str | None = None, overwrite: bool = Fals
     return animdata.install_action(target, action, lambda keyed: _write(target, keyed, plan_))
 
 
+def new_action_for(plan_: Plan, name: str, base: bpy.types.Action | None) -> bpy.types.Action:
+    """A new action holding the plan's keys, not assigned (apply()'s "new", for a preview): for a part of the
+    body a copy of base (the target's own action) with the written bones' curves replaced."""
+    if plan_.partial and base is not None:
+        action = animdata.copy_action(base, name)
+        animdata.remove_curves(action, plan_.target, [pose_channels.bone_path(n) for n in plan_.written])
+    else:
+        action = animdata.new_action(name)
+    try:
+        _write(plan_.target, action, plan_)
+    except BaseException:
+        bpy.data.actions.remove(action)
+        raise
+    return action
+
+
 def _write(target, action, plan_: Plan, merge: bool = False) -> None:
     """The plan's keys into action; merge: over the clip's frames only (animdata.merge_keys)."""
     write = animdata.merge_keys if merge else animdata.write_keys

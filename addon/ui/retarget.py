@@ -9,6 +9,7 @@ from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProp
 from bpy_extras.io_utils import ExportHelper, ImportHelper
 
 from . import common, contacts as contact_ui
+from .preview import MOTIONKIT_PG_retarget_preview
 from ..blender import pose_channels
 from ..core import bone_mapping, display_names, reference_pose, retarget_parts
 from ..core.retarget_options import RetargetOptions
@@ -198,6 +199,7 @@ class MOTIONKIT_PG_retarget(bpy.types.PropertyGroup):
                         description="How the NLA track blends over the motion below it")
     influence: FloatProperty(name="Influence", default=1.0, min=0.0, max=1.0, subtype='FACTOR',
                              description="How much of the NLA track shows")
+    preview: PointerProperty(type=MOTIONKIT_PG_retarget_preview)
 
     def bone_map(self) -> list[tuple[str, str]]:
         return [(p.source, p.target) for p in self.pairs if p.source and p.target]
@@ -277,43 +279,51 @@ class MOTIONKIT_OT_retarget(bpy.types.Operator):
 
     @classmethod
     def poll(cls, context):
+        if _settings(context).preview.on:
+            cls.poll_message_set("Apply or cancel the preview first")
+            return False
         return common.poll_native(cls) and _poll_rigs(cls, context)
 
     def execute(self, context):
-        settings = _settings(context)
-        source = bpy.path.abspath(settings.bvh_path) if settings.source_kind == 'BVH' else settings.source
-        frame_range = (settings.frame_start, settings.frame_end) if settings.use_frame_range else None
+        return run_retarget(self, context)
 
-        bvh_options = ({"bvh_scale": "auto" if settings.bvh_auto_scale else settings.bvh_scale,
-                        "imported_source": settings.bvh_source} if settings.source_kind == 'BVH' else {})
 
-        controls = {"controls": settings.controls, "keys": settings.keys, "reduce": settings.reduce,
-                    "control_map": bpy.path.abspath(settings.control_map) if settings.control_map else None}
-        if settings.controls == "auto":
-            controls["limbs"] = {"arm": settings.arms, "leg": settings.legs}
+def run_retarget(self, context) -> set:
+    """The Retarget button's work for an operator (self): the panel's settings retargeted and keyed."""
+    settings = _settings(context)
+    source = bpy.path.abspath(settings.bvh_path) if settings.source_kind == 'BVH' else settings.source
+    frame_range = (settings.frame_start, settings.frame_end) if settings.use_frame_range else None
 
-        def work(progress):
-            progress(0, 4)
-            action = retargeting.retarget(
-                source, settings.target, settings.bone_map() or None, frame_range, settings.retarget_options(),
-                overwrite=settings.overwrite, progress=progress, **controls, **bvh_options)
-            timing = scene_timing.from_clip(context.scene, action) if settings.scene_from_clip else None
-            _decide_chains(settings, settings.bone_map() or None)
-            left_out = "" if settings.bone_map() or settings.source_kind != 'ARMATURE' else \
-                bone_mapping.auto_map_report(_source_rig(settings), pose_channels.armature_mapping_rig(
-                    settings.target, upright=True)).message()
-            return action, timing, left_out
+    bvh_options = ({"bvh_scale": "auto" if settings.bvh_auto_scale else settings.bvh_scale,
+                    "imported_source": settings.bvh_source} if settings.source_kind == 'BVH' else {})
 
-        def done(result):
-            action, timing, left_out = result
-            if left_out:
-                self.report({'WARNING'}, f"Auto-mapped; {left_out}")
-            played = f"; the scene plays it at {timing[0]:g} fps, frames {timing[1]}-{timing[2]}" if timing else ""
-            decided = _decided_text(settings)
-            return f"Retargeted onto '{settings.target.name}' as action '{action.name}'{played}" + (
-                f". {decided}" if decided else "")
+    controls = {"controls": settings.controls, "keys": settings.keys, "reduce": settings.reduce,
+                "control_map": bpy.path.abspath(settings.control_map) if settings.control_map else None}
+    if settings.controls == "auto":
+        controls["limbs"] = {"arm": settings.arms, "leg": settings.legs}
 
-        return common.run(self, context, work, done)
+    def work(progress):
+        progress(0, 4)
+        action = retargeting.retarget(
+            source, settings.target, settings.bone_map() or None, frame_range, settings.retarget_options(),
+            overwrite=settings.overwrite, progress=progress, **controls, **bvh_options)
+        timing = scene_timing.from_clip(context.scene, action) if settings.scene_from_clip else None
+        _decide_chains(settings, settings.bone_map() or None)
+        left_out = "" if settings.bone_map() or settings.source_kind != 'ARMATURE' else \
+            bone_mapping.auto_map_report(_source_rig(settings), pose_channels.armature_mapping_rig(
+                settings.target, upright=True)).message()
+        return action, timing, left_out
+
+    def done(result):
+        action, timing, left_out = result
+        if left_out:
+            self.report({'WARNING'}, f"Auto-mapped; {left_out}")
+        played = f"; the scene plays it at {timing[0]:g} fps, frames {timing[1]}-{timing[2]}" if timing else ""
+        decided = _decided_text(settings)
+        return f"Retargeted onto '{settings.target.name}' as action '{action.name}'{played}" + (
+            f". {decided}" if decided else "")
+
+    return common.run(self, context, work, done)
 
 
 class MOTIONKIT_OT_bone_map_auto(bpy.types.Operator):
@@ -521,6 +531,21 @@ class MOTIONKIT_PT_retarget(common.SidebarPanel, bpy.types.Panel):
                 col.prop(settings, "bvh_scale")
             col.prop(settings, "bvh_source")
         layout.operator("motionkit.retarget", icon='ARMATURE_DATA')
+        _draw_preview(layout, settings.preview)
+
+
+def _draw_preview(layout, state) -> None:
+    """Preview, or while it plays Apply and Cancel, and what the last update took (or why it failed)."""
+    row = layout.row(align=True)
+    if not state.on:
+        row.operator("motionkit.retarget_preview", icon='HIDE_OFF')
+        return
+    row.operator("motionkit.retarget_preview_apply", icon='CHECKMARK')
+    row.operator("motionkit.retarget_preview_cancel", icon='X')
+    if state.message:
+        layout.label(text=state.message, icon='ERROR')
+    else:
+        layout.label(text=f"Preview updated in {state.seconds:.2f} s", icon='TIME')
 
 
 class RetargetSubPanel(common.SidebarPanel):
@@ -661,7 +686,8 @@ class MOTIONKIT_PT_retarget_feet_motion(common.SidebarPanel, bpy.types.Panel):
 BONE_MAP = common.editable_list(common.EditableList(
     "bone_map", "pair", lambda context: context.scene.motionkit_retarget, "pairs", "active_pair", "No scene"))
 
-classes = (MOTIONKIT_PG_bone_pair, MOTIONKIT_PG_reference_pose, MOTIONKIT_PG_retarget, MOTIONKIT_OT_retarget,
+classes = (MOTIONKIT_PG_bone_pair, MOTIONKIT_PG_reference_pose, MOTIONKIT_PG_retarget_preview, MOTIONKIT_PG_retarget,
+           MOTIONKIT_OT_retarget,
            MOTIONKIT_OT_bone_map_auto, MOTIONKIT_OT_reference_pose,
            MOTIONKIT_OT_bone_map_scheme, MOTIONKIT_OT_bone_map_save, MOTIONKIT_OT_bone_map_load,
            MOTIONKIT_UL_bone_map, MOTIONKIT_PT_retarget, MOTIONKIT_PT_retarget_map, MOTIONKIT_PT_retarget_controls,
