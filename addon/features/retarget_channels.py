@@ -170,6 +170,18 @@ def _shape_keys(source, target, frames, channel_map, carried) -> None:
     carried.shapes = [(key, channels, np.vstack(rows)) for key, (channels, rows) in into.items()]
 
 
+def on_controls(carried: Carried, frames: int) -> Carried:
+    """carried where the target is a control rig: every channel left out (its controls are keyed, and
+    nothing maps a deform bone's scale or property, or a face's shape, onto a control yet)."""
+    reason = "the target is a control rig: its controls are keyed, and they take no carried channel yet"
+    left = list(carried.left_out)
+    left += [LeftOut("scale" if c.data_path.endswith(".scale") else "property", str(c), reason)
+             for c in carried.channels]
+    left += [LeftOut("shape_key", f"{key.user.name}: {c.data_path}", reason)
+             for key, channels, _ in carried.shapes for c in channels]
+    return Carried(values=np.empty((0, frames)), left_out=left)
+
+
 def finite(carried: Carried) -> bool:
     arrays = [carried.values] + [values for _, _, values in carried.shapes]
     return all(np.all(np.isfinite(a)) for a in arrays if a is not None)

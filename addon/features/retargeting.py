@@ -284,6 +284,8 @@ def plan(source, target, bone_map=None, frame_range=None, options: RetargetOptio
     plan_.partial = written is not None
     plan_.carried = retarget_channels.read(source, target, clip.action, clip.frames, pairs,
                                            set(plan_.written) if plan_.partial else None, o)
+    if target_rig is not None:  # a control rig's controls are keyed (control_rigs.apply): none of these
+        plan_.carried = retarget_channels.on_controls(plan_.carried, len(clip.frames))
     plan_.channels_left_out = plan_.carried.left_out
     if not (np.all(np.isfinite(plan_.values)) and np.all(np.isfinite(plan_.still_values))
             and retarget_channels.finite(plan_.carried)):
@@ -940,12 +942,15 @@ def _retarget_controls(source, target, controls, limbs, control_map, keys, reduc
     if controls == "none":
         return None
     # The deform skeleton's retarget is this module's plan(), handed over: control_rigs builds on it.
-    result = control_rigs.plan(source, target, lambda skeleton: plan(source, target, *call, target_rig=skeleton),
+    planned = []
+    result = control_rigs.plan(source, target, lambda skeleton: planned.append(
+                               plan(source, target, *call, target_rig=skeleton)) or planned[-1],
                                controls=controls, limbs=limbs, control_map=control_map, keys=keys,
                                progress=progress)
     if result is None:
         return None
     action = control_rigs.apply(result, action_name=action_name, overwrite=overwrite)
+    _LEFT_OUT[:] = planned[-1].channels_left_out
     if reduce:
         resampling.reduce_keys(target, bones=result.keyed)
     return action

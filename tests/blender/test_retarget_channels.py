@@ -203,3 +203,30 @@ def test_a_bad_option_changes_nothing(mk, animdata, rigs, bad, message):
     assert set(bpy.data.actions) == actions
     assert target.animation_data is None or target.animation_data.action is None
     assert all(m.data.shape_keys.animation_data is None for m in faces)
+
+
+def test_nla_track_and_a_part_of_the_body(mk, animdata, rigs):
+    """into='nla': the shapes' keys on a track of each target Key, played as the source's; parts='arms': the
+    arm's scale carried, the spine's scale and property not (the spine is not written), the faces still."""
+    source, target, face, faces = rigs
+    frames = _frames(animdata, source)
+    mk.retarget(source, target, _bone_map(), plant_feet=False, into="nla", channel_map={"smile": "grin"})
+    for mesh in faces:
+        anim = mesh.data.shape_keys.animation_data
+        assert anim.action is None and len(anim.nla_tracks) == 1
+        if animdata.LAYERED:  # the Key's own slot in the new action
+            strip = anim.nla_tracks[0].strips[0]
+            assert strip.action_slot is not None and strip.action_slot.target_id_type == 'KEY'
+    worst = _judge(animdata, source, target, face, faces, frames)
+    print(f"\nonto NLA tracks: worst {worst:.2f} float32 units from the source's")
+    assert worst <= FLOAT32_UNITS
+
+    again = generate.build_armature(TARGET, x=4.0)
+    again.pose.bones[TGT["spine.1"]]["squash"] = 0.0
+    action = mk.retarget(source, again, _bone_map(), plant_feet=False, parts="arms")
+    paths = {fc.data_path for fc in animdata.fcurves(action, again)}
+    arm, spine = (f'pose.bones["{TGT[c]}"]' for c in SCALED[::-1])
+    assert f"{arm}.scale" in paths and f"{spine}.scale" not in paths and f'{spine}["squash"]' not in paths
+    left = {item.name: item.reason for item in mk.retargeting.channels_left_out()}
+    assert set(left) == {'["mood"]', '["smile"]', '["blink"]', f'{SRC["upper_arm.L"]}["ik_fk"]', *SHAPES}
+    assert left["jawOpen"] == f"the target '{again.name}' has no mesh with shape keys"
