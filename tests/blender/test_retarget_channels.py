@@ -230,3 +230,22 @@ def test_nla_track_and_a_part_of_the_body(mk, animdata, rigs):
     left = {item.name: item.reason for item in mk.retargeting.channels_left_out()}
     assert set(left) == {'["mood"]', '["smile"]', '["blink"]', f'{SRC["upper_arm.L"]}["ik_fk"]', *SHAPES}
     assert left["jawOpen"] == f"the target '{again.name}' has no mesh with shape keys"
+
+
+def test_the_operator_tells_which_channels_were_not_carried(mk, animdata, rigs, capfd):
+    """The panel has no channel map: the source's "smile" is not carried either, and the report says so."""
+    source, target, _, _ = rigs
+    settings = bpy.context.scene.motionkit_retarget
+    settings.source_kind, settings.source, settings.target = 'ARMATURE', source, target
+    settings.set_bone_map(_bone_map())
+    plant_feet, settings.plant_feet = settings.plant_feet, False
+    try:
+        assert bpy.ops.motionkit.retarget() == {'FINISHED'}
+    finally:
+        settings.plant_feet, settings.source, settings.target = plant_feet, None, None
+        settings.pairs.clear()
+    said = capfd.readouterr()
+    said = said.out + said.err
+    assert "4 channels not carried" in said, said
+    for name in ('["mood"]', '["smile"] (the target', f'{SRC["upper_arm.L"]}["ik_fk"]', "tongueOut (no mesh"):
+        assert name in said
