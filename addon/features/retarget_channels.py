@@ -39,7 +39,7 @@ def read(source, target, action, frames, pairs, written, options) -> Carried:
     rows = []
     curves = list(animdata.fcurves(action, source))
     if "scale" in chosen:
-        rows += _scales(source, target, action, curves, frames, targets_of, carried)
+        rows += _scales(source, target, action, curves, frames, targets_of, options.into, carried)
     if "properties" in chosen:
         rows += _properties(source, target, action, curves, frames, (targets_of, unmapped), options.channel_map,
                             carried)
@@ -50,10 +50,15 @@ def read(source, target, action, frames, pairs, written, options) -> Carried:
     return carried
 
 
-def _scales(source, target, action, curves, frames, targets_of, carried) -> list:
-    """Each mapped bone's scale where the source keys it. A scale of exactly 1 on every frame carries nothing
-    the target's rest pose lacks: it is written only where the target's own action animates that bone's
-    scale (which it would otherwise keep)."""
+# A scale this close to 1 on every frame is a unit scale rounded to float32 (Blender's FBX importer keys
+# 1 - 6e-8 on Mixamo's bones): four units of float32's last place.
+UNIT_SCALE = 4 * 2.0 ** -23
+
+
+def _scales(source, target, action, curves, frames, targets_of, into, carried) -> list:
+    """Each mapped bone's scale where the source keys it. A unit scale on every frame (UNIT_SCALE) carries
+    nothing the target's rest pose lacks: it is written only where the keys go into or over the target's own
+    action (into "current" or "nla") and that animates the bone's scale (which would otherwise show)."""
     paths = {fc.data_path for fc in curves}
     bones = [b for b in targets_of if f"{pose_channels.bone_path(b)}.scale" in paths]
     if not bones:
@@ -61,7 +66,7 @@ def _scales(source, target, action, curves, frames, targets_of, carried) -> list
     channels = [(f"{pose_channels.bone_path(b)}.scale", i) for b in bones for i in range(3)]
     static = [v for b in bones for v in source.pose.bones[b].scale]
     values, _ = animdata.sample(action, source, channels, frames, static)
-    own = animdata.assigned_action(target)
+    own = animdata.assigned_action(target) if into in ("current", "nla") else None
     rows = []
     for k, bone in enumerate(bones):
         scale = values[3 * k:3 * k + 3]
@@ -69,7 +74,7 @@ def _scales(source, target, action, curves, frames, targets_of, carried) -> list
             path = f"{pose_channels.bone_path(tgt)}.scale"
             animated = own is not None and any(animdata.find_fcurve(own, target, path, i) is not None
                                                for i in range(3))
-            if animated or np.any(scale != 1.0):
+            if animated or np.any(np.abs(scale - 1.0) > UNIT_SCALE):
                 carried.channels += [animdata.Channel(path, i, tgt) for i in range(3)]
                 rows.append(scale)
     return rows

@@ -63,6 +63,8 @@ def rigs(mk, animdata):
         path = f'pose.bones["{SRC[canonical]}"].scale'
         stretch = 1.0 + (0.25 - 0.1 * k) * wave
         keyed += [((path, 0), 1 / np.sqrt(stretch)), ((path, 1), stretch), ((path, 2), 1 / np.sqrt(stretch))]
+    # A unit scale as Blender's FBX importer keys it (1 - 6e-8): nothing to carry into a new action.
+    keyed += [((f'pose.bones["{SRC["head"]}"].scale', i), np.full(len(sparse), 1 - 2.0 ** -24)) for i in range(3)]
     spine, arm, foot = SRC["spine.1"], SRC["upper_arm.L"], SRC["foot.L"]
     for bone, prop in ((spine, "squash"), (arm, "ik_fk"), (foot, "motionkit_contact_heel")):
         source.pose.bones[bone][prop] = 0.0
@@ -147,6 +149,7 @@ def _check_left_out(mk, animdata, target, action, faces):
                     ("shape_key", "tongueOut")}
     paths = {fc.data_path for fc in animdata.fcurves(action, target)}
     assert not {p for p in paths if "mood" in p or "ik_fk" in p or "motionkit_contact" in p}
+    assert f'pose.bones["{TGT["head"]}"].scale' not in paths  # a unit scale carries nothing
     assert "mood" not in target.keys() and "ik_fk" not in target.pose.bones[TGT["upper_arm.L"]].keys()
     assert target.pose.bones[TGT["foot.L"]]["motionkit_contact_heel"] == 0.25
     for mesh in faces:
@@ -170,8 +173,12 @@ def test_into_current_keeps_the_targets_other_keys_and_none_carries_nothing(mk, 
                for fc in animdata.fcurves(walk, target))
     assert key.animation_data.action == own and faces[1].data.shape_keys.animation_data is None
     smile = animdata.read_keys(animdata.find_fcurve(own, key, 'key_blocks["mouthSmileLeft"].value'))
+    head = f'pose.bones["{TGT["head"]}"].scale'  # the target's own scale keys: the source's unit scale replaces them
+    animdata.write_keys(target, walk, [(head, i) for i in range(3)], frames[[0, -1]], np.full((3, 2), 1.5))
     mk.retarget(source, target, _bone_map(), plant_feet=False, into="current", channel_map={"smile": "grin"},
-                channels=("shape_keys",))
+                channels=("shape_keys", "scale"))
+    bpy.context.scene.frame_set(int(frames[len(frames) // 2]))
+    assert tuple(target.pose.bones[TGT["head"]].scale) == (1 - 2.0 ** -24,) * 3
     assert key.animation_data.action == own
     blink = animdata.read_keys(animdata.find_fcurve(own, key, 'key_blocks["eyeBlinkLeft"].value'))
     assert blink[0][:2].tolist() == outside[:2].tolist() and blink[0][-1] == outside[-1]  # kept about the clip
