@@ -258,3 +258,25 @@ def test_the_operator_tells_which_channels_were_not_carried(mk, animdata, rigs, 
     assert "4 channels not carried" in said, said
     for name in ('["mood"]', '["smile"] (the target', f'{SRC["upper_arm.L"]}["ik_fk"]', "tongueOut (no mesh"):
         assert name in said
+
+
+def test_a_control_rig_target_reports_every_channel_left_out(mk, animdata, shared_dir, tmp_path):
+    """Its controls are keyed, and none takes a deform bone's scale or property yet: nothing of them is
+    written, and each is reported. The hand-made control rig of test_control_rigs, on walk60's skeleton."""
+    import json
+    from test_control_rigs import _hand_made_rig
+
+    walk, action = mk.bvh.load(f"{shared_dir}/data/bvh/walk60.bvh")
+    target, data = _hand_made_rig(walk)
+    bone = walk.data.bones[1].name
+    frames = _frames(animdata, walk)[::10]
+    animdata.write_keys(walk, action, [(f'pose.bones["{bone}"].scale', i) for i in range(3)], frames,
+                        np.tile(1.0 + 0.2 * np.sin(frames), (3, 1)))
+    map_file = tmp_path / "handmade.json"
+    map_file.write_text(json.dumps(data), encoding="utf-8")
+    made = mk.retarget(walk, target, control_map=str(map_file), plant_feet=False, floor_fit="hips")
+    assert not [fc for fc in animdata.fcurves(made, target) if fc.data_path.endswith(".scale")]
+    left = mk.retargeting.channels_left_out()
+    assert [(item.kind, item.name) for item in left] == [("scale", f'pose.bones["{bone}"].scale[{i}]')
+                                                        for i in range(3)]
+    assert all(item.reason.startswith("the target is a control rig") for item in left)
