@@ -88,7 +88,9 @@ def rigs(mk, animdata):
     target.pose.bones[TGT["foot.L"]]["motionkit_contact_heel"] = 0.25
     target["blink"] = 0.0
     target["grin"] = 0.0  # the source's "smile", mapped; no "mood", no "ik_fk"
-    faces = (_face("TargetFace", target, SHAPES[:3], x=2.0), _face("TargetTeeth", target, ("jawOpen",), x=2.0))
+    # The source animates no cheekPuff: the target's own keys of it stay.
+    faces = (_face("TargetFace", target, SHAPES[:3] + ("cheekPuff",), x=2.0),
+             _face("TargetTeeth", target, ("jawOpen",), x=2.0))
     return source, target, face, faces
 
 
@@ -166,7 +168,9 @@ def test_into_current_keeps_the_targets_other_keys_and_none_carries_nothing(mk, 
     own = animdata.new_action("TargetFace own")
     outside = np.array([frames[0] - 20, frames[0] - 10, frames[-1] + 10])
     _bezier(animdata, key, own, [(('key_blocks["eyeBlinkLeft"].value', 0), np.array([0.1, 0.9, 0.3])),
-                                 (('key_blocks["mouthSmileLeft"].value', 0), np.array([0.2, 0.4, 0.6]))], outside)
+                                 (('key_blocks["mouthSmileLeft"].value', 0), np.array([0.2, 0.4, 0.6])),
+                                 (('key_blocks["cheekPuff"].value', 0), np.array([0.0, 0.7, 0.1]))], outside)
+    puff = animdata.read_keys(animdata.find_fcurve(own, key, 'key_blocks["cheekPuff"].value'))
     animdata.assign(key, own)
     walk = mk.retarget(source, target, _bone_map(), plant_feet=False, channels=())
     assert all(fc.data_path.endswith(("rotation_quaternion", "rotation_euler", "location"))
@@ -188,6 +192,15 @@ def test_into_current_keeps_the_targets_other_keys_and_none_carries_nothing(mk, 
     worst = _judge_shapes(source, face, faces, frames)
     print(f"\nshape keys merged into the target's own: worst {worst:.2f} float32 units from the source's")
     assert worst <= FLOAT32_UNITS
+    # A part of the body into a new action: each Key's a copy of its own, the shapes not carried kept.
+    mk.retarget(source, target, _bone_map(), plant_feet=False, parts="arms", channels=("shape_keys",))
+    copy = key.animation_data.action
+    assert copy != own and own.use_fake_user
+    kept = animdata.read_keys(animdata.find_fcurve(copy, key, 'key_blocks["cheekPuff"].value'))
+    assert all(np.array_equal(a, b) for a, b in zip(kept, puff))
+    blink = animdata.read_keys(animdata.find_fcurve(copy, key, 'key_blocks["eyeBlinkLeft"].value'))
+    assert blink[0].tolist() == frames.tolist()  # a carried shape's curve is the clip's, whole
+    assert _judge_shapes(source, face, faces, frames) <= FLOAT32_UNITS
 
 
 def _judge_shapes(source, face, faces, frames):
