@@ -201,6 +201,9 @@ def test_into_current_keeps_the_targets_other_keys_and_none_carries_nothing(mk, 
     blink = animdata.read_keys(animdata.find_fcurve(copy, key, 'key_blocks["eyeBlinkLeft"].value'))
     assert blink[0].tolist() == frames.tolist()  # a carried shape's curve is the clip's, whole
     assert _judge_shapes(source, face, faces, frames) <= FLOAT32_UNITS
+    # overwrite: into the Key's own action, as into the armature's.
+    mk.retarget(source, target, _bone_map(), plant_feet=False, overwrite=True, channels=("shape_keys",))
+    assert key.animation_data.action == copy and _judge_shapes(source, face, faces, frames) <= FLOAT32_UNITS
 
 
 def _judge_shapes(source, face, faces, frames):
