@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 import bpy
 
 from ..blender import animdata, imports
-from ..core import batch_inputs, batch_report
+from ..core import batch_inputs, batch_report, channel_carry
 from . import bvh, clip_report, retargeting
 
 EXPORTS = ("bvh", "fbx", "glb", "gltf")
@@ -69,6 +69,8 @@ def _retarget_take(path, stem, take, action, count, source, target, out_dir, exp
         pairs = retargeting.auto_map(source, target) if rest.get("bone_map") is None else rest["bone_map"]
         made = retargeting.retarget(source, target, options=fields, **{**rest, "bone_map": pairs}, action_name=name)
         made.use_fake_user = True
+        # The scale, properties and shape keys the target had no place for (RetargetOptions.channels).
+        row["channels_left_out"] = channel_carry.summary(retargeting.channels_left_out())
         kept = retargeting.kept_bones(source, target, pairs, fields)
         row.update(clip_report.row_figures(source, target, pairs, kept))
         if output:

@@ -11,7 +11,7 @@ from bpy_extras.io_utils import ExportHelper, ImportHelper
 from . import common, contacts as contact_ui
 from .preview import MOTIONKIT_PG_retarget_preview
 from ..blender import pose_channels
-from ..core import bone_mapping, display_names, reference_pose, retarget_parts
+from ..core import bone_mapping, channel_carry, display_names, reference_pose, retarget_parts
 from ..core.retarget_options import RetargetOptions
 from ..features import bvh, control_rigs, retargeting, scene_timing
 
@@ -199,6 +199,10 @@ class MOTIONKIT_PG_retarget(bpy.types.PropertyGroup):
                         description="How the NLA track blends over the motion below it")
     influence: FloatProperty(name="Influence", default=1.0, min=0.0, max=1.0, subtype='FACTOR',
                              description="How much of the NLA track shows")
+    channels: EnumProperty(name="Carry", items=channel_carry.CHANNELS, options={'ENUM_FLAG'},
+                           default=set(channel_carry.IDS),
+                           description="What else is carried, by name, where the target has it (the rest is "
+                                       "reported)")
     preview: PointerProperty(type=MOTIONKIT_PG_retarget_preview)
 
     def bone_map(self) -> list[tuple[str, str]]:
@@ -212,7 +216,8 @@ class MOTIONKIT_PG_retarget(bpy.types.PropertyGroup):
             target_match=self.target_match, ground=self.ground, align_facing=self.align_facing,
             floor_root=self.floor_root, root_smoothing=self.root_smoothing,
             plant_feet=None if self.plant_feet else False, contact_settings=contact_ui.settings(self.contacts),
-            floor_fit=self.floor_fit, chain_modes=self.reference_pose.chain_modes(), **self._written())
+            floor_fit=self.floor_fit, chain_modes=self.reference_pose.chain_modes(),
+            channels=tuple(c for c in channel_carry.IDS if c in self.channels), **self._written())
 
     def _written(self) -> dict:
         """What the panel writes and where: the preset's parts, or the ticked rows' target bones."""
@@ -308,16 +313,19 @@ def run_retarget(self, context) -> set:
             source, settings.target, settings.bone_map() or None, frame_range, settings.retarget_options(),
             overwrite=settings.overwrite, progress=progress, **controls, **bvh_options)
         timing = scene_timing.from_clip(context.scene, action) if settings.scene_from_clip else None
+        not_carried = channel_carry.summary(retargeting.channels_left_out())
         _decide_chains(settings, settings.bone_map() or None)
         left_out = "" if settings.bone_map() or settings.source_kind != 'ARMATURE' else \
             bone_mapping.auto_map_report(_source_rig(settings), pose_channels.armature_mapping_rig(
                 settings.target, upright=True)).message()
-        return action, timing, left_out
+        return action, timing, left_out, not_carried
 
     def done(result):
-        action, timing, left_out = result
+        action, timing, left_out, not_carried = result
         if left_out:
             self.report({'WARNING'}, f"Auto-mapped; {left_out}")
+        if not_carried:  # the target has no bone, property or shape key for them
+            self.report({'WARNING'}, not_carried)
         played = f"; the scene plays it at {timing[0]:g} fps, frames {timing[1]}-{timing[2]}" if timing else ""
         decided = _decided_text(settings)
         return f"Retargeted onto '{settings.target.name}' as action '{action.name}'{played}" + (
@@ -653,6 +661,7 @@ class MOTIONKIT_PT_retarget_options(RetargetSubPanel, bpy.types.Panel):
             col.prop(settings, "influence")
         elif settings.into == "new":
             col.prop(settings, "overwrite")
+        layout.prop(settings, "channels")
 
 
 class MOTIONKIT_PT_retarget_feet(RetargetSubPanel, bpy.types.Panel):
