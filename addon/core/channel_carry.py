@@ -10,10 +10,10 @@ from typing import NamedTuple
 
 # Blender EnumProperty items (id, name, description): the panel shows these, RetargetOptions.channels holds the ids.
 CHANNELS = (
-    ("scale", "Bone Scale",
+    ("scale", "Scale",
      "Each mapped bone's scale (squash and stretch), as the source's bone has it: a ratio of the bone's own "
      "rest length"),
-    ("properties", "Custom Properties",
+    ("properties", "Properties",
      "The source's animated custom properties, on its mapped bones and on its object, onto the target's of the "
      "same name (or the channel map's)"),
     ("shape_keys", "Shape Keys",

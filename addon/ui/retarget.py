@@ -661,7 +661,9 @@ class MOTIONKIT_PT_retarget_options(RetargetSubPanel, bpy.types.Panel):
             col.prop(settings, "influence")
         elif settings.into == "new":
             col.prop(settings, "overwrite")
-        layout.prop(settings, "channels")
+        col = layout.column(heading="Carry", align=True)  # one per row: side by side they are cut
+        for identifier, _, _ in channel_carry.CHANNELS:
+            col.prop_enum(settings, "channels", identifier)
 
 
 class MOTIONKIT_PT_retarget_feet(RetargetSubPanel, bpy.types.Panel):

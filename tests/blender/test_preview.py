@@ -24,6 +24,8 @@ def panel(mk, walk60):
     yield settings
     ui_preview = importlib.import_module(mk.__name__ + ".ui.preview")
     ui_preview.stop(settings)
+    for prop in ("parts", "into", "root_motion", "scene_from_clip"):  # the scene's panel, for the next tests
+        settings.property_unset(prop)
 
 
 def _keys(mk, obj, action):

@@ -27,7 +27,7 @@ READY = "MOTIONKIT-UI-READY"
 # A tall screen, so that every panel of the sidebar fits without scrolling; the sidebar keeps Blender's
 # default width.
 SCENARIO_SECONDS = 1800
-SCREEN = "-screen 0 1400x3200x24"
+SCREEN = "-screen 0 1400x3400x24"
 # The first X display tried, one range per Blender: `make test` runs two Blenders' suites at once, and a
 # chroot's Blender sees its own /tmp (xvfb-run -a looks for free displays by their lock files there) but
 # shares the host's abstract X sockets.
@@ -106,7 +106,7 @@ def test_every_surface_draws_without_a_python_error(panels):
 SCREENS = ("sidebar-object", "sidebar-pose", "dialog-resample", "dialog-reduce", "dialog-schemes", "dialog-filter",
            "redo-reduce",
            "redo-resample", "browser-import", "browser-export", "menu-import", "menu-graph-key",
-           "menu-dopesheet-key", "sidebar-parts", "sidebar-parts-nla", "sidebar-rigify")
+           "menu-dopesheet-key", "sidebar-parts", "sidebar-parts-nla", "sidebar-preview", "sidebar-rigify")
 
 
 @pytest.mark.parametrize("name", SCREENS)
@@ -123,7 +123,8 @@ SIDEBAR_LABELS = (
     "Fix Foot Sliding",
     # Retarget, Bone Map, Options, Plant Feet
     "Armature", "File", "Source", "Target", "Retarget", "Bone Map", "Load", "Save", "Auto-map", "Schemes",
-    "Source Bone", "Target Bone", "Body", "Whole Body", "Into", "Reference Pose", "Trunk", "Arms", "Legs", "Fingers", "Options", "Match Poses", "Rest pose", "Root Motion", "Scaled", "Floor Root",
+    "Source Bone", "Target Bone", "Body", "Whole Body", "Into", "Preview", "Carry", "Scale", "Properties",
+    "Shape Keys", "Reference Pose", "Trunk", "Arms", "Legs", "Fingers", "Options", "Match Poses", "Rest pose", "Root Motion", "Scaled", "Floor Root",
     "On the Floor", "Align Facing", "Frame Range", "From Clip", "Overwrite", "Plant Feet", "Height In",
     "Height Out", "Speed In", "Speed Out", "Shortest", "Blend", "Slides and Pivots",
     # Library
@@ -145,6 +146,15 @@ def test_a_part_of_the_body_through_the_panel(panels):
     assert panels["parts.result"] == ["FINISHED"] and panels["parts.same_action"] and panels["parts.legs_kept"]
     assert unread(panels, "sidebar-parts", ("Body", "Arms", "Into", "Current Action")) == []
     assert unread(panels, "sidebar-parts-nla", ("Into", "NLA Track", "Blend", "Replace", "Influence")) == []
+
+
+def test_the_live_preview_in_the_window(panels):
+    """Preview plays the retarget, the window's timer remakes it when an option changes, Apply and Cancel
+    read whole, and Cancel gives the target its own action back."""
+    assert panels["preview.result"] == ["FINISHED"] and panels["preview.remade"] and panels["preview.plays_it"]
+    assert panels["preview.cancelled"]
+    updated = f"Preview updated in {panels['preview.seconds']:.2f} s"
+    assert unread(panels, "sidebar-preview", ("Apply", "Cancel", updated)) == []
 
 
 @pytest.mark.parametrize("mode", ["object", "pose"])

@@ -257,6 +257,27 @@ def steps():
     read_sidebar("sidebar-parts-nla", view)
     settings.parts, settings.into = "whole", "new"
 
+    # The live preview in the window: Preview, an option changed, the timer remakes it; Cancel.
+    walk = target.animation_data.action
+    with harness.override(area_=view):
+        harness.report("preview.result", sorted(bpy.ops.motionkit.retarget_preview('EXEC_DEFAULT')))
+    first = settings.preview.action.as_pointer() if settings.preview.action else None
+    settings.root_motion = "in_place"
+    yield from harness.wait_until(lambda: settings.preview.action is not None
+                                  and settings.preview.action.as_pointer() != first,
+                                  "the preview remade after a change", timeout=5.0, required=False)
+    harness.report("preview.remade", settings.preview.action is not None
+                   and settings.preview.action.as_pointer() != first)
+    harness.report("preview.seconds", settings.preview.seconds)
+    harness.report("preview.plays_it", target.animation_data.action == settings.preview.action)
+    yield from harness.redrawn(watch)
+    read_sidebar("sidebar-preview", view)
+    with harness.override(area_=view):
+        bpy.ops.motionkit.retarget_preview_cancel('EXEC_DEFAULT')
+    harness.report("preview.cancelled", target.animation_data.action == walk
+                   and "MotionKit Preview" not in bpy.data.actions)
+    settings.root_motion = "scaled"
+
     # A Rigify rig as the retarget's target: the Controls sub-panel says what it is, its arms' and legs'
     # FK/IK choice active.
     import rigify_rig
