@@ -240,6 +240,10 @@ def plan(source, target, bone_map=None, frame_range=None, options: RetargetOptio
     either way. target_rig: the target's bones as a rig of their own where they are not its armature's
     (a control rig's deform skeleton, control_rigs.deform_rig)."""
     o = from_keywords(options, **keywords)
+    if target_rig is not None and o.root_motion_onto == "object":
+        # A control rig is keyed through its controls from the deform skeleton's pose, which has no object.
+        raise ValueError(f"root_motion_onto='object' keys a plain armature's object; on the control rig "
+                         f"'{target.name}' retarget with controls='none' or choose 'hips' or 'root'")
     pairs, clip, rigs, fit, chains = _prepare(source, target, bone_map, frame_range, o, target_rig)
     root, ground, contact_settings = o.root, o.ground, o.contact_settings
     written = _written_bones(rigs.tgt, o)
@@ -277,7 +281,7 @@ def plan(source, target, bone_map=None, frame_range=None, options: RetargetOptio
     plan_ = _plan_keys(rigs, clip, pairs, fit.scale, (rotations, locations), located, mode, planted, plant_feet,
                        defer_solve and not onto_object, written)
     if onto_object:
-        _onto_object(plan_, rigs, o.root_smoothing * clip.fps)
+        _onto_object(plan_, rigs, o.root_smoothing * clip.fps, fit.up)
     plan_.chains, plan_.options = chains, o
     plan_.written = [rigs.tgt.names[b] for b in sorted(written)] if written is not None else list(rigs.tgt.names)
     plan_.partial = written is not None
@@ -300,14 +304,14 @@ def _check_onto(rigs: _Rigs, o: RetargetOptions, written) -> None:
                          f"which the parts or bones chosen leave out; retarget it too, or choose 'auto'")
 
 
-def _onto_object(plan_: Plan, rigs: _Rigs, sigma_frames: float) -> None:
+def _onto_object(plan_: Plan, rigs: _Rigs, sigma_frames: float, up) -> None:
     """Root motion on the target object (root_motion_onto="object"): the hips' ground path and heading keyed
     on the object, and the hips' keys re-expressed so that the world pose stays (root_motion.onto_object)."""
     plan_.resolve()
     rotations, locations = plan_.pose
     hips, target = rigs.roots[1], rigs.target
     name = rigs.tgt.names[hips]
-    track = root_motion.onto_object(rigs.tgt, rigs.target_pose, rotations, locations, hips, sigma_frames)
+    track = root_motion.onto_object(rigs.tgt, rigs.target_pose, rotations, locations, hips, sigma_frames, up)
     channels, values = pose_channels.rotation_keys(target, [name], rotations[:, 4 * hips:4 * hips + 4])
     channels += [(f"{pose_channels.bone_path(name)}.location", k, name) for k in range(3)]
     values = np.vstack([values, locations[:, 3 * hips:3 * hips + 3].T])
@@ -599,7 +603,7 @@ def _place_roots(rigs: _Rigs, clip: _Clip, fit: _Fit, rotations, root_locations,
             root_motion.move_floor_root(rigs.tgt, rigs.target_pose, rotations, locations, target_floor_bone,
                                         target_root, root_motion.FloorRootMotion(
                                             mode, source_motion, fit.space, fit.scale, o.root,
-                                            o.root_smoothing * clip.fps, height))
+                                            o.root_smoothing * clip.fps, height, fit.up))
             located.append(target_floor_bone)
     return locations, located, mode
 
@@ -880,6 +884,18 @@ def check_options(**options) -> None:
     if "bvh_scale" in options:
         _bvh_scale(options["bvh_scale"])
     _imported_source_option(options.get("imported_source"), options.get("bvh_source"))
+
+
+def check_root_bone(target, options: RetargetOptions) -> None:
+    """root_motion_onto='root' needs a root bone above the target's hips (as its labels find them): a
+    ValueError naming the rig, before any clip is read (plan() says the same of the hips the map drives)."""
+    if options.root_motion_onto != "root":
+        return
+    rig = _rig(target, "target")
+    hips = rig.body.hips
+    if hips in rig and rig.top(rig.index(hips)) == rig.index(hips):
+        raise ValueError(f"root_motion_onto='root': the target '{rig.name}' has no root bone above its hips "
+                         f"'{hips}' to carry the motion; choose 'hips' or 'object'")
 
 
 def split_options(options: dict) -> tuple[RetargetOptions, dict]:
