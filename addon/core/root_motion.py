@@ -255,9 +255,9 @@ def onto_object(rig, match, rotations, locations, hips: int, sigma_frames: float
                 up=None) -> tuple[np.ndarray, np.ndarray]:
     """The object's ground track for root motion on the object: (rotations (n, 4), translations (n, 3)) in
     armature space, the hips' ground path and heading from their match pose, smoothed (extract_track about
-    the armature's origin; up: the world's up in armature space). The hips are re-expressed under their parent, as it stands (in place in
-    rotations, locations), so that the armature-space pose moved by the track is the pose before: the
-    world pose is the same once the object takes the track."""
+    the armature's origin; up: the world's up in armature space). The hips are re-expressed under their
+    parent, as it stands (in place in rotations, locations), so that the armature-space pose moved by the
+    track is the pose before: the world pose is the same once the object takes the track."""
     native = native_state.native()
     posed_rotations, posed_heads = native.armature_pose(rig.native, rotations, locations)
     block = lambda a, b, n: a[:, n * b:n * b + n]  # noqa: E731

@@ -22,8 +22,8 @@ from ..blender.imports import remove_armature
 from ..core import (bone_axes, bone_mapping, facing, floor_fit, native_state, object_motion, reference_pose,
                     retarget_options, retarget_parts, root_motion, rotation_channels, twist, worker_thread)
 from ..core.rig_data import Pose, RigData
-from ..core.retarget_options import (FLOOR_FITS, ROOT_MOTIONS, SOURCE_MATCHES, TARGET_MATCHES,  # noqa: F401
-                                     RetargetOptions, check_frame_range, from_keywords, is_number)
+from ..core.retarget_options import (FLOOR_FITS, ROOT_MOTION_ONTO, ROOT_MOTIONS, SOURCE_MATCHES,  # noqa: F401
+                                     TARGET_MATCHES, RetargetOptions, check_frame_range, from_keywords, is_number)
 from ..core.root_motion import FLOOR_ROOTS  # noqa: F401  (the panel's items, beside the other options')
 
 # What a file's imported armature (the source retarget() imports) becomes once the retarget is done.

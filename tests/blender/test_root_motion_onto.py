@@ -218,11 +218,16 @@ def test_root_motion_onto_the_root_bone_and_the_object(mk, unreal_outputs):
     assert object_off < SAME_WORLD, f"root motion on the object moves the joints {object_off:.2e} of the height"
 
 
-def test_root_motion_onto_a_root_bone_the_target_lacks_is_refused(mk, walk60):
+def test_root_motion_onto_what_the_target_cannot_carry_is_refused(mk, walk60):
+    """No root bone above the hips for "root"; the hips left out of a partial retarget for "object": a
+    ValueError naming the rig or the bone, the scene unchanged."""
     source, _ = mk.bvh.load(walk60)
-    target = generate.build_armature(characters.MIXAMO_T)
+    mixamo, unreal = generate.build_armature(characters.MIXAMO_T), generate.build_armature(characters.UNREAL_A)
     actions = set(bpy.data.actions)
-    with pytest.raises(ValueError, match=rf"root_motion_onto='root': the target '{target.name}' has no root bone "
+    with pytest.raises(ValueError, match=rf"root_motion_onto='root': the target '{mixamo.name}' has no root bone "
                                          r"above its hips 'mixamorig:Hips'"):
-        mk.retarget(source, target, frame_range=FRAMES, root_motion_onto="root")
-    assert set(bpy.data.actions) == actions and target.animation_data is None
+        mk.retarget(source, mixamo, frame_range=FRAMES, root_motion_onto="root")
+    with pytest.raises(ValueError, match=r"root_motion_onto='object' moves the target's 'pelvis', which the parts "
+                                         r"or bones chosen leave out"):
+        mk.retarget(source, unreal, frame_range=FRAMES, root_motion_onto="object", parts="arms")
+    assert set(bpy.data.actions) == actions and mixamo.animation_data is None and unreal.animation_data is None
