@@ -39,12 +39,13 @@ root=$cache/$suite-chroot
 # Everything the Blender side needs: the Blender itself, the toolchain that
 # builds our module for its Python, and what the UI tests need: a windowed
 # Blender under Xvfb (mesa's software OpenGL) and tesseract to read its
-# screenshots. The same names in trixie and sid.
+# screenshots; node, to play exported glTF files with the npm packages that tools/install_deps.sh installs
+# into the repository (tools/js/node_modules). The same names in trixie and sid.
 packages=(
   blender python3 python3-dev python3-numpy python3-scipy python3-pytest python3-distributed
   python3-matplotlib g++ cmake make libeigen3-dev pybind11-dev libgtest-dev
   libgmock-dev libbenchmark-dev ca-certificates xz-utils ccache
-  xvfb xauth libgl1-mesa-dri libegl1 mesa-utils tesseract-ocr x11-apps
+  xvfb xauth libgl1-mesa-dri libegl1 mesa-utils tesseract-ocr x11-apps nodejs
 )
 
 [ "$(id -u)" = 0 ] || die "must run as root (debootstrap and chroot need it)"

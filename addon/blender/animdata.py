@@ -129,6 +129,31 @@ def install_action(id_data: bpy.types.ID, action: bpy.types.Action, write, *, ow
     return action
 
 
+def assignment(id_data: bpy.types.ID) -> tuple:
+    """What id_data plays now, for restore(): (its action or None, the slot's identifier or None)."""
+    anim = id_data.animation_data
+    if anim is None or anim.action is None:
+        return None, None
+    slot = anim.action_slot if LAYERED else None
+    return anim.action, (slot.identifier if slot is not None else None)
+
+
+def restore(id_data: bpy.types.ID, held: tuple) -> None:
+    """id_data plays again what assignment() read (nothing, or an action and its slot)."""
+    action, identifier = held
+    anim = id_data.animation_data
+    if action is None:
+        if anim is not None:
+            anim.action = None
+        return
+    anim = anim or id_data.animation_data_create()
+    anim.action = action
+    if LAYERED and identifier is not None:
+        slot = next((s for s in action.slots if s.identifier == identifier), None)
+        if slot is not None:
+            anim.action_slot = slot
+
+
 def assigned_action(id_data: bpy.types.ID) -> bpy.types.Action | None:
     anim = id_data.animation_data
     return anim.action if anim is not None else None

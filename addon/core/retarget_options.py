@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import reference_pose, retarget_parts
+from . import channel_carry, reference_pose, retarget_parts
 from .foot_contacts import ContactSettings
 from .root_motion import FLOOR_ROOTS
 
@@ -109,6 +109,13 @@ class RetargetOptions:
     into: str = "new"
     blend: str = "replace"
     influence: float = 1.0
+    # What is carried besides the bones' rotations and the root's path (channel_carry.CHANNELS): "scale" (each
+    # mapped bone's), "properties" (animated custom properties of the mapped bones and of the object) and
+    # "shape_keys" (the values of the source's meshes' shape keys); () carries none of them. Each goes where the
+    # target has one of the same name, channel_map's {source name: target name} renaming properties and shape
+    # keys; the others are left out and reported (Plan.channels_left_out).
+    channels: tuple = channel_carry.IDS
+    channel_map: dict | None = None
 
     def validate(self) -> RetargetOptions:
         """self, every value checked: a ValueError naming the option and the value."""
@@ -158,6 +165,8 @@ class RetargetOptions:
                 raise ValueError(f"unknown {name} {value!r}; expected one of {[k[0] for k in known]}")
         if not (is_number(self.influence) and 0.0 <= self.influence <= 1.0):
             raise ValueError(f"influence must be a number from 0 to 1, not {self.influence!r}")
+        channel_carry.check_channels(self.channels)
+        channel_carry.check_channel_map(self.channel_map)
 
     def reference(self) -> RetargetOptions:
         """These options as the reference pose sees them: its own (REFERENCE) kept, the others the

@@ -6,6 +6,8 @@ motionkit.batch.retarget_library(["clips/"], target, out_dir="out", export="fbx"
 """
 from __future__ import annotations
 
+import contextlib
+import math
 import os
 import time
 from dataclasses import dataclass, field
@@ -13,7 +15,7 @@ from dataclasses import dataclass, field
 import bpy
 
 from ..blender import animdata, imports
-from ..core import batch_inputs, batch_report
+from ..core import batch_inputs, batch_report, channel_carry
 from . import bvh, clip_report, retargeting
 
 EXPORTS = ("bvh", "fbx", "glb", "gltf")
@@ -67,6 +69,8 @@ def _retarget_take(path, stem, take, action, count, source, target, out_dir, exp
         pairs = retargeting.auto_map(source, target) if rest.get("bone_map") is None else rest["bone_map"]
         made = retargeting.retarget(source, target, options=fields, **{**rest, "bone_map": pairs}, action_name=name)
         made.use_fake_user = True
+        # The scale, properties and shape keys the target had no place for (RetargetOptions.channels).
+        row["channels_left_out"] = channel_carry.summary(retargeting.channels_left_out())
         kept = retargeting.kept_bones(source, target, pairs, fields)
         row.update(clip_report.row_figures(source, target, pairs, kept))
         if output:
@@ -96,6 +100,13 @@ def retarget_file(path: str, target, *, out_dir=None, export=None, overwrite=Fal
     """Every take of one file onto target; everything the file brought is removed again, whatever happens.
     stem: the file's name for its clips (batch_inputs.stems), by default its own stem; keep: False removes
     each new action once it is written out (a pipeline that wants the files only)."""
+    with _selection_kept():
+        result = _retarget_takes(path, target, out_dir, export, overwrite, stem, keep, options)
+    return result
+
+
+def _retarget_takes(path, target, out_dir, export, overwrite, stem, keep, options) -> BatchResult:
+    """retarget_file's work, the view layer's selection aside."""
     result, named = BatchResult(), []
     before = imports.snapshot()
     try:
@@ -189,36 +200,83 @@ def retarget_files(paths, target, **options) -> list:
 
 
 def export_clip(target, path: str, kind: str) -> None:
-    """The target playing its action, written by MotionKit's BVH writer or Blender's exporters."""
-    if kind == "bvh":
-        bvh.save(target, path)
-        return
-    selected = [o for o in bpy.context.view_layer.objects if o.select_get()]
-    active = bpy.context.view_layer.objects.active
-    try:
-        for obj in selected:
-            obj.select_set(False)
-        target.select_set(True)
-        bpy.context.view_layer.objects.active = target
-        if kind == "fbx":
+    """The target's action alone, over its own frames, written by MotionKit's BVH writer or Blender's
+    exporters. Alone: no NLA track under it, and no other action of the file (Blender 3.4's glTF exporter
+    otherwise takes in every armature action of the file when one armature is exported and merges them into
+    one animation); its frames: the action's range, not the scene's. The scene is as it was afterwards."""
+    action = animdata.assigned_action(target)
+    if action is None:
+        raise ValueError(f"export_clip: '{target.name}' plays no action to export")
+    first, last = math.floor(action.frame_range[0]), math.ceil(action.frame_range[1])
+    with _clip_alone(target, first, last):
+        if kind == "bvh":
+            bvh.save(target, path, frame_range=(first, last))
+        elif kind == "fbx":
+            # Every frame keyed (no simplify), so that the file plays Blender's evaluation, not a curve fit of it.
             bpy.ops.export_scene.fbx(filepath=path, use_selection=True, object_types={'ARMATURE'},
                                      add_leaf_bones=False, bake_anim_use_all_actions=False,
-                                     bake_anim_use_nla_strips=False)
+                                     bake_anim_use_nla_strips=False, bake_anim_simplify_factor=0.0)
         else:
-            bpy.ops.export_scene.gltf(**_gltf_options(path, kind))
+            bpy.ops.export_scene.gltf(**_gltf_options(path, kind, action.name))
+
+
+@contextlib.contextmanager
+def _selection_kept():
+    """The view layer's selected and active objects as they were, afterwards (an importer selects what it
+    brings and nothing else); those removed meanwhile left out, known by address, never touched."""
+    layer = bpy.context.view_layer
+    layer.update()  # objects linked or removed since (an import, its clean-up) listed as they are (4.x syncs lazily)
+    selected = {o.as_pointer() for o in layer.objects if o.select_get()}
+    active = layer.objects.active.as_pointer() if layer.objects.active is not None else None
+    try:
+        yield
     finally:
-        target.select_set(False)
-        for obj in selected:
-            obj.select_set(True)
-        bpy.context.view_layer.objects.active = active
+        layer.update()
+        for obj in layer.objects:
+            obj.select_set(obj.as_pointer() in selected)
+        layer.objects.active = next((o for o in layer.objects if o.as_pointer() == active), None)
 
 
-def _gltf_options(path: str, kind: str) -> dict:
-    """Only the active action, in whichever words this Blender's glTF exporter has for it."""
+_POSE_CHANNELS = {"location": (0.0, 0.0, 0.0), "rotation_quaternion": (1.0, 0.0, 0.0, 0.0),
+                  "rotation_euler": (0.0, 0.0, 0.0), "rotation_axis_angle": (0.0, 0.0, 1.0, 0.0),
+                  "scale": (1.0, 1.0, 1.0)}
+
+
+@contextlib.contextmanager
+def _clip_alone(target, first: int, last: int):
+    """The target alone selected and active, its NLA off, every pose channel at rest where the action keys
+    none (the clip keys no scale: what an earlier action left there is no part of it), the scene's range
+    the clip's; all put back after."""
+    scene, layer, anim = bpy.context.scene, bpy.context.view_layer, target.animation_data
+    kept = (scene.frame_start, scene.frame_end, scene.frame_current, anim.use_nla)
+    pose = [(b, {k: tuple(getattr(b, k)) for k in _POSE_CHANNELS}) for b in target.pose.bones]
+    with _selection_kept():
+        try:
+            for obj in layer.objects:
+                obj.select_set(obj == target)
+            layer.objects.active = target
+            anim.use_nla = False
+            for bone, _ in pose:
+                for key, rest in _POSE_CHANNELS.items():
+                    setattr(bone, key, rest)
+            scene.frame_start, scene.frame_end = first, last
+            yield
+        finally:
+            anim.use_nla = kept[3]
+            for bone, values in pose:
+                for key, value in values.items():
+                    setattr(bone, key, value)
+            scene.frame_start, scene.frame_end = kept[0], kept[1]
+            scene.frame_set(kept[2])
+
+
+def _gltf_options(path: str, kind: str, name: str) -> dict:
+    """Only the active action, as one animation named after it, in whichever words this Blender's glTF
+    exporter has: 3.4's export_anim_single_armature (on by default) would add every other armature action."""
     known = bpy.ops.export_scene.gltf.get_rna_type().properties.keys()
     options = {"filepath": path, "use_selection": True, "export_format": 'GLB' if kind == "glb" else 'GLTF_SEPARATE'}
-    if "export_animation_mode" in known:
-        options["export_animation_mode"] = 'ACTIVE_ACTIONS'
-    elif "export_nla_strips" in known:
-        options["export_nla_strips"] = False
+    wanted = {"export_animation_mode": 'ACTIVE_ACTIONS', "export_nla_strips": False,
+              "export_anim_single_armature": False, "export_frame_range": True,
+              "export_nla_strips_merged_animation_name": name}
+    options.update({key: value for key, value in wanted.items() if key in known})
     return options

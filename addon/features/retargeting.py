@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 import bpy
 import numpy as np
 
-from . import bvh, contacts, control_rigs, resampling
+from . import bvh, contacts, control_rigs, resampling, retarget_channels
 from ..blender import animdata, imports, object_channels, pose_channels
 from ..blender.imports import remove_armature
 from ..core import (bone_axes, bone_mapping, facing, floor_fit, native_state, object_motion, reference_pose,
@@ -42,6 +42,15 @@ CONTROLS = (
     ("none", "Bones", "Key the mapped bones themselves, even on a control rig"),
 )
 _IDENTITY = np.array([1.0, 0.0, 0.0, 0.0])
+# What the last apply() left out of the channels it carries (Plan.channels_left_out), for a caller that gets the
+# action alone (retarget(), the panel's operator, the batch): channels_left_out().
+_LEFT_OUT: list = []
+
+
+def channels_left_out() -> list:
+    """The channels (channel_carry.LeftOut) that the last retarget in this Blender did not carry, because the
+    target has no bone, property or shape key to take them; empty when it carried everything."""
+    return list(_LEFT_OUT)
 
 
 def _check_editable(obj) -> None:
@@ -177,6 +186,10 @@ class Plan:
     options: RetargetOptions = field(default_factory=RetargetOptions)  # what made it: apply() writes by its into
     written: list = field(default_factory=list)  # the target bones whose keys it writes (names)
     partial: bool = False  # only some of the target's bones are written (RetargetOptions.parts, bones)
+    # The bones' scale, custom properties and shape keys carried (RetargetOptions.channels), and those the
+    # target has no place for: channel_carry.LeftOut (kind, name, reason), never written.
+    carried: retarget_channels.Carried | None = None
+    channels_left_out: list = field(default_factory=list)
 
     def resolve(self) -> None:
         """Runs a pending feet's IK solve here and now: values, contact_report and all are then final."""
@@ -285,7 +298,13 @@ def plan(source, target, bone_map=None, frame_range=None, options: RetargetOptio
     plan_.chains, plan_.options = chains, o
     plan_.written = [rigs.tgt.names[b] for b in sorted(written)] if written is not None else list(rigs.tgt.names)
     plan_.partial = written is not None
-    if not (np.all(np.isfinite(plan_.values)) and np.all(np.isfinite(plan_.still_values))):
+    plan_.carried = retarget_channels.read(source, target, clip.action, clip.frames, pairs,
+                                           set(plan_.written) if plan_.partial else None, o)
+    if target_rig is not None:  # a control rig's controls are keyed (control_rigs.apply): none of these
+        plan_.carried = retarget_channels.on_controls(plan_.carried, len(clip.frames))
+    plan_.channels_left_out = plan_.carried.left_out
+    if not (np.all(np.isfinite(plan_.values)) and np.all(np.isfinite(plan_.still_values))
+            and retarget_channels.finite(plan_.carried)):
         raise ValueError("the retargeted motion is not finite; check the rigs' rest poses")
     return plan_  # a pending feet's solve is checked when it completes (contacts.cleanup and write_keys)
 
@@ -717,7 +736,20 @@ def apply(plan_: Plan, *, action_name: str | None = None, overwrite: bool = Fals
     on the target (for a part of the body, a copy of its own action with the written bones' curves
     replaced, so that the others keep every key); its own action over the clip's frames ("current": each
     written curve's keys before and after kept); or a new action on an NLA track above its own ("nla").
-    overwrite: the target's own action, the written bones' curves replaced whole. Returns the action keyed."""
+    overwrite: the target's own action, the written bones' curves replaced whole. Returns the action keyed.
+    The carried shape keys go into the target meshes' Keys' actions the same way (retarget_channels)."""
+    action = _apply_armature(plan_, action_name, overwrite)
+    carried = plan_.carried
+    if carried is not None and carried.shapes:
+        retarget_channels.write_shapes(carried, plan_.frames, plan_.options,
+                                       action_name or f"{plan_.source_name} -> {plan_.target.name}", overwrite,
+                                       plan_.partial)
+    _LEFT_OUT[:] = plan_.channels_left_out
+    return action
+
+
+def _apply_armature(plan_: Plan, action_name, overwrite) -> bpy.types.Action:
+    """apply()'s keys on the armature object: the bones' and the carried channels of the object."""
     target, o = plan_.target, plan_.options
     previous = animdata.assigned_action(target)
     if overwrite and previous is not None:
@@ -748,6 +780,22 @@ def apply(plan_: Plan, *, action_name: str | None = None, overwrite: bool = Fals
     return animdata.install_action(target, action, lambda keyed: _write(target, keyed, plan_))
 
 
+def new_action_for(plan_: Plan, name: str, base: bpy.types.Action | None) -> bpy.types.Action:
+    """A new action holding the plan's keys, not assigned (apply()'s "new", for a preview): for a part of the
+    body a copy of base (the target's own action) with the written bones' curves replaced."""
+    if plan_.partial and base is not None:
+        action = animdata.copy_action(base, name)
+        animdata.remove_curves(action, plan_.target, [pose_channels.bone_path(n) for n in plan_.written])
+    else:
+        action = animdata.new_action(name)
+    try:
+        _write(plan_.target, action, plan_)
+    except BaseException:
+        bpy.data.actions.remove(action)
+        raise
+    return action
+
+
 def _write(target, action, plan_: Plan, merge: bool = False) -> None:
     """The plan's keys into action; merge: over the clip's frames only (animdata.merge_keys)."""
     write = animdata.merge_keys if merge else animdata.write_keys
@@ -767,6 +815,9 @@ def _write(target, action, plan_: Plan, merge: bool = False) -> None:
             plan_.resolve()
             write(target, action, plan_.channels, plan_.frames, plan_.values)
         _write_unsolved(target, action, plan_, merge)
+    carried = plan_.carried
+    if carried is not None and carried.channels:
+        write(target, action, carried.channels, plan_.frames, carried.values)
     if not merge:  # the target's own action keeps its own rate
         animdata.record_frame_rate(action, plan_.frame_rate)
 
@@ -821,7 +872,9 @@ def retarget(source, target, bone_map=None, frame_range=None, options: RetargetO
     fingers match: Plan.chains), ground, align_facing, source_floor and
     target_floor, floor_fit (FLOOR_FITS), floor_root and root_smoothing
     (FLOOR_ROOTS), plant_feet and contact_settings (planted feet are stored on
-    the new action as 0/1 contact curves). The hips are the body's root on both
+    the new action as 0/1 contact curves), channels and channel_map (bone
+    scale, custom properties and shape keys carried by name; what the target
+    has no place for is left out: channels_left_out()). The hips are the body's root on both
     sides and the translation is scaled by the ratio of leg lengths measured
     along the legs. The new action is assigned to the target (its previous
     action keeps a fake user rather than being lost); with overwrite the keys
@@ -829,6 +882,7 @@ def retarget(source, target, bone_map=None, frame_range=None, options: RetargetO
     file as it was (a BVH source is removed again).
     """
     imported_source = _imported_source_option(imported_source, bvh_source)
+    _LEFT_OUT.clear()
     if target is not None and getattr(target, "type", None) == 'ARMATURE':
         _check_editable(target)
     options = from_keywords(options, **keywords)
@@ -980,12 +1034,15 @@ def _retarget_controls(source, target, controls, limbs, control_map, keys, reduc
     if controls == "none":
         return None
     # The deform skeleton's retarget is this module's plan(), handed over: control_rigs builds on it.
-    result = control_rigs.plan(source, target, lambda skeleton: plan(source, target, *call, target_rig=skeleton),
+    planned = []
+    result = control_rigs.plan(source, target, lambda skeleton: planned.append(
+                               plan(source, target, *call, target_rig=skeleton)) or planned[-1],
                                controls=controls, limbs=limbs, control_map=control_map, keys=keys,
                                progress=progress)
     if result is None:
         return None
     action = control_rigs.apply(result, action_name=action_name, overwrite=overwrite)
+    _LEFT_OUT[:] = planned[-1].channels_left_out
     if reduce:
         resampling.reduce_keys(target, bones=result.keyed)
     return action

@@ -3,7 +3,7 @@ menu entries (bvh, keys, retarget, contacts, ik), the sidebar's top panel, the p
 share (common). register() puts them into Blender in order; unregister() takes them out in reverse."""
 import bpy
 
-from . import batch, bvh, common, contacts, ik, keys, preferences, retarget, sidebar
+from . import batch, bvh, common, contacts, ik, keys, preferences, preview, retarget, sidebar
 from ..features import ik_live
 
 classes = (
@@ -14,6 +14,7 @@ classes = (
     *keys.classes,
     *contacts.classes,
     *retarget.classes,
+    *preview.classes,
     *batch.classes,
     *ik.classes,
 )
@@ -31,6 +32,7 @@ def register():
         getattr(bpy.types, menu).append(keys.menu_keys)
     bpy.types.VIEW3D_MT_pose.append(contacts.menu_pose)
     ik_live.register(ik.live_settings)
+    preview.register()
 
 
 def unregister():
@@ -39,6 +41,7 @@ def unregister():
         getattr(bpy.types, menu).remove(keys.menu_keys)
     bpy.types.TOPBAR_MT_file_export.remove(bvh.menu_export)
     bpy.types.TOPBAR_MT_file_import.remove(bvh.menu_import)
+    preview.unregister()
     ik_live.unregister()
     ik.unregister_properties()
     batch.unregister_properties()

@@ -9,8 +9,9 @@ from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProp
 from bpy_extras.io_utils import ExportHelper, ImportHelper
 
 from . import common, contacts as contact_ui
+from .preview import MOTIONKIT_PG_retarget_preview
 from ..blender import pose_channels
-from ..core import bone_mapping, display_names, reference_pose, retarget_parts
+from ..core import bone_mapping, channel_carry, display_names, reference_pose, retarget_parts
 from ..core.retarget_options import RetargetOptions
 from ..features import bvh, control_rigs, retargeting, scene_timing
 
@@ -198,6 +199,11 @@ class MOTIONKIT_PG_retarget(bpy.types.PropertyGroup):
                         description="How the NLA track blends over the motion below it")
     influence: FloatProperty(name="Influence", default=1.0, min=0.0, max=1.0, subtype='FACTOR',
                              description="How much of the NLA track shows")
+    channels: EnumProperty(name="Carry", items=channel_carry.CHANNELS, options={'ENUM_FLAG'},
+                           default=set(channel_carry.IDS),
+                           description="What else is carried, by name, where the target has it (the rest is "
+                                       "reported)")
+    preview: PointerProperty(type=MOTIONKIT_PG_retarget_preview)
 
     def bone_map(self) -> list[tuple[str, str]]:
         return [(p.source, p.target) for p in self.pairs if p.source and p.target]
@@ -210,7 +216,8 @@ class MOTIONKIT_PG_retarget(bpy.types.PropertyGroup):
             target_match=self.target_match, ground=self.ground, align_facing=self.align_facing,
             floor_root=self.floor_root, root_smoothing=self.root_smoothing,
             plant_feet=None if self.plant_feet else False, contact_settings=contact_ui.settings(self.contacts),
-            floor_fit=self.floor_fit, chain_modes=self.reference_pose.chain_modes(), **self._written())
+            floor_fit=self.floor_fit, chain_modes=self.reference_pose.chain_modes(),
+            channels=tuple(c for c in channel_carry.IDS if c in self.channels), **self._written())
 
     def _written(self) -> dict:
         """What the panel writes and where: the preset's parts, or the ticked rows' target bones."""
@@ -277,43 +284,54 @@ class MOTIONKIT_OT_retarget(bpy.types.Operator):
 
     @classmethod
     def poll(cls, context):
+        if _settings(context).preview.on:
+            cls.poll_message_set("Apply or cancel the preview first")
+            return False
         return common.poll_native(cls) and _poll_rigs(cls, context)
 
     def execute(self, context):
-        settings = _settings(context)
-        source = bpy.path.abspath(settings.bvh_path) if settings.source_kind == 'BVH' else settings.source
-        frame_range = (settings.frame_start, settings.frame_end) if settings.use_frame_range else None
+        return run_retarget(self, context)
 
-        bvh_options = ({"bvh_scale": "auto" if settings.bvh_auto_scale else settings.bvh_scale,
-                        "imported_source": settings.bvh_source} if settings.source_kind == 'BVH' else {})
 
-        controls = {"controls": settings.controls, "keys": settings.keys, "reduce": settings.reduce,
-                    "control_map": bpy.path.abspath(settings.control_map) if settings.control_map else None}
-        if settings.controls == "auto":
-            controls["limbs"] = {"arm": settings.arms, "leg": settings.legs}
+def run_retarget(self, context) -> set:
+    """The Retarget button's work for an operator (self): the panel's settings retargeted and keyed."""
+    settings = _settings(context)
+    source = bpy.path.abspath(settings.bvh_path) if settings.source_kind == 'BVH' else settings.source
+    frame_range = (settings.frame_start, settings.frame_end) if settings.use_frame_range else None
 
-        def work(progress):
-            progress(0, 4)
-            action = retargeting.retarget(
-                source, settings.target, settings.bone_map() or None, frame_range, settings.retarget_options(),
-                overwrite=settings.overwrite, progress=progress, **controls, **bvh_options)
-            timing = scene_timing.from_clip(context.scene, action) if settings.scene_from_clip else None
-            _decide_chains(settings, settings.bone_map() or None)
-            left_out = "" if settings.bone_map() or settings.source_kind != 'ARMATURE' else \
-                bone_mapping.auto_map_report(_source_rig(settings), pose_channels.armature_mapping_rig(
-                    settings.target, upright=True)).message()
-            return action, timing, left_out
+    bvh_options = ({"bvh_scale": "auto" if settings.bvh_auto_scale else settings.bvh_scale,
+                    "imported_source": settings.bvh_source} if settings.source_kind == 'BVH' else {})
 
-        def done(result):
-            action, timing, left_out = result
-            if left_out:
-                self.report({'WARNING'}, f"Auto-mapped; {left_out}")
-            played = f"; the scene plays it at {timing[0]:g} fps, frames {timing[1]}-{timing[2]}" if timing else ""
-            decided = _decided_text(settings)
-            return f"Retargeted onto '{settings.target.name}' as action '{action.name}'{played}" + (
-                f". {decided}" if decided else "")
+    controls = {"controls": settings.controls, "keys": settings.keys, "reduce": settings.reduce,
+                "control_map": bpy.path.abspath(settings.control_map) if settings.control_map else None}
+    if settings.controls == "auto":
+        controls["limbs"] = {"arm": settings.arms, "leg": settings.legs}
 
-        return common.run(self, context, work, done)
+    def work(progress):
+        progress(0, 4)
+        action = retargeting.retarget(
+            source, settings.target, settings.bone_map() or None, frame_range, settings.retarget_options(),
+            overwrite=settings.overwrite, progress=progress, **controls, **bvh_options)
+        timing = scene_timing.from_clip(context.scene, action) if settings.scene_from_clip else None
+        not_carried = channel_carry.summary(retargeting.channels_left_out())
+        _decide_chains(settings, settings.bone_map() or None)
+        left_out = "" if settings.bone_map() or settings.source_kind != 'ARMATURE' else \
+            bone_mapping.auto_map_report(_source_rig(settings), pose_channels.armature_mapping_rig(
+                settings.target, upright=True)).message()
+        return action, timing, left_out, not_carried
+
+    def done(result):
+        action, timing, left_out, not_carried = result
+        if left_out:
+            self.report({'WARNING'}, f"Auto-mapped; {left_out}")
+        if not_carried:  # the target has no bone, property or shape key for them
+            self.report({'WARNING'}, not_carried)
+        played = f"; the scene plays it at {timing[0]:g} fps, frames {timing[1]}-{timing[2]}" if timing else ""
+        decided = _decided_text(settings)
+        return f"Retargeted onto '{settings.target.name}' as action '{action.name}'{played}" + (
+            f". {decided}" if decided else "")
+
+    return common.run(self, context, work, done)
 
 
 class MOTIONKIT_OT_bone_map_auto(bpy.types.Operator):
@@ -521,6 +539,21 @@ class MOTIONKIT_PT_retarget(common.SidebarPanel, bpy.types.Panel):
                 col.prop(settings, "bvh_scale")
             col.prop(settings, "bvh_source")
         layout.operator("motionkit.retarget", icon='ARMATURE_DATA')
+        _draw_preview(layout, settings.preview)
+
+
+def _draw_preview(layout, state) -> None:
+    """Preview, or while it plays Apply and Cancel, and what the last update took (or why it failed)."""
+    row = layout.row(align=True)
+    if not state.on:
+        row.operator("motionkit.retarget_preview", icon='HIDE_OFF')
+        return
+    row.operator("motionkit.retarget_preview_apply", icon='CHECKMARK')
+    row.operator("motionkit.retarget_preview_cancel", icon='X')
+    if state.message:
+        layout.label(text=state.message, icon='ERROR')
+    else:
+        layout.label(text=f"Preview updated in {state.seconds:.2f} s", icon='TIME')
 
 
 class RetargetSubPanel(common.SidebarPanel):
@@ -628,6 +661,7 @@ class MOTIONKIT_PT_retarget_options(RetargetSubPanel, bpy.types.Panel):
             col.prop(settings, "influence")
         elif settings.into == "new":
             col.prop(settings, "overwrite")
+        layout.prop(settings, "channels")
 
 
 class MOTIONKIT_PT_retarget_feet(RetargetSubPanel, bpy.types.Panel):
@@ -661,7 +695,8 @@ class MOTIONKIT_PT_retarget_feet_motion(common.SidebarPanel, bpy.types.Panel):
 BONE_MAP = common.editable_list(common.EditableList(
     "bone_map", "pair", lambda context: context.scene.motionkit_retarget, "pairs", "active_pair", "No scene"))
 
-classes = (MOTIONKIT_PG_bone_pair, MOTIONKIT_PG_reference_pose, MOTIONKIT_PG_retarget, MOTIONKIT_OT_retarget,
+classes = (MOTIONKIT_PG_bone_pair, MOTIONKIT_PG_reference_pose, MOTIONKIT_PG_retarget_preview, MOTIONKIT_PG_retarget,
+           MOTIONKIT_OT_retarget,
            MOTIONKIT_OT_bone_map_auto, MOTIONKIT_OT_reference_pose,
            MOTIONKIT_OT_bone_map_scheme, MOTIONKIT_OT_bone_map_save, MOTIONKIT_OT_bone_map_load,
            MOTIONKIT_UL_bone_map, MOTIONKIT_PT_retarget, MOTIONKIT_PT_retarget_map, MOTIONKIT_PT_retarget_controls,

@@ -100,14 +100,17 @@ def test_check_options_refuses_a_bad_retarget_options_naming_the_option(mk):
 def test_the_panel_fills_the_options_from_its_settings(mk):
     settings = bpy.context.scene.motionkit_retarget
     names = ("root_motion", "source_match", "match_frame", "target_match", "ground", "align_facing", "floor_root",
-             "root_smoothing", "plant_feet", "floor_fit")
+             "root_smoothing", "plant_feet", "floor_fit", "channels")
     before = {n: getattr(settings, n) for n in names}
     try:
         settings.root_motion, settings.source_match, settings.match_frame = "in_place", 'FRAME', 7
         settings.target_match, settings.ground, settings.align_facing = 'CURRENT', True, False
         settings.floor_root, settings.root_smoothing, settings.floor_fit = "extract", 0.5, "hips"
         settings.plant_feet = False
+        assert settings.retarget_options().channels == ("scale", "properties", "shape_keys")  # the default
+        settings.channels = {"shape_keys", "scale"}
         options = settings.retarget_options()
+        assert options.channels == ("scale", "shape_keys")
         assert (options.root, options.source_match, options.match_frame, options.target_match) == \
                ("in_place", 'FRAME', 7, 'CURRENT')
         assert (options.ground, options.align_facing, options.floor_root, options.floor_fit) == \

@@ -106,7 +106,7 @@ def test_every_surface_draws_without_a_python_error(panels):
 SCREENS = ("sidebar-object", "sidebar-pose", "dialog-resample", "dialog-reduce", "dialog-schemes", "dialog-filter",
            "redo-reduce",
            "redo-resample", "browser-import", "browser-export", "menu-import", "menu-graph-key",
-           "menu-dopesheet-key", "sidebar-rigify")
+           "menu-dopesheet-key", "sidebar-parts", "sidebar-parts-nla", "sidebar-rigify")
 
 
 @pytest.mark.parametrize("name", SCREENS)
@@ -135,6 +135,16 @@ SIDEBAR_LABELS = (
     "Solve", "Solver", "Method", "Damped LS", "Iterations", "Damping", "Smoothing", "Move", "Rotate", "Limits",
     "Scene Range", "New Action", "Bake", "Natural Defaults",
 )
+
+
+def test_a_part_of_the_body_through_the_panel(panels):
+    """The Body preset ticks the arms' rows only; Retarget into the current action keeps the walk's legs; the
+    choices read whole on the sidebar, the NLA track's blend and influence once it is chosen."""
+    ticked = panels["parts.ticked"]
+    assert ticked and all(any(k in n for k in ("Shoulder", "Arm", "Hand")) for n in ticked)
+    assert panels["parts.result"] == ["FINISHED"] and panels["parts.same_action"] and panels["parts.legs_kept"]
+    assert unread(panels, "sidebar-parts", ("Body", "Arms", "Into", "Current Action")) == []
+    assert unread(panels, "sidebar-parts-nla", ("Into", "NLA Track", "Blend", "Replace", "Influence")) == []
 
 
 @pytest.mark.parametrize("mode", ["object", "pose"])

@@ -16,9 +16,9 @@ from core.retarget_options import RetargetOptions, check_frame_range, from_keywo
 
 DOCUMENTED_DEFAULTS = dict(
     root="scaled", source_match="REST", match_frame=None, target_match="REST", ground=False, align_facing=True,
-    floor_root="auto", root_smoothing=0.25, root_motion_onto="auto", plant_feet=None, contact_settings=None, source_floor=None,
-    target_floor=None, floor_fit="legs", chain_modes=None, parts="whole", bones=None, into="new", blend="replace",
-    influence=1.0)
+    floor_root="auto", root_smoothing=0.25, root_motion_onto="auto", plant_feet=None, contact_settings=None,
+    source_floor=None, target_floor=None, floor_fit="legs", chain_modes=None, parts="whole", bones=None, into="new",
+    blend="replace", influence=1.0, channels=("scale", "properties", "shape_keys"), channel_map=None)
 
 
 def test_defaults_are_the_documented_ones_and_valid():
@@ -47,6 +47,8 @@ GOOD = [
     dict(chain_modes={"trunk": "MATCH", "leg.L": "KEEP"}), dict(chain_modes={}),
     dict(parts="arms"), dict(parts=("arm.L", "hand.L")), dict(bones=("mixamorig:LeftArm",)),
     dict(into="current"), dict(into="nla", blend="add", influence=0.25), dict(influence=np.float32(0.0)),
+    dict(channels=()), dict(channels=["shape_keys"]), dict(channels=("scale", "properties")),
+    dict(channel_map={}), dict(channel_map={"mouthSmile_L": "smile.L", "squash": "stretch"}),
 ]
 
 
@@ -96,6 +98,12 @@ BAD = [  # (field values, what the message must say: the option and the value)
     (dict(blend="multiply"), r"unknown blend 'multiply'"),
     (dict(influence=1.5), r"influence must be a number from 0 to 1, not 1\.5"),
     (dict(influence=True), r"influence must be a number from 0 to 1, not True"),
+    (dict(channels="scale"), r"channels must be a list of \['scale', 'properties', 'shape_keys'\], not 'scale'"),
+    (dict(channels=None), r"channels must be a list of .*, not None"),
+    (dict(channels=("scale", "rotation")), r"unknown channel 'rotation'"),
+    (dict(channel_map=[("a", "b")]), r"channel_map must be a \{source name: target name\} dict or None, not \["),
+    (dict(channel_map={"jawOpen": ""}), r"channel_map: 'jawOpen': '' is not a pair of non-empty names"),
+    (dict(channel_map={"jawOpen": 3}), r"channel_map: 'jawOpen': 3 is not a pair"),
 ]
 
 

@@ -232,6 +232,31 @@ def steps():
         harness.key('ESC', x=where.x + where.width // 2, y=where.y + where.height // 2)
         yield from harness.popup_gone(before, box, shot(name + "-not-closed"))
 
+    # A part of the body over the character's own walk: the Body preset ticks the arms' rows (the others
+    # drawn dim), the keys go into its current action; a click on Retarget, as a user makes it.
+    settings = bpy.context.scene.motionkit_retarget
+    with harness.override(area_=view):
+        bpy.ops.object.mode_set(mode='OBJECT')
+    target = settings.target  # the operators' undo steps above remade the objects: found again here
+    walk = target.animation_data.action
+    legs_before = {(fc.data_path, fc.array_index): fc.evaluate(10.0) for fc in mk.animdata.fcurves(walk, target)
+                   if "UpLeg" in fc.data_path}
+    settings.parts, settings.into = "arms", "current"
+    harness.report("parts.ticked", sorted(p.target for p in settings.pairs if p.use))
+    yield from harness.redrawn(watch)
+    read_sidebar("sidebar-parts", view)
+    with harness.override(area_=view):
+        result = bpy.ops.motionkit.retarget('EXEC_DEFAULT', True)
+    harness.report("parts.result", sorted(result))
+    harness.report("parts.same_action", target.animation_data.action == walk)
+    harness.report("parts.legs_kept", bool(legs_before) and all(
+        fc.evaluate(10.0) == legs_before[(fc.data_path, fc.array_index)] for fc in mk.animdata.fcurves(walk, target)
+        if (fc.data_path, fc.array_index) in legs_before))
+    settings.into = "nla"
+    yield from harness.redrawn(watch)
+    read_sidebar("sidebar-parts-nla", view)
+    settings.parts, settings.into = "whole", "new"
+
     # A Rigify rig as the retarget's target: the Controls sub-panel says what it is, its arms' and legs'
     # FK/IK choice active.
     import rigify_rig

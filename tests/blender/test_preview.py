@@ -1,0 +1,98 @@
+"""The retarget's live preview (issue 38, part 5): the target plays the retarget from an action of the
+preview's own, remade as the panel's settings change, the user's actions untouched; Cancel leaves the scene
+as it was, Apply keys the retarget as the Retarget button does. Judged by Blender's evaluation."""
+import importlib
+
+import bpy
+import numpy as np
+import pytest
+
+import characters
+import generate
+
+
+@pytest.fixture()
+def panel(mk, walk60):
+    """The Retarget panel set up as a user has it: walk60 onto the sample character that walks its own walk."""
+    source, _ = mk.bvh.load(walk60)
+    target = generate.build_armature(characters.MIXAMO_T)
+    generate.add_walk(target, characters.MIXAMO_T, mk.animdata)
+    settings = bpy.context.scene.motionkit_retarget
+    settings.source_kind, settings.source, settings.target = 'ARMATURE', source, target
+    settings.set_bone_map(mk.retargeting.auto_map(source, target))
+    settings.scene_from_clip = False
+    yield settings
+    ui_preview = importlib.import_module(mk.__name__ + ".ui.preview")
+    ui_preview.stop(settings)
+
+
+def _keys(mk, obj, action):
+    out = {}
+    for fc in mk.animdata.fcurves(action, obj):
+        co = np.empty(2 * len(fc.keyframe_points), dtype=np.float32)
+        fc.keyframe_points.foreach_get("co", co)
+        out[(fc.data_path, fc.array_index)] = co.tobytes()
+    return out
+
+
+def _pose(obj, frames):
+    """(frames, bones, 4, 4) every bone's armature-space matrix, as Blender evaluates it."""
+    out = []
+    for frame in frames:
+        bpy.context.scene.frame_set(int(frame))
+        out.append([np.array(b.matrix) for b in obj.pose.bones])
+    return np.array(out)
+
+
+def test_preview_plays_the_retarget_and_cancel_puts_everything_back(mk, panel):
+    ui_preview = importlib.import_module(mk.__name__ + ".ui.preview")
+    target, walk = panel.target, panel.target.animation_data.action
+    actions, keys, frame = set(bpy.data.actions), _keys(mk, target, walk), bpy.context.scene.frame_current
+    frames = [1, 40, 90]
+    walking = _pose(target, frames)
+    assert bpy.ops.motionkit.retarget_preview() == {'FINISHED'}
+    shown = panel.preview.action
+    assert target.animation_data.action == shown and shown not in actions and _keys(mk, target, walk) == keys
+    shown_pointer = shown.as_pointer()
+    previewed = _pose(target, frames)
+    # The preview's pose is the retarget's: the same plan keyed into a copy by the public call.
+    copy = target.copy()
+    copy.data = target.data.copy()
+    copy.animation_data_clear()
+    bpy.context.scene.collection.objects.link(copy)
+    made = mk.retarget(panel.source, copy, panel.bone_map(), options=panel.retarget_options())
+    assert np.abs(_pose(copy, frames) - previewed).max() < 1e-6  # float32 matrices, the same keys
+    bpy.data.objects.remove(copy)
+    bpy.data.actions.remove(made)
+    # A change of an option remakes it (the timer's look at the settings, called here: no event loop).
+    panel.root_motion = "in_place"
+    ui_preview._tick()
+    assert panel.preview.action.as_pointer() != shown_pointer  # the first preview removed, a new one made
+    assert np.abs(_pose(target, frames) - previewed).max() > 1e-3
+    assert bpy.ops.motionkit.retarget_preview_cancel() == {'FINISHED'}
+    assert target.animation_data.action == walk and set(bpy.data.actions) == actions
+    assert _keys(mk, target, walk) == keys and np.array_equal(_pose(target, frames), walking)
+    bpy.context.scene.frame_set(frame)
+
+
+def test_apply_keys_what_was_previewed(mk, panel):
+    target, walk = panel.target, panel.target.animation_data.action
+    frames = [1, 60]
+    panel.parts = "arms"
+    assert bpy.ops.motionkit.retarget_preview() == {'FINISHED'}
+    previewed = _pose(target, frames)
+    assert not bpy.ops.motionkit.retarget.poll()  # Retarget waits for Apply or Cancel
+    assert bpy.ops.motionkit.retarget_preview_apply() == {'FINISHED'}
+    applied = target.animation_data.action
+    assert applied not in (walk, None) and not panel.preview.on and walk.use_fake_user
+    assert "MotionKit Preview" not in bpy.data.actions
+    assert np.abs(_pose(target, frames) - previewed).max() < 1e-6
+
+
+def test_a_preview_that_fails_says_why_and_keeps_the_last(mk, panel):
+    ui_preview = importlib.import_module(mk.__name__ + ".ui.preview")
+    assert bpy.ops.motionkit.retarget_preview() == {'FINISHED'}
+    shown = panel.preview.action
+    panel.pairs[0].target = "no such bone"
+    ui_preview._tick()
+    assert "no such bone" in panel.preview.message and panel.target.animation_data.action == shown
