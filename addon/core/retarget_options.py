@@ -37,6 +37,20 @@ SOURCE_MATCHES = (
     ('REST', "Rest pose", "The source's rest pose is its reference pose"),
     ('FRAME', "Frame", "The source's pose on a frame (say a T-pose on frame 0) is its reference pose"),
 )
+# Where the target's travel goes (RetargetOptions.root_motion_onto): game engines take root motion from a root
+# bone (Unreal) or from the object; the ids are what validate() accepts.
+ROOT_MOTION_ONTO = (
+    ("auto", "Auto", "As the floor root option says: the hips carry the motion, a root bone above them as chosen"),
+    ("hips", "Hips", "The hips carry all the motion; a root bone above them stays still"),
+    ("root", "Root Bone",
+     "The root bone above the hips follows the hips' ground path and heading, smoothed, on the floor and "
+     "unrotated about the other axes (Unreal's root motion); the hips keep the rest"),
+    ("object", "Object",
+     "The armature object is keyed with the hips' ground path and heading, smoothed; the hips keep the rest, "
+     "so the world pose is the same"),
+)
+# What root_motion_onto leaves the floor root (FLOOR_ROOTS) free to be: "auto" any, the others their own.
+_ONTO_FLOOR_ROOT = {"hips": "still", "root": "extract", "object": "still"}
 TARGET_MATCHES = (
     ('REST', "Rest pose", "The target's rest pose is its reference pose"),
     ('CURRENT', "Current pose", "The target's current pose, set to stand like the source's reference pose"),
@@ -68,6 +82,10 @@ class RetargetOptions:
     # "still", "copy" or "extract"; root_smoothing: seconds of Gaussian smoothing for "extract".
     floor_root: str = "auto"
     root_smoothing: float = 0.25
+    # Where the target's travel ends up (ROOT_MOTION_ONTO): "auto" (floor_root decides), "hips", "root" (the
+    # root bone above the hips, extracted) or "object" (the armature object keyed, the hips the rest);
+    # anything but "auto" sets the floor root's motion itself (floor_root then "auto" or that same motion).
+    root_motion_onto: str = "auto"
     # Feet that stand still in the source stay planted on the target (contacts detected on the source,
     # held by full-body IK): None plants where both rigs have two labelled legs, True requires them,
     # False never; contact_settings tunes the detection (None: foot_contacts.ContactSettings()).
@@ -103,9 +121,14 @@ class RetargetOptions:
         """self, every value checked: a ValueError naming the option and the value."""
         for name, value, known in (("floor_fit", self.floor_fit, FLOOR_FITS),
                                    ("root motion", self.root, ROOT_MOTIONS),
-                                   ("floor root motion", self.floor_root, FLOOR_ROOTS)):
+                                   ("floor root motion", self.floor_root, FLOOR_ROOTS),
+                                   ("root_motion_onto", self.root_motion_onto, ROOT_MOTION_ONTO)):
             if value not in [k[0] for k in known]:
                 raise ValueError(f"unknown {name} {value!r}; expected one of {[k[0] for k in known]}")
+        implied = _ONTO_FLOOR_ROOT.get(self.root_motion_onto)
+        if implied is not None and self.floor_root not in ("auto", implied):
+            raise ValueError(f"root_motion_onto {self.root_motion_onto!r} moves the floor root itself "
+                             f"({implied!r}): floor_root must be 'auto' or {implied!r}, not {self.floor_root!r}")
         smoothing = self.root_smoothing
         if not (is_number(smoothing) and np.isfinite(smoothing) and smoothing >= 0):
             raise ValueError(f"root_smoothing must be a non-negative number of seconds, not {smoothing!r}")

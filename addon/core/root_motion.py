@@ -134,14 +134,22 @@ def _local(rest: FloorRootRest, bone: int, parent: int, parent_rotations, parent
 
 
 def extract_track(hips_rotations, hips_heads, hips_match_rotation, hips_match_head, root_match_rotation,
-                  root_match_head, sigma_frames: float) -> tuple[np.ndarray, np.ndarray]:
+                  root_match_head, sigma_frames: float, height: float | None = None,
+                  up=None) -> tuple[np.ndarray, np.ndarray]:
     """The floor root's armature-space rotations (n, 4) and heads (n, 3) for root motion:
-    its match pose moved along the hips' ground track and turned with the hips' heading, both smoothed."""
+    its match pose moved along the hips' ground track and turned with the hips' heading, both smoothed.
+    up: the world's up in armature space (default Z; an FBX import's is Y); height: the heads' height along
+    it (the floor's), else the match pose's."""
+    up = np.array([0.0, 0.0, 1.0]) if up is None else np.asarray(up, dtype=np.float64) / np.linalg.norm(up)
     turn = multiply(hips_rotations, conjugate(hips_match_rotation))
-    yaw = smooth(heading(turn), sigma_frames)
+    yaw = smooth(np.unwrap(twist_angles(turn, up)), sigma_frames)
     moved = smooth(hips_heads - hips_match_head, sigma_frames)
-    moved[:, 2] = 0.0  # on the floor: the hips keep their height and sway
-    return sign_continuous(multiply(about_z(yaw), root_match_rotation), _IDENTITY), root_match_head + moved
+    moved -= np.outer(moved @ up, up)  # on the floor: the hips keep their height and sway
+    heads = root_match_head + moved
+    if height is not None:
+        heads += np.outer(height - heads @ up, up)
+    about_up = np.column_stack([np.cos(0.5 * yaw), np.sin(0.5 * yaw)[:, None] * up])
+    return sign_continuous(multiply(about_up, root_match_rotation), _IDENTITY), heads
 
 
 def copy_track(source_rotations, source_heads, source_match_rotation, source_match_head, space,
@@ -203,6 +211,8 @@ class FloorRootMotion:
     scale: float
     root: str
     sigma_frames: float
+    height: float | None = None  # "extract": the root's height (the floor's), else its match pose's
+    up: np.ndarray | None = None  # "extract": the world's up in armature space (default Z)
 
 
 def move_floor_root(rig, match, rotations, locations, floor: int, hips: int, how: FloorRootMotion) -> None:
@@ -214,7 +224,8 @@ def move_floor_root(rig, match, rotations, locations, floor: int, hips: int, how
     block = lambda a, b, n: a[:, n * b:n * b + n]  # noqa: E731
     if how.mode == "extract":
         track = extract_track(block(posed_rotations, hips, 4), block(posed_heads, hips, 3), match.rotations[hips],
-                              match.heads[hips], match.rotations[floor], match.heads[floor], how.sigma_frames)
+                              match.heads[hips], match.rotations[floor], match.heads[floor], how.sigma_frames,
+                              how.height, how.up)
     else:
         track = copy_track(*how.source_motion, how.space, match.rotations[floor], match.heads[floor], how.scale,
                            horizontal=how.root in ("scaled", "offset"), vertical=how.root != "none")
@@ -238,3 +249,27 @@ def move_floor_root(rig, match, rotations, locations, floor: int, hips: int, how
     locations[:, 3 * floor:3 * floor + 3] = root_location
     rotations[:, 4 * hips:4 * hips + 4] = hips_basis
     locations[:, 3 * hips:3 * hips + 3] = hips_location
+
+
+def onto_object(rig, match, rotations, locations, hips: int, sigma_frames: float,
+                up=None) -> tuple[np.ndarray, np.ndarray]:
+    """The object's ground track for root motion on the object: (rotations (n, 4), translations (n, 3)) in
+    armature space, the hips' ground path and heading from their match pose, smoothed (extract_track about
+    the armature's origin; up: the world's up in armature space). The hips are re-expressed under their
+    parent, as it stands (in place in rotations, locations), so that the armature-space pose moved by the
+    track is the pose before: the world pose is the same once the object takes the track."""
+    native = native_state.native()
+    posed_rotations, posed_heads = native.armature_pose(rig.native, rotations, locations)
+    block = lambda a, b, n: a[:, n * b:n * b + n]  # noqa: E731
+    hips_rotations, hips_heads = block(posed_rotations, hips, 4), block(posed_heads, hips, 3)
+    turn, moved = extract_track(hips_rotations, hips_heads, match.rotations[hips], match.heads[hips], _IDENTITY,
+                                np.zeros(3), sigma_frames, up=up)
+    back = conjugate(turn)
+    parent = rig.parents[hips]
+    rest = FloorRootRest(hips, parent, hips, parent, rig.unit_rest, rig.heads)
+    parent_pose = (None, None) if parent < 0 else (block(posed_rotations, parent, 4), block(posed_heads, parent, 3))
+    basis, location = _local(rest, hips, parent, *parent_pose, multiply(back, hips_rotations),
+                             rotate(back, hips_heads - moved))
+    rotations[:, 4 * hips:4 * hips + 4] = sign_continuous(basis, _IDENTITY)
+    locations[:, 3 * hips:3 * hips + 3] = location
+    return turn, moved

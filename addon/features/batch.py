@@ -182,6 +182,7 @@ def check_arguments(target, export, out_dir, keep, options) -> None:
     if "action_name" in options:
         raise ValueError("action_name: a batch names each action after its clip")
     retargeting.check_options(**options)
+    retargeting.check_root_bone(target, retargeting.split_options(options)[0])
 
 
 def retarget_files(paths, target, **options) -> list:

@@ -1,7 +1,8 @@
 """MotionKit from a pipeline's command line, in a Blender that has the target's .blend open:
 
     blender -b character.blend --python-expr "import motionkit.cli as c; c.main()" -- \\
-        retarget --target Armature --out DIR [--export fbx] [--workers 2 | --scheduler tcp://host:8786] clips/
+        retarget --target Armature --out DIR [--export fbx] [--root-motion-onto root]
+        [--workers 2 | --scheduler tcp://host:8786] clips/
 
 Progress goes to the console (file i of n, time left), the report (report.json, report.csv) into --report
 (default: --out, else the current folder) and as a table onto the console; --save keeps the new actions in
@@ -19,6 +20,7 @@ import time
 import bpy
 
 from ..core import batch_report
+from ..core.retarget_options import ROOT_MOTION_ONTO
 from . import batch, batch_workers
 
 MAX_STATUS = 100
@@ -60,6 +62,10 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--files-only", action="store_true",
                      help="with --export: write the clips out without keeping their actions in the .blend")
     run.add_argument("--plant-feet", choices=("auto", "on", "off"), default="auto")
+    run.add_argument("--root-motion-onto", choices=[c[0] for c in ROOT_MOTION_ONTO], default="auto",
+                     help="where the target's travel goes: auto (the hips; a root bone above them moves as the "
+                          "source's does, if it has one), hips, root (the root bone above the hips, on the floor: "
+                          "Unreal's root motion) or object (the armature object keyed)")
     workers = run.add_mutually_exclusive_group()
     workers.add_argument("--workers", type=_workers, default=1, help="Blender processes to run side by side")
     workers.add_argument("--scheduler", help="a Dask distributed scheduler's address to run the files on")
@@ -68,7 +74,8 @@ def _parser() -> argparse.ArgumentParser:
 
 def retarget_options(args) -> dict:
     """The retarget's options the command line sets (what a worker is given too)."""
-    return {"plant_feet": {"auto": None, "on": True, "off": False}[args.plant_feet]}
+    return {"plant_feet": {"auto": None, "on": True, "off": False}[args.plant_feet],
+            "root_motion_onto": args.root_motion_onto}
 
 
 class ConsoleProgress:

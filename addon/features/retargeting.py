@@ -8,6 +8,7 @@ checked before anything in the file changes, so an error leaves it as it was.
 """
 from __future__ import annotations
 
+import dataclasses
 import inspect
 import os
 from dataclasses import dataclass, field
@@ -16,13 +17,13 @@ import bpy
 import numpy as np
 
 from . import bvh, contacts, control_rigs, resampling, retarget_channels
-from ..blender import animdata, imports, pose_channels
+from ..blender import animdata, imports, object_channels, pose_channels
 from ..blender.imports import remove_armature
-from ..core import (bone_axes, bone_mapping, facing, floor_fit, native_state, reference_pose, retarget_options,
-                    retarget_parts, root_motion, rotation_channels, twist, worker_thread)
+from ..core import (bone_axes, bone_mapping, facing, floor_fit, native_state, object_motion, reference_pose,
+                    retarget_options, retarget_parts, root_motion, rotation_channels, twist, worker_thread)
 from ..core.rig_data import Pose, RigData
-from ..core.retarget_options import (FLOOR_FITS, ROOT_MOTIONS, SOURCE_MATCHES, TARGET_MATCHES,  # noqa: F401
-                                     RetargetOptions, check_frame_range, from_keywords, is_number)
+from ..core.retarget_options import (FLOOR_FITS, ROOT_MOTION_ONTO, ROOT_MOTIONS, SOURCE_MATCHES,  # noqa: F401
+                                     TARGET_MATCHES, RetargetOptions, check_frame_range, from_keywords, is_number)
 from ..core.root_motion import FLOOR_ROOTS  # noqa: F401  (the panel's items, beside the other options')
 
 # What a file's imported armature (the source retarget() imports) becomes once the retarget is done.
@@ -213,7 +214,13 @@ def _prepare(source, target, bone_map, frame_range, o: RetargetOptions, target_r
         raise ValueError(f"the source '{source.name}' has no action to retarget")
     _check_frames(action, frame_range)
     pairs = _pairs(bone_map, src, tgt)
-    clip = _read_clip(source, src, action, pose_channels.action_frames(action, frame_range))
+    # An object whose own transform (or a parent's) is keyed carries its motion in its bones instead, from
+    # its placement on the action's first frame, which is then where its armature space stands.
+    moving = object_channels.ObjectMotion.read(source, action, pose_channels.action_frames(action, None)[0])
+    if moving is not None:
+        world, world_rotation, world_scale = moving.placement()
+        src = dataclasses.replace(src, world=world, world_rotation=world_rotation, world_scale=world_scale)
+    clip = _read_clip(source, src, action, pose_channels.action_frames(action, frame_range), moving)
     rigs = _read_rigs((source, src), (target, tgt), pairs, clip, o)
     fit = _fit(rigs, clip, o)
     return pairs, clip, rigs, fit, _chain_poses(rigs, fit, o.chain_modes)
@@ -246,9 +253,14 @@ def plan(source, target, bone_map=None, frame_range=None, options: RetargetOptio
     either way. target_rig: the target's bones as a rig of their own where they are not its armature's
     (a control rig's deform skeleton, control_rigs.deform_rig)."""
     o = from_keywords(options, **keywords)
+    if target_rig is not None and o.root_motion_onto == "object":
+        # A control rig is keyed through its controls from the deform skeleton's pose, which has no object.
+        raise ValueError(f"root_motion_onto='object' keys a plain armature's object; on the control rig "
+                         f"'{target.name}' retarget with controls='none' or choose 'hips' or 'root'")
     pairs, clip, rigs, fit, chains = _prepare(source, target, bone_map, frame_range, o, target_rig)
     root, ground, contact_settings = o.root, o.ground, o.contact_settings
     written = _written_bones(rigs.tgt, o)
+    _check_onto(rigs, o, written)
     # The feet's solve moves the hips and the legs: it runs only where both are written.
     lower_body = written is None or {rigs.roots[1], *_leg_bones(rigs.tgt)} <= written
     plant_feet = _planting(o.plant_feet if lower_body else False, rigs.src, rigs.tgt)
@@ -277,8 +289,12 @@ def plan(source, target, bone_map=None, frame_range=None, options: RetargetOptio
     planted = _plant_feet(rigs.tgt, feet[1], (found, holds) if plant_feet else (np.zeros_like(found),) * 2,
                           clip.frames, rotations, locations, rigs.roots[1], contact_settings, clip.fps,
                           beside=defer_solve, heights=feet_lift, hips_move=plant_feet) if legs_solve else None
+    # Root motion on the object is read from the hips' final path: after the feet's solve.
+    onto_object = o.root_motion_onto == "object"
     plan_ = _plan_keys(rigs, clip, pairs, fit.scale, (rotations, locations), located, mode, planted, plant_feet,
-                       defer_solve, written)
+                       defer_solve and not onto_object, written)
+    if onto_object:
+        _onto_object(plan_, rigs, o.root_smoothing * clip.fps, fit.up)
     plan_.chains, plan_.options = chains, o
     plan_.written = [rigs.tgt.names[b] for b in sorted(written)] if written is not None else list(rigs.tgt.names)
     plan_.partial = written is not None
@@ -291,6 +307,39 @@ def plan(source, target, bone_map=None, frame_range=None, options: RetargetOptio
             and retarget_channels.finite(plan_.carried)):
         raise ValueError("the retargeted motion is not finite; check the rigs' rest poses")
     return plan_  # a pending feet's solve is checked when it completes (contacts.cleanup and write_keys)
+
+
+def _check_onto(rigs: _Rigs, o: RetargetOptions, written) -> None:
+    """root_motion_onto's needs, before the clip is retargeted: a root bone above the hips for "root", and
+    the bones that carry the motion among those written."""
+    tgt, hips, floor_bone = rigs.tgt, rigs.roots[1], rigs.floor_bones[1]
+    if o.root_motion_onto == "root" and floor_bone is None:
+        raise ValueError(f"root_motion_onto='root': the target '{tgt.name}' has no root bone above its hips "
+                         f"'{tgt.names[hips]}' to carry the motion; choose 'hips' or 'object'")
+    carriers = {"root": (hips, floor_bone), "object": (hips,)}.get(o.root_motion_onto, ())
+    missing = [b for b in carriers if written is not None and b not in written]
+    if missing:
+        raise ValueError(f"root_motion_onto={o.root_motion_onto!r} moves the target's '{tgt.names[missing[0]]}', "
+                         f"which the parts or bones chosen leave out; retarget it too, or choose 'auto'")
+
+
+def _onto_object(plan_: Plan, rigs: _Rigs, sigma_frames: float, up) -> None:
+    """Root motion on the target object (root_motion_onto="object"): the hips' ground path and heading keyed
+    on the object, and the hips' keys re-expressed so that the world pose stays (root_motion.onto_object)."""
+    plan_.resolve()
+    rotations, locations = plan_.pose
+    hips, target = rigs.roots[1], rigs.target
+    name = rigs.tgt.names[hips]
+    track = root_motion.onto_object(rigs.tgt, rigs.target_pose, rotations, locations, hips, sigma_frames, up)
+    channels, values = pose_channels.rotation_keys(target, [name], rotations[:, 4 * hips:4 * hips + 4])
+    channels += [(f"{pose_channels.bone_path(name)}.location", k, name) for k in range(3)]
+    values = np.vstack([values, locations[:, 3 * hips:3 * hips + 3].T])
+    rows = {(path, index): row for row, (path, index, _) in enumerate(plan_.channels)}
+    plan_.values[[rows[(path, index)] for path, index, _ in channels]] = values
+    keys = object_channels.transform_keys(target, *object_motion.object_keys(*object_channels.placement(target),
+                                                                             *track))
+    plan_.channels = plan_.channels + keys[0]
+    plan_.values = np.vstack([plan_.values, keys[1]])
 
 
 def _written_bones(rig: RigData, o: RetargetOptions) -> set | None:
@@ -352,14 +401,25 @@ class _Clip:
     locations: np.ndarray  # (frames, 3B) location channels
     rotations: np.ndarray  # (frames, 4B) armature-space orientations
     heads: np.ndarray     # (frames, 3B) armature-space heads
+    moving: object_channels.ObjectMotion | None = None  # the object's own motion, composed into the above
 
 
-def _read_clip(obj, rig: RigData, action, frames) -> _Clip:
+def _source_channels(obj, rig: RigData, action, frames, moving) -> tuple[np.ndarray, np.ndarray]:
+    """The source's basis rotations (frames, 4B) and location channels (frames, 3B), its object's motion
+    (moving, or None) composed into its top bones'."""
     basis = pose_channels.rotations(obj, action, rig.names, frames)
-    locations = np.ascontiguousarray(pose_channels.locations(obj, action, rig.names, frames)[0])
+    locations = pose_channels.locations(obj, action, rig.names, frames)[0]
+    if moving is not None:
+        basis, locations = object_motion.compose_tops(rig.unit_rest, rig.heads, rig.parents, basis, locations,
+                                                      *moving.at(frames))
+    return np.ascontiguousarray(basis), np.ascontiguousarray(locations)
+
+
+def _read_clip(obj, rig: RigData, action, frames, moving=None) -> _Clip:
+    basis, locations = _source_channels(obj, rig, action, frames, moving)
     with native_state.blender_frames(frames):
         rotations, heads = native_state.native().armature_pose(rig.native, basis, locations)
-    return _Clip(action, frames, animdata.frame_rate(action), basis, locations, rotations, heads)
+    return _Clip(action, frames, animdata.frame_rate(action), basis, locations, rotations, heads, moving)
 
 
 @dataclass
@@ -385,8 +445,9 @@ def _match_poses(source, target, clip: _Clip, o: RetargetOptions) -> tuple:
     or on a frame of its clip, the target at rest or as it stands."""
     (source, src), (target, tgt) = source, target
     if o.source_match == 'FRAME':  # match_frame given: RetargetOptions.validate
-        match_rot, match_heads = pose_channels.armature_motion(source, clip.action, np.array([float(o.match_frame)]),
-                                                               src.native, src.names)
+        frame = np.array([float(o.match_frame)])
+        match_rot, match_heads = pose_channels.pose_basis(src.native, frame, *_source_channels(
+            source, src, clip.action, frame, clip.moving))
         source_pose = Pose(match_rot.reshape(-1, 4), match_heads.reshape(-1, 3), src.lengths)
     else:
         source_pose = Pose.rest(src)
@@ -548,6 +609,9 @@ def _place_roots(rigs: _Rigs, clip: _Clip, fit: _Fit, rotations, root_locations,
     locations[:, 3 * target_root:3 * target_root + 3] = root_locations
     located = [target_root]
     mode = o.floor_root if o.floor_root != "auto" else ("copy" if source_floor_bone is not None else "still")
+    mode = {"root": "extract", "hips": "still", "object": "still"}.get(o.root_motion_onto, mode)
+    # Root motion on the root bone (an engine's): on the target's floor, wherever the bone stands at rest.
+    height = fit.floors[1] if o.root_motion_onto == "root" else None
     if target_floor_bone is not None and mode in ("copy", "extract"):
         if mode == "copy" and source_floor_bone is None:
             mode = "still"  # nothing to copy: the hips carry the motion
@@ -558,7 +622,7 @@ def _place_roots(rigs: _Rigs, clip: _Clip, fit: _Fit, rotations, root_locations,
             root_motion.move_floor_root(rigs.tgt, rigs.target_pose, rotations, locations, target_floor_bone,
                                         target_root, root_motion.FloorRootMotion(
                                             mode, source_motion, fit.space, fit.scale, o.root,
-                                            o.root_smoothing * clip.fps))
+                                            o.root_smoothing * clip.fps, height, fit.up))
             located.append(target_floor_bone)
     return locations, located, mode
 
@@ -874,6 +938,18 @@ def check_options(**options) -> None:
     if "bvh_scale" in options:
         _bvh_scale(options["bvh_scale"])
     _imported_source_option(options.get("imported_source"), options.get("bvh_source"))
+
+
+def check_root_bone(target, options: RetargetOptions) -> None:
+    """root_motion_onto='root' needs a root bone above the target's hips (as its labels find them): a
+    ValueError naming the rig, before any clip is read (plan() says the same of the hips the map drives)."""
+    if options.root_motion_onto != "root":
+        return
+    rig = _rig(target, "target")
+    hips = rig.body.hips
+    if hips in rig and rig.top(rig.index(hips)) == rig.index(hips):
+        raise ValueError(f"root_motion_onto='root': the target '{rig.name}' has no root bone above its hips "
+                         f"'{hips}' to carry the motion; choose 'hips' or 'object'")
 
 
 def split_options(options: dict) -> tuple[RetargetOptions, dict]:

@@ -313,6 +313,9 @@ def test_the_library_operator_fills_the_report_list(mk, library, target):
     (dict(keep=False), r"keep=False without export"),
     (dict(root="sideways"), r"unknown root motion 'sideways'"),
     (dict(plant_feet="on"), r"plant_feet must be True, False or None, not 'on'"),
+    (dict(root_motion_onto="feet"), r"unknown root_motion_onto 'feet'"),
+    (dict(root_motion_onto="root"), r"root_motion_onto='root': the target '.*' has no root bone above its hips "
+                                    r"'mixamorig:Hips'"),
     (dict(roots="scaled"), r"unknown retarget option 'roots'"),
     (dict(action_name="walk"), r"action_name: a batch names each action after its clip"),
 ], ids=lambda v: "-".join(v) if isinstance(v, dict) else "")
@@ -349,6 +352,10 @@ def test_batch_target_and_inputs_are_checked(mk, library, target, tmp_path):
     (["retarget", "--target", "TARGET", "--workers", "0", "IN"], r"--workers: '0' is not a number of Blenders"),
     (["retarget", "--target", "TARGET", "--export", "obj", "--out", "OUT", "IN"], r"--export: invalid choice: 'obj'"),
     (["retarget", "--target", "TARGET", "--plant-feet", "yes", "IN"], r"--plant-feet: invalid choice: 'yes'"),
+    (["retarget", "--target", "TARGET", "--root-motion-onto", "feet", "IN"],
+     r"--root-motion-onto: invalid choice: 'feet'"),
+    (["retarget", "--target", "TARGET", "--root-motion-onto", "root", "IN"],
+     r"root_motion_onto='root': the target '.*' has no root bone above its hips"),
     (["retarget", "--target", "TARGET", "IN/nowhere.bvh"], r"nowhere\.bvh: no such file or folder"),
     (["retarget", "IN"], r"the following arguments are required: --target"),
     (["convert", "IN"], r"invalid choice: 'convert'"),
@@ -364,3 +371,24 @@ def test_command_line_errors_name_the_argument_and_do_nothing(mk, library, targe
     assert exited.value.code == mk.cli.USAGE_STATUS
     assert re.search(message, capsys.readouterr().err), argv
     assert _datablocks() == before and not os.path.exists(tmp_path / "out")
+
+
+def test_root_motion_onto_the_object_from_the_command_line(mk, library, target, tmp_path):
+    """--root-motion-onto object reaches the batch: the clip's one action keys the object, which travels
+    the walk (Blender's evaluation) while the hips stay near the object (test_root_motion_onto judges the
+    poses themselves)."""
+    result = mk.cli.run(["retarget", "--target", target.name, "--root-motion-onto", "object", "--report",
+                         str(tmp_path), str(library / "bvh" / "walk60.bvh")])
+    assert [row["status"] for row in result.rows] == ["ok"]
+    action = result.actions[0]
+    assert mk.animdata.find_fcurve(action, target, "location", 0) is not None
+    mk.animdata.assign(target, action)
+    placed, hips = [], []
+    for frame in range(int(action.frame_range[0]), int(action.frame_range[1]) + 1, 10):
+        bpy.context.scene.frame_set(frame)
+        placed.append(tuple(target.matrix_world.translation))
+        hips.append(tuple(target.matrix_world @ target.pose.bones["mixamorig:Hips"].head))
+    placed, hips = np.array(placed), np.array(hips)
+    assert np.ptp(placed[:, :2], axis=0).max() > 1.0  # walk60 walks over a metre, the object with it
+    assert np.ptp(placed[:, 2]) < 1e-6  # on the floor (Y Bot's armature space is Y-up: the world's Z)
+    assert np.ptp((hips - placed)[:, :2], axis=0).max() < 0.2  # the hips sway about the object, in metres

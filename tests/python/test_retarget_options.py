@@ -16,9 +16,9 @@ from core.retarget_options import RetargetOptions, check_frame_range, from_keywo
 
 DOCUMENTED_DEFAULTS = dict(
     root="scaled", source_match="REST", match_frame=None, target_match="REST", ground=False, align_facing=True,
-    floor_root="auto", root_smoothing=0.25, plant_feet=None, contact_settings=None, source_floor=None,
-    target_floor=None, floor_fit="legs", chain_modes=None, parts="whole", bones=None, into="new", blend="replace",
-    influence=1.0, channels=("scale", "properties", "shape_keys"), channel_map=None)
+    floor_root="auto", root_smoothing=0.25, root_motion_onto="auto", plant_feet=None, contact_settings=None,
+    source_floor=None, target_floor=None, floor_fit="legs", chain_modes=None, parts="whole", bones=None, into="new",
+    blend="replace", influence=1.0, channels=("scale", "properties", "shape_keys"), channel_map=None)
 
 
 def test_defaults_are_the_documented_ones_and_valid():
@@ -37,6 +37,9 @@ GOOD = [
     dict(root=r) for r in ("scaled", "in_place", "offset", "none")] + [
     dict(floor_fit=f) for f in ("legs", "hips", "off")] + [
     dict(floor_root=f) for f in ("auto", "still", "copy", "extract")] + [
+    dict(root_motion_onto=w) for w in ("auto", "hips", "root", "object")] + [
+    dict(root_motion_onto="root", floor_root="extract"), dict(root_motion_onto="object", floor_root="still"),
+    dict(root_motion_onto="hips", floor_root="still"), dict(root_motion_onto="auto", floor_root="copy"),
     dict(source_match="FRAME", match_frame=0), dict(source_match="FRAME", match_frame=np.float64(12.5)),
     dict(target_match="CURRENT"), dict(root_smoothing=0), dict(root_smoothing=np.float32(2.0)),
     dict(plant_feet=True), dict(plant_feet=np.bool_(False)), dict(ground=np.bool_(True)), dict(align_facing=False),
@@ -59,6 +62,13 @@ BAD = [  # (field values, what the message must say: the option and the value)
     (dict(root=None), r"unknown root motion None"),
     (dict(floor_root="up"), r"unknown floor root motion 'up'"),
     (dict(floor_fit="knees"), r"unknown floor_fit 'knees'"),
+    (dict(root_motion_onto="feet"), r"unknown root_motion_onto 'feet'"),
+    (dict(root_motion_onto=None), r"unknown root_motion_onto None"),
+    (dict(root_motion_onto="root", floor_root="copy"),
+     r"root_motion_onto 'root' moves the floor root itself \('extract'\): floor_root must be 'auto' or 'extract', "
+     r"not 'copy'"),
+    (dict(root_motion_onto="object", floor_root="extract"), r"floor_root must be 'auto' or 'still', not 'extract'"),
+    (dict(root_motion_onto="hips", floor_root="copy"), r"floor_root must be 'auto' or 'still', not 'copy'"),
     (dict(root_smoothing=-1.0), r"root_smoothing must be a non-negative number of seconds, not -1\.0"),
     (dict(root_smoothing=float("nan")), r"root_smoothing must be .*, not nan"),
     (dict(root_smoothing=True), r"root_smoothing must be .*, not True"),
