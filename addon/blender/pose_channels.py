@@ -280,6 +280,26 @@ def current_pose(obj, bones) -> tuple[np.ndarray, np.ndarray]:
     return quaternions[order], arrays["location"][order]
 
 
+_CHANNELS = (("location", 3), ("rotation_quaternion", 4), ("rotation_euler", 3), ("rotation_axis_angle", 4),
+             ("scale", 3))
+
+
+def channel_values(obj) -> dict:
+    """Every pose bone's channels as they stand ({property: (bones, size) array}), read in bulk."""
+    bones = obj.pose.bones
+    out = {}
+    for prop, size in _CHANNELS:
+        out[prop] = np.empty(size * len(bones), dtype=np.float32)
+        bones.foreach_get(prop, out[prop])
+    return out
+
+
+def set_channel_values(obj, values: dict) -> None:
+    """channel_values' values back on the pose bones, in bulk (the same armature)."""
+    for prop, array in values.items():
+        obj.pose.bones.foreach_set(prop, array)
+
+
 def ik_settings(obj, bones) -> dict:
     """The bones' IK settings (ik_min_*, ik_max_*, use_ik_limit_*, lock_ik_*, ik_stiffness_*, ik_stretch),
     read in bulk, in the order of bones, as the native IK solve takes them."""

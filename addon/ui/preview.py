@@ -9,7 +9,9 @@ from . import common
 from ..features import preview
 
 _INTERVAL = 0.1  # seconds between looks at the panel's settings
-_SHOWN = {"signature": None}
+# The last settings shown, and how the target stood before the preview (features.preview.Held: its pose
+# and transform live here, its action on the panel, a user of it).
+_SHOWN = {"signature": None, "held": None}
 
 
 class MOTIONKIT_PG_retarget_preview(bpy.types.PropertyGroup):
@@ -46,7 +48,7 @@ def refresh(settings) -> None:
     frame_range = (settings.frame_start, settings.frame_end) if settings.use_frame_range else None
     try:
         shown = preview.show(settings.source, state.target, settings.bone_map() or None, frame_range,
-                             settings.retarget_options(), (state.held, state.held_slot or None), state.action)
+                             settings.retarget_options(), _held(state), state.action)
     except ValueError as error:
         state.message = str(error)
         return
@@ -73,11 +75,21 @@ def stop(settings) -> None:
         return
     target = state.target
     if target is not None:
-        preview.stop(target, (state.held, state.held_slot or None), state.action)
+        preview.stop(target, _held(state), state.action)
     elif state.action is not None:
         bpy.data.actions.remove(state.action)
     state.on, state.target, state.action, state.held, state.held_slot = False, None, None, None, ""
-    _SHOWN["signature"] = None
+    _SHOWN["signature"] = _SHOWN["held"] = None
+
+
+def _held(state) -> preview.Held:
+    """How the target stood before the preview: as start() read it, or (a file opened mid-preview) its
+    action alone."""
+    held = _SHOWN["held"]
+    if held is None or state.target is None:
+        return preview.Held((state.held, state.held_slot or None), {}, state.target.matrix_basis.copy()
+                            if state.target else None)
+    return held
 
 
 class MOTIONKIT_OT_retarget_preview(bpy.types.Operator):
@@ -100,8 +112,10 @@ class MOTIONKIT_OT_retarget_preview(bpy.types.Operator):
     def execute(self, context):
         settings = context.scene.motionkit_retarget
         state = settings.preview
-        held, slot = preview.start(settings.target)
-        state.on, state.target, state.held, state.held_slot = True, settings.target, held, slot or ""
+        held = preview.start(settings.target)
+        _SHOWN["held"] = held
+        action, slot = held.assignment
+        state.on, state.target, state.held, state.held_slot = True, settings.target, action, slot or ""
         refresh(settings)
         if state.message:
             self.report({'WARNING'}, state.message)

@@ -151,6 +151,8 @@ class MOTIONKIT_PG_retarget(bpy.types.PropertyGroup):
     target_match: EnumProperty(name="Target Pose", items=retargeting.TARGET_MATCHES, default='REST',
                                description="The target's pose that matches the source's")
     root_motion: EnumProperty(name="Root Motion", items=retargeting.ROOT_MOTIONS, default="scaled")
+    root_motion_onto: EnumProperty(name="Onto", items=retargeting.ROOT_MOTION_ONTO, default="auto",
+                                   description="Where the target's travel goes: its hips, its root bone or its object")
     floor_root: EnumProperty(name="Floor Root", items=retargeting.FLOOR_ROOTS, default="auto",
                              description="What a target bone on the floor above the hips (a game rig's root) does")
     root_smoothing: FloatProperty(name="Smoothing", default=0.25, min=0.0, soft_max=2.0, unit='TIME_ABSOLUTE',
@@ -214,7 +216,8 @@ class MOTIONKIT_PG_retarget(bpy.types.PropertyGroup):
         return RetargetOptions(
             root=self.root_motion, source_match=self.source_match, match_frame=self.match_frame,
             target_match=self.target_match, ground=self.ground, align_facing=self.align_facing,
-            floor_root=self.floor_root, root_smoothing=self.root_smoothing,
+            floor_root=self.floor_root if self.root_motion_onto == "auto" else "auto",
+            root_motion_onto=self.root_motion_onto, root_smoothing=self.root_smoothing,
             plant_feet=None if self.plant_feet else False, contact_settings=contact_ui.settings(self.contacts),
             floor_fit=self.floor_fit, chain_modes=self.reference_pose.chain_modes(),
             channels=tuple(c for c in channel_carry.IDS if c in self.channels), **self._written())
@@ -648,8 +651,10 @@ class MOTIONKIT_PT_retarget_options(RetargetSubPanel, bpy.types.Panel):
         col.prop(settings, "target_match", text="Target")
         col = layout.column()
         col.prop(settings, "root_motion")
-        col.prop(settings, "floor_root")
-        if settings.floor_root == "extract":
+        col.prop(settings, "root_motion_onto")
+        if settings.root_motion_onto == "auto":
+            col.prop(settings, "floor_root")
+        if settings.floor_root == "extract" or settings.root_motion_onto in ("root", "object"):
             col.prop(settings, "root_smoothing")
         common.draw_groups(layout, settings, (("Feet", ("ground", "floor_fit")), ("Motion", ("align_facing",))))
         common.draw_frame_range(layout, settings, "use_frame_range", "Source")

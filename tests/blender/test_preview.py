@@ -98,3 +98,23 @@ def test_a_preview_that_fails_says_why_and_keeps_the_last(mk, panel):
     panel.pairs[0].target = "no such bone"
     ui_preview._tick()
     assert "no such bone" in panel.preview.message and panel.target.animation_data.action == shown
+
+
+def test_cancel_puts_back_a_target_without_an_action_and_its_object(mk, panel):
+    """A target that plays nothing keeps no keys to put its pose back: Cancel does, and the object's own
+    transform after a preview that keyed the object (root motion onto the object)."""
+    target = panel.target
+    target.animation_data.action = None
+    for bone in target.pose.bones:  # a pose the animator left, not the rest
+        bone.rotation_quaternion = (0.9, 0.1, 0.3, -0.2)
+    target.location = (0.4, -0.3, 0.0)
+    bpy.context.view_layer.update()
+    frames = [1, 30]
+    before, matrix = _pose(target, frames), target.matrix_world.copy()
+    panel.root_motion_onto = "object"
+    assert bpy.ops.motionkit.retarget_preview() == {'FINISHED'} and panel.preview.message == ""
+    assert np.abs(_pose(target, frames) - before).max() > 1e-3
+    assert bpy.ops.motionkit.retarget_preview_cancel() == {'FINISHED'}
+    assert target.animation_data.action is None
+    assert np.array_equal(_pose(target, frames), before) and target.matrix_world == matrix
+    panel.property_unset("root_motion_onto")
