@@ -666,7 +666,10 @@ class MOTIONKIT_PT_retarget_options(RetargetSubPanel, bpy.types.Panel):
             col.prop(settings, "influence")
         elif settings.into == "new":
             col.prop(settings, "overwrite")
-        col = layout.column(heading="Carry", align=True)  # one per row: side by side they are cut
+        # A toggle a row, across the panel (side by side, or beside labels, their names are cut).
+        col = self.layout.column(align=True)
+        col.use_property_split = False
+        col.label(text="Carry")
         for identifier, _, _ in channel_carry.CHANNELS:
             col.prop_enum(settings, "channels", identifier)
 
