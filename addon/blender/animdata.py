@@ -389,6 +389,8 @@ KEY_ARRAY = True
 _POINT_FLOATS = {"handle_left": slice(0, 2), "co": slice(3, 5), "handle_right": slice(6, 8)}
 # Columns 1, 4 and 7: the value (y) of vec[0], vec[1] and vec[2], as in _POINT_FLOATS.
 _VALUE_FLOATS = slice(1, 8, 3)
+# Column 3: the key's frame (vec[1]'s x), its value the next column.
+_FRAME_FLOAT = _POINT_FLOATS["co"].start
 
 
 def _key_view(points) -> np.ndarray | None:
@@ -470,7 +472,12 @@ def holds_every_key(fcurve: bpy.types.FCurve) -> bool:
 def read_keys(fcurve: bpy.types.FCurve) -> tuple[np.ndarray, np.ndarray]:
     """(frames, values) of every key, as float32 arrays exactly as Blender stores them."""
     points = fcurve.keyframe_points
-    co = _read_co(points, _co_view(points))
+    keys = _co_view(points)
+    if keys is not None:
+        # Each column copied on its own: numpy copies a strided (count, 2) block at half the speed.
+        floats = keys.view(np.float32)
+        return floats[:, _FRAME_FLOAT].copy(), floats[:, _FRAME_FLOAT + 1].copy()
+    co = _read_co(points, None)
     return co[0::2].copy(), co[1::2].copy()
 
 

@@ -308,6 +308,8 @@ def check_finite(obj, writes) -> None:
         arrays = [write.values] + ([write.handles.left_values, write.handles.right_values]
                                    if write.handles is not None else [])
         for array in arrays:
+            if np.isfinite(array).all():
+                continue  # the usual case, without argwhere's index array
             bad = np.argwhere(~np.isfinite(array))
             if bad.size:
                 channel, key = bad[0]
