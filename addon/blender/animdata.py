@@ -320,14 +320,28 @@ def set_key_values(id_data: bpy.types.ID, action: bpy.types.Action, channels: It
 
 def _move_values(keys: np.ndarray, row: np.ndarray) -> None:
     """Every key's value to row (float64) in the keys' own array (_co_view), both handles shifted by as
-    much, in place: the same float32 values as the RNA way in set_key_values (shift rounded to float32,
+    much (unless every handle is one that fcurve.update() sets again from the values), in place: the same float32 values as the RNA way in set_key_values (shift rounded to float32,
     added to each handle in float32; the value rounded from float64). In-place column updates, because a
     (count, 3) temporary of the three values costs twice as much (strided rows of three floats)."""
     values = keys.view(np.float32)[:, _VALUE_FLOATS]  # (count, 3): left handle's, co's and right handle's
+    if _auto_handles(keys):
+        values[:, 1] = row  # fcurve.update() computes every handle again from the values alone
+        return
     shift = (row - values[:, 1]).astype(np.float32)
     values[:, 0] += shift
     values[:, 2] += shift
     values[:, 1] = row
+
+
+# Handle types Blender's handle recalculation sets from the keys' frames and values alone, whatever the
+# handles were (Auto and Auto Clamped); Free and Aligned handles keep where they were.
+_RECOMPUTED_HANDLES = np.array([_HANDLE_TYPE["AUTO"], _HANDLE_TYPE["AUTO_CLAMPED"]], dtype=np.uint8)
+
+
+def _auto_handles(keys: np.ndarray) -> bool:
+    """Whether both handles of every key (_key_view rows) are of _RECOMPUTED_HANDLES types."""
+    types = keys[:, _KEY_BYTE["handle_left_type"]:_KEY_BYTE["handle_right_type"] + 1]
+    return bool(((types == _RECOMPUTED_HANDLES[0]) | (types == _RECOMPUTED_HANDLES[1])).all())
 
 
 # Interpolation and handle types are one byte in each key. Blender 4.x and

@@ -112,12 +112,13 @@ class _ClipFilter:
         for (*_, step), same_grid in grids.items():
             self.settings.check(self.fps / step, f"'{action.name}'")
             samples = same_grid[0].samples
-            # One float64 copy of every channel (the float32 keys widened as they are gathered).
-            values = np.concatenate([plan.key_values.T if _keys_are_samples(plan) else
-                                     channel_groups.sample(obj, action, plan.channels, plan.static, samples)
-                                     for plan in same_grid], axis=1, dtype=np.float64)
+            # One float64 copy of every channel (the float32 keys widened as they are gathered), a channel
+            # a row as the keys are read: each group's block a transposed view, its values together.
+            values = np.concatenate([plan.key_values if _keys_are_samples(plan) else
+                                     channel_groups.sample(obj, action, plan.channels, plan.static, samples).T
+                                     for plan in same_grid], axis=0, dtype=np.float64)
             ends = np.cumsum([len(p.channels) for p in same_grid])
-            blocks = [(p.group.kind, p.group.mode, values[:, end - len(p.channels):end], p.group.data_path)
+            blocks = [(p.group.kind, p.group.mode, values[end - len(p.channels):end].T, p.group.data_path)
                       for p, end in zip(same_grid, ends)]
             try:
                 filtered = filter_plan.filter_groups(self.native, blocks, self.settings, self.fps / step, samples)
