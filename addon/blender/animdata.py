@@ -335,13 +335,17 @@ def _move_values(keys: np.ndarray, row: np.ndarray) -> None:
 
 # Handle types Blender's handle recalculation sets from the keys' frames and values alone, whatever the
 # handles were (Auto and Auto Clamped); Free and Aligned handles keep where they were.
-_RECOMPUTED_HANDLES = np.array([_HANDLE_TYPE["AUTO"], _HANDLE_TYPE["AUTO_CLAMPED"]], dtype=np.uint8)
+_RECOMPUTED_HANDLES = (_HANDLE_TYPE["AUTO"], _HANDLE_TYPE["AUTO_CLAMPED"])
 
 
 def _auto_handles(keys: np.ndarray) -> bool:
-    """Whether both handles of every key (_key_view rows) are of _RECOMPUTED_HANDLES types."""
-    types = keys[:, _KEY_BYTE["handle_left_type"]:_KEY_BYTE["handle_right_type"] + 1]
-    return bool(((types == _RECOMPUTED_HANDLES[0]) | (types == _RECOMPUTED_HANDLES[1])).all())
+    """Whether every key (_key_view rows) has the first key's two handle types, both _RECOMPUTED_HANDLES.
+    Read as the 32-bit word of bytes 48-51 (interpolation, left and right handle types, a flag byte; little
+    endian, as every platform Blender runs on): a byte column compared apart costs three times as much."""
+    words = keys.view(np.uint32)[:, _KEY_BYTE["interpolation"] // 4] & np.uint32(0x00FFFF00)
+    first = int(words[0])
+    return (((first >> 8) & 0xFF) in _RECOMPUTED_HANDLES and (first >> 16) in _RECOMPUTED_HANDLES
+            and bool((words == words[0]).all()))
 
 
 # Interpolation and handle types are one byte in each key. Blender 4.x and
