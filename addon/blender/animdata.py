@@ -320,9 +320,11 @@ def set_key_values(id_data: bpy.types.ID, action: bpy.types.Action, channels: It
 
 def _move_values(keys: np.ndarray, row: np.ndarray) -> None:
     """Every key's value to row (float64) in the keys' own array (_co_view), both handles shifted by as
-    much (unless every handle is one that fcurve.update() sets again from the values), in place: the same float32 values as the RNA way in set_key_values (shift rounded to float32,
+    much, in place: the same float32 values as the RNA way in set_key_values (shift rounded to float32,
     added to each handle in float32; the value rounded from float64). In-place column updates, because a
-    (count, 3) temporary of the three values costs twice as much (strided rows of three floats)."""
+    (count, 3) temporary of the three values costs twice as much (strided rows of three floats). Where
+    every handle is one that fcurve.update() sets again from the values alone, the handles are left to
+    it (the same keys after the update, bitwise)."""
     values = keys.view(np.float32)[:, _VALUE_FLOATS]  # (count, 3): left handle's, co's and right handle's
     if _auto_handles(keys):
         values[:, 1] = row  # fcurve.update() computes every handle again from the values alone
