@@ -411,7 +411,7 @@ def write_planned(planned) -> None:
     for obj, action, writes in planned:
         for write in writes:
             if write.in_place:
-                animdata.set_key_values(obj, action, write.channels, write.values)
+                animdata.set_key_values(obj, action, write.channels, write.values, frames=write.frames)
             else:
                 animdata.write_keys(obj, action, write.channels, write.frames, write.values, write.interpolation,
                                     write.handles)
