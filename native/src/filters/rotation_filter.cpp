@@ -63,9 +63,10 @@ inline Eigen::Quaterniond Product(const Eigen::Quaterniond& a, const Eigen::Quat
 }
 
 // q / |q| for a product of unit quaternions, |q|^2 = 1 + e with |e| tiny: one
-// Newton step for 1 / sqrt(1 + e), 1 - e / 2, is exact to 3 e^2 / 8 (below 4e-19
-// for the |e| <= 1e-9 it takes), without the square root and division. The first frame
-// comes from float32 numbers, further from unit: that takes the exact way.
+// Newton step for 1 / sqrt(1 + e), 1 - e / 2, is exact to 3 e^2 / 8 (below
+// 4e-19 for the |e| <= 1e-9 it takes), without the square root and division.
+// The first frame comes from float32 numbers, further from unit: that takes the
+// exact way.
 inline Eigen::Quaterniond Unit(const Eigen::Quaterniond& q) {
   const double e = q.squaredNorm() - 1.0;
   if (!(std::abs(e) <= 1e-9)) return q.normalized();
