@@ -112,20 +112,44 @@ def filter_groups(native, groups: list, settings: FilterSettings, fps: float, fr
     if plain and settings.kind != "euler":
         stacked = native.filter_channels(np.ascontiguousarray(np.hstack([out[i] for i in plain])), settings.kind,
                                          fps, **settings.native_options())
+        # Transposed once, so that each channel's filtered values lie together for the caller's checks
+        # and writes (a column of the native (n, channels) result is one value a cache line).
+        rows = np.ascontiguousarray(stacked.T)
         ends = np.cumsum([out[i].shape[1] for i in plain])
         for i, end in zip(plain, ends):
-            out[i] = stacked[:, end - out[i].shape[1]:end]
+            out[i] = rows[end - out[i].shape[1]:end].T
     if turned:
-        q = np.hstack([rotation_channels.to_quaternions(native, groups[i][1], out[i], groups[i][3], frames)
-                       for i in turned])
+        q = _unit_quaternions(native, [groups[i] for i in turned], [out[i] for i in turned], frames)
         if settings.kind != "euler":
             q = native.filter_rotations(np.ascontiguousarray(q), settings.kind, fps, **settings.native_options())
         q = q.reshape(len(q), len(turned), 4)
         # One conversion per rotation mode, every bone in that mode together.
         for mode in {groups[i][1] for i in turned}:
             bones = [k for k, i in enumerate(turned) if groups[i][1] == mode]
+            if mode == 'QUATERNION' and settings.kind != "euler":
+                # filter_rotations returns each bone's signs continuous, its first frame's the input's:
+                # what from_quaternions would make of them, so quaternion channels take them as they are
+                # (transposed as the other channels above).
+                chosen = q if len(bones) == q.shape[1] else q[:, bones]
+                rows = np.ascontiguousarray(chosen.transpose(1, 2, 0))
+                for j, k in enumerate(bones):
+                    out[turned[k]] = rows[j].T
+                continue
             back = rotation_channels.from_quaternions(native, mode, q[:, bones],
                                                       previous=np.stack([out[turned[k]][0] for k in bones]))
             for j, k in enumerate(bones):
                 out[turned[k]] = back[:, j]
     return out
+
+
+def _unit_quaternions(native, groups: list, blocks: list, frames: np.ndarray) -> np.ndarray:
+    """The rotation groups' unit quaternions side by side, (n, 4 groups). Quaternion channels (a capture's
+    usual case) are normalised together, in one pass instead of one a bone; any other mode, or a zero or
+    non-finite quaternion (to have its error named), goes through rotation_channels.to_quaternions."""
+    if all(group[1] == 'QUATERNION' for group in groups):
+        q = np.hstack(blocks).reshape(len(frames), len(groups), 4)
+        norm = np.sqrt(np.einsum("ijk,ijk->ij", q, q))
+        if (norm > 1e-12).all():
+            return (q / norm[..., None]).reshape(len(frames), 4 * len(groups))
+    return np.hstack([rotation_channels.to_quaternions(native, mode, block, what, frames)
+                      for (_, mode, _, what), block in zip(groups, blocks)])

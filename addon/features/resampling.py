@@ -306,6 +306,8 @@ def check_finite(obj, writes) -> None:
         arrays = [write.values] + ([write.handles.left_values, write.handles.right_values]
                                    if write.handles is not None else [])
         for array in arrays:
+            if np.isfinite(array).all():
+                continue  # the usual case, without argwhere's index array
             bad = np.argwhere(~np.isfinite(array))
             if bad.size:
                 channel, key = bad[0]
@@ -407,7 +409,7 @@ def write_planned(planned) -> None:
     for obj, action, writes in planned:
         for write in writes:
             if write.in_place:
-                animdata.set_key_values(obj, action, write.channels, write.values)
+                animdata.set_key_values(obj, action, write.channels, write.values, frames=write.frames)
             else:
                 animdata.write_keys(obj, action, write.channels, write.frames, write.values, write.interpolation,
                                     write.handles)

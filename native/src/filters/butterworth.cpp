@@ -190,10 +190,15 @@ void ButterworthFilter(const ButterworthDesign& design, const double* x, Eigen::
   // beyond `lanes` repeat the last one and are not written.
   const Eigen::Index pad = ButterworthPadding(design, n), length = n + 2 * pad;
   double* extended = scratch;
+  int lane[kLanes];
+  for (int l = 0; l < kLanes; ++l) lane[l] = std::min(l, lanes - 1);
+  // A sample's lanes together, in one sweep of the input (not one a lane).
+  for (Eigen::Index i = 0; i < n; ++i) {
+    for (int l = 0; l < kLanes; ++l) extended[(pad + i) * kLanes + l] = x[i * x_stride + lane[l]];
+  }
   for (int l = 0; l < kLanes; ++l) {
-    const double* in = x + std::min(l, lanes - 1);
+    const double* in = x + lane[l];
     const auto at = [&](Eigen::Index i) { return in[i * x_stride]; };
-    for (Eigen::Index i = 0; i < n; ++i) extended[(pad + i) * kLanes + l] = at(i);
     for (Eigen::Index j = 1; j <= pad; ++j) {
       extended[(pad - j) * kLanes + l] = 2.0 * at(0) - at(j);
       extended[(pad + n - 1 + j) * kLanes + l] = 2.0 * at(n - 1) - at(n - 1 - j);
