@@ -50,16 +50,21 @@ def main():
 
     whole = harness.timed(update, args.repeat)
     arms = harness.timed(lambda: update(parts="arms"), args.repeat)
-    frames = len(mk.animdata.fcurves(state["shown"], target)[0].keyframe_points)
+    loose = harness.timed(lambda: update(plant_feet=False), args.repeat)
+    planted = mk.retargeting.plan(source, target, pairs).contact_report
+    start, end = source.animation_data.action.frame_range
+    frames = int(round(end - start)) + 1
     preview.stop(target, held, state["shown"])
     constrained = _constraints_shown(source, target, pairs, frames)
     version = ".".join(map(str, bpy.app.version[:2]))
     print(f"\nBlender {version}: preview of a {frames}-frame clip, {len(pairs)} bones mapped")
     print("| way | seconds (median) |\n|---|---:|")
     print(f"| MotionKit preview update, whole body, feet planted | {harness.median(whole):.3f} |")
+    print(f"| MotionKit preview update, whole body, feet not planted | {harness.median(loose):.3f} |")
     print(f"| MotionKit preview update, arms over the target's walk | {harness.median(arms):.3f} |")
     print(f"| Copy Rotation/Location constraints, the clip played once (frame_set) | {constrained:.3f} |")
-    print(f"runs: whole {[round(s, 3) for s in whole]}, arms {[round(s, 3) for s in arms]}")
+    print(f"runs: whole {[round(s, 3) for s in whole]}, arms {[round(s, 3) for s in arms]}; feet held on "
+          f"{int(planted.contacts.sum()) if planted is not None else 0} foot-point frames")
 
 
 def _constraints_shown(source, target, pairs, frames) -> float:
