@@ -117,16 +117,22 @@ class FloorRootRest:
 
 
 def _local(rest: FloorRootRest, bone: int, parent: int, parent_rotations, parent_heads, rotations, heads):
+    return local_channels(rest.rest_rotations, rest.rest_heads, bone, parent, parent_rotations, parent_heads,
+                          rotations, heads)
+
+
+def local_channels(rest_rotations, rest_heads, bone: int, parent: int, parent_rotations, parent_heads, rotations,
+                   heads):
     """Pose channels (basis rotation, location) that put `bone` at rotations/heads (n, 4)/(n, 3) under its
     parent posed at parent_rotations/parent_heads, as Blender composes them:
-    pose = parent_pose @ parent_rest^-1 @ rest @ basis."""
-    q_rest, h_rest = rest.rest_rotations[bone], rest.rest_heads[bone]
+    pose = parent_pose @ parent_rest^-1 @ rest @ basis. rest_rotations, rest_heads: every bone's rest."""
+    q_rest, h_rest = rest_rotations[bone], rest_heads[bone]
     if parent < 0:
         frame, anchor = np.broadcast_to(q_rest, rotations.shape), np.broadcast_to(h_rest, heads.shape)
     else:
-        p_rest = conjugate(rest.rest_rotations[parent])
+        p_rest = conjugate(rest_rotations[parent])
         relative = multiply(p_rest, q_rest)
-        offset = rotate(p_rest, h_rest - rest.rest_heads[parent])
+        offset = rotate(p_rest, h_rest - rest_heads[parent])
         frame = multiply(parent_rotations, relative)
         anchor = parent_heads + rotate(parent_rotations, offset)
     inverse = conjugate(frame)

@@ -19,7 +19,7 @@ import numpy as np
 from . import bvh, contacts, control_rigs, resampling, retarget_channels
 from ..blender import animdata, imports, object_channels, pose_channels
 from ..blender.imports import remove_armature
-from ..core import (bone_axes, bone_mapping, facing, floor_fit, native_state, object_motion, reference_pose,
+from ..core import (bone_axes, bone_mapping, facing, floor_fit, follow, native_state, object_motion, reference_pose,
                     retarget_options, retarget_parts, root_motion, rotation_channels, twist, worker_thread)
 from ..core.rig_data import Pose, RigData
 from ..core.retarget_options import (FLOOR_FITS, ROOT_MOTION_ONTO, ROOT_MOTIONS, SOURCE_MATCHES,  # noqa: F401
@@ -295,6 +295,7 @@ def plan(source, target, bone_map=None, frame_range=None, options: RetargetOptio
                        defer_solve and not onto_object, written)
     if onto_object:
         _onto_object(plan_, rigs, o.root_smoothing * clip.fps, fit.up)
+    _follow(rigs, plan_, written)
     plan_.chains, plan_.options = chains, o
     plan_.written = [rigs.tgt.names[b] for b in sorted(written)] if written is not None else list(rigs.tgt.names)
     plan_.partial = written is not None
@@ -340,6 +341,28 @@ def _onto_object(plan_: Plan, rigs: _Rigs, sigma_frames: float, up) -> None:
                                                                              *track))
     plan_.channels = plan_.channels + keys[0]
     plan_.values = np.vstack([plan_.values, keys[1]])
+
+
+def _follow(rigs: _Rigs, plan_: Plan, written) -> None:
+    """The target's IK and prop bones that no map drives (core.follow: Unreal's ik_foot_l, ik_hand_gun...)
+    keyed to stand where the hands and feet they stand for stand, once the feet's solve is done."""
+    pairs = {f: b for f, b in follow.followers(rigs.tgt, rigs.tgt.body).items()
+             if rigs.bone_map[f] < 0 and (written is None or b in written)}
+    if not pairs:
+        return
+    plan_.resolve()
+    rotations, locations = plan_.pose
+    posed = native_state.native().armature_pose(rigs.tgt.native, rotations, locations)
+    follow.follow(rigs.tgt, pairs, rotations, locations, posed)
+    names = {rigs.tgt.names[b] for b in pairs}
+    (channels, values), _ = _target_channels(rigs, rotations, list(pairs), locations, only=set(pairs),
+                                             keyed=set(pairs))
+    keep = [i for i, c in enumerate(plan_.still_channels) if c[2] not in names]
+    plan_.still_channels = [plan_.still_channels[i] for i in keep]
+    plan_.still_values = plan_.still_values[keep]
+    rows = [i for i, c in enumerate(plan_.channels) if c[2] not in names]
+    plan_.channels = [plan_.channels[i] for i in rows] + channels
+    plan_.values = np.vstack([plan_.values[rows], values])
 
 
 def _written_bones(rig: RigData, o: RetargetOptions) -> set | None:
