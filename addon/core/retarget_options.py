@@ -103,6 +103,9 @@ class RetargetOptions:
     # Which parts of the target are written (retarget_parts: a preset such as "arms", or a list of PARTS),
     # or bones, the target bones by name (given, it replaces parts): the others keep their own keys.
     parts: str | tuple = "whole"
+    # A prop under one hand that the source's other hand holds (a rifle): the target's other hand put where
+    # the source's holds it, relative to the prop and scaled (core.two_hands), whatever its arms' lengths.
+    two_hands: bool = True
     bones: tuple | None = None
     # Where the keys go (retarget_parts.INTO): a "new" action, the target's "current" action over the clip's
     # frames, or an "nla" track above it, its blend ("replace" or "add") and influence (0..1).
@@ -142,7 +145,8 @@ class RetargetOptions:
             raise ValueError("a source match pose on a frame needs match_frame")
         if not isinstance(self.plant_feet, (bool, np.bool_, type(None))):
             raise ValueError(f"plant_feet must be True, False or None, not {self.plant_feet!r}")
-        for name, value in (("align_facing", self.align_facing), ("ground", self.ground)):
+        for name, value in (("align_facing", self.align_facing), ("ground", self.ground),
+                            ("two_hands", self.two_hands)):
             if not isinstance(value, (bool, np.bool_)):
                 raise ValueError(f"{name} must be True or False, not {value!r}")
         for name, value in (("source_floor", self.source_floor), ("target_floor", self.target_floor)):

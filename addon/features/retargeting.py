@@ -20,7 +20,7 @@ from . import bvh, contacts, control_rigs, resampling, retarget_channels
 from ..blender import animdata, imports, object_channels, pose_channels
 from ..blender.imports import remove_armature
 from ..core import (bone_axes, bone_mapping, facing, floor_fit, follow, native_state, object_motion, reference_pose,
-                    retarget_options, retarget_parts, root_motion, rotation_channels, twist, worker_thread)
+                    retarget_options, retarget_parts, root_motion, rotation_channels, twist, two_hands, worker_thread)
 from ..core.rig_data import Pose, RigData
 from ..core.retarget_options import (FLOOR_FITS, ROOT_MOTION_ONTO, ROOT_MOTIONS, SOURCE_MATCHES,  # noqa: F401
                                      TARGET_MATCHES, RetargetOptions, check_frame_range, from_keywords, is_number)
@@ -295,6 +295,8 @@ def plan(source, target, bone_map=None, frame_range=None, options: RetargetOptio
                        defer_solve and not onto_object, written)
     if onto_object:
         _onto_object(plan_, rigs, o.root_smoothing * clip.fps, fit.up)
+    if o.two_hands:
+        _two_hands(rigs, clip, fit, plan_, written)
     _follow(rigs, plan_, written)
     plan_.chains, plan_.options = chains, o
     plan_.written = [rigs.tgt.names[b] for b in sorted(written)] if written is not None else list(rigs.tgt.names)
@@ -354,15 +356,65 @@ def _follow(rigs: _Rigs, plan_: Plan, written) -> None:
     rotations, locations = plan_.pose
     posed = native_state.native().armature_pose(rigs.tgt.native, rotations, locations)
     follow.follow(rigs.tgt, pairs, rotations, locations, posed)
-    names = {rigs.tgt.names[b] for b in pairs}
-    (channels, values), _ = _target_channels(rigs, rotations, list(pairs), locations, only=set(pairs),
-                                             keyed=set(pairs))
+    _rekey(rigs, plan_, set(pairs), located=list(pairs))
+
+
+def _rekey(rigs: _Rigs, plan_: Plan, bones: set, located=()) -> None:
+    """The plan's keys of bones (indices) made again from its pose (plan_.pose), a key on every frame."""
+    rotations, locations = plan_.pose
+    names = {rigs.tgt.names[b] for b in bones}
+    (channels, values), _ = _target_channels(rigs, rotations, list(located), locations, only=bones, keyed=bones)
     keep = [i for i, c in enumerate(plan_.still_channels) if c[2] not in names]
     plan_.still_channels = [plan_.still_channels[i] for i in keep]
     plan_.still_values = plan_.still_values[keep]
+    old = {(c[0], c[1]) for c in plan_.channels if c[2] in names} - {(c[0], c[1]) for c in channels}
     rows = [i for i, c in enumerate(plan_.channels) if c[2] not in names]
+    if old:  # a bone's location the plan keyed and no longer does: keep it
+        rows = [i for i, c in enumerate(plan_.channels) if c[2] not in names or (c[0], c[1]) in old]
     plan_.channels = [plan_.channels[i] for i in rows] + channels
     plan_.values = np.vstack([plan_.values[rows], values])
+
+
+def _grips(rigs: _Rigs, written) -> list:
+    """The two-handed holds the target can take (core.two_hands.Grip): a mapped bone under one hand that no
+    label names (a rifle), and the other arm on both rigs."""
+    tgt, src = rigs.tgt, rigs.src
+    labelled = set(tgt.body.limbs.values()) | set(tgt.body.twists) | set(tgt.body.metacarpals.values()) | {
+        n for names in tgt.body.fingers.values() for n in names}
+    parts = retarget_parts.part_of_bones(tgt.names, tgt.parents, tgt.body)
+    out = []
+    for prop, part in enumerate(parts):
+        if not part.startswith("hand.") or tgt.names[prop] in labelled or rigs.bone_map[prop] < 0:
+            continue
+        other = "L" if part.endswith("R") else "R"
+        names = [tgt.body.limbs.get(f"{k}.{other}") for k in ("upper_arm", "forearm", "hand")]
+        sources = [src.body.limbs.get(f"{k}.{other}") for k in ("hand", "forearm")]
+        if not all(n in tgt for n in names) or not all(n in src for n in sources):
+            continue
+        upper, forearm, hand = (tgt.index(n) for n in names)
+        if written is not None and not {upper, forearm} <= written:
+            continue
+        out.append(two_hands.Grip(int(rigs.bone_map[prop]), src.index(sources[0]), src.index(sources[1]), prop,
+                                  upper, forearm, hand))
+    return out
+
+
+def _two_hands(rigs: _Rigs, clip: _Clip, fit: _Fit, plan_: Plan, written) -> None:
+    """A prop held in both hands: the target's other hand put where the source's holds it (core.two_hands)."""
+    grips = _grips(rigs, written)
+    if not grips:
+        return
+    plan_.resolve()
+    rotations, locations = plan_.pose
+    source_pose = (clip.rotations, clip.heads)
+    for grip in grips:
+        weight = two_hands.weights(rigs.src, grip, source_pose)
+        if not weight.any():
+            continue
+        posed = native_state.native().armature_pose(rigs.tgt.native, rotations, locations)
+        wanted = two_hands.wanted_wrists(rigs.src, rigs.tgt, grip, source_pose, posed, fit.space, fit.scale)
+        two_hands.reach(rigs.tgt, grip, rotations, posed, wanted, weight, fit.up)
+        _rekey(rigs, plan_, {grip.upper, grip.forearm})
 
 
 def _written_bones(rig: RigData, o: RetargetOptions) -> set | None:
