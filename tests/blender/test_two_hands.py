@@ -12,7 +12,7 @@ import characters
 import generate
 
 # The wrist in the bar's axes, two float32 armatures evaluated by Blender through up to eight bones:
-# measured 2.7e-7 m on 3.4 (a 1.7 m bar; 4.3 and 5.2 in the note); about ten times.
+# measured 2.7e-7, 2.7e-7 and 2.9e-7 m on 3.4, 4.3 and 5.2 (a 1.7 m bar); about ten times.
 GRIP = 3e-6
 
 
