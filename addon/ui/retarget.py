@@ -556,7 +556,7 @@ def _draw_preview(layout, state) -> None:
     if state.message:
         layout.label(text=state.message, icon='ERROR')
     else:
-        layout.label(text=f"Preview updated in {state.seconds:.2f} s", icon='TIME')
+        layout.label(text=f"Updated in {state.seconds:.2f} seconds", icon='TIME')
 
 
 class RetargetSubPanel(common.SidebarPanel):

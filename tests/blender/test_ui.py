@@ -153,7 +153,7 @@ def test_the_live_preview_in_the_window(panels):
     read whole, and Cancel gives the target its own action back."""
     assert panels["preview.result"] == ["FINISHED"] and panels["preview.remade"] and panels["preview.plays_it"]
     assert panels["preview.cancelled"]
-    updated = f"Preview updated in {panels['preview.seconds']:.2f} s"
+    updated = f"Updated in {panels['preview.seconds']:.2f} seconds"
     assert unread(panels, "sidebar-preview", ("Apply", "Cancel", updated)) == []
 
 
