@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import channel_carry, reference_pose, retarget_parts
+from .props import SPACES
 from .foot_contacts import ContactSettings
 from .root_motion import FLOOR_ROOTS
 
@@ -106,6 +107,9 @@ class RetargetOptions:
     # A prop under one hand that the source's other hand holds (a rifle): the target's other hand put where
     # the source's holds it, relative to the prop and scaled (core.two_hands), whatever its arms' lengths.
     two_hands: bool = True
+    # How a mapped bone that is no body part (a prop) moves (core.props.SPACES): "bone" as any mapped bone,
+    # or as the source's moves in its "hand" or about its "root" (the hips).
+    prop_space: str = "bone"
     bones: tuple | None = None
     # Where the keys go (retarget_parts.INTO): a "new" action, the target's "current" action over the clip's
     # frames, or an "nla" track above it, its blend ("replace" or "add") and influence (0..1).
@@ -163,7 +167,7 @@ class RetargetOptions:
         if self.bones is not None and (isinstance(self.bones, str) or not all(isinstance(b, str) for b in self.bones)
                                        or not len(self.bones)):
             raise ValueError(f"bones must be a non-empty list of target bone names or None, not {self.bones!r}")
-        for name, value, known in (("into", self.into, retarget_parts.INTO),
+        for name, value, known in (("into", self.into, retarget_parts.INTO), ("prop_space", self.prop_space, SPACES),
                                    ("blend", self.blend, retarget_parts.BLENDS)):
             if value not in [k[0] for k in known]:
                 raise ValueError(f"unknown {name} {value!r}; expected one of {[k[0] for k in known]}")

@@ -19,8 +19,9 @@ import numpy as np
 from . import bvh, contacts, control_rigs, resampling, retarget_channels
 from ..blender import animdata, imports, object_channels, pose_channels
 from ..blender.imports import remove_armature
-from ..core import (bone_axes, bone_mapping, facing, floor_fit, follow, native_state, object_motion, reference_pose,
-                    retarget_options, retarget_parts, root_motion, rotation_channels, twist, two_hands, worker_thread)
+from ..core import (bone_axes, bone_mapping, facing, floor_fit, follow, native_state, object_motion, props,
+                    reference_pose, retarget_options, retarget_parts, root_motion, rotation_channels, twist, two_hands,
+                    worker_thread)
 from ..core.rig_data import Pose, RigData
 from ..core.retarget_options import (FLOOR_FITS, ROOT_MOTION_ONTO, ROOT_MOTIONS, SOURCE_MATCHES,  # noqa: F401
                                      TARGET_MATCHES, RetargetOptions, check_frame_range, from_keywords, is_number)
@@ -297,6 +298,8 @@ def plan(source, target, bone_map=None, frame_range=None, options: RetargetOptio
         _onto_object(plan_, rigs, o.root_smoothing * clip.fps, fit.up)
     if o.two_hands:
         _two_hands(rigs, clip, fit, plan_, written)
+    if o.prop_space != "bone":
+        _props(rigs, clip, fit, plan_, written, o.prop_space)
     _follow(rigs, plan_, written)
     plan_.chains, plan_.options = chains, o
     plan_.written = [rigs.tgt.names[b] for b in sorted(written)] if written is not None else list(rigs.tgt.names)
@@ -373,6 +376,45 @@ def _rekey(rigs: _Rigs, plan_: Plan, bones: set, located=()) -> None:
         rows = [i for i, c in enumerate(plan_.channels) if c[2] not in names or (c[0], c[1]) in old]
     plan_.channels = [plan_.channels[i] for i in rows] + channels
     plan_.values = np.vstack([plan_.values[rows], values])
+
+
+def _props(rigs: _Rigs, clip: _Clip, fit: _Fit, plan_: Plan, written, space: str) -> None:
+    """Mapped props (core.props) moved as the source's move in space: their hands or the hips."""
+    pairs = {}
+    for prop in _prop_bones(rigs):
+        if written is not None and prop not in written:
+            continue
+        source = int(rigs.bone_map[prop])
+        refs = rigs.roots
+        if space == "hand":
+            hands = (_labelled_hand(rigs.src, source), _labelled_hand(rigs.tgt, prop))
+            refs = hands if min(hands) >= 0 else rigs.roots
+        pairs[prop] = (source, *refs)
+    if not pairs:
+        return
+    plan_.resolve()
+    rotations, locations = plan_.pose
+    posed = native_state.native().armature_pose(rigs.tgt.native, rotations, locations)
+    poses = props.wanted(rigs.src, rigs.tgt, pairs, (clip.rotations, clip.heads), posed, fit.space, fit.scale)
+    props.place(rigs.tgt, poses, rotations, locations, posed)
+    _rekey(rigs, plan_, set(pairs), located=list(pairs))
+
+
+def _prop_bones(rigs: _Rigs) -> list[int]:
+    """The target's mapped bones that no label names and that hang from no labelled body part but a hand (a
+    rifle under a hand, a prop under the root), by index."""
+    tgt = rigs.tgt
+    labelled = set(tgt.body.limbs.values()) | set(tgt.body.twists) | set(tgt.body.metacarpals.values()) | {
+        n for names in tgt.body.fingers.values() for n in names} | {tgt.body.hips, tgt.body.root}
+    parts = retarget_parts.part_of_bones(tgt.names, tgt.parents, tgt.body)
+    return [b for b, part in enumerate(parts) if rigs.bone_map[b] >= 0 and tgt.names[b] not in labelled
+            and (part == "other" or part.startswith("hand.")) and b not in rigs.roots]
+
+
+def _labelled_hand(rig: RigData, bone: int) -> int:
+    """The labelled hand bone hangs from (its index), or -1."""
+    hands = {rig.body.limbs.get(f"hand.{s}") for s in bone_mapping.SIDES}
+    return next((a for a in rig.ancestors(bone) if rig.names[a] in hands), -1)
 
 
 def _grips(rigs: _Rigs, written) -> list:

@@ -19,7 +19,7 @@ DOCUMENTED_DEFAULTS = dict(
     floor_root="auto", root_smoothing=0.25, root_motion_onto="auto", plant_feet=None, contact_settings=None,
     source_floor=None, target_floor=None, floor_fit="legs", chain_modes=None, parts="whole", bones=None, into="new",
     blend="replace", influence=1.0, channels=("scale", "properties", "shape_keys"), channel_map=None,
-    two_hands=True)
+    two_hands=True, prop_space="bone")
 
 
 def test_defaults_are_the_documented_ones_and_valid():
@@ -97,6 +97,7 @@ BAD = [  # (field values, what the message must say: the option and the value)
     (dict(bones=()), r"bones must be a non-empty list"),
     (dict(into="old"), r"unknown into 'old'"),
     (dict(two_hands="yes"), r"two_hands must be True or False, not 'yes'"),
+    (dict(prop_space="pocket"), r"unknown prop_space 'pocket'"),
     (dict(blend="multiply"), r"unknown blend 'multiply'"),
     (dict(influence=1.5), r"influence must be a number from 0 to 1, not 1\.5"),
     (dict(influence=True), r"influence must be a number from 0 to 1, not True"),
