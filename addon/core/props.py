@@ -1,8 +1,9 @@
 """A prop bone follows the source's prop in a space of the user's choosing (numpy, no bpy): a mapped bone
 that is no body part (a weapon under a hand, a prop under the root) moves from its own rest as the
-source's moves from its rest relative to a reference: the hand it hangs from ("hand") or the hips
-("root"), the reference's motion being the target's own and the move scaled as the motion is. "bone"
-leaves it to the retarget, which turns it as any mapped bone (its direction)."""
+source's moves from its rest relative to a reference: the hand it hangs from ("hand"), the hips ("root")
+or the armature itself ("world"), the reference's motion being the target's own and the move scaled as
+the motion is. "bone" leaves it to the retarget, which turns it as any mapped bone (its direction). A prop
+bone connected to its parent can only turn (Blender ignores a connected bone's location)."""
 from __future__ import annotations
 
 import numpy as np
@@ -15,6 +16,7 @@ SPACES = (
     ("bone", "Bone", "Turned as any mapped bone: pointing where the source's points"),
     ("hand", "Hand", "Moving in its hand as the source's moves in the source's hand"),
     ("root", "Root", "Moving about the hips as the source's moves about the source's, scaled"),
+    ("world", "World", "Moving in the armature's space as the source's does, scaled"),
 )
 
 

@@ -108,7 +108,7 @@ class RetargetOptions:
     # the source's holds it, relative to the prop and scaled (core.two_hands), whatever its arms' lengths.
     two_hands: bool = True
     # How a mapped bone that is no body part (a prop) moves (core.props.SPACES): "bone" as any mapped bone,
-    # or as the source's moves in its "hand" or about its "root" (the hips).
+    # or as the source's moves in its "hand", about its "root" (the hips) or in the "world" (its armature).
     prop_space: str = "bone"
     bones: tuple | None = None
     # Where the keys go (retarget_parts.INTO): a "new" action, the target's "current" action over the clip's

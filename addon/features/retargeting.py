@@ -379,13 +379,13 @@ def _rekey(rigs: _Rigs, plan_: Plan, bones: set, located=()) -> None:
 
 
 def _props(rigs: _Rigs, clip: _Clip, fit: _Fit, plan_: Plan, written, space: str) -> None:
-    """Mapped props (core.props) moved as the source's move in space: their hands or the hips."""
+    """Mapped props (core.props) moved as the source's move in space: their hands, the hips or the world."""
     pairs = {}
     for prop in _prop_bones(rigs):
         if written is not None and prop not in written:
             continue
         source = int(rigs.bone_map[prop])
-        refs = rigs.roots
+        refs = (-1, -1) if space == "world" else rigs.roots
         if space == "hand":
             hands = (_labelled_hand(rigs.src, source), _labelled_hand(rigs.tgt, prop))
             refs = hands if min(hands) >= 0 else rigs.roots
@@ -395,7 +395,8 @@ def _props(rigs: _Rigs, clip: _Clip, fit: _Fit, plan_: Plan, written, space: str
     plan_.resolve()
     rotations, locations = plan_.pose
     posed = native_state.native().armature_pose(rigs.tgt.native, rotations, locations)
-    poses = props.wanted(rigs.src, rigs.tgt, pairs, (clip.rotations, clip.heads), posed, fit.space, fit.scale)
+    scale = fit.unit_scale if space == "world" else fit.scale
+    poses = props.wanted(rigs.src, rigs.tgt, pairs, (clip.rotations, clip.heads), posed, fit.space, scale)
     props.place(rigs.tgt, poses, rotations, locations, posed)
     _rekey(rigs, plan_, set(pairs), located=list(pairs))
 
