@@ -10,7 +10,7 @@ import re
 
 import numpy as np
 
-from . import bone_mapping
+from . import bone_mapping, native_state
 from .rig_data import RigData
 from .root_motion import local_channels
 from .rotation_channels import conjugate, multiply, rotate_each as rotate
@@ -37,9 +37,9 @@ def followers(rig: RigData, body: bone_mapping.Body) -> dict[int, int]:
 def follow(rig: RigData, pairs: dict[int, int], rotations, locations, posed) -> None:
     """Writes each follower's pose channels (rotations (frames, 4B), locations (frames, 3B), in place) so
     that it stands where pairs says, given the rig's armature-space pose posed = (orientations (frames, 4B),
-    heads (frames, 3B)) of the pose channels as they are; followers parents first, a follower's children
-    then posed from it."""
-    orientations, heads = posed[0].copy(), posed[1].copy()
+    heads (frames, 3B)) of the pose channels as they are; followers parents first, the rig posed again
+    after each (a follower under a follower: ik_hand_l under ik_hand_gun)."""
+    orientations, heads = posed
     rest = rig.unit_rest
     block = lambda a, b, n: a[:, n * b:n * b + n]  # noqa: E731
     for bone in sorted(pairs):
@@ -54,23 +54,5 @@ def follow(rig: RigData, pairs: dict[int, int], rotations, locations, posed) -> 
         basis, location = local_channels(rest, rig.heads, bone, parent, *parent_pose, wanted_rot, wanted_head)
         rotations[:, 4 * bone:4 * bone + 4] = basis
         locations[:, 3 * bone:3 * bone + 3] = location
-        orientations[:, 4 * bone:4 * bone + 4] = wanted_rot
-        heads[:, 3 * bone:3 * bone + 3] = wanted_head
-        _carry_children(rig, bone, orientations, heads, rotations, locations)
-
-
-def _carry_children(rig: RigData, bone: int, orientations, heads, rotations, locations) -> None:
-    """The armature-space pose of bone's descendants again, from its new pose and their own channels (a
-    follower's children: ik_hand_l under ik_hand_gun)."""
-    rest = rig.unit_rest
-    for child in range(bone + 1, len(rig)):
-        parent = rig.parents[child]
-        if parent < 0 or not rig.is_below(child, bone):
-            continue
-        relative = multiply(conjugate(rest[parent]), rest[child])
-        offset = rotate(conjugate(rest[parent])[None], (rig.heads[child] - rig.heads[parent])[None])[0]
-        frame = multiply(orientations[:, 4 * parent:4 * parent + 4], np.broadcast_to(relative, (len(heads), 4)))
-        orientations[:, 4 * child:4 * child + 4] = multiply(frame, rotations[:, 4 * child:4 * child + 4])
-        heads[:, 3 * child:3 * child + 3] = heads[:, 3 * parent:3 * parent + 3] + rotate(
-            orientations[:, 4 * parent:4 * parent + 4], np.broadcast_to(offset, (len(heads), 3))) + rotate(
-            frame, locations[:, 3 * child:3 * child + 3])
+        if any(rig.is_below(other, bone) for other in pairs if other != bone):
+            orientations, heads = native_state.native().armature_pose(rig.native, rotations, locations)

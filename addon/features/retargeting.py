@@ -370,10 +370,7 @@ def _rekey(rigs: _Rigs, plan_: Plan, bones: set, located=()) -> None:
     keep = [i for i, c in enumerate(plan_.still_channels) if c[2] not in names]
     plan_.still_channels = [plan_.still_channels[i] for i in keep]
     plan_.still_values = plan_.still_values[keep]
-    old = {(c[0], c[1]) for c in plan_.channels if c[2] in names} - {(c[0], c[1]) for c in channels}
     rows = [i for i, c in enumerate(plan_.channels) if c[2] not in names]
-    if old:  # a bone's location the plan keyed and no longer does: keep it
-        rows = [i for i, c in enumerate(plan_.channels) if c[2] not in names or (c[0], c[1]) in old]
     plan_.channels = [plan_.channels[i] for i in rows] + channels
     plan_.values = np.vstack([plan_.values[rows], values])
 
@@ -422,14 +419,12 @@ def _grips(rigs: _Rigs, written) -> list:
     """The two-handed holds the target can take (core.two_hands.Grip): a mapped bone under one hand that no
     label names (a rifle), and the other arm on both rigs."""
     tgt, src = rigs.tgt, rigs.src
-    labelled = set(tgt.body.limbs.values()) | set(tgt.body.twists) | set(tgt.body.metacarpals.values()) | {
-        n for names in tgt.body.fingers.values() for n in names}
-    parts = retarget_parts.part_of_bones(tgt.names, tgt.parents, tgt.body)
     out = []
-    for prop, part in enumerate(parts):
-        if not part.startswith("hand.") or tgt.names[prop] in labelled or rigs.bone_map[prop] < 0:
+    for prop in _prop_bones(rigs):
+        hand = _labelled_hand(tgt, prop)
+        if hand < 0:
             continue
-        other = "L" if part.endswith("R") else "R"
+        other = "L" if tgt.names[hand] == tgt.body.limbs.get("hand.R") else "R"
         names = [tgt.body.limbs.get(f"{k}.{other}") for k in ("upper_arm", "forearm", "hand")]
         sources = [src.body.limbs.get(f"{k}.{other}") for k in ("hand", "forearm")]
         if not all(n in tgt for n in names) or not all(n in src for n in sources):
