@@ -206,10 +206,17 @@ def rotations(obj, action, bones, frames) -> np.ndarray:
     return out
 
 
+def _connected(obj, names) -> np.ndarray:
+    """Per bone, whether it is connected to its parent: Blender ignores such a bone's location channel."""
+    bones = obj.data.bones
+    return np.array([bones[name].use_connect for name in names], dtype=bool)
+
+
 def locations(obj, action, bones, frames) -> tuple[np.ndarray, list[bool]]:
-    """Location channels (frames, 3 * bones) from the action, and per bone whether it moves at all. A value
-    that is not finite is a ValueError naming the bone and the frame, as rotations() gives for rotations.
-    bones: names or bones."""
+    """Location channels (frames, 3 * bones) as Blender poses them, and per bone whether it moves at all: a
+    bone connected to its parent reads zero (Blender ignores its channel, keyed or not), so that a native
+    pose puts it where Blender does. A value that is not finite is a ValueError naming the bone and the
+    frame, as rotations() gives for rotations. bones: names or bones."""
     names = _names(bones)
     channels = [(f"{bone_path(name)}.location", k) for name in names for k in range(3)]
     static = np.array([obj.pose.bones[name].location for name in names], dtype=np.float64).reshape(-1)
@@ -219,8 +226,10 @@ def locations(obj, action, bones, frames) -> tuple[np.ndarray, list[bool]]:
         frame, column = np.argwhere(~np.isfinite(out))[0]
         raise ValueError(f"'{obj.name}': bone '{names[column // 3]}' location is not finite at frame "
                          f"{frames[frame]:g} (action '{action.name}')")
-    animated = (found.reshape(-1, 3).any(axis=1) | (static.reshape(-1, 3) != 0).any(axis=1)).tolist()
-    return out, animated
+    connected = _connected(obj, names)
+    out.reshape(frames.size, -1, 3)[:, connected] = 0.0
+    animated = (found.reshape(-1, 3).any(axis=1) | (static.reshape(-1, 3) != 0).any(axis=1)) & ~connected
+    return out, animated.tolist()
 
 
 def build_rig(names, parents, rest, rest_heads, lengths):
@@ -258,7 +267,8 @@ def pose_basis(rig, frames, basis, moved) -> tuple[np.ndarray, np.ndarray]:
 
 def current_pose(obj, bones) -> tuple[np.ndarray, np.ndarray]:
     """The pose as it stands, read in bulk: rotations as quaternions (bones, 4), whatever each bone's
-    rotation mode, and locations (bones, 3), in the order of bones (names or bones)."""
+    rotation mode, and locations (bones, 3) as Blender poses them (zero for a connected bone, as
+    locations()), in the order of bones (names or bones)."""
     native = native_state.native()
     pose_bones = obj.pose.bones
     count = len(pose_bones)
@@ -276,8 +286,11 @@ def current_pose(obj, bones) -> tuple[np.ndarray, np.ndarray]:
         prop, _ = rotation_channels.channel_property(mode)
         quaternions[rows] = rotation_channels.to_quaternions(native, mode, arrays[prop][rows],
                                                              f"'{obj.name}' pose rotation")
-    order = [pose_bones.find(name) for name in _names(bones)]
-    return quaternions[order], arrays["location"][order]
+    names = _names(bones)
+    order = [pose_bones.find(name) for name in names]
+    moved = arrays["location"][order]
+    moved[_connected(obj, names)] = 0.0
+    return quaternions[order], moved
 
 
 _CHANNELS = (("location", 3), ("rotation_quaternion", 4), ("rotation_euler", 3), ("rotation_axis_angle", 4),
