@@ -2,15 +2,20 @@
 parents' (core/object_motion composes them), and written as keys (animdata.write_keys' channels)."""
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import bpy
 import numpy as np
 
-from . import animdata
+from . import animdata, pose_channels
 from ..core import native_state, object_motion, rotation_channels
 
 GROUP = "Object Transforms"  # the group Blender keys an object's transform in
+# On an action whose keys move its object by root motion (root_motion_onto="object"): where the object stood
+# before (ObjectBase.values), so that the next clip put onto it starts from there too, not from wherever the
+# last one's keys left the object's channels.
+BASE = "motionkit_object_base"
 
 
 def _delta_property(mode: str) -> str | None:
@@ -91,10 +96,27 @@ class ObjectMotion:
         worlds, _ = world_matrices(self.obj, self.action, frames)
         return object_motion.relative_motion(worlds, self.reference, f"the source '{self.obj.name}'", frames)
 
-    def placement(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The reference world as RigData keeps one: (matrix (4, 4), rotation (4,), scale (3,))."""
-        scale = np.linalg.norm(self.reference[:3, :3], axis=0)
-        return self.reference.copy(), object_motion.quaternions(self.reference[None, :3, :3] / scale)[0], scale
+    @classmethod
+    def of_action(cls, obj, action) -> "ObjectMotion | None":
+        """obj's motion from its base where the action records one (BASE), else from where it stands on the
+        action's first frame (the armature space that the bones' channels are then read in); None when
+        nothing moves the object."""
+        motion = cls.read(obj, action, pose_channels.action_frames(action, None)[0])
+        recorded = ObjectBase.recorded(action)
+        if motion is not None and recorded is not None:
+            motion.reference = recorded.world.copy()
+        return motion
+
+    def placed(self, rig):
+        """rig (core.rig_data.RigData) placed where the object stands on the reference frame."""
+        return placed_at(rig, self.reference)
+
+    def composed(self, rig, frames, basis, locations) -> tuple[np.ndarray, np.ndarray]:
+        """The bones' channels (basis (n, 4B), locations (n, 3B)) with the object's motion over frames
+        composed into its top bones', so that they pose in the reference frame's armature space."""
+        basis, locations = object_motion.compose_tops(rig.unit_rest, rig.heads, rig.parents, basis, locations,
+                                                      *self.at(np.asarray(frames, dtype=np.float64)))
+        return np.ascontiguousarray(basis), np.ascontiguousarray(locations)
 
 
 def transform_keys(obj, locations, rotations) -> tuple[list, np.ndarray]:
@@ -108,15 +130,63 @@ def transform_keys(obj, locations, rotations) -> tuple[list, np.ndarray]:
     return channels, np.vstack([np.asarray(locations, dtype=np.float64).T, values.T])
 
 
-def placement(obj) -> tuple[np.ndarray, np.ndarray, float]:
-    """obj's location (3,) and rotation channels as a quaternion (4,), and (its matrix_basis' rotation (4,),
-    uniform scale): what object_motion.object_keys moves it from."""
-    mode = obj.rotation_mode
-    prop, _ = rotation_channels.channel_property(mode)
-    native = native_state.native()
-    own = rotation_channels.to_quaternions(native, mode, np.array([getattr(obj, prop)], dtype=np.float64),
-                                           f"the object '{obj.name}' rotation")[0]
-    basis = np.array(obj.matrix_basis, dtype=np.float64)[:3, :3]
-    scale = np.linalg.norm(basis, axis=0)
-    return np.array(obj.location, dtype=np.float64), own, \
-        (object_motion.quaternions(basis[None] / scale)[0], float(np.mean(scale)))
+def placed_at(rig, world):
+    """rig (core.rig_data.RigData) placed at a world matrix (4, 4)."""
+    scale = np.linalg.norm(world[:3, :3], axis=0)
+    rotation = object_motion.quaternions(world[None, :3, :3] / scale)[0]
+    return dataclasses.replace(rig, world=np.array(world, dtype=np.float64), world_rotation=rotation,
+                               world_scale=scale)
+
+
+@dataclass(frozen=True)
+class ObjectBase:
+    """Where an object stands before root motion is put on it: its location (3,) and rotation channels as a
+    quaternion (4,), its matrix_basis' rotation (4,) and uniform scale (what object_motion.object_keys moves
+    it from), and its world matrix (4, 4)."""
+    location: np.ndarray
+    rotation: np.ndarray
+    turn: np.ndarray
+    scale: float
+    world: np.ndarray
+
+    def values(self) -> list[float]:
+        return [*self.location, *self.rotation, *self.turn, self.scale, *self.world.reshape(-1)]
+
+    @classmethod
+    def recorded(cls, action) -> "ObjectBase | None":
+        """The base an action records (BASE), or None."""
+        if action is None or BASE not in action:
+            return None
+        v = np.array(action[BASE], dtype=np.float64)
+        return cls(v[:3], v[3:7], v[7:11], float(v[11]), v[12:28].reshape(4, 4))
+
+    @classmethod
+    def of(cls, obj) -> "ObjectBase":
+        """obj's base: the one its action records, else its channels and world as they stand."""
+        recorded = cls.recorded(animdata.assigned_action(obj))
+        if recorded is not None:
+            return recorded
+        mode = obj.rotation_mode
+        prop, _ = rotation_channels.channel_property(mode)
+        own = rotation_channels.to_quaternions(native_state.native(), mode,
+                                               np.array([getattr(obj, prop)], dtype=np.float64),
+                                               f"the object '{obj.name}' rotation")[0]
+        basis = np.array(obj.matrix_basis, dtype=np.float64)[:3, :3]
+        scale = np.linalg.norm(basis, axis=0)
+        return cls(np.array(obj.location, dtype=np.float64), own, object_motion.quaternions(basis[None] / scale)[0],
+                   float(np.mean(scale)), np.array(obj.matrix_world, dtype=np.float64))
+
+    def record(self, action) -> None:
+        action[BASE] = self.values()
+
+    def keys(self, track) -> tuple[np.ndarray, np.ndarray]:
+        """The object's location (n, 3) and rotation (n, 4) that move it from here by a track (rotations
+        (n, 4), translations (n, 3) in its own space)."""
+        return object_motion.object_keys(self.location, self.rotation, (self.turn, self.scale), *track)
+
+
+def at_base(obj, rig):
+    """rig (obj's, core.rig_data.RigData) placed where obj stood before the root motion its action keys
+    (ObjectBase.recorded), or as read, when its action records none."""
+    recorded = ObjectBase.recorded(animdata.assigned_action(obj))
+    return rig if recorded is None else placed_at(rig, recorded.world)

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..blender import animdata, pose_channels
+from ..blender import animdata, object_channels, pose_channels
 from ..core import bone_mapping, clip_quality, rotation_channels
 from . import contacts, retargeting
 
@@ -25,6 +25,11 @@ class _Posed:
         action = animdata.assigned_action(obj)
         self.basis = pose_channels.rotations(obj, action, self.rig.names, frames)
         self.moved = np.ascontiguousarray(pose_channels.locations(obj, action, self.rig.names, frames)[0])
+        # A clip whose object moves (root motion onto the object) is measured with that motion, as it plays.
+        moving = object_channels.ObjectMotion.of_action(obj, action) if action is not None else None
+        if moving is not None:
+            self.rig = moving.placed(self.rig)
+            self.basis, self.moved = moving.composed(self.rig, frames, self.basis, self.moved)
         self.pose = pose_channels.pose_basis(self.rig.native, frames, self.basis, self.moved)
         self.rotations = rotation_channels.multiply(self.rig.world_rotation, self.pose[0].reshape(len(frames), -1, 4))
 

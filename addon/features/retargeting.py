@@ -8,7 +8,6 @@ checked before anything in the file changes, so an error leaves it as it was.
 """
 from __future__ import annotations
 
-import dataclasses
 import inspect
 import os
 from dataclasses import dataclass, field
@@ -19,7 +18,7 @@ import numpy as np
 from . import bvh, contacts, control_rigs, resampling, retarget_channels
 from ..blender import animdata, imports, object_channels, pose_channels
 from ..blender.imports import remove_armature
-from ..core import (bone_axes, bone_mapping, facing, floor_fit, follow, native_state, object_motion, props,
+from ..core import (bone_axes, bone_mapping, facing, floor_fit, follow, native_state, props,
                     reference_pose, retarget_options, retarget_parts, root_motion, rotation_channels, twist, two_hands,
                     worker_thread)
 from ..core.rig_data import Pose, RigData
@@ -191,6 +190,7 @@ class Plan:
     # target has no place for: channel_carry.LeftOut (kind, name, reason), never written.
     carried: retarget_channels.Carried | None = None
     channels_left_out: list = field(default_factory=list)
+    object_base: object_channels.ObjectBase | None = None  # where root motion onto the object moves it from
 
     def resolve(self) -> None:
         """Runs a pending feet's IK solve here and now: values, contact_report and all are then final."""
@@ -202,7 +202,8 @@ def _prepare(source, target, bone_map, frame_range, o: RetargetOptions, target_r
     """plan()'s reading and fitting: (pairs, clip, rigs, fit, chains), the options checked first."""
     src = _rig(source, "source")
     _check_armature(target, "target")
-    tgt = target_rig if target_rig is not None else pose_channels.read_rig(target)
+    # A target whose action moves its object (root motion onto it) is read where it stood before.
+    tgt = object_channels.at_base(target, target_rig if target_rig is not None else pose_channels.read_rig(target))
     _check_editable(target)
     if source == target:
         raise ValueError(f"the source and the target are the same armature '{source.name}' (a cycle)")
@@ -217,10 +218,9 @@ def _prepare(source, target, bone_map, frame_range, o: RetargetOptions, target_r
     pairs = _pairs(bone_map, src, tgt)
     # An object whose own transform (or a parent's) is keyed carries its motion in its bones instead, from
     # its placement on the action's first frame, which is then where its armature space stands.
-    moving = object_channels.ObjectMotion.read(source, action, pose_channels.action_frames(action, None)[0])
+    moving = object_channels.ObjectMotion.of_action(source, action)
     if moving is not None:
-        world, world_rotation, world_scale = moving.placement()
-        src = dataclasses.replace(src, world=world, world_rotation=world_rotation, world_scale=world_scale)
+        src = moving.placed(src)
     clip = _read_clip(source, src, action, pose_channels.action_frames(action, frame_range), moving)
     rigs = _read_rigs((source, src), (target, tgt), pairs, clip, o)
     fit = _fit(rigs, clip, o)
@@ -342,8 +342,9 @@ def _onto_object(plan_: Plan, rigs: _Rigs, sigma_frames: float, up) -> None:
     values = np.vstack([values, locations[:, 3 * hips:3 * hips + 3].T])
     rows = {(path, index): row for row, (path, index, _) in enumerate(plan_.channels)}
     plan_.values[[rows[(path, index)] for path, index, _ in channels]] = values
-    keys = object_channels.transform_keys(target, *object_motion.object_keys(*object_channels.placement(target),
-                                                                             *track))
+    base = object_channels.ObjectBase.of(target)
+    keys = object_channels.transform_keys(target, *base.keys(track))
+    plan_.object_base = base
     plan_.channels = plan_.channels + keys[0]
     plan_.values = np.vstack([plan_.values, keys[1]])
 
@@ -523,8 +524,7 @@ def _source_channels(obj, rig: RigData, action, frames, moving) -> tuple[np.ndar
     basis = pose_channels.rotations(obj, action, rig.names, frames)
     locations = pose_channels.locations(obj, action, rig.names, frames)[0]
     if moving is not None:
-        basis, locations = object_motion.compose_tops(rig.unit_rest, rig.heads, rig.parents, basis, locations,
-                                                      *moving.at(frames))
+        return moving.composed(rig, frames, basis, locations)
     return np.ascontiguousarray(basis), np.ascontiguousarray(locations)
 
 
@@ -933,6 +933,8 @@ def _write(target, action, plan_: Plan, merge: bool = False) -> None:
         write(target, action, carried.channels, plan_.frames, carried.values)
     if not merge:  # the target's own action keeps its own rate
         animdata.record_frame_rate(action, plan_.frame_rate)
+    if plan_.object_base is not None:
+        plan_.object_base.record(action)
 
 
 def _write_unsolved(target, action, plan_: Plan, merge: bool = False) -> None:
