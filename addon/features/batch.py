@@ -69,10 +69,12 @@ def _retarget_take(path, stem, take, action, count, source, target, out_dir, exp
         pairs = retargeting.auto_map(source, target) if rest.get("bone_map") is None else rest["bone_map"]
         # Decided on the target as the retarget finds it: after it, root motion onto the object has moved it.
         kept = retargeting.kept_bones(source, target, pairs, fields)
-        made = retargeting.retarget(source, target, options=fields, **{**rest, "bone_map": pairs}, action_name=name)
+        retargeted = retargeting.retarget_clip(source, target, options=fields, **{**rest, "bone_map": pairs},
+                                               action_name=name)
+        made = retargeted.action
         made.use_fake_user = True
         # The scale, properties and shape keys the target had no place for (RetargetOptions.channels).
-        row["channels_left_out"] = channel_carry.summary(retargeting.channels_left_out())
+        row["channels_left_out"] = channel_carry.summary(retargeted.channels_left_out)
         row.update(clip_report.row_figures(source, target, pairs, kept))
         if output:
             export_clip(target, output, export)

@@ -8,6 +8,7 @@ checked before anything in the file changes, so an error leaves it as it was.
 """
 from __future__ import annotations
 
+import functools
 import inspect
 import os
 from dataclasses import dataclass, field
@@ -42,15 +43,14 @@ CONTROLS = (
     ("none", "Bones", "Key the mapped bones themselves, even on a control rig"),
 )
 _IDENTITY = np.array([1.0, 0.0, 0.0, 0.0])
-# What the last apply() left out of the channels it carries (Plan.channels_left_out), for a caller that gets the
-# action alone (retarget(), the panel's operator, the batch): channels_left_out().
-_LEFT_OUT: list = []
 
 
-def channels_left_out() -> list:
-    """The channels (channel_carry.LeftOut) that the last retarget in this Blender did not carry, because the
-    target has no bone, property or shape key to take them; empty when it carried everything."""
-    return list(_LEFT_OUT)
+@dataclass(frozen=True)
+class Retargeted:
+    """What retarget_clip() made: the action keyed, and the channels (channel_carry.LeftOut) it did not carry
+    because the target has no bone, property or shape key to take them (empty when it carried everything)."""
+    action: bpy.types.Action
+    channels_left_out: tuple = ()
 
 
 def _check_editable(obj) -> None:
@@ -857,7 +857,6 @@ def apply(plan_: Plan, *, action_name: str | None = None, overwrite: bool = Fals
         retarget_channels.write_shapes(carried, plan_.frames, plan_.options,
                                        action_name or f"{plan_.source_name} -> {plan_.target.name}", overwrite,
                                        plan_.partial)
-    _LEFT_OUT[:] = plan_.channels_left_out
     return action
 
 
@@ -950,12 +949,13 @@ def _write_unsolved(target, action, plan_: Plan, merge: bool = False) -> None:
         contacts.write_contacts(target, action, plan_.feet, plan_.frames, plan_.contacts)
 
 
-def retarget(source, target, bone_map=None, frame_range=None, options: RetargetOptions | None = None, *,
-             action_name: str | None = None, overwrite: bool = False, bvh_scale: float | str = "auto",
-             imported_source: str | None = None, bvh_source: str | None = None, controls: str = "auto",
-             limbs: dict | None = None, control_map=None, keys: str = "every", reduce: bool = False, progress=None,
-             **keywords):
-    """Retarget the source's action onto the target; returns the target's new action.
+def retarget_clip(source, target, bone_map=None, frame_range=None, options: RetargetOptions | None = None, *,
+                  action_name: str | None = None, overwrite: bool = False, bvh_scale: float | str = "auto",
+                  imported_source: str | None = None, bvh_source: str | None = None, controls: str = "auto",
+                  limbs: dict | None = None, control_map=None, keys: str = "every", reduce: bool = False,
+                  progress=None, **keywords) -> Retargeted:
+    """Retarget the source's action onto the target; returns a Retargeted: the target's new action, and the
+    channels left out.
 
     source: an armature object with an action, or a file path: BVH (imported
     with motionkit.bvh.load), FBX, glTF or GLB (Blender's own importers; the
@@ -989,7 +989,7 @@ def retarget(source, target, bone_map=None, frame_range=None, options: RetargetO
     (FLOOR_ROOTS), plant_feet and contact_settings (planted feet are stored on
     the new action as 0/1 contact curves), channels and channel_map (bone
     scale, custom properties and shape keys carried by name; what the target
-    has no place for is left out: channels_left_out()). The hips are the body's root on both
+    has no place for is left out: Retargeted.channels_left_out). The hips are the body's root on both
     sides and the translation is scaled by the ratio of leg lengths measured
     along the legs. The new action is assigned to the target (its previous
     action keeps a fake user rather than being lost); with overwrite the keys
@@ -997,7 +997,6 @@ def retarget(source, target, bone_map=None, frame_range=None, options: RetargetO
     file as it was (a BVH source is removed again).
     """
     imported_source = _imported_source_option(imported_source, bvh_source)
-    _LEFT_OUT.clear()
     if target is not None and getattr(target, "type", None) == 'ARMATURE':
         _check_editable(target)
     options = from_keywords(options, **keywords)
@@ -1007,18 +1006,26 @@ def retarget(source, target, bone_map=None, frame_range=None, options: RetargetO
     call = (bone_map, frame_range, options)
     imported = _import_source(source, target, bvh_scale) if isinstance(source, (str, os.PathLike)) else None
     try:
-        action = _retarget_controls(imported.obj if imported else source, target, controls, limbs, control_map, keys,
-                                    reduce, action_name, overwrite, progress, call)
-        if action is None:
-            action = _retarget_bones(imported.obj if imported else source, target, keys, reduce, action_name,
-                                     overwrite, call)
+        made = _retarget_controls(imported.obj if imported else source, target, controls, limbs, control_map, keys,
+                                  reduce, action_name, overwrite, progress, call)
+        if made is None:
+            made = _retarget_bones(imported.obj if imported else source, target, keys, reduce, action_name,
+                                   overwrite, call)
     except BaseException:
         if imported is not None:
             imported.remove()
         raise
     if imported is not None:
         imported.finish(imported_source)
-    return action
+    return made
+
+
+@functools.wraps(retarget_clip)
+def retarget(*args, **keywords) -> bpy.types.Action:
+    return retarget_clip(*args, **keywords).action
+
+
+retarget.__doc__ = """retarget_clip()'s action alone: the target's new action (the same arguments)."""
 
 
 def _check_values(options: RetargetOptions, frame_range, keys, controls, reduce) -> None:
@@ -1079,10 +1086,11 @@ def _retarget_bones(source, target, keys, reduce, action_name, overwrite, call):
     """The action keyed on target's mapped bones themselves. call: (bone map, frame range, RetargetOptions)."""
     if keys != "every":
         raise ValueError("keys='source' is for control rigs; a plain retarget keys every frame")
-    action = apply(plan(source, target, *call, defer_solve=True), action_name=action_name, overwrite=overwrite)
+    plan_ = plan(source, target, *call, defer_solve=True)
+    action = apply(plan_, action_name=action_name, overwrite=overwrite)
     if reduce:
         resampling.reduce_keys(target)
-    return action
+    return Retargeted(action, tuple(plan_.channels_left_out))
 
 
 def _imported_source_option(imported_source, bvh_source) -> str:
@@ -1157,10 +1165,9 @@ def _retarget_controls(source, target, controls, limbs, control_map, keys, reduc
     if result is None:
         return None
     action = control_rigs.apply(result, action_name=action_name, overwrite=overwrite)
-    _LEFT_OUT[:] = planned[-1].channels_left_out
     if reduce:
         resampling.reduce_keys(target, bones=result.keyed)
-    return action
+    return Retargeted(action, tuple(planned[-1].channels_left_out))
 
 
 def _stand_as_tall_as(obj, other) -> None:

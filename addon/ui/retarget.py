@@ -312,11 +312,12 @@ def run_retarget(self, context) -> set:
 
     def work(progress):
         progress(0, 4)
-        action = retargeting.retarget(
+        made = retargeting.retarget_clip(
             source, settings.target, settings.bone_map() or None, frame_range, settings.retarget_options(),
             overwrite=settings.overwrite, progress=progress, **controls, **bvh_options)
+        action = made.action
         timing = scene_timing.from_clip(context.scene, action) if settings.scene_from_clip else None
-        not_carried = channel_carry.summary(retargeting.channels_left_out())
+        not_carried = channel_carry.summary(made.channels_left_out)
         _decide_chains(settings, settings.bone_map() or None)
         left_out = "" if settings.bone_map() or settings.source_kind != 'ARMATURE' else \
             bone_mapping.auto_map_report(_source_rig(settings), pose_channels.armature_mapping_rig(

@@ -135,18 +135,19 @@ def _units(got, expected):
 def test_scale_properties_and_shape_keys_are_carried_by_name_and_map(mk, animdata, rigs):
     source, target, face, faces = rigs
     frames = _frames(animdata, source)
-    action = mk.retarget(source, target, _bone_map(), plant_feet=False, channel_map={"smile": "grin"})
+    made = mk.retargeting.retarget_clip(source, target, _bone_map(), plant_feet=False, channel_map={"smile": "grin"})
+    action = made.action
     assert target.animation_data.action == action
     worst = _judge(animdata, source, target, face, faces, frames)
     print(f"\nscale, properties and shape keys on {len(frames)} frames: worst {worst:.2f} float32 units from "
           f"the source's")
     assert worst <= FLOAT32_UNITS
-    _check_left_out(mk, animdata, target, action, faces)
+    _check_left_out(made, animdata, target, action, faces)
 
 
-def _check_left_out(mk, animdata, target, action, faces):
+def _check_left_out(made, animdata, target, action, faces):
     """What the target lacks is not written, and the report names it; MotionKit's contacts are not carried."""
-    left = {(item.kind, item.name) for item in mk.retargeting.channels_left_out()}
+    left = {(item.kind, item.name) for item in made.channels_left_out}
     assert left == {("property", '["mood"]'), ("property", f'{SRC["upper_arm.L"]}["ik_fk"]'),
                     ("shape_key", "tongueOut")}
     paths = {fc.data_path for fc in animdata.fcurves(action, target)}
@@ -248,11 +249,12 @@ def test_nla_track_and_a_part_of_the_body(mk, animdata, rigs):
 
     again = generate.build_armature(TARGET, x=4.0)
     again.pose.bones[TGT["spine.1"]]["squash"] = 0.0
-    action = mk.retarget(source, again, _bone_map(), plant_feet=False, parts="arms")
+    made = mk.retargeting.retarget_clip(source, again, _bone_map(), plant_feet=False, parts="arms")
+    action = made.action
     paths = {fc.data_path for fc in animdata.fcurves(action, again)}
     arm, spine = (f'pose.bones["{TGT[c]}"]' for c in SCALED[::-1])
     assert f"{arm}.scale" in paths and f"{spine}.scale" not in paths and f'{spine}["squash"]' not in paths
-    left = {item.name: item.reason for item in mk.retargeting.channels_left_out()}
+    left = {item.name: item.reason for item in made.channels_left_out}
     assert set(left) == {'["mood"]', '["smile"]', '["blink"]', f'{SRC["upper_arm.L"]}["ik_fk"]', *SHAPES}
     assert left["jawOpen"] == f"the target '{again.name}' has no mesh with shape keys"
 
@@ -290,9 +292,10 @@ def test_a_control_rig_target_reports_every_channel_left_out(mk, animdata, share
                         np.tile(1.0 + 0.2 * np.sin(frames), (3, 1)))
     map_file = tmp_path / "handmade.json"
     map_file.write_text(json.dumps(data), encoding="utf-8")
-    made = mk.retarget(walk, target, control_map=str(map_file), plant_feet=False, floor_fit="hips")
-    assert not [fc for fc in animdata.fcurves(made, target) if fc.data_path.endswith(".scale")]
-    left = mk.retargeting.channels_left_out()
+    retargeted = mk.retargeting.retarget_clip(walk, target, control_map=str(map_file), plant_feet=False,
+                                              floor_fit="hips")
+    assert not [fc for fc in animdata.fcurves(retargeted.action, target) if fc.data_path.endswith(".scale")]
+    left = retargeted.channels_left_out
     assert [(item.kind, item.name) for item in left] == [("scale", f'pose.bones["{bone}"].scale[{i}]')
                                                         for i in range(3)]
     assert all(item.reason.startswith("the target is a control rig") for item in left)
