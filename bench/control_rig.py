@@ -115,11 +115,11 @@ def main() -> None:
 
     args, mk = harness.start("control_rig.py", __doc__, arguments, repeat=3)
     animdata = mk.animdata
-    retargeting = mk.retargeting
+    retarget_sources = importlib.import_module(mk.__name__ + ".features.retarget_sources")
     rig, generate_s = generate_rigify()
     path = harness.long_walk(mk.native(), args.frames)
     source, _ = mk.bvh.load(path)
-    retargeting._stand_as_tall_as(source, rig)
+    retarget_sources.stand_as_tall_as(source, rig)
     scene = bpy.context.scene
     scene.frame_start, scene.frame_end = 1, args.frames
 

@@ -43,6 +43,7 @@ def main() -> None:
     args, mk = harness.start("plant_feet.py", __doc__,
                              lambda parser: parser.add_argument("--frames", type=int, default=10_000))
     retargeting = importlib.import_module(mk.__name__ + ".features.retargeting")
+    imports = importlib.import_module(mk.__name__ + ".blender.imports")
     pose_channels = importlib.import_module(mk.__name__ + ".blender.pose_channels")
     animdata = mk.animdata
 
@@ -81,7 +82,7 @@ def main() -> None:
             action = mk.retarget(long_clip, target, plant_feet=plant)
             file_times[plant].append(time.perf_counter() - start)
             for obj in set(bpy.data.objects) - before:
-                retargeting.remove_armature(obj)
+                imports.remove_armature(obj)
     file_plain, file_planted = (statistics.median(file_times[p]) for p in (False, True))
     file_ratios = sorted(b / a for a, b in zip(file_times[False], file_times[True]))
     remove(action)

@@ -16,25 +16,15 @@ from dataclasses import dataclass, field
 import bpy
 import numpy as np
 
-from . import bvh, contacts, control_rigs, resampling, retarget_channels
+from . import contacts, control_rigs, resampling, retarget_channels, retarget_sources
 from ..blender import animdata, imports, object_channels, pose_channels
-from ..blender.imports import remove_armature
 from ..core import (bone_axes, bone_mapping, facing, floor_fit, follow, native_state, props,
                     reference_pose, retarget_options, retarget_parts, root_motion, rotation_channels, twist, two_hands,
                     worker_thread)
 from ..core.rig_data import Pose, RigData
 from ..core.retarget_options import (FLOOR_FITS, ROOT_MOTION_ONTO, ROOT_MOTIONS, SOURCE_MATCHES,  # noqa: F401
-                                     TARGET_MATCHES, RetargetOptions, check_frame_range, from_keywords, is_number)
+                                     TARGET_MATCHES, RetargetOptions, check_frame_range, from_keywords)
 from ..core.root_motion import FLOOR_ROOTS  # noqa: F401  (the panel's items, beside the other options')
-
-# What a file's imported armature (the source retarget() imports) becomes once the retarget is done.
-IMPORTED_SOURCES = (
-    ("keep", "Keep", "Leave the imported armature in the scene, scaled as asked"),
-    ("hide", "Hide", "Keep the imported armature (and anything imported with it), hidden in the viewport and "
-                     "in renders"),
-    ("remove", "Remove", "Remove what was imported, its action included, once the target is keyed"),
-)
-BVH_SOURCES = IMPORTED_SOURCES  # the older name
 
 CONTROLS = (
     ("auto", "Auto", "A recognised control rig's controls (legs IK, arms FK); the bones on any other rig"),
@@ -964,7 +954,7 @@ def retarget_clip(source, target, bone_map=None, frame_range=None, options: Reta
     centimetre file would otherwise stand 100 times too tall), or a number
     multiplies the file's distances; the retarget itself does not depend on it
     (the motion is scaled by the legs' ratio). imported_source: "keep",
-    "hide" or "remove" what was imported afterwards (IMPORTED_SOURCES;
+    "hide" or "remove" what was imported afterwards (retarget_sources.IMPORTED_SOURCES;
     bvh_source is its older name).
     controls: on a control rig (Rigify's, recognised from its bones, or one
     control_map describes: a motionkit-control-rig JSON file, a parsed map or a
@@ -996,7 +986,7 @@ def retarget_clip(source, target, bone_map=None, frame_range=None, options: Reta
     replace the target's own action's curves instead. A ValueError leaves the
     file as it was (a BVH source is removed again).
     """
-    imported_source = _imported_source_option(imported_source, bvh_source)
+    imported_source = retarget_sources.imported_source_option(imported_source, bvh_source)
     if target is not None and getattr(target, "type", None) == 'ARMATURE':
         _check_editable(target)
     options = from_keywords(options, **keywords)
@@ -1004,7 +994,7 @@ def retarget_clip(source, target, bone_map=None, frame_range=None, options: Reta
     _check_values(options, frame_range, keys, controls, reduce)
     _check_scale(target, "target")
     call = (bone_map, frame_range, options)
-    imported = _import_source(source, target, bvh_scale) if isinstance(source, (str, os.PathLike)) else None
+    imported = retarget_sources.import_source(source, target, bvh_scale) if isinstance(source, (str, os.PathLike)) else None
     try:
         made = _retarget_controls(imported.obj if imported else source, target, controls, limbs, control_map, keys,
                                   reduce, action_name, overwrite, progress, call)
@@ -1058,8 +1048,8 @@ def check_options(**options) -> None:
         raise ValueError(str(error)) from None
     _check_values(fields, values["frame_range"], values["keys"], values["controls"], values["reduce"])
     if "bvh_scale" in options:
-        _bvh_scale(options["bvh_scale"])
-    _imported_source_option(options.get("imported_source"), options.get("bvh_source"))
+        retarget_sources.check_bvh_scale(options["bvh_scale"])
+    retarget_sources.imported_source_option(options.get("imported_source"), options.get("bvh_source"))
 
 
 def check_root_bone(target, options: RetargetOptions) -> None:
@@ -1093,61 +1083,6 @@ def _retarget_bones(source, target, keys, reduce, action_name, overwrite, call):
     return Retargeted(action, tuple(plan_.channels_left_out))
 
 
-def _imported_source_option(imported_source, bvh_source) -> str:
-    if imported_source is not None and bvh_source is not None and imported_source != bvh_source:
-        raise ValueError("imported_source and its older name bvh_source say different things; give one")
-    chosen = imported_source or bvh_source or "keep"
-    if chosen not in [b[0] for b in IMPORTED_SOURCES]:
-        raise ValueError(f"unknown imported_source (bvh_source) {chosen!r}; expected one of {[b[0] for b in IMPORTED_SOURCES]}")
-    return chosen
-
-
-@dataclass
-class _Imported:
-    """A source armature retarget() imported from a file, and what the import added."""
-    obj: bpy.types.Object
-    added: dict | None = None  # Blender's importers: everything they added (imports.remove)
-
-    def remove(self) -> None:
-        if self.added is None:
-            remove_armature(self.obj)
-        else:
-            imports.remove(self.added)
-
-    def finish(self, what: str) -> None:
-        """What becomes of the import once the target is keyed: IMPORTED_SOURCES."""
-        if what == "remove":
-            self.remove()
-            return
-        if what == "hide":
-            shown = [self.obj] + ([o for o in self.added["objects"] if o != self.obj] if self.added else [])
-            for obj in shown:
-                obj.hide_set(True)
-                obj.hide_render = True
-
-
-def _bvh_scale(bvh_scale) -> None:
-    if not (bvh_scale == "auto" or (is_number(bvh_scale) and np.isfinite(bvh_scale) and bvh_scale > 0)):
-        raise ValueError(f"bvh_scale must be 'auto' or a positive number, not {bvh_scale!r}")
-
-
-def _import_source(path, target, bvh_scale) -> _Imported:
-    """A file path's armature: BVH through MotionKit's reader, FBX and glTF through Blender's importers."""
-    path = os.fspath(path)
-    if os.path.splitext(path)[1].lower() in imports.FORMATS:
-        obj, added = imports.import_animated_armature(path)
-        return _Imported(obj, added)
-    _bvh_scale(bvh_scale)
-    obj, _ = bvh.load(path, scale=1.0 if bvh_scale == "auto" else float(bvh_scale))
-    if bvh_scale == "auto":
-        try:
-            _stand_as_tall_as(obj, target)
-        except BaseException:
-            remove_armature(obj)
-            raise
-    return _Imported(obj)
-
-
 def _retarget_controls(source, target, controls, limbs, control_map, keys, reduce, action_name, overwrite,
                        progress, call):
     """The action keyed on target's controls, or None when it is to be keyed bone by bone. call: (bone map,
@@ -1168,16 +1103,3 @@ def _retarget_controls(source, target, controls, limbs, control_map, keys, reduc
     if reduce:
         resampling.reduce_keys(target, bones=result.keyed)
     return Retargeted(action, tuple(planned[-1].channels_left_out))
-
-
-def _stand_as_tall_as(obj, other) -> None:
-    """Scale obj (uniformly, as an object) so that its rest pose stands as tall as other's."""
-    def height(o):
-        world = np.array(o.matrix_world)
-        z = (pose_channels.rest_points(o.data) @ world[:3, :3].T + world[:3, 3])[:, 2]
-        return float(np.ptp(z))
-
-    mine, theirs = height(obj), height(other)
-    if mine > 0 and theirs > 0:
-        obj.scale = obj.scale * (theirs / mine)
-        bpy.context.view_layer.update()

@@ -13,7 +13,7 @@ from .preview import MOTIONKIT_PG_retarget_preview
 from ..blender import pose_channels
 from ..core import bone_mapping, channel_carry, display_names, reference_pose, retarget_parts
 from ..core.retarget_options import RetargetOptions
-from ..features import bvh, control_rigs, retargeting, scene_timing
+from ..features import bvh, control_rigs, retarget_sources, retargeting, scene_timing
 
 
 _LIMB_MODES = (("fk", "FK", "Forward kinematics: the limb's bones are keyed"),
@@ -139,7 +139,7 @@ class MOTIONKIT_PG_retarget(bpy.types.PropertyGroup):
                                              "file would otherwise stand 100 times too tall)")
     bvh_scale: FloatProperty(name="Scale", default=1.0, min=1e-6, max=1e6,
                              description="Multiply the file's distances by this")
-    bvh_source: EnumProperty(name="Imported", items=retargeting.IMPORTED_SOURCES, default="hide",
+    bvh_source: EnumProperty(name="Imported", items=retarget_sources.IMPORTED_SOURCES, default="hide",
                              description="What the imported armature becomes once the target is keyed")
     target: PointerProperty(name="Target", type=bpy.types.Object, poll=_is_armature,
                             description="The armature that receives the motion as a new action")

@@ -6,6 +6,7 @@ height), random bone rolls (directions to 0.01 deg), walk60 onto each sample
 character (mapped directions to 0.1 deg, foot heights scaled by the leg
 ratio), and errors that change nothing.
 """
+import importlib
 import json
 import math
 import os
@@ -758,7 +759,7 @@ def check_planted_feet(mk, retargeting, path, spec):
     check_knees(case, name)
     check_other_bones(mk, case, name)
     for obj in (case["source"], case["target"]):
-        retargeting.remove_armature(obj)
+        importlib.import_module(mk.__name__ + ".blender.imports").remove_armature(obj)
 
 
 def test_planted_feet_do_not_slide(mk, retargeting, shared_dir):
