@@ -365,19 +365,21 @@ BLEND_TYPES = {"replace": 'REPLACE', "add": 'COMBINE'}
 
 
 def push_track(id_data: bpy.types.ID, action: bpy.types.Action, start: float, blend: str,
-               influence: float) -> bpy.types.NlaStrip:
+               influence: float, name: str | None = None) -> bpy.types.NlaStrip:
     """action as a strip from frame start on a new NLA track above id_data's others, blended (BLEND_TYPES:
     "add" is Blender's Combine: rotations compose, locations add) by influence, and nothing outside its
     frames. Blender plays an assigned action above every track: id_data's own goes down onto a track of its
-    own first (at its own frames, held), so that the new track lies above it."""
+    own first (at its own frames, held), so that the new track lies above it. name: the tracks' name (each
+    is named after its action otherwise), for remove_tracks."""
     anim = id_data.animation_data or id_data.animation_data_create()
     own = anim.action
     if own is not None:
         slot = anim.action_slot if LAYERED else None
-        below = _new_track(anim, own, int(round(own.frame_range[0])), slot)
+        below = _new_track(anim, own, int(round(own.frame_range[0])), slot, name)
         below.blend_type = 'REPLACE'
         anim.action = None
-    strip = _new_track(anim, action, int(round(start)), _slot_for(action, id_data, create=True) if LAYERED else None)
+    strip = _new_track(anim, action, int(round(start)), _slot_for(action, id_data, create=True) if LAYERED else None,
+                       name)
     strip.blend_type = BLEND_TYPES[blend]
     strip.extrapolation = 'NOTHING'
     if influence < 1.0:
@@ -389,11 +391,19 @@ def push_track(id_data: bpy.types.ID, action: bpy.types.Action, start: float, bl
     return strip
 
 
-def _new_track(anim, action: bpy.types.Action, start: int, slot) -> bpy.types.NlaStrip:
-    """A strip of action from start on a new track above anim's others."""
+def remove_tracks(id_data: bpy.types.ID, name: str) -> None:
+    """id_data's NLA tracks that push_track named name (Blender may have numbered them: "name.001")."""
+    anim = id_data.animation_data
+    if anim is not None:
+        for track in [t for t in anim.nla_tracks if t.name.startswith(name)]:
+            anim.nla_tracks.remove(track)
+
+
+def _new_track(anim, action: bpy.types.Action, start: int, slot, name: str | None = None) -> bpy.types.NlaStrip:
+    """A strip of action from start on a new track (named name, else after the action) above anim's others."""
     tracks = anim.nla_tracks
     track = tracks.new(prev=tracks[-1] if len(tracks) else None)
-    track.name = action.name
+    track.name = name or action.name
     strip = track.strips.new(action.name, start, action)
     if slot is not None:
         strip.action_slot = slot

@@ -397,7 +397,8 @@ def test_root_motion_onto_the_object_from_the_command_line(mk, library, target, 
     apart = {k: abs(result.rows[0][k] - on_hips.rows[0][k]) for k in SAME_FIGURE}
     print(f"\nthe report's figures, motion on the object against on the hips: {apart}")
     assert all(apart[k] <= bound for k, bound in SAME_FIGURE.items()), apart
-    again = mk.cli.run(["retarget", "--target", target.name, "--root-motion-onto", "object", run])
+    again = mk.cli.run(["retarget", "--target", target.name, "--root-motion-onto", "object", "--report",
+                        str(tmp_path / "again"), run])
     channels = [(c.data_path, c.array_index) for c in mk.animdata.fcurves(result.actions[1], target)]
     keys = [[np.array([tuple(k.co) for k in mk.animdata.find_fcurve(a, target, *c).keyframe_points]) for c in channels]
             for a in (result.actions[1], again.actions[0])]

@@ -24,7 +24,7 @@ def panel(mk, walk60):
     yield settings
     ui_preview = importlib.import_module(mk.__name__ + ".ui.preview")
     ui_preview.stop(settings)
-    for prop in ("parts", "into", "root_motion", "scene_from_clip"):  # the scene's panel, for the next tests
+    for prop in ("parts", "into", "blend", "influence", "root_motion", "scene_from_clip"):  # for the next tests
         settings.property_unset(prop)
 
 
@@ -118,3 +118,28 @@ def test_cancel_puts_back_a_target_without_an_action_and_its_object(mk, panel):
     assert target.animation_data.action is None
     assert np.array_equal(_pose(target, frames), before) and target.matrix_world == matrix
     panel.property_unset("root_motion_onto")
+
+
+def test_a_retarget_into_an_nla_track_is_previewed_blended(mk, panel):
+    """The arms into an NLA track that adds at half influence over the target's own walk: the preview plays
+    the blend, as Blender plays the track that Apply then makes (its evaluation, both); not the arms
+    replaced as a new action would show them; Cancel removes the preview's tracks, the walk plays again."""
+    target, walk = panel.target, panel.target.animation_data.action
+    frames = [1, 40, 90]
+    walking = _pose(target, frames)
+    panel.parts = "arms"
+    assert bpy.ops.motionkit.retarget_preview() == {'FINISHED'}
+    replaced = _pose(target, frames)
+    assert bpy.ops.motionkit.retarget_preview_cancel() == {'FINISHED'}
+    panel.into, panel.blend, panel.influence = "nla", "add", 0.5
+    assert bpy.ops.motionkit.retarget_preview() == {'FINISHED'} and panel.preview.message == ""
+    blended = _pose(target, frames)
+    assert np.abs(blended - replaced).max() > 1e-2 and np.abs(blended - walking).max() > 1e-2
+    assert bpy.ops.motionkit.retarget_preview_cancel() == {'FINISHED'}
+    anim = target.animation_data
+    assert anim.action == walk and len(anim.nla_tracks) == 0 and "MotionKit Preview" not in bpy.data.actions
+    assert np.array_equal(_pose(target, frames), walking)
+    assert bpy.ops.motionkit.retarget_preview() == {'FINISHED'}
+    assert bpy.ops.motionkit.retarget_preview_apply() == {'FINISHED'}
+    assert [t.name for t in anim.nla_tracks if t.name.startswith("MotionKit Preview")] == []
+    assert np.abs(_pose(target, frames) - blended).max() < 1e-6  # float32 matrices of the same keys
