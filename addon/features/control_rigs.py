@@ -564,6 +564,9 @@ def apply(plan_: ControlPlan, *, action_name: str | None = None, overwrite: bool
         animdata.write_keys(target, action, plan_.rest_channels, plan_.frames[:1], plan_.rest_values)
         if deform.contacts is not None:  # on the feet's controls, where the animator keys
             contacts.write_contacts(target, action, plan_.feet, deform.frames, deform.contacts)
+        carried = deform.carried
+        if carried is not None and carried.channels:  # the object's own properties (retarget_channels)
+            animdata.write_keys(target, action, carried.channels, deform.frames, carried.values)
         animdata.record_frame_rate(action, deform.frame_rate)
 
     previous = animdata.assigned_action(target)

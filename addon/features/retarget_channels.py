@@ -175,16 +175,18 @@ def _shape_keys(source, target, frames, channel_map, carried) -> None:
     carried.shapes = [(key, channels, np.vstack(rows)) for key, (channels, rows) in into.items()]
 
 
-def on_controls(carried: Carried, frames: int) -> Carried:
-    """carried where the target is a control rig: every channel left out (its controls are keyed, and
-    nothing maps a deform bone's scale or property, or a face's shape, onto a control yet)."""
-    reason = "the target is a control rig: its controls are keyed, and they take no carried channel yet"
+def on_controls(carried: Carried) -> Carried:
+    """carried where the target is a control rig: the object's own properties and the meshes' shape keys go
+    as onto any armature (no control stands for them); a bone's scale or property is left out (the controls
+    are keyed, and nothing maps a deform bone's channel onto a control yet)."""
+    reason = "the target is a control rig: its controls are keyed, and none takes a deform bone's channel yet"
+    on_bones = [c.data_path.startswith("pose.bones") for c in carried.channels]
     left = list(carried.left_out)
     left += [LeftOut("scale" if c.data_path.endswith(".scale") else "property", str(c), reason)
-             for c in carried.channels]
-    left += [LeftOut("shape_key", f"{key.user.name}: {c.data_path}", reason)
-             for key, channels, _ in carried.shapes for c in channels]
-    return Carried(values=np.empty((0, frames)), left_out=left)
+             for c, bone in zip(carried.channels, on_bones) if bone]
+    kept = [row for row, bone in enumerate(on_bones) if not bone]
+    return Carried(channels=[carried.channels[row] for row in kept], values=carried.values[kept],
+                   shapes=carried.shapes, left_out=left)
 
 
 def finite(carried: Carried) -> bool:

@@ -296,8 +296,8 @@ def plan(source, target, bone_map=None, frame_range=None, options: RetargetOptio
     plan_.partial = written is not None
     plan_.carried = retarget_channels.read(source, target, clip.action, clip.frames, pairs,
                                            set(plan_.written) if plan_.partial else None, o)
-    if target_rig is not None:  # a control rig's controls are keyed (control_rigs.apply): none of these
-        plan_.carried = retarget_channels.on_controls(plan_.carried, len(clip.frames))
+    if target_rig is not None:  # a control rig's controls are keyed (control_rigs.apply), not its bones
+        plan_.carried = retarget_channels.on_controls(plan_.carried)
     plan_.channels_left_out = plan_.carried.left_out
     if not (np.all(np.isfinite(plan_.values)) and np.all(np.isfinite(plan_.still_values))
             and retarget_channels.finite(plan_.carried)):
@@ -842,12 +842,18 @@ def apply(plan_: Plan, *, action_name: str | None = None, overwrite: bool = Fals
     overwrite: the target's own action, the written bones' curves replaced whole. Returns the action keyed.
     The carried shape keys go into the target meshes' Keys' actions the same way (retarget_channels)."""
     action = _apply_armature(plan_, action_name, overwrite)
+    apply_shapes(plan_, action_name, overwrite)
+    return action
+
+
+def apply_shapes(plan_: Plan, action_name: str | None, overwrite: bool) -> None:
+    """The carried shape keys into the target meshes' Keys' actions, as apply() put the armature's keys (a
+    control rig's too: its meshes' shapes are no control's)."""
     carried = plan_.carried
     if carried is not None and carried.shapes:
         retarget_channels.write_shapes(carried, plan_.frames, plan_.options,
                                        action_name or f"{plan_.source_name} -> {plan_.target.name}", overwrite,
                                        plan_.partial)
-    return action
 
 
 def _apply_armature(plan_: Plan, action_name, overwrite) -> bpy.types.Action:
@@ -1100,6 +1106,7 @@ def _retarget_controls(source, target, controls, limbs, control_map, keys, reduc
     if result is None:
         return None
     action = control_rigs.apply(result, action_name=action_name, overwrite=overwrite)
+    apply_shapes(planned[-1], action_name, overwrite)
     if reduce:
         resampling.reduce_keys(target, bones=result.keyed)
     return Retargeted(action, tuple(planned[-1].channels_left_out))

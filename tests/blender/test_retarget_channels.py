@@ -278,9 +278,12 @@ def test_the_operator_tells_which_channels_were_not_carried(mk, animdata, rigs, 
         assert name in said
 
 
-def test_a_control_rig_target_reports_every_channel_left_out(mk, animdata, shared_dir, tmp_path):
+def test_a_control_rig_target_takes_the_objects_channels_and_reports_the_bones(mk, animdata, shared_dir,
+                                                                                 tmp_path):
     """Its controls are keyed, and none takes a deform bone's scale or property yet: nothing of them is
-    written, and each is reported. The hand-made control rig of test_control_rigs, on walk60's skeleton."""
+    written, and each is reported. The object's own properties and the faces' shape keys are no control's:
+    they are carried as onto any armature, judged by Blender's evaluation. The hand-made control rig of
+    test_control_rigs, on walk60's skeleton."""
     import json
     from test_control_rigs import _hand_made_rig
 
@@ -290,6 +293,15 @@ def test_a_control_rig_target_reports_every_channel_left_out(mk, animdata, share
     frames = _frames(animdata, walk)[::10]
     animdata.write_keys(walk, action, [(f'pose.bones["{bone}"].scale', i) for i in range(3)], frames,
                         np.tile(1.0 + 0.2 * np.sin(frames), (3, 1)))
+    walk["mood"] = target["mood"] = 0.0
+    walk.update_tag()  # Blender's evaluated copy of walk, made before, takes the new property only so
+    t = (frames - frames[0]) / (frames[-1] - frames[0])
+    _bezier(animdata, walk, action, [(('["mood"]', 0), 3 * t)], frames)
+    face, faces = _face("SourceFace", walk, SHAPES[:1]), (_face("TargetFace", target, SHAPES[:1]),)
+    face_action = animdata.new_action("SourceFace")
+    _bezier(animdata, face.data.shape_keys, face_action, [((f'key_blocks["{SHAPES[0]}"].value', 0),
+                                                          0.5 + 0.45 * np.sin(2 * np.pi * t))], frames)
+    animdata.assign(face.data.shape_keys, face_action)
     map_file = tmp_path / "handmade.json"
     map_file.write_text(json.dumps(data), encoding="utf-8")
     retargeted = mk.retargeting.retarget_clip(walk, target, control_map=str(map_file), plant_feet=False,
@@ -299,3 +311,8 @@ def test_a_control_rig_target_reports_every_channel_left_out(mk, animdata, share
     assert [(item.kind, item.name) for item in left] == [("scale", f'pose.bones["{bone}"].scale[{i}]')
                                                         for i in range(3)]
     assert all(item.reason.startswith("the target is a control rig") for item in left)
+    played = frames[::2]
+    expected = _evaluated(walk, {"face": face}, played, [], [("", "mood")], [("face", SHAPES[0])])
+    got = _evaluated(target, {"face": faces[0]}, played, [], [("", "mood")], [("face", SHAPES[0])])
+    assert np.ptp(expected, axis=0).min() > 0.1
+    assert _units(got, expected) <= FLOAT32_UNITS
