@@ -28,8 +28,9 @@ OWN_PREFIX = "motionkit_contact_"
 
 
 class LeftOut(NamedTuple):
-    """A source channel not written on the target: its kind ("scale", "property", "shape_key"), its name as
-    the source has it (bone["prop"], ["prop"] for the object's, the shape key's name) and why."""
+    """A source channel not written on the target: its kind ("scale", "property", "shape_key", or "bone" for
+    a prop bone that moves and that no pair takes), its name as the source has it (bone["prop"], ["prop"]
+    for the object's, the shape key's name, the bone's) and why."""
     kind: str
     name: str
     reason: str

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import retarget_parts
 from .rig_data import RigData
 from .root_motion import local_channels
 from .rotation_channels import conjugate, multiply, rotate_each as rotate
@@ -18,6 +19,36 @@ SPACES = (
     ("root", "Root", "Moving about the hips as the source's moves about the source's, scaled"),
     ("world", "World", "Moving in the armature's space as the source's does, scaled"),
 )
+
+
+# A bone "moves" in a clip when its channels turn it more than this from their first frame (radians), or
+# move it more than this part of the rig's size: far above float32 keys' rounding (1e-7), far below a
+# prop's handling (degrees, centimetres).
+MOVES_TURN = 1e-4
+MOVES_SHIFT = 1e-5
+
+
+def candidates(rig: RigData, roots=()) -> list[int]:
+    """The bones (indices) that no label names and that hang from no labelled body part but a hand (a rifle
+    under a hand, a prop under the root), roots (the hips, a floor root) aside."""
+    body = rig.body
+    labelled = set(body.limbs.values()) | set(body.twists) | set(body.metacarpals.values()) | {
+        n for names in body.fingers.values() for n in names} | {body.hips, body.root}
+    parts = retarget_parts.part_of_bones(rig.names, rig.parents, body)
+    return [b for b, part in enumerate(parts) if rig.names[b] not in labelled
+            and (part == "other" or part.startswith("hand.")) and b not in roots]
+
+
+def moving(rig: RigData, bones, basis, locations) -> list[int]:
+    """Those of bones whose channels (basis (n, 4B), locations (n, 3B)) move over the clip (MOVES_*)."""
+    out = []
+    for b in bones:
+        q = basis[:, 4 * b:4 * b + 4]
+        turn = 2.0 * np.arcsin(np.clip(np.linalg.norm(multiply(conjugate(q[:1]), q)[:, 1:], axis=1), 0.0, 1.0))
+        shift = np.ptp(locations[:, 3 * b:3 * b + 3], axis=0).max(initial=0.0)
+        if turn.max(initial=0.0) > MOVES_TURN or shift > MOVES_SHIFT * rig.size:
+            out.append(b)
+    return out
 
 
 def _from_rest(rot, heads, rest_rot, rest_head):

@@ -18,7 +18,7 @@ import numpy as np
 
 from . import contacts, control_rigs, resampling, retarget_channels, retarget_sources
 from ..blender import animdata, imports, object_channels, pose_channels
-from ..core import (bone_axes, bone_mapping, facing, floor_fit, follow, native_state, props,
+from ..core import (bone_axes, bone_mapping, channel_carry, facing, floor_fit, follow, native_state, props,
                     reference_pose, retarget_options, retarget_parts, root_motion, rotation_channels, twist, two_hands,
                     worker_thread)
 from ..core.rig_data import Pose, RigData
@@ -298,7 +298,7 @@ def plan(source, target, bone_map=None, frame_range=None, options: RetargetOptio
                                            set(plan_.written) if plan_.partial else None, o)
     if target_rig is not None:  # a control rig's controls are keyed (control_rigs.apply), not its bones
         plan_.carried = retarget_channels.on_controls(plan_.carried)
-    plan_.channels_left_out = plan_.carried.left_out
+    plan_.channels_left_out = plan_.carried.left_out + _props_left_out(rigs, clip)
     if not (np.all(np.isfinite(plan_.values)) and np.all(np.isfinite(plan_.still_values))
             and retarget_channels.finite(plan_.carried)):
         raise ValueError("the retargeted motion is not finite; check the rigs' rest poses")
@@ -390,14 +390,18 @@ def _props(rigs: _Rigs, clip: _Clip, fit: _Fit, plan_: Plan, written, space: str
 
 
 def _prop_bones(rigs: _Rigs) -> list[int]:
-    """The target's mapped bones that no label names and that hang from no labelled body part but a hand (a
-    rifle under a hand, a prop under the root), by index."""
-    tgt = rigs.tgt
-    labelled = set(tgt.body.limbs.values()) | set(tgt.body.twists) | set(tgt.body.metacarpals.values()) | {
-        n for names in tgt.body.fingers.values() for n in names} | {tgt.body.hips, tgt.body.root}
-    parts = retarget_parts.part_of_bones(tgt.names, tgt.parents, tgt.body)
-    return [b for b, part in enumerate(parts) if rigs.bone_map[b] >= 0 and tgt.names[b] not in labelled
-            and (part == "other" or part.startswith("hand.")) and b not in rigs.roots]
+    """The target's mapped props (core.props.candidates), by index."""
+    return [b for b in props.candidates(rigs.tgt, rigs.roots) if rigs.bone_map[b] >= 0]
+
+
+def _props_left_out(rigs: _Rigs, clip: _Clip) -> list:
+    """The source's props that move in the clip and that no pair takes: said, as the channels are."""
+    paired = set(int(a) for a in rigs.bone_map if a >= 0)
+    roots = [b for b in (rigs.roots[0], rigs.floor_bones[0]) if b is not None]
+    bones = [b for b in props.candidates(rigs.src, roots) if b not in paired]
+    reason = "a prop that moves; the target has no bone mapped to it (add one and map it)"
+    return [channel_carry.LeftOut("bone", rigs.src.names[b], reason)
+            for b in props.moving(rigs.src, bones, clip.basis, clip.locations)]
 
 
 def _labelled_hand(rig: RigData, bone: int) -> int:

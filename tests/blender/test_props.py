@@ -67,3 +67,22 @@ def test_a_gun_moving_in_the_hand_follows_in_the_space_picked(mk, space):
         worst_shift = max(worst_shift, float(np.linalg.norm(moves[0][:3, 3] - moves[1][:3, 3])))
     print(f"\nthe gun in {space} space: worst {worst_turn:.1e} deg, {worst_shift:.1e} m from the source's move")
     assert worst_turn < TURN_DEG and worst_shift < SHIFT
+
+
+def test_a_moving_prop_the_target_lacks_is_said_and_a_still_one_is_not(mk):
+    """The source's gun moves in its hand; the target has no bone for it: nothing can follow it, and the
+    retarget says so (Retargeted.channels_left_out, the operator's warning, the batch's column). A gun that
+    only rides along (its own channels still) is no news: nothing is said."""
+    source = generate.build_armature(_with_gun(characters.MIXAMO_T))
+    _animate(mk, source, 30)
+    target = generate.build_armature(characters.MIXAMO_T, x=2.0)
+    made = mk.retargeting.retarget_clip(source, target, plant_feet=False)
+    assert [(item.kind, item.name) for item in made.channels_left_out] == [("bone", "Gun")]
+    assert "no bone mapped to it" in made.channels_left_out[0].reason
+    for curve in mk.animdata.fcurves(source.animation_data.action, source):
+        if '"Gun"' in curve.data_path:
+            for key in curve.keyframe_points:  # the gun's channels held at their first key
+                key.co[1] = curve.keyframe_points[0].co[1]
+                key.handle_left[1] = key.handle_right[1] = key.co[1]
+    still = mk.retargeting.retarget_clip(source, target, plant_feet=False)
+    assert still.channels_left_out == ()
