@@ -567,6 +567,11 @@ def apply(plan_: ControlPlan, *, action_name: str | None = None, overwrite: bool
         carried = deform.carried
         if carried is not None and carried.channels:  # the object's own properties (retarget_channels)
             animdata.write_keys(target, action, carried.channels, deform.frames, carried.values)
+        if deform.object_base is not None:  # root motion onto the object: its keys, beside the controls'
+            rows = [r for r, channel in enumerate(deform.channels) if not channel[0].startswith("pose.bones")]
+            animdata.write_keys(target, action, [deform.channels[r] for r in rows], deform.frames,
+                                deform.values[rows])
+            deform.object_base.record(action)
         animdata.record_frame_rate(action, deform.frame_rate)
 
     previous = animdata.assigned_action(target)

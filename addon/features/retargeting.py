@@ -244,10 +244,6 @@ def plan(source, target, bone_map=None, frame_range=None, options: RetargetOptio
     either way. target_rig: the target's bones as a rig of their own where they are not its armature's
     (a control rig's deform skeleton, control_rigs.deform_rig)."""
     o = from_keywords(options, **keywords)
-    if target_rig is not None and o.root_motion_onto == "object":
-        # A control rig is keyed through its controls from the deform skeleton's pose, which has no object.
-        raise ValueError(f"root_motion_onto='object' keys a plain armature's object; on the control rig "
-                         f"'{target.name}' retarget with controls='none' or choose 'hips' or 'root'")
     pairs, clip, rigs, fit, chains = _prepare(source, target, bone_map, frame_range, o, target_rig)
     root, ground, contact_settings = o.root, o.ground, o.contact_settings
     written = _written_bones(rigs.tgt, o)

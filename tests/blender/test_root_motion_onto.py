@@ -240,3 +240,37 @@ def test_root_motion_onto_what_the_target_cannot_carry_is_refused(mk, walk60):
                                          r"or bones chosen leave out"):
         mk.retarget(source, unreal, frame_range=FRAMES, root_motion_onto="object", parts="arms")
     assert set(bpy.data.actions) == actions and mixamo.animation_data is None and unreal.animation_data is None
+
+
+def test_root_motion_onto_a_control_rigs_object(mk, walk60, tmp_path):
+    """A control rig (the hand-made one of test_control_rigs, on walk60's skeleton) takes its travel on its
+    object too: the object keyed beside the controls, travelling on the floor, and every deform bone where
+    the same retarget with the travel on the hips puts it (Blender's evaluation, constraints included)."""
+    import json
+    from test_control_rigs import _hand_made_rig
+
+    source, _ = mk.bvh.load(walk60)
+    outputs = {}
+    for onto in ("hips", "object"):
+        rig, data = _hand_made_rig(source)
+        map_file = tmp_path / f"handmade-{onto}.json"
+        map_file.write_text(json.dumps(data), encoding="utf-8")
+        mk.retarget(source, rig, frame_range=FRAMES, control_map=str(map_file), root_motion_onto=onto)
+        outputs[onto] = rig
+    frames = frames_of()
+    deform = [i for i, pb in enumerate(outputs["hips"].pose.bones) if not pb.name.startswith("CTRL-")]
+    reference, moved = (world_heads(outputs[k], frames)[:, deform] for k in ("hips", "object"))
+    size = height(outputs["hips"])
+    action = mk.animdata.assigned_action(outputs["object"])
+    assert mk.animdata.find_fcurve(action, outputs["object"], "location", 0) is not None
+    placed = []
+    for f in frames:
+        bpy.context.scene.frame_set(int(f))
+        placed.append(tuple(outputs["object"].matrix_world.translation))
+    placed = np.array(placed)
+    travel = np.ptp(reference[:, 0, :2], axis=0).max()
+    assert travel > 0.5 * size and np.ptp(placed[:, :2], axis=0).max() > 0.9 * travel
+    assert np.abs(placed[:, 2]).max() < ROOT_HEIGHT
+    off = np.abs(moved - reference).max() / size
+    print(f"\ncontrol rig, travel on its object: deform bones {off:.2e} of the height from the hips' output")
+    assert off < SAME_WORLD
