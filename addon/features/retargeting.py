@@ -16,11 +16,11 @@ from dataclasses import dataclass, field
 import bpy
 import numpy as np
 
-from . import contacts, control_rigs, resampling, retarget_channels, retarget_sources
-from ..blender import animdata, imports, object_channels, pose_channels
-from ..core import (bone_axes, bone_mapping, channel_carry, facing, floor_fit, follow, native_state, props,
-                    reference_pose, retarget_options, retarget_parts, root_motion, rotation_channels, twist, two_hands,
-                    worker_thread)
+from . import (contacts, control_rigs, resampling, retarget_channels, retarget_keys, retarget_props,
+               retarget_sources)
+from ..blender import animdata, object_channels, pose_channels
+from ..core import (bone_axes, bone_mapping, facing, floor_fit, native_state, reference_pose, retarget_options,
+                    retarget_parts, root_motion, rotation_channels, twist, worker_thread)
 from ..core.rig_data import Pose, RigData
 from ..core.retarget_options import (FLOOR_FITS, ROOT_MOTION_ONTO, ROOT_MOTIONS, SOURCE_MATCHES,  # noqa: F401
                                      TARGET_MATCHES, RetargetOptions, check_frame_range, from_keywords)
@@ -283,10 +283,10 @@ def plan(source, target, bone_map=None, frame_range=None, options: RetargetOptio
     if onto_object:
         _onto_object(plan_, rigs, o.root_smoothing * clip.fps, fit.up)
     if o.two_hands:
-        _two_hands(rigs, clip, fit, plan_, written)
+        retarget_props.two_hands_hold(rigs, clip, fit, plan_, written)
     if o.prop_space != "bone":
-        _props(rigs, clip, fit, plan_, written, o.prop_space)
-    _follow(rigs, plan_, written)
+        retarget_props.move_props(rigs, clip, fit, plan_, written, o.prop_space)
+    retarget_props.follow_bones(rigs, plan_, written)
     plan_.chains, plan_.options = chains, o
     plan_.written = [rigs.tgt.names[b] for b in sorted(written)] if written is not None else list(rigs.tgt.names)
     plan_.partial = written is not None
@@ -294,7 +294,7 @@ def plan(source, target, bone_map=None, frame_range=None, options: RetargetOptio
                                            set(plan_.written) if plan_.partial else None, o)
     if target_rig is not None:  # a control rig's controls are keyed (control_rigs.apply), not its bones
         plan_.carried = retarget_channels.on_controls(plan_.carried)
-    plan_.channels_left_out = plan_.carried.left_out + _props_left_out(rigs, clip)
+    plan_.channels_left_out = plan_.carried.left_out + retarget_props.props_left_out(rigs, clip)
     if not (np.all(np.isfinite(plan_.values)) and np.all(np.isfinite(plan_.still_values))
             and retarget_channels.finite(plan_.carried)):
         raise ValueError("the retargeted motion is not finite; check the rigs' rest poses")
@@ -333,117 +333,6 @@ def _onto_object(plan_: Plan, rigs: _Rigs, sigma_frames: float, up) -> None:
     plan_.object_base = base
     plan_.channels = plan_.channels + keys[0]
     plan_.values = np.vstack([plan_.values, keys[1]])
-
-
-def _follow(rigs: _Rigs, plan_: Plan, written) -> None:
-    """The target's IK and prop bones that no map drives (core.follow: Unreal's ik_foot_l, ik_hand_gun...)
-    keyed to stand where the hands and feet they stand for stand, once the feet's solve is done."""
-    pairs = {f: b for f, b in follow.followers(rigs.tgt, rigs.tgt.body).items()
-             if rigs.bone_map[f] < 0 and (written is None or b in written)}
-    if not pairs:
-        return
-    plan_.resolve()
-    rotations, locations = plan_.pose
-    posed = native_state.native().armature_pose(rigs.tgt.native, rotations, locations)
-    follow.follow(rigs.tgt, pairs, rotations, locations, posed)
-    _rekey(rigs, plan_, set(pairs), located=list(pairs))
-
-
-def _rekey(rigs: _Rigs, plan_: Plan, bones: set, located=()) -> None:
-    """The plan's keys of bones (indices) made again from its pose (plan_.pose), a key on every frame."""
-    rotations, locations = plan_.pose
-    names = {rigs.tgt.names[b] for b in bones}
-    (channels, values), _ = _target_channels(rigs, rotations, list(located), locations, only=bones, keyed=bones)
-    keep = [i for i, c in enumerate(plan_.still_channels) if c[2] not in names]
-    plan_.still_channels = [plan_.still_channels[i] for i in keep]
-    plan_.still_values = plan_.still_values[keep]
-    rows = [i for i, c in enumerate(plan_.channels) if c[2] not in names]
-    plan_.channels = [plan_.channels[i] for i in rows] + channels
-    plan_.values = np.vstack([plan_.values[rows], values])
-
-
-def _props(rigs: _Rigs, clip: _Clip, fit: _Fit, plan_: Plan, written, space: str) -> None:
-    """Mapped props (core.props) moved as the source's move in space: their hands, the hips or the world."""
-    pairs = {}
-    for prop in _prop_bones(rigs):
-        if written is not None and prop not in written:
-            continue
-        source = int(rigs.bone_map[prop])
-        refs = (-1, -1) if space == "world" else rigs.roots
-        if space == "hand":
-            hands = (_labelled_hand(rigs.src, source), _labelled_hand(rigs.tgt, prop))
-            refs = hands if min(hands) >= 0 else rigs.roots
-        pairs[prop] = (source, *refs)
-    if not pairs:
-        return
-    plan_.resolve()
-    rotations, locations = plan_.pose
-    posed = native_state.native().armature_pose(rigs.tgt.native, rotations, locations)
-    scale = fit.unit_scale if space == "world" else fit.scale
-    poses = props.wanted(rigs.src, rigs.tgt, pairs, (clip.rotations, clip.heads), posed, fit.space, scale)
-    props.place(rigs.tgt, poses, rotations, locations, posed)
-    _rekey(rigs, plan_, set(pairs), located=list(pairs))
-
-
-def _prop_bones(rigs: _Rigs) -> list[int]:
-    """The target's mapped props (core.props.candidates), by index."""
-    return [b for b in props.candidates(rigs.tgt, rigs.roots) if rigs.bone_map[b] >= 0]
-
-
-def _props_left_out(rigs: _Rigs, clip: _Clip) -> list:
-    """The source's props that move in the clip and that no pair takes: said, as the channels are."""
-    paired = set(int(a) for a in rigs.bone_map if a >= 0)
-    roots = [b for b in (rigs.roots[0], rigs.floor_bones[0]) if b is not None]
-    bones = [b for b in props.candidates(rigs.src, roots) if b not in paired]
-    reason = "a prop that moves; the target has no bone mapped to it (add one and map it)"
-    return [channel_carry.LeftOut("bone", rigs.src.names[b], reason)
-            for b in props.moving(rigs.src, bones, clip.basis, clip.locations)]
-
-
-def _labelled_hand(rig: RigData, bone: int) -> int:
-    """The labelled hand bone hangs from (its index), or -1."""
-    hands = {rig.body.limbs.get(f"hand.{s}") for s in bone_mapping.SIDES}
-    return next((a for a in rig.ancestors(bone) if rig.names[a] in hands), -1)
-
-
-def _grips(rigs: _Rigs, written) -> list:
-    """The two-handed holds the target can take (core.two_hands.Grip): a mapped bone under one hand that no
-    label names (a rifle), and the other arm on both rigs."""
-    tgt, src = rigs.tgt, rigs.src
-    out = []
-    for prop in _prop_bones(rigs):
-        hand = _labelled_hand(tgt, prop)
-        if hand < 0:
-            continue
-        other = "L" if tgt.names[hand] == tgt.body.limbs.get("hand.R") else "R"
-        names = [tgt.body.limbs.get(f"{k}.{other}") for k in ("upper_arm", "forearm", "hand")]
-        sources = [src.body.limbs.get(f"{k}.{other}") for k in ("hand", "forearm")]
-        if not all(n in tgt for n in names) or not all(n in src for n in sources):
-            continue
-        upper, forearm, hand = (tgt.index(n) for n in names)
-        if written is not None and not {upper, forearm} <= written:
-            continue
-        out.append(two_hands.Grip(int(rigs.bone_map[prop]), src.index(sources[0]), src.index(sources[1]), prop,
-                                  upper, forearm, hand))
-    return out
-
-
-def _two_hands(rigs: _Rigs, clip: _Clip, fit: _Fit, plan_: Plan, written) -> None:
-    """A prop held in both hands: the target's other hand put where the source's holds it (core.two_hands)."""
-    grips = _grips(rigs, written)
-    if not grips:
-        return
-    plan_.resolve()
-    rotations, locations = plan_.pose
-    source_pose = (clip.rotations, clip.heads)
-    for grip in grips:
-        weight = two_hands.weights(rigs.src, grip, source_pose)
-        if not weight.any():
-            continue
-        posed = native_state.native().armature_pose(rigs.tgt.native, rotations, locations)
-        wanted = two_hands.wanted_wrists(rigs.src, rigs.tgt, grip, source_pose, posed, fit.space, fit.scale)
-        two_hands.reach(rigs.tgt, grip, rotations, posed, wanted, weight, fit.up)
-        _rekey(rigs, plan_, {grip.upper, grip.forearm})
 
 
 def _written_bones(rig: RigData, o: RetargetOptions) -> set | None:
@@ -742,12 +631,12 @@ def _plan_keys(rigs: _Rigs, clip: _Clip, pairs, scale, pose, located, mode, plan
     if planted is not None:
         keyed = {tgt.index(b) for f in planted[2] for b in (f.thigh, f.shin, f.foot)} | {target_root}
         keyer = pose_channels.rotation_keyer(rigs.target, [tgt.names[b] for b in sorted(keyed)])
-        pending = _PlantedFeet(planted[0], planted[1], {tgt.names[b] for b in keyed}, lambda: _target_channels(
+        pending = _PlantedFeet(planted[0], planted[1], {tgt.names[b] for b in keyed}, lambda: retarget_keys.target_channels(
             rigs, rotations, located, locations, keyed, keyed, keyer=keyer)[0])
         if defer_solve:
             pending.start()  # beside the rest of the plan and apply()'s writing
     # Bones the feet's solve may change get a key per frame even where the plain retarget keeps them still.
-    moving, still = _target_channels(rigs, rotations, located, locations, only=written, keyed=keyed,
+    moving, still = retarget_keys.target_channels(rigs, rotations, located, locations, only=written, keyed=keyed,
                                      placeholders=True)
     floor_bones = tuple(rig.names[b] if b is not None else None for rig, b in zip((rigs.src, tgt), rigs.floor_bones))
     plan_ = Plan(rigs.target, clip.frames, *moving, rigs.source.name, pairs, *still, leg_ratio=scale,
@@ -799,39 +688,6 @@ def _plant_feet(tgt: RigData, tgt_feet, found, frames, rotations, locations, tar
                                               threads=max(1, (os.cpu_count() or 1) - 1) if beside else 0,
                                               follow_heights=heights, hips_move=hips_move, holds=holds)
     return prepare, finish, tgt_feet, stances
-
-
-def _target_channels(rigs: _Rigs, rotations, located, locations, only=None, keyed=frozenset(),
-                     placeholders=False, keyer=None):
-    """The F-curves to key, in each bone's own rotation mode: (channels, values) for the bones the retarget
-    moves (and those in keyed) and the root's location, one key per frame; (channels, values) for the bones
-    that keep the match pose, one key. only: the bone indices to give (default all). placeholders: the
-    keyed bones' values left at zero (the feet's solve fills them in). keyer: pose_channels.rotation_keyer
-    of the moving bones in only, in bone order, so that this reads no Blender data (for a worker thread)."""
-    tgt, target_basis, bone_map_idx = rigs.tgt, rigs.target_basis, rigs.bone_map
-    frames = rotations.shape[0]
-    scope = [b for b in range(len(tgt)) if only is None or b in only]
-    moving = [b for b in scope if bone_map_idx[b] >= 0 or b in located or b in keyed
-              or bool(np.any(np.abs(rotations[:, 4 * b:4 * b + 4] @ target_basis[b]) < 1.0 - 1e-12))]
-    still = sorted(set(scope) - set(moving))
-    later = [b for b in moving if placeholders and b in keyed]  # zeros until the feet's solve
-    now = [b for b in moving if b not in later]
-    columns = lambda bones: (4 * np.array(bones, dtype=np.int64)[:, None] + np.arange(4)).ravel()  # noqa: E731
-    names = lambda bones: [tgt.names[b] for b in bones]  # noqa: E731
-    channels = [(f"{pose_channels.bone_path(tgt.names[b])}.location", k, tgt.names[b]) for b in moving
-                if b in located for k in range(3)]
-    rows = [locations[:, 3 * b:3 * b + 3].T for b in moving if b in located]
-    for bones, placeholder in ((now, False), (later, True)):
-        if bones:
-            keys = keyer if keyer is not None and not placeholder else pose_channels.rotation_keyer(rigs.target,
-                                                                                                   names(bones))
-            more, values = keys(rotations[:, columns(bones)], placeholder=placeholder)
-            channels += more
-            rows.append(values)
-    still_channels, still_values = pose_channels.rotation_keys(rigs.target, names(still),
-                                                               rotations[:1, columns(still)]) \
-        if still else ([], np.empty((0, 1)))
-    return (channels, np.vstack(rows) if rows else np.empty((0, frames))), (still_channels, still_values)
 
 
 def apply(plan_: Plan, *, action_name: str | None = None, overwrite: bool = False) -> bpy.types.Action:

@@ -1,0 +1,54 @@
+"""The target's F-curves from a retargeted pose (numpy arrays to (channels, values) rows, each bone in its own
+rotation mode): what the plan keys, and a plan's bones keyed again once a later stage (the followers, the
+props, two hands on a prop) has moved them. rigs: the retarget's _Rigs; plan_: its Plan."""
+from __future__ import annotations
+
+import numpy as np
+
+from ..blender import pose_channels
+
+
+def target_channels(rigs, rotations, located, locations, only=None, keyed=frozenset(),
+                     placeholders=False, keyer=None):
+    """The F-curves to key, in each bone's own rotation mode: (channels, values) for the bones the retarget
+    moves (and those in keyed) and the root's location, one key per frame; (channels, values) for the bones
+    that keep the match pose, one key. only: the bone indices to give (default all). placeholders: the
+    keyed bones' values left at zero (the feet's solve fills them in). keyer: pose_channels.rotation_keyer
+    of the moving bones in only, in bone order, so that this reads no Blender data (for a worker thread)."""
+    tgt, target_basis, bone_map_idx = rigs.tgt, rigs.target_basis, rigs.bone_map
+    frames = rotations.shape[0]
+    scope = [b for b in range(len(tgt)) if only is None or b in only]
+    moving = [b for b in scope if bone_map_idx[b] >= 0 or b in located or b in keyed
+              or bool(np.any(np.abs(rotations[:, 4 * b:4 * b + 4] @ target_basis[b]) < 1.0 - 1e-12))]
+    still = sorted(set(scope) - set(moving))
+    later = [b for b in moving if placeholders and b in keyed]  # zeros until the feet's solve
+    now = [b for b in moving if b not in later]
+    columns = lambda bones: (4 * np.array(bones, dtype=np.int64)[:, None] + np.arange(4)).ravel()  # noqa: E731
+    names = lambda bones: [tgt.names[b] for b in bones]  # noqa: E731
+    channels = [(f"{pose_channels.bone_path(tgt.names[b])}.location", k, tgt.names[b]) for b in moving
+                if b in located for k in range(3)]
+    rows = [locations[:, 3 * b:3 * b + 3].T for b in moving if b in located]
+    for bones, placeholder in ((now, False), (later, True)):
+        if bones:
+            keys = keyer if keyer is not None and not placeholder else pose_channels.rotation_keyer(rigs.target,
+                                                                                                   names(bones))
+            more, values = keys(rotations[:, columns(bones)], placeholder=placeholder)
+            channels += more
+            rows.append(values)
+    still_channels, still_values = pose_channels.rotation_keys(rigs.target, names(still),
+                                                               rotations[:1, columns(still)]) \
+        if still else ([], np.empty((0, 1)))
+    return (channels, np.vstack(rows) if rows else np.empty((0, frames))), (still_channels, still_values)
+
+
+def rekey(rigs, plan_, bones: set, located=()) -> None:
+    """The plan's keys of bones (indices) made again from its pose (plan_.pose), a key on every frame."""
+    rotations, locations = plan_.pose
+    names = {rigs.tgt.names[b] for b in bones}
+    (channels, values), _ = target_channels(rigs, rotations, list(located), locations, only=bones, keyed=bones)
+    keep = [i for i, c in enumerate(plan_.still_channels) if c[2] not in names]
+    plan_.still_channels = [plan_.still_channels[i] for i in keep]
+    plan_.still_values = plan_.still_values[keep]
+    rows = [i for i, c in enumerate(plan_.channels) if c[2] not in names]
+    plan_.channels = [plan_.channels[i] for i in rows] + channels
+    plan_.values = np.vstack([plan_.values[rows], values])
