@@ -257,13 +257,14 @@ def sweep_targets(obj, labels, joints, frames):
     return shoulder + (near - shoulder) * scale[:, None]
 
 
-def test_a_sweep_nudged_by_1e_12_bakes_the_same_keys(mk, walk60, animdata):
+@pytest.mark.parametrize("name", SUBJECTS)
+def test_a_sweep_nudged_by_1e_12_bakes_the_same_keys(mk, walk60, animdata, name):
     """The bake's path through the clip is continuous in its input: the sweep above (walk60, feet pinned,
     natural defaults) baked again with every target moved by about 1e-12 m, as another processor's
     rounding would move it, keys every channel within 1e-6 of the first bake (the solver stops within
     3e-7 of the rig's size; a choice flipped by the nudge moved keys by up to 0.25 before). Blender keeps
     keys in float32 (a rounding of 6e-8 near 1), so the keys are compared as Blender stores them."""
-    obj, labels = subject(mk, walk60, "walk60")
+    obj, labels = subject(mk, walk60, name)
     joints = mk.ik.natural_defaults(obj)
     source = animdata.assigned_action(obj)
     targets = sweep_targets(obj, labels, joints, np.arange(1, 61))
@@ -278,7 +279,7 @@ def test_a_sweep_nudged_by_1e_12_bakes_the_same_keys(mk, walk60, animdata):
     assert keys[0].keys() == keys[1].keys()
     apart = {channel: float(np.abs(keys[0][channel] - keys[1][channel]).max()) for channel in keys[0]}
     worst = max(apart, key=apart.get)
-    print(f"\nwalk60's sweep nudged by 1e-12: keys at most {apart[worst]:.1e} apart ({worst[0]}[{worst[1]}])")
+    print(f"\n{name}'s sweep nudged by 1e-12: keys at most {apart[worst]:.1e} apart ({worst[0]}[{worst[1]}])")
     assert apart[worst] <= 1e-6
 
 
