@@ -205,11 +205,6 @@ bool AcceptAttempt(const Model& m, Data& d, LoopState& s, const Attempt& t) {
 // Out of a standstill that is no solution: EscapeStall, at most twice a frame; true if it moved.
 bool EscapeFromStall(const Model& m, Data& d, LoopState& s, double mu) {
   if (s.escapes >= 2 || s.it >= s.budget) return false;
-  // Not once the later stages (natural defaults) have joined a warm-started frame: they start from the
-  // last frame's pose, and a stall there is where an unreachable target's approach ends (whether the
-  // last step still lowered the merit is then a coin flip on the last bits), from which a bend would
-  // jump.
-  if (m.separate_prior && d.stage > 0 && m.options.warm_start && d.warm.have_last) return false;
   ++s.it;
   ++s.escapes;
   if (!EscapeStall(m, d, mu, s.cost)) return false;
