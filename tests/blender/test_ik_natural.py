@@ -204,16 +204,18 @@ def test_out_of_reach_the_pins_hold_the_arm_points_and_the_body_keeps_its_balanc
 
 
 # Per subject, the largest amount (degrees) by which a bone's turn from one frame to the next changes
-# faster than in the input, measured on Blender 3.4 (AMD EPYC) in 34 bakes: the targets as given, and
-# nudged by 1e-12 (as another processor's rounding would nudge them) 32 ways. walk60 and UnrealA give the
-# same figure every time; MixamoT one of two; RigifyA spreads from 1.95 to 5.08 (five bakes of 34 above
-# 4: its later stages' path still amplifies the nudge, docs/ik.md), so its bound is the largest seen,
-# not a guarantee. The test holds each to it plus POP_SLACK.
+# faster than in the input, measured over nine bakes each on Blender 3.4 and 5.2 (AMD EPYC): the targets as
+# given and nudged by 1e-12 (six ways), 1e-9 and 1e-7. walk60 and UnrealA give one figure on both Blenders,
+# their path being continuous in the input (the nudge test below); RigifyA two (5.29 and 5.31, the choice a
+# nudge still flips, docs/ik.md); MixamoT 6.98 on 3.4 and 11.05 on 5.2 and on 3.4 nudged by 1e-7 (two
+# branches of its path: the float32 evaluation of its input differs between the Blenders by about 1e-7).
+# The test holds each to the largest plus POP_SLACK. (Before, on the same bakes: walk60 2.48, MixamoT 4.86
+# to 7.24, RigifyA 1.95 to 6.20, UnrealA 15.26.)
 POP_MEASURED = {
-    "walk60": 2.48,   # lShoulder 3.043 against the input's 0.563; every nudge the same
-    "MixamoT": 6.88,  # mixamorig:LeftArm; 4.86 (21 bakes of 34) or 6.88 (13)
-    "RigifyA": 5.08,  # upper_arm.L at the worst (one bake of 34); forearm.L 1.95 to 2.32 on most
-    "UnrealA": 15.26,  # lowerarm_l 15.478 against 0.214 (the forearm rolls as the arm straightens, frame 26)
+    "walk60": 2.23,   # lShoulder 2.790 against the input's 0.563
+    "MixamoT": 11.05,  # mixamorig:LeftArm as the target turns back at its farthest (6.98 on 3.4's own input)
+    "RigifyA": 5.31,  # shin.R 6.910 against 1.604, frame 31: the hips answering the balance at the farthest reach
+    "UnrealA": 8.51,  # upperarm_l 9.293 against 0.782
 }
 POP_SLACK = 0.5
 
@@ -257,28 +259,43 @@ def sweep_targets(obj, labels, joints, frames):
     return shoulder + (near - shoulder) * scale[:, None]
 
 
-def test_a_sweep_nudged_by_1e_12_bakes_the_same_keys(mk, walk60, animdata):
-    """The bake's path through the clip is continuous in its input: the sweep above (walk60, feet pinned,
-    natural defaults) baked again with every target moved by about 1e-12 m, as another processor's
+# Where a nudge still flips a choice (issue 36, docs/ik.md "Precision"): on Blender 3.4, MixamoT's keys part
+# by 2.7e-2 for four nudges of six and RigifyA's by 0.16 for five of six (on 5.2, RigifyA one of six, MixamoT
+# none). Not strict: whether one of this test's three nudges flips it depends on the Blender's own float32
+# evaluation of the input.
+STILL_FLIPPING = {"MixamoT", "RigifyA"}
+
+
+@pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.xfail(
+    reason="a nudge can still flip a choice (docs/ik.md, Precision)")) if n in STILL_FLIPPING
+    else n for n in SUBJECTS])
+def test_a_sweep_nudged_by_1e_12_bakes_the_same_keys(mk, walk60, animdata, name):
+    """The bake's path through the clip is continuous in its input: the sweep above (feet pinned, natural
+    defaults) baked again with every target moved by about 1e-12 m three ways, as another processor's
     rounding would move it, keys every channel within 1e-6 of the first bake (the solver stops within
-    3e-7 of the rig's size; a choice flipped by the nudge moved keys by up to 0.25 before). Blender keeps
-    keys in float32 (a rounding of 6e-8 near 1), so the keys are compared as Blender stores them."""
-    obj, labels = subject(mk, walk60, "walk60")
+    3e-7 of the rig's size; a choice flipped by the nudge moved keys by up to 0.44 before). Blender keeps
+    keys in float32 (a rounding of 6e-8 near 1), so the keys are compared as Blender stores them:
+    measured at most 3.0e-8 on walk60 and 1.2e-7 on UnrealA over six nudges (Blender 3.4 and 5.2), a
+    float32 key's last bits; the bound is the solver's tolerance rather than ten times that, as another
+    processor's libm may round a key the other way across several frames' solves."""
+    obj, labels = subject(mk, walk60, name)
     joints = mk.ik.natural_defaults(obj)
     source = animdata.assigned_action(obj)
     targets = sweep_targets(obj, labels, joints, np.arange(1, 61))
-    nudge = 1e-12 * np.random.default_rng(36).standard_normal(targets.shape)
     keys = []
-    for moved in (targets, targets + nudge):
+    for seed in (None, 36, 1, 2):
+        moved = targets if seed is None else targets + 1e-12 * np.random.default_rng(seed).standard_normal(
+            targets.shape)
         animdata.assign(obj, source)
         _, action = mk.ik.bake(obj, feet(mk, labels) + [mk.ik.Effector(labels.limbs["hand.L"], target=moved)],
                                (1, 60))
         keys.append({(c.data_path, c.array_index): np.array([k.co[1] for k in c.keyframe_points])
                      for c in animdata.fcurves(action, obj)})
-    assert keys[0].keys() == keys[1].keys()
-    apart = {channel: float(np.abs(keys[0][channel] - keys[1][channel]).max()) for channel in keys[0]}
+    assert all(k.keys() == keys[0].keys() for k in keys)
+    apart = {channel: max(float(np.abs(k[channel] - keys[0][channel]).max()) for k in keys[1:])
+             for channel in keys[0]}
     worst = max(apart, key=apart.get)
-    print(f"\nwalk60's sweep nudged by 1e-12: keys at most {apart[worst]:.1e} apart ({worst[0]}[{worst[1]}])")
+    print(f"\n{name}'s sweep nudged by 1e-12: keys at most {apart[worst]:.1e} apart ({worst[0]}[{worst[1]}])")
     assert apart[worst] <= 1e-6
 
 

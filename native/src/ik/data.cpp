@@ -39,8 +39,8 @@ void SizeSecondPass(const Model& m, SecondPass& s) {
 }  // namespace
 
 Data::Data(const Model& m) {
-  for (Pose* p : {&input, &current, &trial, &reference, &warm.last, &warm.earlier, &warm.ended, &fallback.pose, &ccd.best,
-                  &ccd.previous, &correction.pose}) {
+  for (Pose* p : {&input, &current, &trial, &reference, &warm.last, &warm.earlier, &warm.ended, &warm.start,
+                  &fallback.pose, &ccd.best, &ccd.previous, &correction.pose}) {
     *p = MakePose(m);
   }
   for (Fk* f : {&fk, &trial_fk, &correction.fk}) *f = MakeFk(m);

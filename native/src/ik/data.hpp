@@ -137,6 +137,7 @@ struct SecondPass {
 // and the root's move as they are), which a warm start carries on.
 struct WarmStart {
   Pose last, earlier;
+  Pose start;  // the frame's start: the later stages' too, when the first stage ends short
   Pose ended;  // where the solve from the warm start ended, while the frame is tried from its input
   bool have_last = false, have_earlier = false;
 };

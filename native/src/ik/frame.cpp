@@ -180,7 +180,6 @@ void StartFrame(const Model& m, Data& d, Eigen::Index f) {
   // space (a straight arm's roll, the spine's share) where its steps happened to end, and carrying
   // on along the last two frames' difference doubles each frame what the last bits of the input made
   // of it; on walk60 a nudge of 1e-12 changed the keys by tens of degrees, and by 2e-8 without it.
-  // (RigifyA and UnrealA still amplify such a nudge through the later stages' carry: docs/ik.md.)
   if (m.options.warm_start && d.warm.have_last && d.warm.have_earlier && !m.joints.empty() && !m.separate_prior) {
     TryExtrapolatedStart(m, d);
   }

@@ -147,12 +147,24 @@ int SolveStaged(const Model& m, Data& d) {
   const int max_iterations = m.options.max_iterations;
   const int reserve = m.priorities && m.pinned ? std::min(16, max_iterations / 4) : 0;
   int iterations = 0, last = 0;
+  bool limbs_met = false;  // the first stage met the targets (the balance alone calls the later ones)
+  d.warm.start = d.current;
   // The first stage alone, then (if a target or the balance is left unmet)
   // every stage at once: within it each later stage's unknowns cost ten times
   // the last's (StageCost), so the spine still gives before the hips, without
   // a solve per stage and a jump from one to the next.
   for (d.stage = 0; d.stage < m.stages; d.stage = d.stage == 0 && m.stages > 1 ? m.stages - 1 : m.stages) {
-    if (d.stage > 0) CarryLaterStages(m, d);
+    // Warm-started, when the limbs alone ended short of a target, the later stages start from the
+    // frame's start, not from where the limbs ended: an out-of-reach target's limb solve crawls along
+    // a straight arm against its hinge's bound (held columns, the curvature term switching on and off)
+    // and ends wherever its budget runs out, which amplified the last bits of the input 1e4 to 1e5
+    // times a frame; the warm start is continuous in them. (Limbs that met the targets, leaving only
+    // the balance to the hips, converged: their end is the better start. A cold start, the input, may
+    // be a straight arm the limbs' stage had to bend out of its singularity first.)
+    if (d.stage > 0) {
+      if (m.options.warm_start && d.warm.have_last && !limbs_met) d.current = d.warm.start;
+      CarryLaterStages(m, d);
+    }
     last = SolveJacobian(m, d, max_iterations - reserve);
     ForwardKinematics(m, d.current, d.fk);
     Cost cost = EvaluateCost(m, d, d.fk, d.buffers.residual.data());
@@ -165,6 +177,7 @@ int SolveStaged(const Model& m, Data& d) {
       last += SolveAgainWithHingesBent(m, d, max_iterations - reserve, cost);
     }
     iterations += last;
+    if (d.stage == 0) limbs_met = cost.worst <= m.tolerance;
     if (cost.worst <= m.tolerance && cost.balance <= m.tolerance) break;
   }
   d.stage = std::min(d.stage, m.stages - 1);  // the stage that ended it: its holds and balance for the polish
@@ -189,7 +202,13 @@ void StartStagedSolve(const Model& m, Data& d) {
 
 int SettleAndMeetPins(const Model& m, Data& d, int budget, bool settle) {
   Cost cost = EvaluateCost(m, d, d.fk, d.buffers.residual.data());
-  int iterations = settle ? SettlePosture(m, d, cost, m.options.max_iterations / 2) : 0;
+  int iterations = 0;
+  // Pins first: the settling holds the levels' residuals where they are, so pins left a little off
+  // (a loop that ran out of budget) would be held there, and every settling step judged by whether it
+  // keeps them no further off than they were, a comparison of two equal numbers once the step's
+  // correction has put them back (a coin flip on the last bits).
+  if (settle && m.priorities && cost.pins > m.pin_tolerance) iterations += PolishPins(m, d, cost, budget);
+  if (settle) iterations += SettlePosture(m, d, cost, m.options.max_iterations / 2);
   if (m.priorities && cost.pins > m.pin_tolerance) iterations += PolishPins(m, d, cost, budget);
   if (m.priorities && cost.pins > m.pin_tolerance) FallBackToPinnedPose(m, d, cost);
   d.stage = m.stages - 1;
