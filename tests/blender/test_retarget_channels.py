@@ -296,3 +296,68 @@ def test_a_control_rig_target_reports_every_channel_left_out(mk, animdata, share
     assert [(item.kind, item.name) for item in left] == [("scale", f'pose.bones["{bone}"].scale[{i}]')
                                                         for i in range(3)]
     assert all(item.reason.startswith("the target is a control rig") for item in left)
+
+
+@pytest.fixture()
+def panel(rigs):
+    """The Retarget panel set to the rigs, feet not planted (the walk's feet are not what is judged); put back
+    afterwards for the next tests."""
+    source, target, _, _ = rigs
+    settings = bpy.context.scene.motionkit_retarget
+    settings.source_kind, settings.source, settings.target = 'ARMATURE', source, target
+    settings.set_bone_map(_bone_map())
+    settings.plant_feet, settings.scene_from_clip = False, False
+    yield settings
+    for prop in ("plant_feet", "scene_from_clip", "channels", "source", "target"):
+        settings.property_unset(prop)
+    settings.pairs.clear()
+    settings.channel_pairs.clear()
+
+
+def _name_pair(settings, source_name, target_name):
+    assert bpy.ops.motionkit.channel_map_add() == {'FINISHED'}
+    pair = settings.channel_pairs[settings.active_channel_pair]
+    pair.source, pair.target = source_name, target_name
+
+
+def test_the_panels_channel_map_reaches_the_preview_and_the_retarget(mk, animdata, rigs, panel):
+    """A name pair added in the panel's channel map (smile -> grin, and an empty row just added) carries the
+    source's "smile" onto the target's "grin", in the live preview and in the keys Retarget writes."""
+    source, target, face, faces = rigs
+    frames = _frames(animdata, source)
+    _name_pair(panel, "smile", "grin")
+    _name_pair(panel, "", "")
+    assert bpy.ops.motionkit.retarget_preview() == {'FINISHED'} and panel.preview.message == ""
+    previewed = _units(_evaluated(target, {}, frames, [], [("", "grin")], []),
+                       _evaluated(source, {}, frames, [], [("", "smile")], []))
+    assert bpy.ops.motionkit.retarget_preview_cancel() == {'FINISHED'}
+    assert bpy.ops.motionkit.retarget() == {'FINISHED'}
+    worst = _judge(animdata, source, target, face, faces, frames)
+    print(f"\nthe panel's channel map: worst {previewed:.2f} float32 units previewed, {worst:.2f} keyed")
+    assert previewed <= FLOAT32_UNITS and worst <= FLOAT32_UNITS
+    assert '["smile"]' not in {item.name for item in mk.retargeting.channels_left_out()}
+
+
+def test_the_channel_map_buttons_say_why_they_wait_and_a_half_row_changes_nothing(mk, rigs, panel, capfd):
+    """Without Properties or Shape Keys carried the map's buttons are greyed, saying why; a row with one
+    name stops Retarget before anything is written, naming the row, and the preview says the same."""
+    source, target, _, _ = rigs
+    _name_pair(panel, "smile", "grin")
+    assert bpy.ops.motionkit.channel_map_remove.poll()
+    panel.channels = {"scale"}
+    assert not bpy.ops.motionkit.channel_map_add.poll() and not bpy.ops.motionkit.channel_map_remove.poll()
+    assert panel.retarget_options().channel_map is None  # the hidden map renames nothing
+    panel.property_unset("channels")
+    _name_pair(panel, "mood", "")
+    actions = set(bpy.data.actions)
+    with pytest.raises(RuntimeError, match=r"Channel map, row 2: give both a source and a target name"):
+        bpy.ops.motionkit.retarget()
+    assert set(bpy.data.actions) == actions and target.animation_data is None
+    assert bpy.ops.motionkit.retarget_preview() == {'FINISHED'}
+    assert panel.preview.message.startswith("Channel map, row 2")
+    assert bpy.ops.motionkit.retarget_preview_cancel() == {'FINISHED'}
+    panel.channel_pairs[1].target = "mood_target"
+    panel.channel_pairs[1].source = "smile"
+    with pytest.raises(RuntimeError, match=r"row 2: 'smile' is mapped twice"):
+        bpy.ops.motionkit.retarget()
+    assert set(bpy.data.actions) == actions
