@@ -39,6 +39,29 @@ def read_sidebar(name, view, rows=None):
     return words
 
 
+def read_rows_again(name, view, words, below, above):
+    """A second reading, row by row at another size, of the sidebar's rows between the labels below and
+    above (as read in words), from the picture just read: tesseract misreads a name in a list's active row
+    (5.2 outlines it, "eyeBlink" read "eve Htnk") and reads it alone. Reported as name's words-again."""
+    top, bottom = harness.find_words(words, below), harness.find_words(words, above)
+    assert top and bottom, f"no '{below}' or '{above}' in {name}"
+    side = harness.region(view, 'UI')
+    pixels = harness.load_png(shot(name + "-window"))
+    heights = sorted(w["y"] for w in words if bottom[0]["y"] + 10 < w["y"] < top[0]["y"] - 10)
+    rows = []  # the words of a row lie within a few pixels of each other's height; a row is 20 px or more
+    for y in heights:
+        if rows and y - rows[-1][0] < 8:
+            rows[-1].append(y)
+        else:
+            rows.append([y])
+    again = []
+    for n, row in enumerate(rows):
+        box = (side.x, int(np.median(row)) - 12, side.width, 24)
+        # Each reading numbers its blocks from 1: kept apart, so that two readings' words never join a label.
+        again += [dict(w, block=1000 * n + w["block"]) for w in harness.ocr(harness.crop(pixels, box), box, scale=2)]
+    harness.report(f"{name}.words-again", harness.plain(again))
+
+
 def open_closed_panels(view, name, headers):
     """A scenario step (`yield from`): reads the sidebar once it stands still, clicks the header of each
     closed sub-panel where it shows (the lowest first: a panel opening slides only those below it down),
@@ -357,7 +380,8 @@ def steps():
         pair.source, pair.target = source_name, target_name
     harness.report("channels.map", settings.retarget_options().channel_map)
     yield from harness.redrawn(watch)
-    read_sidebar("sidebar-channels", view)
+    words = read_sidebar("sidebar-channels", view)
+    read_rows_again("sidebar-channels", view, words, "Source Name", "Plant Feet")
     settings.property_unset("prop_space")
     settings.channel_pairs.clear()
 
