@@ -242,8 +242,9 @@ class MOTIONKIT_PG_retarget(bpy.types.PropertyGroup):
             root_motion_onto=self.root_motion_onto, root_smoothing=self.root_smoothing,
             plant_feet=None if self.plant_feet else False, contact_settings=contact_ui.settings(self.contacts),
             floor_fit=self.floor_fit, chain_modes=self.reference_pose.chain_modes(),
-            channels=tuple(c for c in channel_carry.IDS if c in self.channels), channel_map=self.channel_map() if named else None,
-            prop_space=self.prop_space, two_hands=self.two_hands, **self._written())
+            channels=tuple(c for c in channel_carry.IDS if c in self.channels),
+            channel_map=self.channel_map() if named else None, prop_space=self.prop_space, two_hands=self.two_hands,
+            **self._written())
 
     def channel_map(self) -> dict | None:
         """{source name: target name} from the channel map's rows, None when it has none or no channel it
@@ -825,13 +826,13 @@ class MOTIONKIT_PT_retarget_feet_motion(common.SidebarPanel, bpy.types.Panel):
 BONE_MAP = common.editable_list(common.EditableList(
     "bone_map", "pair", lambda context: context.scene.motionkit_retarget, "pairs", "active_pair", "No scene"))
 
-classes = (MOTIONKIT_PG_bone_pair, MOTIONKIT_PG_channel_pair, MOTIONKIT_PG_reference_pose, MOTIONKIT_PG_retarget_preview, MOTIONKIT_PG_retarget,
-           MOTIONKIT_OT_retarget,
-           MOTIONKIT_OT_bone_map_auto, MOTIONKIT_OT_reference_pose,
-           MOTIONKIT_OT_bone_map_scheme, MOTIONKIT_OT_bone_map_save, MOTIONKIT_OT_bone_map_load,
-           MOTIONKIT_UL_bone_map, MOTIONKIT_UL_channel_map, MOTIONKIT_OT_channel_map_add,
-           MOTIONKIT_OT_channel_map_remove, MOTIONKIT_PT_retarget, MOTIONKIT_PT_retarget_map, MOTIONKIT_PT_retarget_controls,
-           MOTIONKIT_PT_retarget_options, MOTIONKIT_PT_retarget_feet, MOTIONKIT_PT_retarget_feet_motion)
+classes = (MOTIONKIT_PG_bone_pair, MOTIONKIT_PG_channel_pair, MOTIONKIT_PG_reference_pose,
+           MOTIONKIT_PG_retarget_preview, MOTIONKIT_PG_retarget, MOTIONKIT_OT_retarget, MOTIONKIT_OT_bone_map_auto,
+           MOTIONKIT_OT_reference_pose, MOTIONKIT_OT_bone_map_scheme, MOTIONKIT_OT_bone_map_save,
+           MOTIONKIT_OT_bone_map_load, MOTIONKIT_UL_bone_map, MOTIONKIT_UL_channel_map, MOTIONKIT_OT_channel_map_add,
+           MOTIONKIT_OT_channel_map_remove, MOTIONKIT_PT_retarget, MOTIONKIT_PT_retarget_map,
+           MOTIONKIT_PT_retarget_controls, MOTIONKIT_PT_retarget_options, MOTIONKIT_PT_retarget_feet,
+           MOTIONKIT_PT_retarget_feet_motion)
 
 
 def register_properties():

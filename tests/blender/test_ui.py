@@ -106,7 +106,8 @@ def test_every_surface_draws_without_a_python_error(panels):
 SCREENS = ("sidebar-object", "sidebar-pose", "dialog-resample", "dialog-reduce", "dialog-schemes", "dialog-filter",
            "redo-reduce",
            "redo-resample", "browser-import", "browser-export", "menu-import", "menu-graph-key",
-           "menu-dopesheet-key", "sidebar-parts", "sidebar-parts-nla", "sidebar-preview", "sidebar-channels", "sidebar-rigify")
+           "menu-dopesheet-key", "sidebar-parts", "sidebar-parts-nla", "sidebar-preview",
+           "sidebar-channels", "sidebar-rigify")
 
 
 @pytest.mark.parametrize("name", SCREENS)
@@ -124,7 +125,8 @@ SIDEBAR_LABELS = (
     # Retarget, Bone Map, Options, Plant Feet
     "Armature", "File", "Source", "Target", "Retarget", "Bone Map", "Load", "Save", "Auto-map", "Schemes",
     "Source Bone", "Target Bone", "Body", "Whole Body", "Into", "Preview", "Carry", "Scale", "Properties",
-    "Shape Keys", "Props", "Two Hands", "Channel Map", "Source Name", "Target Name", "Reference Pose", "Trunk", "Arms", "Legs", "Fingers", "Options", "Match Poses", "Rest pose", "Root Motion", "Scaled", "Floor Root",
+    "Shape Keys", "Props", "Two Hands", "Channel Map", "Source Name", "Target Name",
+    "Reference Pose", "Trunk", "Arms", "Legs", "Fingers", "Options", "Match Poses", "Rest pose", "Root Motion", "Scaled", "Floor Root",
     "On the Floor", "Align Facing", "Frame Range", "From Clip", "Overwrite", "Plant Feet", "Height In",
     "Height Out", "Speed In", "Speed Out", "Shortest", "Blend", "Slides and Pivots",
     # Library
