@@ -322,15 +322,18 @@ def _name_pair(settings, source_name, target_name):
 
 def test_the_panels_channel_map_reaches_the_preview_and_the_retarget(mk, animdata, rigs, panel):
     """A name pair added in the panel's channel map (smile -> grin, and an empty row just added) carries the
-    source's "smile" onto the target's "grin", in the live preview and in the keys Retarget writes."""
+    source's "smile" onto the target's "grin", in the live preview (with the scale and the shape keys, each
+    target mesh's Key playing a preview action of its own; Cancel leaves every Key as it was) and in the keys
+    Retarget writes."""
     source, target, face, faces = rigs
     frames = _frames(animdata, source)
     _name_pair(panel, "smile", "grin")
     _name_pair(panel, "", "")
+    actions = set(bpy.data.actions)
     assert bpy.ops.motionkit.retarget_preview() == {'FINISHED'} and panel.preview.message == ""
-    previewed = _units(_evaluated(target, {}, frames, [], [("", "grin")], []),
-                       _evaluated(source, {}, frames, [], [("", "smile")], []))
+    previewed = _judge(animdata, source, target, face, faces, frames)
     assert bpy.ops.motionkit.retarget_preview_cancel() == {'FINISHED'}
+    assert set(bpy.data.actions) == actions and all(m.data.shape_keys.animation_data is None for m in faces)
     assert bpy.ops.motionkit.retarget() == {'FINISHED'}
     worst = _judge(animdata, source, target, face, faces, frames)
     print(f"\nthe panel's channel map: worst {previewed:.2f} float32 units previewed, {worst:.2f} keyed")
@@ -361,3 +364,35 @@ def test_the_channel_map_buttons_say_why_they_wait_and_a_half_row_changes_nothin
     with pytest.raises(RuntimeError, match=r"row 2: 'smile' is mapped twice"):
         bpy.ops.motionkit.retarget()
     assert set(bpy.data.actions) == actions
+
+
+def test_the_preview_plays_shape_keys_over_a_keys_own_action_and_cancel_gives_it_back(mk, animdata, rigs, panel):
+    """The target's face plays its own action (cheekPuff, which the source lacks, and eyeBlinkLeft): a preview
+    of the arms plays a copy of it with the carried shapes replaced, its cheekPuff as it was; Cancel gives the
+    Key its own action back, every key as it was; nothing of the preview is left."""
+    source, target, face, faces = rigs
+    frames = _frames(animdata, source)
+    key = faces[0].data.shape_keys
+    own = animdata.new_action("TargetFace own")
+    _bezier(animdata, key, own, [(('key_blocks["cheekPuff"].value', 0), np.array([0.0, 0.7, 0.1])),
+                                 (('key_blocks["eyeBlinkLeft"].value', 0), np.array([0.1, 0.9, 0.3]))],
+            frames[[0, len(frames) // 2, -1]])
+    animdata.assign(key, own)
+    kept = {fc.data_path: animdata.read_keys(fc) for fc in animdata.fcurves(own, key)}
+    puff = [(bpy.context.scene.frame_set(int(f)), key.key_blocks["cheekPuff"].value)[1] for f in frames]
+    actions = set(bpy.data.actions)
+    panel.parts = "arms"
+    try:
+        assert bpy.ops.motionkit.retarget_preview() == {'FINISHED'} and panel.preview.message == ""
+        shown = key.animation_data.action
+        assert shown not in actions and own.users == 1  # the Key's own action kept: the preview holds it
+        worst = _judge_shapes(source, face, faces, frames)
+        puffed = [(bpy.context.scene.frame_set(int(f)), key.key_blocks["cheekPuff"].value)[1] for f in frames]
+        assert bpy.ops.motionkit.retarget_preview_cancel() == {'FINISHED'}
+    finally:
+        panel.property_unset("parts")
+    print(f"\nshape keys previewed over the Key's own action: worst {worst:.2f} float32 units")
+    assert worst <= FLOAT32_UNITS and puffed == puff
+    assert key.animation_data.action == own and set(bpy.data.actions) == actions
+    assert all(np.array_equal(a, b) for fc in animdata.fcurves(own, key) for a, b in zip(animdata.read_keys(fc),
+                                                                                       kept[fc.data_path]))
