@@ -5,6 +5,8 @@ character walking (blend_samples), given Bezier keys every few frames on its spi
 property of its spine bone and of its object, and the shape keys of a face mesh it deforms; the target, the
 sample Rigify character, has some of them: one shape key and one property missing, one property named
 differently (mapped)."""
+import importlib
+
 import bpy
 import numpy as np
 import pytest
@@ -396,3 +398,9 @@ def test_the_preview_plays_shape_keys_over_a_keys_own_action_and_cancel_gives_it
     assert key.animation_data.action == own and set(bpy.data.actions) == actions
     assert all(np.array_equal(a, b) for fc in animdata.fcurves(own, key) for a, b in zip(animdata.read_keys(fc),
                                                                                        kept[fc.data_path]))
+    # A file saved mid-preview and opened again keeps no Held: the Key's own action is found on its preview.
+    ui_preview = importlib.import_module(mk.__name__ + ".ui.preview")
+    assert bpy.ops.motionkit.retarget_preview() == {'FINISHED'} and key.animation_data.action != own
+    ui_preview._SHOWN["held"] = None
+    ui_preview.stop(panel)
+    assert key.animation_data.action == own and set(bpy.data.actions) == actions
