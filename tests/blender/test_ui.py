@@ -27,7 +27,7 @@ READY = "MOTIONKIT-UI-READY"
 # A tall screen, so that every panel of the sidebar fits without scrolling; the sidebar keeps Blender's
 # default width.
 SCENARIO_SECONDS = 1800
-SCREEN = "-screen 0 1400x3600x24"
+SCREEN = "-screen 0 1400x3800x24"
 # The first X display tried, one range per Blender: `make test` runs two Blenders' suites at once, and a
 # chroot's Blender sees its own /tmp (xvfb-run -a looks for free displays by their lock files there) but
 # shares the host's abstract X sockets.
