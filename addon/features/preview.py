@@ -4,18 +4,22 @@ target plays and how it stands (its pose channels and its object's transform, wh
 not key them leaves as the preview last put them), show() remakes the preview (the retarget's plan written
 into a new action: a part of the body over a copy of the target's own), stop() puts all of it back and
 removes the preview. A retarget into an NLA track is previewed as one: the target's own action on a track
-under the preview's, blended as asked (tracks named PREVIEW_NAME, removed again whatever else changed)."""
+under the preview's, blended as asked (tracks named PREVIEW_NAME, removed again whatever else changed). The
+carried shape keys play the same way, from a preview action on each target mesh's Key (tagged, holding the
+Key's own action so that a file saved mid-preview loses none)."""
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import bpy
 
-from . import retargeting
+from . import retarget_channels, retargeting
 from ..blender import animdata, pose_channels
 
 PREVIEW_NAME = "MotionKit Preview"
+# ID properties of a Key's preview action: its tag, and the action the Key played before (a user of it).
+TAG, HELD = "motionkit_preview", "motionkit_preview_held"
 
 
 @dataclass
@@ -31,11 +35,19 @@ class Held:
     assignment: tuple      # animdata.assignment: (action or None, slot identifier or None)
     pose: dict             # pose_channels.channel_values: every pose bone's channels
     matrix_basis: object   # the object's own transform (a mathutils Matrix copy)
+    # {Key name: animdata.assignment, or None where the Key had no animation data}: what each target mesh's
+    # Key played.
+    keys: dict = field(default_factory=dict)
 
 
 def start(target) -> Held:
     """What the target plays now and how it stands, to put back when the preview stops."""
-    return Held(animdata.assignment(target), pose_channels.channel_values(target), target.matrix_basis.copy())
+    return Held(animdata.assignment(target), pose_channels.channel_values(target), target.matrix_basis.copy(),
+                {key.name: animdata.assignment(key) if key.animation_data else None for key in _target_keys(target)})
+
+
+def _target_keys(target) -> list:
+    return list(dict.fromkeys(m.data.shape_keys for m in retarget_channels.deformed_meshes(target)))
 
 
 def show(source, target, bone_map, frame_range, options, held: Held, shown=None) -> Shown:
@@ -55,6 +67,7 @@ def show(source, target, bone_map, frame_range, options, held: Held, shown=None)
         animdata.assign(target, action)
     if shown is not None and shown != action:
         bpy.data.actions.remove(shown)
+    _show_shapes(plan_, held)
     return Shown(action, time.perf_counter() - started)
 
 
@@ -71,12 +84,45 @@ def _clear_tracks(target, held: Held) -> None:
     animdata.restore(target, held.assignment)
 
 
+def _show_shapes(plan_, held: Held) -> None:
+    """Each target Key whose shapes the plan carries plays them from a new preview action (for a part of the
+    body a copy of its own, as Apply makes it); the others play what they played. The last previews removed."""
+    carried = {key.name: (channels, values) for key, channels, values in
+               (plan_.carried.shapes if plan_.carried is not None else ())}
+    for key in _target_keys(plan_.target):
+        last = animdata.assigned_action(key)
+        own = held.keys.get(key.name) or (None, None)
+        if key.name in carried:
+            channels, values = carried[key.name]
+            name = f"{PREVIEW_NAME} ({key.user.name})"
+            action = animdata.copy_action(own[0], name) if plan_.partial and own[0] is not None else \
+                animdata.new_action(name)
+            action[TAG] = True
+            if own[0] is not None:
+                action[HELD] = own[0]
+            animdata.write_keys(key, action, channels, plan_.frames, values)
+            animdata.assign(key, action)
+        elif key.name in held.keys:
+            animdata.restore(key, own)
+        if last is not None and last.get(TAG):
+            bpy.data.actions.remove(last)
+
+
 def stop(target, held: Held, shown) -> None:
     """The target plays what it played before start() and stands as it stood, the preview's action and
     tracks removed: the scene as it was."""
     _clear_tracks(target, held)
     if shown is not None:
         bpy.data.actions.remove(shown)
+    for key in bpy.data.shape_keys:
+        action = animdata.assigned_action(key)
+        if action is not None and action.get(TAG):
+            own = held.keys.get(key.name, (action.get(HELD), None))
+            animdata.restore(key, own or (None, None))
+            bpy.data.actions.remove(action)
+            anim = key.animation_data
+            if own is None and not anim.drivers and not anim.nla_tracks:  # it had none: none is made
+                key.animation_data_clear()
     pose_channels.set_channel_values(target, held.pose)
     if held.matrix_basis is not None:
         target.matrix_basis = held.matrix_basis

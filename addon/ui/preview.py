@@ -37,7 +37,16 @@ def _signature(settings) -> str:
                  settings.target.name if settings.target else None,
                  [(p.source, p.target, p.use) for p in settings.pairs],
                  (settings.frame_start, settings.frame_end) if settings.use_frame_range else None,
-                 settings.retarget_options()))
+                 _options_text(settings)))
+
+
+def _options_text(settings) -> str:
+    """The panel's retarget options as text, or what is wrong with them (a channel map row half filled in):
+    the preview is remade, and says so, when they change either way."""
+    try:
+        return repr(settings.retarget_options())
+    except ValueError as error:
+        return f"error: {error}"
 
 
 def refresh(settings) -> None:

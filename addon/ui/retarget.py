@@ -11,7 +11,7 @@ from bpy_extras.io_utils import ExportHelper, ImportHelper
 from . import common, contacts as contact_ui
 from .preview import MOTIONKIT_PG_retarget_preview
 from ..blender import pose_channels
-from ..core import bone_mapping, channel_carry, display_names, reference_pose, retarget_parts
+from ..core import bone_mapping, channel_carry, display_names, props, reference_pose, retarget_parts
 from ..core.retarget_options import RetargetOptions
 from ..features import bvh, control_rigs, retarget_sources, retargeting, scene_timing
 
@@ -74,6 +74,18 @@ class MOTIONKIT_PG_bone_pair(bpy.types.PropertyGroup):
     use: BoolProperty(name="Retarget", default=True, update=_pair_use_changed,
                       description="Write this bone's keys (off: the target bone keeps its own keys); the map still "
                                   "pairs it, so the bones written move as in a whole-body retarget")
+
+
+# The channels the channel map renames (bone scale goes by the bone map).
+NAMED_CHANNELS = ("properties", "shape_keys")
+
+
+class MOTIONKIT_PG_channel_pair(bpy.types.PropertyGroup):
+    source: StringProperty(name="Source Name",
+                           description="A custom property or shape key of the source (by its name, e.g. smile)")
+    target: StringProperty(name="Target Name",
+                           description="The target's property or shape key that takes the source's values "
+                                       "(e.g. mouthSmileLeft)")
 
 
 _PARTS = retarget_parts.PRESETS + (("custom", "Custom", "The bones ticked in the bone map"),)
@@ -205,14 +217,24 @@ class MOTIONKIT_PG_retarget(bpy.types.PropertyGroup):
                            default=set(channel_carry.IDS),
                            description="What else is carried, by name, where the target has it (the rest is "
                                        "reported)")
+    channel_pairs: CollectionProperty(type=MOTIONKIT_PG_channel_pair)
+    active_channel_pair: IntProperty(name="Active Name Pair")
+    prop_space: EnumProperty(name="Props", items=props.SPACES, default="bone",
+                             description="How a mapped bone that is no body part (a prop or weapon bone such as "
+                                         "weapon_r) moves on the target")
+    two_hands: BoolProperty(name="Two Hands", default=True,
+                            description="A prop under one hand that the source's other hand holds (a rifle): the "
+                                        "target's other hand stays where the source's holds it, relative to the "
+                                        "prop and scaled, whatever the arms' lengths")
     preview: PointerProperty(type=MOTIONKIT_PG_retarget_preview)
 
     def bone_map(self) -> list[tuple[str, str]]:
         return [(p.source, p.target) for p in self.pairs if p.source and p.target]
 
-    def retarget_options(self) -> RetargetOptions:
+    def retarget_options(self, named: bool = True) -> RetargetOptions:
         """The panel's retarget options, as motionkit.retarget takes them. The panel leaves no floor height
-        to set (each rig's rest soles) and plants feet where both rigs have them, or never."""
+        to set (each rig's rest soles) and plants feet where both rigs have them, or never. named=False
+        leaves the channel map out (what the reference pose reads does not depend on it)."""
         return RetargetOptions(
             root=self.root_motion, source_match=self.source_match, match_frame=self.match_frame,
             target_match=self.target_match, ground=self.ground, align_facing=self.align_facing,
@@ -220,7 +242,28 @@ class MOTIONKIT_PG_retarget(bpy.types.PropertyGroup):
             root_motion_onto=self.root_motion_onto, root_smoothing=self.root_smoothing,
             plant_feet=None if self.plant_feet else False, contact_settings=contact_ui.settings(self.contacts),
             floor_fit=self.floor_fit, chain_modes=self.reference_pose.chain_modes(),
-            channels=tuple(c for c in channel_carry.IDS if c in self.channels), **self._written())
+            channels=tuple(c for c in channel_carry.IDS if c in self.channels),
+            channel_map=self.channel_map() if named else None, prop_space=self.prop_space, two_hands=self.two_hands,
+            **self._written())
+
+    def channel_map(self) -> dict | None:
+        """{source name: target name} from the channel map's rows, None when it has none or no channel it
+        renames is carried. A row with neither name (just added) is passed over; a row with one name, or a
+        source name given twice, is a ValueError naming the row."""
+        if not set(NAMED_CHANNELS) & set(self.channels):
+            return None
+        out = {}
+        for row, pair in enumerate(self.channel_pairs, 1):
+            if not pair.source and not pair.target:
+                continue
+            if not (pair.source and pair.target):
+                raise ValueError(f"Channel map, row {row}: give both a source and a target name "
+                                 f"(has {pair.source or pair.target!r} only)")
+            if pair.source in out:
+                raise ValueError(f"Channel map, row {row}: {pair.source!r} is mapped twice (to "
+                                 f"{out[pair.source]!r} above)")
+            out[pair.source] = pair.target
+        return out or None
 
     def _written(self) -> dict:
         """What the panel writes and where: the preset's parts, or the ticked rows' target bones."""
@@ -372,7 +415,8 @@ def _decide_chains(settings, pairs) -> None:
     source = settings.source if settings.source_kind == 'ARMATURE' else None
     if source is None or source.animation_data is None or source.animation_data.action is None:
         return
-    chains.record_chains(retargeting.reference_chains(source, settings.target, pairs, settings.retarget_options()))
+    chains.record_chains(retargeting.reference_chains(source, settings.target, pairs,
+                                                       settings.retarget_options(named=False)))
 
 
 class MOTIONKIT_OT_reference_pose(bpy.types.Operator):
@@ -503,6 +547,63 @@ class MOTIONKIT_UL_bone_map(bpy.types.UIList):
             shown = display_names.strip(name, prefix)
             room = _SHOWN["row_width"] * share - common.LABEL_PADDING_PX * scale
             split.label(text=display_names.fit_width(shown, room, common.text_width) if shown else "(none)")
+
+
+class MOTIONKIT_UL_channel_map(bpy.types.UIList):
+    """One row per name pair: the source's property or shape key, and the target's that takes its values."""
+
+    def draw_item(self, context, layout, data, item, icon, active_data, active_propname, index=0):
+        split = layout.split(factor=0.5, align=True)
+        split.prop(item, "source", text="")
+        split.prop(item, "target", text="")
+
+
+def _poll_channel_map(cls, context) -> bool:
+    if not set(NAMED_CHANNELS) & set(_settings(context).channels):
+        cls.poll_message_set("Carry Properties or Shape Keys first: the channel map renames those")
+        return False
+    return True
+
+
+class MOTIONKIT_OT_channel_map_add(bpy.types.Operator):
+    """Add a pair of names to the channel map: a source's custom property or shape key carried onto the
+    target's of another name"""
+    bl_idname = "motionkit.channel_map_add"
+    bl_label = "Add Name Pair"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    @classmethod
+    def poll(cls, context):
+        return _poll_channel_map(cls, context)
+
+    def execute(self, context):
+        settings = _settings(context)
+        settings.channel_pairs.add()
+        settings.active_channel_pair = len(settings.channel_pairs) - 1
+        return {'FINISHED'}
+
+
+class MOTIONKIT_OT_channel_map_remove(bpy.types.Operator):
+    """Remove the selected pair of names from the channel map"""
+    bl_idname = "motionkit.channel_map_remove"
+    bl_label = "Remove Name Pair"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    @classmethod
+    def poll(cls, context):
+        settings = _settings(context)
+        if not _poll_channel_map(cls, context):
+            return False
+        if not 0 <= settings.active_channel_pair < len(settings.channel_pairs):
+            cls.poll_message_set("The channel map is empty" if not settings.channel_pairs else "Select a row")
+            return False
+        return True
+
+    def execute(self, context):
+        settings = _settings(context)
+        settings.channel_pairs.remove(settings.active_channel_pair)
+        settings.active_channel_pair = min(settings.active_channel_pair, len(settings.channel_pairs) - 1)
+        return {'FINISHED'}
 
 
 def _draw_bone_field(layout, holder, prop, rig, label):
@@ -667,12 +768,32 @@ class MOTIONKIT_PT_retarget_options(RetargetSubPanel, bpy.types.Panel):
             col.prop(settings, "influence")
         elif settings.into == "new":
             col.prop(settings, "overwrite")
-        # A toggle a row, across the panel (side by side, or beside labels, their names are cut).
-        col = self.layout.column(align=True)
-        col.use_property_split = False
-        col.label(text="Carry")
-        for identifier, _, _ in channel_carry.CHANNELS:
-            col.prop_enum(settings, "channels", identifier)
+        col = layout.column()
+        col.prop(settings, "prop_space")
+        col.prop(settings, "two_hands")
+        _draw_carry(self.layout, settings)
+
+
+def _draw_carry(layout, settings) -> None:
+    """The channels carried, a toggle a row across the panel (side by side, or beside labels, their names are
+    cut); under them, while one that goes by name is on, the channel map: source and target names side by
+    side over the panel's width, its buttons under it."""
+    col = layout.column(align=True)
+    col.use_property_split = False
+    col.label(text="Carry")
+    for identifier, _, _ in channel_carry.CHANNELS:
+        col.prop_enum(settings, "channels", identifier)
+    if not set(NAMED_CHANNELS) & set(settings.channels):
+        return
+    layout.label(text="Channel Map")
+    header = layout.split(factor=0.5)
+    header.label(text="Source Name")
+    header.label(text="Target Name")
+    layout.template_list("MOTIONKIT_UL_channel_map", "", settings, "channel_pairs", settings, "active_channel_pair",
+                         rows=min(max(len(settings.channel_pairs), 2), 8))
+    row = layout.row(align=True)
+    row.operator(MOTIONKIT_OT_channel_map_add.bl_idname, text="", icon='ADD')
+    row.operator(MOTIONKIT_OT_channel_map_remove.bl_idname, text="", icon='REMOVE')
 
 
 class MOTIONKIT_PT_retarget_feet(RetargetSubPanel, bpy.types.Panel):
@@ -706,12 +827,13 @@ class MOTIONKIT_PT_retarget_feet_motion(common.SidebarPanel, bpy.types.Panel):
 BONE_MAP = common.editable_list(common.EditableList(
     "bone_map", "pair", lambda context: context.scene.motionkit_retarget, "pairs", "active_pair", "No scene"))
 
-classes = (MOTIONKIT_PG_bone_pair, MOTIONKIT_PG_reference_pose, MOTIONKIT_PG_retarget_preview, MOTIONKIT_PG_retarget,
-           MOTIONKIT_OT_retarget,
-           MOTIONKIT_OT_bone_map_auto, MOTIONKIT_OT_reference_pose,
-           MOTIONKIT_OT_bone_map_scheme, MOTIONKIT_OT_bone_map_save, MOTIONKIT_OT_bone_map_load,
-           MOTIONKIT_UL_bone_map, MOTIONKIT_PT_retarget, MOTIONKIT_PT_retarget_map, MOTIONKIT_PT_retarget_controls,
-           MOTIONKIT_PT_retarget_options, MOTIONKIT_PT_retarget_feet, MOTIONKIT_PT_retarget_feet_motion)
+classes = (MOTIONKIT_PG_bone_pair, MOTIONKIT_PG_channel_pair, MOTIONKIT_PG_reference_pose,
+           MOTIONKIT_PG_retarget_preview, MOTIONKIT_PG_retarget, MOTIONKIT_OT_retarget, MOTIONKIT_OT_bone_map_auto,
+           MOTIONKIT_OT_reference_pose, MOTIONKIT_OT_bone_map_scheme, MOTIONKIT_OT_bone_map_save,
+           MOTIONKIT_OT_bone_map_load, MOTIONKIT_UL_bone_map, MOTIONKIT_UL_channel_map, MOTIONKIT_OT_channel_map_add,
+           MOTIONKIT_OT_channel_map_remove, MOTIONKIT_PT_retarget, MOTIONKIT_PT_retarget_map,
+           MOTIONKIT_PT_retarget_controls, MOTIONKIT_PT_retarget_options, MOTIONKIT_PT_retarget_feet,
+           MOTIONKIT_PT_retarget_feet_motion)
 
 
 def register_properties():

@@ -48,13 +48,45 @@ def _move(obj, name):
     return np.array(obj.pose.bones[name].matrix) @ np.linalg.inv(np.array(obj.data.bones[name].matrix_local))
 
 
-@pytest.mark.parametrize("space", ["hand", "root", "world"])
-def test_a_gun_moving_in_the_hand_follows_in_the_space_picked(mk, space):
+def _rigs(mk):
+    """(source, target, bone map): the gun keyed on the source, the target's arms a quarter longer."""
     source = generate.build_armature(_with_gun(characters.MIXAMO_T))
     _animate(mk, source, 30)
     target = generate.build_armature(_with_gun(_longer_arms(characters.MIXAMO_T, 1.25)), x=2.0)
-    pairs = mk.retargeting.auto_map(source, target) + [("Gun", "Gun")]
+    return source, target, mk.retargeting.auto_map(source, target) + [("Gun", "Gun")]
+
+
+@pytest.mark.parametrize("space", ["hand", "root", "world"])
+def test_a_gun_moving_in_the_hand_follows_in_the_space_picked(mk, space):
+    source, target, pairs = _rigs(mk)
     mk.retarget(source, target, pairs, plant_feet=False, prop_space=space)
+    worst_turn, worst_shift = _worst(source, target, space)
+    print(f"\nthe gun in {space} space: worst {worst_turn:.1e} deg, {worst_shift:.1e} m from the source's move")
+    assert worst_turn < TURN_DEG and worst_shift < SHIFT
+
+
+def test_the_panels_props_row_reaches_the_retarget(mk):
+    """Props: Hand picked in the Retarget panel, Retarget clicked: the gun moves in the target's hand as
+    the source's in its own (the default, Bone, would turn it with the longer arm and leave its slide
+    unscaled elsewhere)."""
+    source, target, pairs = _rigs(mk)
+    settings = bpy.context.scene.motionkit_retarget
+    settings.source_kind, settings.source, settings.target = 'ARMATURE', source, target
+    settings.set_bone_map(pairs)
+    settings.plant_feet, settings.scene_from_clip, settings.prop_space = False, False, "hand"
+    try:
+        assert bpy.ops.motionkit.retarget() == {'FINISHED'}
+    finally:
+        for prop in ("plant_feet", "scene_from_clip", "prop_space", "source", "target"):
+            settings.property_unset(prop)
+        settings.pairs.clear()
+    worst_turn, worst_shift = _worst(source, target, "hand")
+    print(f"\nthe gun in hand space through the panel: worst {worst_turn:.1e} deg, {worst_shift:.1e} m")
+    assert worst_turn < TURN_DEG and worst_shift < SHIFT
+
+
+def _worst(source, target, space):
+    """The worst turn (degrees) and shift (m) between the two guns' moves in the space, every third frame."""
     reference = {"hand": "mixamorig:RightHand", "root": "mixamorig:Hips", "world": None}[space]
     worst_turn = worst_shift = 0.0
     for frame in range(1, 31, 3):
@@ -65,8 +97,7 @@ def test_a_gun_moving_in_the_hand_follows_in_the_space_picked(mk, space):
             moves.append(np.linalg.inv(_move(obj, reference)) @ move if reference else move)
         worst_turn = max(worst_turn, float(np.degrees(matrix_angles(moves[0], moves[1]))))
         worst_shift = max(worst_shift, float(np.linalg.norm(moves[0][:3, 3] - moves[1][:3, 3])))
-    print(f"\nthe gun in {space} space: worst {worst_turn:.1e} deg, {worst_shift:.1e} m from the source's move")
-    assert worst_turn < TURN_DEG and worst_shift < SHIFT
+    return worst_turn, worst_shift
 
 
 def test_a_moving_prop_the_target_lacks_is_said_and_a_still_one_is_not(mk):

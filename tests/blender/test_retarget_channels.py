@@ -5,6 +5,8 @@ character walking (blend_samples), given Bezier keys every few frames on its spi
 property of its spine bone and of its object, and the shape keys of a face mesh it deforms; the target, the
 sample Rigify character, has some of them: one shape key and one property missing, one property named
 differently (mapped)."""
+import importlib
+
 import bpy
 import numpy as np
 import pytest
@@ -316,3 +318,110 @@ def test_a_control_rig_target_takes_the_objects_channels_and_reports_the_bones(m
     got = _evaluated(target, {"face": faces[0]}, played, [], [("", "mood")], [("face", SHAPES[0])])
     assert np.ptp(expected, axis=0).min() > 0.1
     assert _units(got, expected) <= FLOAT32_UNITS
+
+
+@pytest.fixture()
+def panel(rigs):
+    """The Retarget panel set to the rigs, feet not planted (the walk's feet are not what is judged); put back
+    afterwards for the next tests."""
+    source, target, _, _ = rigs
+    settings = bpy.context.scene.motionkit_retarget
+    settings.source_kind, settings.source, settings.target = 'ARMATURE', source, target
+    settings.set_bone_map(_bone_map())
+    settings.plant_feet, settings.scene_from_clip = False, False
+    yield settings
+    for prop in ("plant_feet", "scene_from_clip", "channels", "source", "target"):
+        settings.property_unset(prop)
+    settings.pairs.clear()
+    settings.channel_pairs.clear()
+
+
+def _name_pair(settings, source_name, target_name):
+    assert bpy.ops.motionkit.channel_map_add() == {'FINISHED'}
+    pair = settings.channel_pairs[settings.active_channel_pair]
+    pair.source, pair.target = source_name, target_name
+
+
+def test_the_panels_channel_map_reaches_the_preview_and_the_retarget(mk, animdata, rigs, panel):
+    """A name pair added in the panel's channel map (smile -> grin, and an empty row just added) carries the
+    source's "smile" onto the target's "grin", in the live preview (with the scale and the shape keys, each
+    target mesh's Key playing a preview action of its own; Cancel leaves every Key as it was) and in the keys
+    Retarget writes."""
+    source, target, face, faces = rigs
+    frames = _frames(animdata, source)
+    _name_pair(panel, "smile", "grin")
+    _name_pair(panel, "", "")
+    actions = set(bpy.data.actions)
+    assert bpy.ops.motionkit.retarget_preview() == {'FINISHED'} and panel.preview.message == ""
+    previewed = _judge(animdata, source, target, face, faces, frames)
+    assert bpy.ops.motionkit.retarget_preview_cancel() == {'FINISHED'}
+    assert set(bpy.data.actions) == actions and all(m.data.shape_keys.animation_data is None for m in faces)
+    assert bpy.ops.motionkit.retarget() == {'FINISHED'}
+    worst = _judge(animdata, source, target, face, faces, frames)
+    print(f"\nthe panel's channel map: worst {previewed:.2f} float32 units previewed, {worst:.2f} keyed")
+    assert previewed <= FLOAT32_UNITS and worst <= FLOAT32_UNITS
+    made = mk.retargeting.retarget_clip(source, target, _bone_map(), None, panel.retarget_options())
+    assert '["smile"]' not in {item.name for item in made.channels_left_out}  # mapped: not said left out
+
+
+def test_the_channel_map_buttons_say_why_they_wait_and_a_half_row_changes_nothing(mk, rigs, panel, capfd):
+    """Without Properties or Shape Keys carried the map's buttons are greyed, saying why; a row with one
+    name stops Retarget before anything is written, naming the row, and the preview says the same."""
+    source, target, _, _ = rigs
+    _name_pair(panel, "smile", "grin")
+    assert bpy.ops.motionkit.channel_map_remove.poll()
+    panel.channels = {"scale"}
+    assert not bpy.ops.motionkit.channel_map_add.poll() and not bpy.ops.motionkit.channel_map_remove.poll()
+    assert panel.retarget_options().channel_map is None  # the hidden map renames nothing
+    panel.property_unset("channels")
+    _name_pair(panel, "mood", "")
+    actions = set(bpy.data.actions)
+    with pytest.raises(RuntimeError, match=r"Channel map, row 2: give both a source and a target name"):
+        bpy.ops.motionkit.retarget()
+    assert set(bpy.data.actions) == actions and target.animation_data is None
+    assert bpy.ops.motionkit.retarget_preview() == {'FINISHED'}
+    assert panel.preview.message.startswith("Channel map, row 2")
+    assert bpy.ops.motionkit.retarget_preview_cancel() == {'FINISHED'}
+    panel.channel_pairs[1].target = "mood_target"
+    panel.channel_pairs[1].source = "smile"
+    with pytest.raises(RuntimeError, match=r"row 2: 'smile' is mapped twice"):
+        bpy.ops.motionkit.retarget()
+    assert set(bpy.data.actions) == actions
+
+
+def test_the_preview_plays_shape_keys_over_a_keys_own_action_and_cancel_gives_it_back(mk, animdata, rigs, panel):
+    """The target's face plays its own action (cheekPuff, which the source lacks, and eyeBlinkLeft): a preview
+    of the arms plays a copy of it with the carried shapes replaced, its cheekPuff as it was; Cancel gives the
+    Key its own action back, every key as it was; nothing of the preview is left."""
+    source, target, face, faces = rigs
+    frames = _frames(animdata, source)
+    key = faces[0].data.shape_keys
+    own = animdata.new_action("TargetFace own")
+    _bezier(animdata, key, own, [(('key_blocks["cheekPuff"].value', 0), np.array([0.0, 0.7, 0.1])),
+                                 (('key_blocks["eyeBlinkLeft"].value', 0), np.array([0.1, 0.9, 0.3]))],
+            frames[[0, len(frames) // 2, -1]])
+    animdata.assign(key, own)
+    kept = {fc.data_path: animdata.read_keys(fc) for fc in animdata.fcurves(own, key)}
+    puff = [(bpy.context.scene.frame_set(int(f)), key.key_blocks["cheekPuff"].value)[1] for f in frames]
+    actions = set(bpy.data.actions)
+    panel.parts = "arms"
+    try:
+        assert bpy.ops.motionkit.retarget_preview() == {'FINISHED'} and panel.preview.message == ""
+        shown = key.animation_data.action
+        assert shown not in actions and own.users == 1  # the Key's own action kept: the preview holds it
+        worst = _judge_shapes(source, face, faces, frames)
+        puffed = [(bpy.context.scene.frame_set(int(f)), key.key_blocks["cheekPuff"].value)[1] for f in frames]
+        assert bpy.ops.motionkit.retarget_preview_cancel() == {'FINISHED'}
+    finally:
+        panel.property_unset("parts")
+    print(f"\nshape keys previewed over the Key's own action: worst {worst:.2f} float32 units")
+    assert worst <= FLOAT32_UNITS and puffed == puff
+    assert key.animation_data.action == own and set(bpy.data.actions) == actions
+    assert all(np.array_equal(a, b) for fc in animdata.fcurves(own, key) for a, b in zip(animdata.read_keys(fc),
+                                                                                       kept[fc.data_path]))
+    # A file saved mid-preview and opened again keeps no Held: the Key's own action is found on its preview.
+    ui_preview = importlib.import_module(mk.__name__ + ".ui.preview")
+    assert bpy.ops.motionkit.retarget_preview() == {'FINISHED'} and key.animation_data.action != own
+    ui_preview._SHOWN["held"] = None
+    ui_preview.stop(panel)
+    assert key.animation_data.action == own and set(bpy.data.actions) == actions

@@ -74,3 +74,31 @@ def test_a_bar_in_two_hands_onto_longer_arms(mk):
     print(f"\nthe left wrist on the bar: {worst:.1e} m from the source's (without the hold: {apart:.3f} m)")
     assert apart > 0.2  # the longer arms leave the hand off the bar when nothing holds it
     assert worst < GRIP
+
+
+def test_the_panels_two_hands_checkbox_reaches_the_retarget(mk):
+    """Two Hands in the Retarget panel, off then on, Retarget clicked each time: off, the longer arms leave
+    the left wrist off the bar; on, it holds the bar where the source's does."""
+    spec = characters.MIXAMO_T
+    p = spec.proportions
+    span = 2 * p.shoulder_half_width + 2 * p.upper_arm + 2 * p.forearm + p.hand
+    source_spec, at = _with_bar(spec, span)
+    source = generate.build_armature(source_spec)
+    _animate(mk, source, at, 40)
+    target = generate.build_armature(_with_bar(_longer_arms(spec, 1.25), span)[0], x=2.0)
+    settings = bpy.context.scene.motionkit_retarget
+    settings.source_kind, settings.source, settings.target = 'ARMATURE', source, target
+    settings.set_bone_map(mk.retargeting.auto_map(source, target) + [("Bar", "Bar")])
+    settings.plant_feet, settings.scene_from_clip = False, False
+    worst = {}
+    try:
+        for hold in (False, True):
+            settings.two_hands = hold
+            assert bpy.ops.motionkit.retarget() == {'FINISHED'}
+            worst[hold] = max(float(np.linalg.norm(_grip(target, f) - _grip(source, f))) for f in range(1, 41, 3))
+    finally:
+        for prop in ("plant_feet", "scene_from_clip", "two_hands", "source", "target"):
+            settings.property_unset(prop)
+        settings.pairs.clear()
+    print(f"\nthe left wrist on the bar through the panel: {worst[True]:.1e} m (Two Hands off: {worst[False]:.3f} m)")
+    assert worst[False] > 0.2 and worst[True] < GRIP

@@ -27,7 +27,7 @@ READY = "MOTIONKIT-UI-READY"
 # A tall screen, so that every panel of the sidebar fits without scrolling; the sidebar keeps Blender's
 # default width.
 SCENARIO_SECONDS = 1800
-SCREEN = "-screen 0 1400x3400x24"
+SCREEN = "-screen 0 1400x3800x24"
 # The first X display tried, one range per Blender: `make test` runs two Blenders' suites at once, and a
 # chroot's Blender sees its own /tmp (xvfb-run -a looks for free displays by their lock files there) but
 # shares the host's abstract X sockets.
@@ -106,7 +106,8 @@ def test_every_surface_draws_without_a_python_error(panels):
 SCREENS = ("sidebar-object", "sidebar-pose", "dialog-resample", "dialog-reduce", "dialog-schemes", "dialog-filter",
            "redo-reduce",
            "redo-resample", "browser-import", "browser-export", "menu-import", "menu-graph-key",
-           "menu-dopesheet-key", "sidebar-parts", "sidebar-parts-nla", "sidebar-preview", "sidebar-rigify")
+           "menu-dopesheet-key", "sidebar-parts", "sidebar-parts-nla", "sidebar-preview",
+           "sidebar-channels", "sidebar-rigify")
 
 
 @pytest.mark.parametrize("name", SCREENS)
@@ -124,7 +125,8 @@ SIDEBAR_LABELS = (
     # Retarget, Bone Map, Options, Plant Feet
     "Armature", "File", "Source", "Target", "Retarget", "Bone Map", "Load", "Save", "Auto-map", "Schemes",
     "Source Bone", "Target Bone", "Body", "Whole Body", "Into", "Preview", "Carry", "Scale", "Properties",
-    "Shape Keys", "Reference Pose", "Trunk", "Arms", "Legs", "Fingers", "Options", "Match Poses", "Rest pose", "Root Motion", "Scaled", "Floor Root",
+    "Shape Keys", "Props", "Two Hands", "Channel Map", "Source Name", "Target Name",
+    "Reference Pose", "Trunk", "Arms", "Legs", "Fingers", "Options", "Match Poses", "Rest pose", "Root Motion", "Scaled", "Floor Root",
     "On the Floor", "Align Facing", "Frame Range", "From Clip", "Overwrite", "Plant Feet", "Height In",
     "Height Out", "Speed In", "Speed Out", "Shortest", "Blend", "Slides and Pivots",
     # Library
@@ -155,6 +157,47 @@ def test_the_live_preview_in_the_window(panels):
     assert panels["preview.cancelled"]
     updated = f"Updated in {panels['preview.seconds']:.2f} seconds"
     assert unread(panels, "sidebar-preview", ("Apply", "Cancel", updated)) == []
+
+
+def test_props_and_the_channel_map_in_the_panel(panels):
+    """The Options sub-panel's Props and Two Hands rows and, under Carry, the channel map: two pairs added by
+    its + button and typed in, each name read whole at the default sidebar width, none cut."""
+    assert all(panels[f"channels.add.{s}"] == ["FINISHED"] for s in ("smile", "blink"))
+    assert panels["channels.map"] == {"smile": "grin", "blink": "eyeBlink"}
+    assert unread(panels, "sidebar-channels", ("Props", "Hand", "Two Hands", "Carry", "Channel Map", "Source Name",
+                                               "Target Name")) == []
+    assert unread(panels, "sidebar-channels", ("smile", "grin", "blink", "eyeBlink"), bone_names=True) == []
+    assert cut_labels(options_rows(panels, "sidebar-channels"), "sidebar-channels") == []
+
+
+def options_rows(report, name) -> dict:
+    """The picture's readings cut to the Options sub-panel's rows: from its header down to Plant Feet's (the
+    second reading is of the channel map's rows alone)."""
+    words = report[name + ".words"]
+    top = max((w["y"] for w in words if w["text"] == "Options"), default=None)
+    assert top is not None, f"no Options header in {name}"
+    bottom = max((w["y"] for w in words if w["text"] == "Plant" and w["y"] < top), default=-1.0)
+    return {name + ".words": [w for w in words if bottom < w["y"] < top],
+            name + ".words-again": report.get(name + ".words-again", [])}
+
+
+def test_undo_after_preview_apply_in_the_window(panels):
+    """Preview, Apply, then ctrl+Z pressed in the window: the target plays its own action again, every key
+    and handle as before to the bit, every bone where Blender evaluated it before (exactly: the same keys
+    evaluated the same way), the applied and the preview's actions gone; ctrl+shift+Z brings the applied
+    keys back, to the bit."""
+    assert panels["undo_apply.preview"] == ["FINISHED"] and panels["undo_apply.apply"] == ["FINISHED"]
+    assert panels["undo_apply.previewed"] == "MotionKit Preview"
+    applied, before = panels["undo_apply.applied.action"]
+    assert applied != before and not panels["undo_apply.applied.keys_same"]
+    assert panels["undo_apply.applied.pose"] > 1e-2  # the retarget moves the bones: the undo has work to do
+    assert panels["undo_apply.undone.action"] == [before, before]
+    assert panels["undo_apply.undone.keys_same"] and panels["undo_apply.undone.pose"] == 0.0
+    now, then = panels["undo_apply.undone.actions"]
+    assert now == then and applied not in now and "MotionKit Preview" not in now
+    assert panels["undo_apply.redone.action"] == [applied, applied]
+    assert panels["undo_apply.redone.keys_same"] and panels["undo_apply.redone.pose"] == 0.0
+    assert panels["undo_apply.redone.actions"][0] == panels["undo_apply.redone.actions"][1]
 
 
 @pytest.mark.parametrize("mode", ["object", "pose"])

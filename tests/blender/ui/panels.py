@@ -14,6 +14,7 @@ import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import bpy  # noqa: E402
+import numpy as np  # noqa: E402
 
 import harness  # noqa: E402
 import scene  # noqa: E402
@@ -36,6 +37,29 @@ def read_sidebar(name, view, rows=None):
     harness.report(f"{name}.words", harness.plain(words))
     harness.report(f"{name}.blank", blank)
     return words
+
+
+def read_rows_again(name, view, words, below, above):
+    """A second reading, row by row at another size, of the sidebar's rows between the labels below and
+    above (as read in words), from the picture just read: tesseract misreads a name in a list's active row
+    (5.2 outlines it, "eyeBlink" read "eve Htnk") and reads it alone. Reported as name's words-again."""
+    top, bottom = harness.find_words(words, below), harness.find_words(words, above)
+    assert top and bottom, f"no '{below}' or '{above}' in {name}"
+    side = harness.region(view, 'UI')
+    pixels = harness.load_png(shot(name + "-window"))
+    heights = sorted(w["y"] for w in words if bottom[0]["y"] + 10 < w["y"] < top[0]["y"] - 10)
+    rows = []  # the words of a row lie within a few pixels of each other's height; a row is 20 px or more
+    for y in heights:
+        if rows and y - rows[-1][0] < 8:
+            rows[-1].append(y)
+        else:
+            rows.append([y])
+    again = []
+    for n, row in enumerate(rows):
+        box = (side.x, int(np.median(row)) - 12, side.width, 24)
+        # Each reading numbers its blocks from 1: kept apart, so that two readings' words never join a label.
+        again += [dict(w, block=1000 * n + w["block"]) for w in harness.ocr(harness.crop(pixels, box), box, scale=2)]
+    harness.report(f"{name}.words-again", harness.plain(again))
 
 
 def open_closed_panels(view, name, headers):
@@ -98,6 +122,73 @@ def redo_panel_open(view, name, title, last):
                                                  required=False)
     harness.report(f"{name}.words", harness.plain(words))
     harness.report(f"{name}.blank", blank)
+
+
+CHANNEL_PAIRS = (("smile", "grin"), ("blink", "eyeBlink"))
+UNDO_FRAMES = (1, 45, 90)
+
+
+def target_state(name) -> dict:
+    """The target as Blender evaluates it: its action's name, every F-curve's keys and handles (bytes), and
+    every bone's matrix and the object's on UNDO_FRAMES (the scene's frame put back)."""
+    obj = bpy.data.objects[name]
+    action = obj.animation_data.action if obj.animation_data else None
+    keys = {}
+    for fc in mk.animdata.fcurves(action, obj) if action else ():
+        points = fc.keyframe_points
+        values = []
+        for field in ("co", "handle_left", "handle_right"):
+            array = np.empty(2 * len(points), dtype=np.float32)
+            points.foreach_get(field, array)
+            values.append(array.tobytes())
+        keys[(fc.data_path, fc.array_index)] = tuple(values) + (tuple(p.interpolation for p in points),)
+    scene = bpy.context.scene
+    frame = scene.frame_current
+    pose = []
+    for f in UNDO_FRAMES:
+        scene.frame_set(f)
+        pose.append([np.array(obj.matrix_world)] + [np.array(b.matrix) for b in obj.pose.bones])
+    scene.frame_set(frame)
+    return {"action": action.name if action else None, "keys": keys, "pose": np.array(pose),
+            "actions": sorted(a.name for a in bpy.data.actions)}
+
+
+def action_name(name):
+    obj = bpy.data.objects.get(name)
+    action = obj.animation_data.action if obj is not None and obj.animation_data else None
+    return action.name if action else None
+
+
+def compare(key, state, reference) -> None:
+    """Reports how state differs from reference: action, keys (bit for bit), pose (largest difference)."""
+    harness.report(f"{key}.action", [state["action"], reference["action"]])
+    harness.report(f"{key}.keys_same", state["keys"] == reference["keys"] and len(state["keys"]) > 0)
+    harness.report(f"{key}.pose", float(np.abs(state["pose"] - reference["pose"]).max()))
+    harness.report(f"{key}.actions", [state["actions"], reference["actions"]])
+
+
+def preview_apply_undo(view, name):
+    """A scenario step (`yield from`): Preview, Apply, then ctrl+Z pressed in the window and ctrl+shift+Z,
+    the target read after each as Blender evaluates it. The undo step before Preview is pushed here as the
+    last click on a panel's field pushes one (the scenario sets the fields from Python, which pushes none)."""
+    with harness.override(area_=view):
+        bpy.ops.ed.undo_push(message="Retarget panel")
+    before = target_state(name)
+    with harness.override(area_=view):
+        harness.report("undo_apply.preview", sorted(bpy.ops.motionkit.retarget_preview('EXEC_DEFAULT')))
+    harness.report("undo_apply.previewed", bpy.data.objects[name].animation_data.action.name)
+    with harness.override(area_=view):
+        harness.report("undo_apply.apply", sorted(bpy.ops.motionkit.retarget_preview_apply('EXEC_DEFAULT', True)))
+    applied = target_state(name)
+    compare("undo_apply.applied", applied, before)
+    x, y = view.x + view.width // 2, view.y + view.height // 2
+    for key, shift, reference in (("undo_apply.undone", False, before), ("undo_apply.redone", True, applied)):
+        harness.move(x, y)
+        yield 0.2
+        harness.key('Z', x=x, y=y, ctrl=True, shift=shift)
+        yield from harness.wait_until(lambda: action_name(name) == reference["action"],
+                                      f"{key}: the target's action back", timeout=10.0, required=False)
+        compare(key, target_state(name), reference)
 
 
 def steps():
@@ -277,6 +368,24 @@ def steps():
     harness.report("preview.cancelled", target.animation_data.action == walk
                    and "MotionKit Preview" not in bpy.data.actions)
     settings.root_motion = "scaled"
+
+    # Props and the channel map in the Options sub-panel, filled in as a user does: Hand picked, a click on
+    # the map's + button for each pair of names, the names typed into its row.
+    settings.prop_space = "hand"
+    for source_name, target_name in CHANNEL_PAIRS:
+        with harness.override(area_=view):
+            harness.report(f"channels.add.{source_name}",
+                           sorted(bpy.ops.motionkit.channel_map_add('EXEC_DEFAULT', True)))
+        pair = settings.channel_pairs[settings.active_channel_pair]
+        pair.source, pair.target = source_name, target_name
+    harness.report("channels.map", settings.retarget_options().channel_map)
+    yield from harness.redrawn(watch)
+    words = read_sidebar("sidebar-channels", view)
+    read_rows_again("sidebar-channels", view, words, "Source Name", "Plant Feet")
+    settings.property_unset("prop_space")
+    settings.channel_pairs.clear()
+
+    yield from preview_apply_undo(view, settings.target.name)
 
     # A Rigify rig as the retarget's target: the Controls sub-panel says what it is, its arms' and legs'
     # FK/IK choice active.
