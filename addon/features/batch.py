@@ -185,7 +185,11 @@ def check_arguments(target, export, out_dir, keep, options) -> None:
     if "action_name" in options:
         raise ValueError("action_name: a batch names each action after its clip")
     retargeting.check_options(**options)
-    retargeting.check_root_bone(target, retargeting.split_options(options)[0])
+    fields = retargeting.split_options(options)[0]
+    if fields.into != "new":  # every clip would write into, and be named as, the target's own action
+        raise ValueError(f"into={fields.into!r}: a batch makes a new action of each clip (into='new'); the "
+                         f"bones it does not write keep the target's own keys in each")
+    retargeting.check_root_bone(target, fields)
 
 
 def retarget_files(paths, target, **options) -> list:

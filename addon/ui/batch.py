@@ -1,7 +1,9 @@
 """A motion library in the sidebar: a folder of clips retargeted onto the Retarget panel's target, and the
 batch's report as a list sorted by what needs a look, a row's figures under it (features/batch)."""
+import dataclasses
+
 import bpy
-from bpy.props import CollectionProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty, StringProperty
+from bpy.props import BoolProperty, CollectionProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty, StringProperty
 
 from . import common, retarget
 from ..features import batch
@@ -49,6 +51,10 @@ class MOTIONKIT_PG_batch(bpy.types.PropertyGroup):
     rows: CollectionProperty(type=MOTIONKIT_PG_batch_row)
     active_row: IntProperty()
     sort_by: EnumProperty(name="Sort", items=SORT_ITEMS, default="sliding_worst_mm")
+    use_bone_map: BoolProperty(name="Panel's Bone Map",
+                               description="Pair every file's bones by the Retarget panel's bone map (the files "
+                                           "share its source's skeleton); off: each file is mapped by its own "
+                                           "bone names")
 
 
 def _fill_rows(settings, rows) -> None:
@@ -85,14 +91,16 @@ class MOTIONKIT_OT_retarget_library(bpy.types.Operator):
 
     def execute(self, context):
         settings = context.scene.motionkit_batch
-        target = context.scene.motionkit_retarget.target
+        panel = context.scene.motionkit_retarget
+        target = panel.target
         export = None if settings.export == "NONE" else settings.export.lower()
         out_dir = bpy.path.abspath(settings.out_dir) or None
 
         def work(progress):
             return batch.retarget_library([bpy.path.abspath(settings.folder)], target, pattern=settings.pattern,
                                           out_dir=out_dir, export=export, report_dir=out_dir,
-                                          progress=lambda done, total, path: progress(done, total))
+                                          progress=lambda done, total, path: progress(done, total),
+                                          **library_options(panel, settings))
 
         def done(result):
             _fill_rows(settings, result.rows)
@@ -101,6 +109,15 @@ class MOTIONKIT_OT_retarget_library(bpy.types.Operator):
                     + (f"; the report is in {out_dir}" if out_dir else ""))
 
         return common.run(self, context, work, done)
+
+
+def library_options(panel, settings) -> dict:
+    """The Retarget panel's options as the batch takes them: each clip whole (the panel's frame range is its
+    own source's) and a new action of its own (the parts the panel writes over a copy of the target's own),
+    the panel's bone map only where asked."""
+    chosen = dataclasses.replace(panel.retarget_options(), into="new")
+    mapped = {"bone_map": panel.bone_map()} if settings.use_bone_map and panel.bone_map() else {}
+    return {"options": chosen, **panel.control_keywords(), **mapped}
 
 
 class MOTIONKIT_UL_batch_report(bpy.types.UIList):
@@ -139,6 +156,8 @@ class MOTIONKIT_PT_retarget_batch(retarget.RetargetSubPanel, bpy.types.Panel):
         layout.prop(settings, "pattern")
         layout.prop(settings, "export")
         layout.prop(settings, "out_dir")
+        layout.prop(settings, "use_bone_map")
+        layout.label(text="Retarget panel's options", icon='INFO')
         layout.operator("motionkit.retarget_library", icon='FILE_FOLDER')
         if not settings.rows:
             return

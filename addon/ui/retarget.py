@@ -246,6 +246,15 @@ class MOTIONKIT_PG_retarget(bpy.types.PropertyGroup):
             channel_map=self.channel_map() if named else None, prop_space=self.prop_space, two_hands=self.two_hands,
             **self._written())
 
+    def control_keywords(self) -> dict:
+        """The panel's control rig choices (controls, limbs, control_map, keys, reduce) as retarget_clip and
+        the batch take them."""
+        chosen = {"controls": self.controls, "keys": self.keys, "reduce": self.reduce,
+                  "control_map": bpy.path.abspath(self.control_map) if self.control_map else None}
+        if self.controls == "auto":
+            chosen["limbs"] = {"arm": self.arms, "leg": self.legs}
+        return chosen
+
     def channel_map(self) -> dict | None:
         """{source name: target name} from the channel map's rows, None when it has none or no channel it
         renames is carried. A row with neither name (just added) is passed over; a row with one name, or a
@@ -348,10 +357,7 @@ def run_retarget(self, context) -> set:
     bvh_options = ({"bvh_scale": "auto" if settings.bvh_auto_scale else settings.bvh_scale,
                     "imported_source": settings.bvh_source} if settings.source_kind == 'BVH' else {})
 
-    controls = {"controls": settings.controls, "keys": settings.keys, "reduce": settings.reduce,
-                "control_map": bpy.path.abspath(settings.control_map) if settings.control_map else None}
-    if settings.controls == "auto":
-        controls["limbs"] = {"arm": settings.arms, "leg": settings.legs}
+    controls = settings.control_keywords()
 
     def work(progress):
         progress(0, 4)

@@ -307,6 +307,46 @@ def test_the_library_operator_fills_the_report_list(mk, library, target):
     assert {a.name for a in set(bpy.data.actions) - actions} == {"walk60", "run_forward"}
 
 
+def _moved(obj, action, bones) -> set:
+    """Which of the bones Blender's evaluation turns away from rest on some frame of the action."""
+    obj.animation_data.action = action
+    moved = set()
+    for frame in range(int(action.frame_range[0]), int(action.frame_range[1]) + 1, 10):
+        bpy.context.scene.frame_set(frame)
+        moved |= {b for b in bones if not obj.pose.bones[b].matrix_basis.to_quaternion().angle < 1e-6}
+    return moved
+
+
+def test_the_library_operator_takes_the_retarget_panels_options_and_its_bone_map_when_asked(mk, library, target):
+    """The Library retargets with the Retarget panel's options: the panel set to the arms, walk60 moves Y Bot's
+    arms and leaves its legs at rest; the panel's bone map ticked (hips and the left arm only), the right arm
+    stays at rest. Judged by Blender's evaluation of the new actions."""
+    panel, settings = bpy.context.scene.motionkit_retarget, bpy.context.scene.motionkit_batch
+    panel.target, panel.parts, panel.plant_feet = target, "arms", False
+    settings.folder, settings.pattern = str(library / "bvh"), "walk60*"
+    legs = ["mixamorig:LeftUpLeg", "mixamorig:RightLeg"]
+    arms = ["mixamorig:LeftArm", "mixamorig:RightArm", "mixamorig:RightForeArm"]
+    try:
+        assert bpy.ops.motionkit.retarget_library() == {'FINISHED'}
+        assert _moved(target, bpy.data.actions["walk60"], legs + arms) == set(arms)
+        panel.parts = "whole"
+        panel.set_bone_map([("RootJoint", "mixamorig:Hips"), ("lShoulder", "mixamorig:LeftArm"),
+                            ("lElbow", "mixamorig:LeftForeArm")])
+        settings.use_bone_map = True
+        assert bpy.ops.motionkit.retarget_library() == {'FINISHED'}
+        assert settings.rows[0].status == "ok"
+        made = bpy.data.actions[settings.rows[0].action]
+        # The legs are left out of the check: the panel's Stand (floor fit) poses them under the moving hips.
+        assert _moved(target, made, arms + ["mixamorig:LeftForeArm"]) == {"mixamorig:LeftArm",
+                                                                          "mixamorig:LeftForeArm"}
+    finally:
+        for prop in ("target", "parts", "plant_feet"):
+            panel.property_unset(prop)
+        panel.pairs.clear()
+        for prop in ("folder", "pattern", "use_bone_map"):
+            settings.property_unset(prop)
+
+
 @pytest.mark.parametrize("arguments,message", [
     (dict(export="obj", out_dir="OUT"), r"unknown export 'obj'"),
     (dict(export="bvh"), r"export needs out_dir"),
@@ -318,6 +358,7 @@ def test_the_library_operator_fills_the_report_list(mk, library, target):
                                     r"'mixamorig:Hips'"),
     (dict(roots="scaled"), r"unknown retarget option 'roots'"),
     (dict(action_name="walk"), r"action_name: a batch names each action after its clip"),
+    (dict(into="current"), r"into='current': a batch makes a new action of each clip"),
 ], ids=lambda v: "-".join(v) if isinstance(v, dict) else "")
 def test_batch_arguments_are_refused_before_any_file_is_read(mk, library, target, tmp_path, arguments, message):
     """Each argument that would fail every clip: a ValueError naming it, nothing imported, no folder made."""
