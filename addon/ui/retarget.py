@@ -710,17 +710,15 @@ class MOTIONKIT_PT_retarget_map(RetargetSubPanel, bpy.types.Panel):
 
 
 def _draw_reference_pose(box, settings) -> None:
-    """Per chain the user's mode, Auto showing what it decided ("(Keep)"); left and right side by side."""
+    """Per chain the user's mode, Auto showing what it decided ("(Match)"), a row each: two sides in one row
+    leave each menu too narrow for that at the default sidebar width."""
     row = box.row()
     row.label(text="Reference Pose")
     row.operator("motionkit.reference_pose", text="", icon='FILE_REFRESH')
-    for label, chains in (("Trunk", ("trunk",)), ("Arms", ("arm.L", "arm.R")), ("Legs", ("leg.L", "leg.R")),
-                          ("Fingers", ("fingers.L", "fingers.R"))):
-        split = box.split(factor=0.36)
-        split.label(text=label)
-        row = split.row(align=True)
-        for chain in chains:
-            row.prop(settings.reference_pose, _chain_prop(chain), text="")
+    for chain in reference_pose.CHAINS:
+        split = box.split(factor=0.5)  # "Right Fingers" whole at the default sidebar width
+        split.label(text=_CHAIN_LABELS[chain].title())
+        split.prop(settings.reference_pose, _chain_prop(chain), text="")
 
 
 class MOTIONKIT_PT_retarget_controls(RetargetSubPanel, bpy.types.Panel):

@@ -126,11 +126,13 @@ SIDEBAR_LABELS = (
     "Armature", "File", "Source", "Target", "Retarget", "Bone Map", "Load", "Save", "Auto-map", "Schemes",
     "Source Bone", "Target Bone", "Body", "Whole Body", "Into", "Preview", "Carry", "Scale", "Properties",
     "Shape Keys", "Props", "Two Hands", "Channel Map", "Source Name", "Target Name",
-    "Reference Pose", "Trunk", "Arms", "Legs", "Fingers", "Options", "Match Poses", "Rest pose", "Root Motion", "Scaled", "Floor Root",
+    "Reference Pose", "Trunk", "Left Arm", "Right Arm", "Left Leg", "Right Leg", "Left Fingers",
+    "Right Fingers", "Options", "Match Poses", "Rest pose", "Root Motion", "Scaled", "Floor Root",
     "On the Floor", "Align Facing", "Frame Range", "From Clip", "Overwrite", "Plant Feet", "Height In",
     "Height Out", "Speed In", "Speed Out", "Shortest", "Blend", "Slides and Pivots",
     # Library
-    "Library", "Clips", "Names", "Output", "Keep Actions", "Folder", "Retarget Library",
+    "Library", "Clips", "Names", "Output", "Keep Actions", "Folder", "Panel's Bone Map", "Retarget panel's options",
+    "Retarget Library",
     # Controls (its Arms and Legs rows are greyed out on the scene's plain rig, too faint to read)
     "Controls", "Bones (no control rig)", "Every Frame", "Reduce Keys", "Map (other rigs)",
     # Full-body IK, Solver, Bake
@@ -198,6 +200,13 @@ def test_undo_after_preview_apply_in_the_window(panels):
     assert panels["undo_apply.redone.action"] == [applied, applied]
     assert panels["undo_apply.redone.keys_same"] and panels["undo_apply.redone.pose"] == 0.0
     assert panels["undo_apply.redone.actions"][0] == panels["undo_apply.redone.actions"][1]
+
+
+def test_the_reference_pose_names_what_auto_decided_whole(panels):
+    """After its refresh button each chain's menu names what Auto chose ("(Keep)", "(Match)"), read whole at
+    the default sidebar width (the side-by-side menus cut it to "(Ke...")."""
+    assert panels["reference_pose.result"] == ["FINISHED"] and panels["reference_pose.shown"]
+    assert unread(panels, "sidebar-object", panels["reference_pose.shown"]) == []
 
 
 @pytest.mark.parametrize("mode", ["object", "pose"])

@@ -194,6 +194,12 @@ def preview_apply_undo(view, name):
 def steps():
     objects = scene.build(mk, walk60)
     target = objects["target"]
+    # Decided as the Reference Pose's refresh button does: its menus then name what Auto chose, "(Match)" the
+    # widest of what they show.
+    harness.report("reference_pose.result", sorted(bpy.ops.motionkit.reference_pose()))
+    harness.report("reference_pose.shown", sorted({f"({mode.capitalize()})" for mode, _ in
+                                                   bpy.context.scene.motionkit_retarget.reference_pose
+                                                   .decided().values()}))
     yield 0.3
     view = harness.area('VIEW_3D')
     # Nothing in the viewport is read here: without its overlays (the rigs' bones, a Rigify rig's 706 among
