@@ -668,9 +668,10 @@ def sample(action: bpy.types.Action, id_data: bpy.types.ID, channels: Iterable,
            frames, static=None) -> tuple[np.ndarray, np.ndarray]:
     """Values of the action's curves for channels at frames: (values (c, n), found (c,)).
 
-    Channels without a curve come back with found False, holding their static
-    value (static: (c,), usually the properties' own values) on every frame,
-    or NaN when static is None. Constant, linear
+    Channels without a curve that plays (none, a muted one, or one with neither
+    keys nor modifiers: Blender's evaluation leaves their property alone) come
+    back with found False, holding their static value (static: (c,), usually
+    the properties' own values) on every frame, or NaN when static is None. Constant, linear
     and Bezier keys are evaluated natively, as fcurve.evaluate would; curves
     with modifiers or easing keys go through fcurve.evaluate itself.
     """
@@ -683,12 +684,14 @@ def sample(action: bpy.types.Action, id_data: bpy.types.ID, channels: Iterable,
     native_rows, keys = [], []
     for row, channel in enumerate(channels):
         fcurve = curves.find(channel.data_path, index=channel.index) if curves else None
-        if fcurve is None:
+        if fcurve is None or fcurve.mute:
             continue
-        found[row] = True
         points = fcurve.keyframe_points
         count = len(points)
         modified = len(fcurve.modifiers) > 0
+        if not count and not modified:  # Blender's animation system passes an empty curve over too
+            continue
+        found[row] = True
         view = _co_view(points)
         co = _read_co(points, view)
         if not modified and count == frames.size and np.array_equal(co[0::2], frames.astype(np.float32)):

@@ -48,6 +48,32 @@ def test_keys_written_in_bulk_drive_the_pose(animdata):
     assert "Arm" in groups and all(fc.group is not None and fc.group.name == "Arm" for fc in curves)
 
 
+def test_curves_that_do_not_play_are_sampled_as_blender_plays_them(animdata):
+    """An F-curve with no keys (Blender 5.2's FBX import and append leave such curves on Y Bot's action) and a
+    muted one leave their property as it stands, in Blender's evaluation and in sample(): the bone's own
+    rotation, not a zero quaternion."""
+    obj = make_armature()
+    action = animdata.new_action("Empty curves")
+    bone = 'pose.bones["Arm"]'
+    animdata.write_keys(obj, action, [(f'pose.bones["Root"].location', 0, "Root")], np.array([1.0, 5.0]),
+                        np.array([[0.0, 1.0]]))
+    empty = animdata.new_fcurves(action, obj, [(f"{bone}.rotation_quaternion", i, "Arm") for i in range(4)])
+    muted = animdata.new_fcurves(action, obj, [(f"{bone}.location", 0, "Arm")])[0]
+    muted.keyframe_points.insert(1.0, 3.0)
+    muted.mute = True
+    assert all(len(fc.keyframe_points) == 0 for fc in empty)
+    animdata.assign(obj, action)
+    pose_bone = obj.pose.bones["Arm"]
+    pose_bone.rotation_quaternion = (0.8, 0.6, 0.0, 0.0)
+    pose_bone.location = (0.25, 0.0, 0.0)
+    bpy.context.scene.frame_set(3)
+    played = [*pose_bone.rotation_quaternion, pose_bone.location[0]]
+    channels = [(f"{bone}.rotation_quaternion", i) for i in range(4)] + [(f"{bone}.location", 0)]
+    values, found = animdata.sample(action, obj, channels, np.array([3.0]), static=np.array(played))
+    np.testing.assert_allclose(played, [0.8, 0.6, 0.0, 0.0, 0.25], atol=1e-7)  # float32 properties
+    assert np.array_equal(values[:, 0], played) and not found.any()
+
+
 def test_curves_live_where_this_blender_keeps_them(animdata):
     obj = make_armature()
     action = animdata.new_action("Where")

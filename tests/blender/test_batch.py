@@ -328,13 +328,14 @@ def test_the_library_operator_takes_the_retarget_panels_options_and_its_bone_map
     arms = ["mixamorig:LeftArm", "mixamorig:RightArm", "mixamorig:RightForeArm"]
     try:
         assert bpy.ops.motionkit.retarget_library() == {'FINISHED'}
+        assert settings.rows[0].status == "ok", settings.rows[0].reason
         assert _moved(target, bpy.data.actions["walk60"], legs + arms) == set(arms)
         panel.parts = "whole"
         panel.set_bone_map([("RootJoint", "mixamorig:Hips"), ("lShoulder", "mixamorig:LeftArm"),
                             ("lElbow", "mixamorig:LeftForeArm")])
         settings.use_bone_map = True
         assert bpy.ops.motionkit.retarget_library() == {'FINISHED'}
-        assert settings.rows[0].status == "ok"
+        assert settings.rows[0].status == "ok", settings.rows[0].reason
         made = bpy.data.actions[settings.rows[0].action]
         # The legs are left out of the check: the panel's Stand (floor fit) poses them under the moving hips.
         assert _moved(target, made, arms + ["mixamorig:LeftForeArm"]) == {"mixamorig:LeftArm",
