@@ -71,6 +71,8 @@ def main() -> None:
         parser.add_argument("--joints", action="store_true",
                             help="also each body joint's pose-alone error, mean over the SAN retargets")
         parser.add_argument("--clips", nargs="*", help="only these SAN clips")
+        parser.add_argument("--own", action="store_true",
+                            help="each FBX target plays another clip of its own when the retarget starts")
 
     args, motionkit = harness.start("mixamo_pairs.py", __doc__, arguments, repeat=1)
     if not args.no_san:
@@ -109,9 +111,10 @@ def print_joints(rows) -> None:
 
 def fbx_pairs(motionkit, args) -> None:
     fbx_rows = []
-    for clip in mp.FBX_CLIPS:
+    for k, clip in enumerate(mp.FBX_CLIPS):
+        own = mp.FBX_CLIPS[(k + 1) % len(mp.FBX_CLIPS)] if args.own else None
         for source, target in (mp.FBX_CHARACTERS, mp.FBX_CHARACTERS[::-1]):
-            result = mp.measure_fbx(motionkit, harness.SHARED, source, target, clip, args.every)
+            result = mp.measure_fbx(motionkit, harness.SHARED, source, target, clip, args.every, own=own)
             print(f"{clip} {source} -> {target}: {result['frames']} frames, {result['joints']} joints, "
                   f"height {result['height']:.4g}", flush=True)
             fbx_rows.append((f"{clip} {source}->{target}", result))

@@ -104,6 +104,21 @@ def aims(heads, tails, parents, rest, continuing=None) -> tuple[np.ndarray, np.n
     return out, np.where(off, reach_of, reach)
 
 
+def _prefer_mapped_children(source, target, source_next, bone_map) -> None:
+    """A mapped source bone whose continuing child is no mapped bone, but which has a mapped child (the
+    target bone of which hangs directly under its own target bone), continues into that child instead: a
+    thigh carrying secondary joints (pant legs, skin helpers) that carry the hip's line on more straightly
+    than the knee points at its knee, as the other rig's does. source_next changed in place."""
+    target_of = {int(a): t for t, a in enumerate(bone_map) if a >= 0}
+    for t, a in enumerate(bone_map):
+        if a < 0 or int(source_next[a]) in target_of:
+            continue
+        for child, parent in enumerate(source.parents):
+            if parent == a and child in target_of and target.parents[target_of[child]] == t:
+                source_next[a] = child
+                break
+
+
 def paired_aims(source, target, bone_map) -> tuple[np.ndarray | None, np.ndarray | None]:
     """aims of two rigs' rest poses (core.rig_data.RigData; None where every bone runs along its Y axis), a
     bone's direction meaning the same on both: a target bone points at the child mapped to the source's
@@ -112,6 +127,7 @@ def paired_aims(source, target, bone_map) -> tuple[np.ndarray | None, np.ndarray
     bone its source bone, -1 for none."""
     source_next = source.continuing_children()
     target_next = target.continuing_children()
+    _prefer_mapped_children(source, target, source_next, bone_map)
     for t, a in enumerate(bone_map):
         if a >= 0 and (source_next[a] < 0 or target_next[t] < 0):
             source_next[a] = target_next[t] = -1

@@ -6,7 +6,8 @@ origin sits at the hips, or an FBX import scaled 0.01 and turned 90 degrees,
 has the same floor as one whose origin is on the ground. A capture whose rest
 pose does not stand on its floor (a BVH file whose root OFFSET is zero hangs
 its rest pose below the ground the clip walks on) takes the floor the clip's
-feet come down to instead.
+feet come down to instead; a target whose own action walks on its origin's
+level while its rest hangs below it, that level.
 
 Heights are along a unit `up` in the rig's armature space and in its units.
 """
@@ -65,6 +66,15 @@ def clip_floor(rest_floor: float, lowest, leg_length: float) -> float:
     if abs(reached - rest_floor) <= near:
         return rest_floor
     return 0.0 if abs(reached) <= near else reached
+
+
+def own_clip_floor(rest_floor: float, lowest, leg_length: float) -> float:
+    """The floor a target stands on, from its rest floor and a clip of its own (the action it plays): the
+    armature origin's level where its rest hangs off that level and the clip's feet come down to it
+    (clip_floor's capture case: girl1 of ../shared/data/pairs, her rest's hips at her origin and her clips
+    walking on it), else its rest floor. Only that case: a target's action may be any clip (a jump, a
+    climb), so the lowest its feet reach sets no floor on its own."""
+    return 0.0 if clip_floor(rest_floor, lowest, leg_length) == 0.0 else rest_floor
 
 
 def _through_stance(values, stance) -> np.ndarray:

@@ -11,7 +11,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import bone_mapping, native_state, rotation_channels
-from .floor import clearance, clip_floor, feet_lifts, hips_lift, leg_reaches, reach_drops, rest_floor, sole_height
+from .floor import (clearance, clip_floor, feet_lifts, hips_lift, leg_reaches, own_clip_floor, reach_drops, rest_floor,
+                    sole_height)
 from .rig_data import Pose, RigData
 from .root_motion import Leg, leg_length as _one_leg
 
@@ -76,23 +77,24 @@ def foot_heights(rig: RigData, body, rotations, heads, up, column=None) -> np.nd
     return np.stack(out, axis=1)
 
 
-def floor_height(rig: RigData, body, up, given=None, heads_over_clip=None) -> tuple[float, float]:
+def floor_height(rig: RigData, body, up, given=None, heads_over_clip=None, own=False) -> tuple[float, float]:
     """(floor, clearance): the rig's floor along up in its armature space, given (a world Z height) if set,
     else the floor its importer recorded (RigData.floor), else its rest soles or the origin just below them
     (core.floor.rest_floor); a source clip (heads_over_clip) whose feet never come down to its rest soles
-    walks on the floor core.floor.clip_floor finds. clearance: how high its rest soles (the lowest point of
-    every bone of its feet, a heel bone's too) ride above that floor (core.floor.clearance)."""
+    walks on the floor core.floor.clip_floor finds; a target's own clip (own=True) as core.floor.own_clip_floor
+    reads it. clearance: how high its rest soles (the lowest point of every bone of its feet, a heel bone's
+    too) ride above that floor (core.floor.clearance)."""
     found = legs(rig, body)
     below = [b for leg in found for b in leg.below_ankle]
     soles = np.vstack([rig.heads[below], rig.tails[below]]) if below else None
     lengths = [np.linalg.norm(rig.heads[leg.shin] - rig.heads[leg.thigh])
                + np.linalg.norm(rig.tails[leg.shin] - rig.heads[leg.shin]) for leg in found]
     rest = sole_height(soles, up) if soles is not None else None
-    floor = _floor_of(rig, found, up, given, heads_over_clip, rest, lengths)
+    floor = _floor_of(rig, found, up, given, heads_over_clip, rest, lengths, own)
     return floor, clearance(rest, floor, float(np.mean(lengths))) if rest is not None and lengths else 0.0
 
 
-def _floor_of(rig: RigData, found, up, given, heads_over_clip, soles, lengths) -> float:
+def _floor_of(rig: RigData, found, up, given, heads_over_clip, soles, lengths, own) -> float:
     if given is not None:
         return rig.world_height_to_armature(given)
     if rig.floor is not None:  # as its importer knew it
@@ -104,7 +106,7 @@ def _floor_of(rig: RigData, found, up, given, heads_over_clip, soles, lengths) -
     if heads_over_clip is None or not feet:
         return rest
     lowest = np.min(np.stack([heads_over_clip[:, 3 * f:3 * f + 3] @ up for f in feet], axis=1), axis=1)
-    return clip_floor(rest, lowest, float(np.mean(lengths)))
+    return (own_clip_floor if own else clip_floor)(rest, lowest, float(np.mean(lengths)))
 
 
 def pose_legs(rig: RigData, body, rotations, locations, hips: int):

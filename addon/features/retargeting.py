@@ -504,7 +504,8 @@ def _fit(rigs: _Rigs, clip: _Clip, o: RetargetOptions) -> _Fit:
                               o.align_facing)
     source_floor, source_clearance = floor_fit.floor_height(src, src.body, placed.source_up, o.source_floor,
                                                             clip.heads)
-    target_floor, target_clearance = floor_fit.floor_height(tgt, tgt.body, placed.up, o.target_floor)
+    target_floor, target_clearance = floor_fit.floor_height(tgt, tgt.body, placed.up, o.target_floor,
+                                                            _own_heads(rigs.target, tgt), own=True)
     source_height = floor_fit.leg_length(src, src.body, rigs.source_pose, placed.source_up, source_root, clip.heads,
                                          floor=source_floor)
     # The target's own action (whatever is assigned now) never sets its proportions: a zero pose's feet
@@ -515,6 +516,26 @@ def _fit(rigs: _Rigs, clip: _Clip, o: RetargetOptions) -> _Fit:
     return _Fit(placed.space, placed.up, placed.source_up, (source_floor, target_floor),
                 (source_clearance, target_clearance), (source_height, target_height), target_height / source_height,
                 src.scale / tgt.scale, tgt.scale)
+
+
+# The target's own clip is read at no more frames than this (its floor needs where its feet come down, not
+# every frame of a long take).
+_OWN_FRAMES = 600
+
+
+def _own_heads(target, tgt: RigData) -> np.ndarray | None:
+    """(frames, 3B) the target's heads over the action it plays (its own clip, core.floor.own_clip_floor),
+    or None when it plays none."""
+    action = animdata.assigned_action(target)
+    if action is None:
+        return None
+    start, end = (float(f) for f in action.frame_range)
+    frames = np.linspace(start, end, int(min(end - start + 1, _OWN_FRAMES)))
+    basis = pose_channels.rotations(target, action, tgt.names, frames)
+    locations = pose_channels.locations(target, action, tgt.names, frames)[0]
+    with native_state.blender_frames(frames):
+        return native_state.native().armature_pose(tgt.native, np.ascontiguousarray(basis),
+                                                   np.ascontiguousarray(locations))[1]
 
 
 def _chain_poses(rigs: _Rigs, fit: _Fit, chain_modes) -> list:

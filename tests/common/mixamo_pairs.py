@@ -212,13 +212,16 @@ def _timed(run):
     return result, time.perf_counter() - started
 
 
-def _blender_methods(mk, source, template, pairs, hips, names, frames, last, methods):
-    """Each Blender-side method on a fresh rest copy of template: {method: (joints, seconds)}."""
+def _blender_methods(mk, source, template, pairs, hips, names, frames, last, methods, own=None):
+    """Each Blender-side method on a fresh rest copy of template: {method: (joints, seconds)}. own: an action
+    of the target's own that MotionKit's copies play when the retarget starts."""
     out = {}
     for method in methods:
         if method == "plain copy":
             continue
         target = rest_copy(template, "retarget " + method)
+        if own is not None and method.startswith("MotionKit"):
+            mk.animdata.assign(target, own)
         if method == "MotionKit":
             _, seconds = _timed(lambda: mk.retarget(source, target))
         elif method == "MotionKit, given map":
@@ -272,9 +275,12 @@ def fbx_body(character: str) -> dict:
     return {j: "mixamorig:" + j for j in sp.BODY_JOINTS}
 
 
-def measure_fbx(mk, shared, source: str, target: str, clip: str, every: int = 1, methods=METHODS) -> dict:
+def measure_fbx(mk, shared, source: str, target: str, clip: str, every: int = 1, methods=METHODS,
+                own: str | None = None) -> dict:
     """One retarget of the FBX pairs, as measure_san (both sides evaluated in Blender: no sanity figure);
-    the plain copy and the constraints through the fixed correspondence of the body joints."""
+    the plain copy and the constraints through the fixed correspondence of the body joints. own: another
+    clip of the target's that it plays when the retarget starts (as a character downloaded with its
+    animation does); None: it stands at rest, playing nothing."""
     clip_obj = import_fbx(fbx_path(shared, target, clip))
     last = int(round(clip_obj.animation_data.action.frame_range[1]))
     frames = np.arange(1, last + 1, every)
@@ -286,6 +292,12 @@ def measure_fbx(mk, shared, source: str, target: str, clip: str, every: int = 1,
     height = sp.height(*skeleton, toe=tgt_body[sp.TOE], head=tgt_body[sp.HEAD])
     template = rest_copy(clip_obj, target + " rest")
     remove(clip_obj)
+    own_action = None
+    if own is not None:
+        own_obj = import_fbx(fbx_path(shared, target, own))
+        own_action = own_obj.animation_data.action
+        own_action.use_fake_user = True  # kept past its object until the methods are measured
+        remove(own_obj)
     source_obj = import_fbx(fbx_path(shared, source, clip))
     pairs = [(src_body[j], tgt_body[j]) for j in sp.BODY_JOINTS if j in src_body and j in tgt_body]
     hips = (src_body[sp.HIPS], tgt_body[sp.HIPS])
@@ -294,9 +306,11 @@ def measure_fbx(mk, shared, source: str, target: str, clip: str, every: int = 1,
         plain, seconds["plain copy"] = _timed(lambda: world_plain_copy(source_obj, template, pairs, hips, frames))
         joints["plain copy"] = np.stack([plain[n] for n in names], axis=1)
     for method, (found, secs) in _blender_methods(mk, source_obj, template, pairs, hips, names, frames, last,
-                                                  methods).items():
+                                                  methods, own_action).items():
         joints[method], seconds[method] = found, secs
     remove(source_obj, template)
+    if own_action is not None:
+        bpy.data.actions.remove(own_action)
     hips_column = measured.index(sp.HIPS)
     return {"frames": len(frames), "height": height, "sanity": None, "seconds": seconds, "joints": len(names),
             "errors": {m: sp.errors(joints[m], reference, height, hips_column) for m in methods}}

@@ -77,3 +77,30 @@ def test_a_given_continuing_child_is_the_one_aimed_at():
     world = Rotation.from_quat(rest[hand, [1, 2, 3, 0]]).apply(aims[hand])
     want = HEADS[NAMES.index("index")] - HEADS[hand]
     assert world @ want / np.linalg.norm(want) == pytest.approx(1.0, abs=1e-12)
+
+
+def _leg_rig(name, helper: bool):
+    """Hips, a thigh, its knee and (helper) a skin joint under the thigh that carries the hip-to-thigh line
+    on sideways, as girl2's of ../shared/data/pairs does; every bone's Y axis as a rig drawn along its limbs
+    has it (the hips up, the leg down)."""
+    from core.rig_data import RigData
+    down, up = [np.sqrt(0.5), -np.sqrt(0.5), 0, 0], [np.sqrt(0.5), np.sqrt(0.5), 0, 0]
+    heads = [[0, 0, 1.0], [0.1, 0, 0.95], [0.1, 0, 0.55]] + ([[0.2, 0, 0.92]] if helper else [])
+    rest = [up, down, down] + ([down] if helper else [])
+    heads = np.array(heads)
+    tails = heads + np.array([[0, 0, 0.1]] + [[0, 0, -0.1]] * (len(heads) - 1))
+    names = ("hips", "thigh", "knee") + (("helper",) if helper else ())
+    parents = (-1, 0, 1) + ((1,) if helper else ())
+    return RigData(name, names, parents, np.array(rest), heads, tails, np.full(len(names), 0.1),
+                   (False,) * len(names))
+
+
+def test_a_mapped_bone_points_at_its_mapped_child_past_a_straighter_helper():
+    """The source's thigh carries a helper joint that continues the hip's line better than its knee: paired,
+    the thigh still points at its knee (along its own Y axis), as the target's does; aimed at the helper it
+    would point 70 degrees off, and the retarget would turn the target's leg sideways."""
+    source, target = _leg_rig("source", helper=True), _leg_rig("target", helper=False)
+    assert bone_axes.continuing_children(source.heads, list(source.parents))[1] == 3  # the helper, alone
+    source_aims, target_aims = bone_axes.paired_aims(source, target, [0, 1, 2])
+    for aims in (source_aims, target_aims):
+        np.testing.assert_allclose(aims[1], [0.0, 1.0, 0.0], atol=1e-12)  # a rotation of exact unit vectors
