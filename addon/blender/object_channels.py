@@ -3,7 +3,6 @@ parents' (core/object_motion composes them), and written as keys (animdata.write
 from __future__ import annotations
 
 import dataclasses
-from dataclasses import dataclass
 
 import bpy
 import numpy as np
@@ -76,7 +75,7 @@ def world_matrices(obj, action, frames) -> tuple[np.ndarray, bool]:
     return world, keyed
 
 
-@dataclass
+@dataclasses.dataclass
 class ObjectMotion:
     """An object whose own transform (or a parent's) is keyed: its world on the reference frame, and how to
     read its motion from there."""
@@ -103,9 +102,9 @@ class ObjectMotion:
         nothing moves the object."""
         motion = cls.read(obj, action, pose_channels.action_frames(action, None)[0])
         recorded = ObjectBase.recorded(action)
-        if motion is not None and recorded is not None:
-            motion.reference = recorded.world.copy()
-        return motion
+        if motion is None or recorded is None:
+            return motion
+        return dataclasses.replace(motion, reference=recorded.world.copy())
 
     def placed(self, rig):
         """rig (core.rig_data.RigData) placed where the object stands on the reference frame."""
@@ -138,7 +137,7 @@ def placed_at(rig, world):
                                world_scale=scale)
 
 
-@dataclass(frozen=True)
+@dataclasses.dataclass(frozen=True)
 class ObjectBase:
     """Where an object stands before root motion is put on it: its location (3,) and rotation channels as a
     quaternion (4,), its matrix_basis' rotation (4,) and uniform scale (what object_motion.object_keys moves
