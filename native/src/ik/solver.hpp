@@ -40,11 +40,6 @@ constexpr double kStationary = 1e-9;
 // The transpose and the pseudo-inverse (without the curvature term, which lets
 // DLS settle at once) creep by small fractions: only a standstill ends them.
 constexpr double kCreeping = 1e-13;
-// With recruitment stages an unreachable target is approached by ever
-// smaller steps: on a warm-started frame, once a step has gained ground, one
-// that lowers the cost by less than this fraction ends the stage (a cold
-// start, which has further to go, keeps kStationary).
-constexpr double kSettled = 1e-5;
 // The clip's second pass low-passes the first's corrections with a Gaussian
 // of this many frames (see SolveSmoothed): a pop spread over about five frames.
 constexpr double kSmoothSigma = 2.0;
