@@ -1207,7 +1207,7 @@ TEST(IkBalance, HoldsTheCentreOfMassOverThePinnedFeet) {
 // forwards and back by up to 69 degrees from frame to frame. The centre of mass of the returned pose, by the
 // test's own forward kinematics (every bone's length its mass, as the solver weighs it without a mass
 // table), stays where the balance must keep it on every frame: the solver's margin in from the feet's
-// support, or as far in as the input is. Measured 1.4e-6 short at worst (twice the solver's tolerance,
+// support, or as far in as the input is. Measured 9.6e-7 short at worst (about the solver's tolerance,
 // 4e-7 of the height: the balance is met to it, the pins hold to it); held to about ten times that. A
 // trial pose left with another frame's rotations on those bones (the second-order correction's buffer
 // never given the frame's start) had the balance judge a stale centre of mass: 1.6e-3 short (frame 12).
@@ -1267,7 +1267,7 @@ TEST(IkBalance, WeighsTheBonesNoUnknownTurnsAsTheFrameHasThem) {
   std::printf("[ IK balance] the other arm swinging: centre of mass at most %.1e short of the margin %.4f (frame %d; "
               "the input at least %.4f inside the feet)\n", short_of, margin, worst, input_least);
   ASSERT_GT(input_least, 0.0);  // the input stands, so the margin applies where it is met
-  EXPECT_LT(short_of, 1.5e-5);
+  EXPECT_LT(short_of, 1e-5);
 }
 
 // A humanoid's natural defaults as the add-on sets them (limbs first, the spine
@@ -1337,7 +1337,7 @@ TEST(IkNatural, ASweepInAndOutOfReachKeepsItsPinsAndDoesNotPop) {
               worst * 180.0 / kPi, beyond);
   EXPECT_LT(pins, 1e-6 * body.Height());
   EXPECT_LT(met, 1e-4 * body.Height());
-  // Measured 2.01 degrees: the arm straightening as the target leaves the reach, rounded by the second
+  // Measured 2.02 degrees: the arm straightening as the target leaves the reach, rounded by the second
   // pass. The path is continuous in its input (the next test), so the figure is the same on any
   // processor; held to it plus under half a degree, as tests/blender/test_ik_natural.py holds its pops.
   EXPECT_LT(worst, 2.45 * kPi / 180.0);
@@ -1348,7 +1348,7 @@ TEST(IkNatural, ASweepInAndOutOfReachKeepsItsPinsAndDoesNotPop) {
 // a solve whose path through the clip is continuous in its input (no choice flipped by the last bits,
 // as another processor's floating point would flip it) gives the same keys to within 1e-6 (the solver's
 // tolerance is 3e-7 of the rig's size; a flipped choice moves a joint by a degree or more). Measured
-// 4.4e-10 rad and 5.6e-12 m; 0.47 rad and 4.8e-3 m while the later stages started from where the limbs
+// 4.5e-10 rad and 5.8e-12 m; 0.47 rad and 4.8e-3 m while the later stages started from where the limbs
 // alone had ended short (docs/ik.md, "Precision").
 TEST(IkNatural, ASweepNudgedByItsLastBitsGivesTheSameKeys) {
   const FullBody body;

@@ -213,6 +213,8 @@ void SolveFrames(const Model& m, Data& d, IkClipJob& out, Eigen::Index first, Ei
     s.corrections.assign(n * joints, Quat::Identity());
     s.correction_scales.assign(n * joints, 1.0);
     s.root_shifts.assign(n, Vec3::Zero());
+    s.hip_moves.assign(n, Vec3::Zero());
+    s.hip_leads.assign(n, Vec3::Zero());
     s.shortfalls.assign(n * static_cast<std::size_t>(m.effector_count), Vec3::Zero());
     s.end_stages.assign(n, 0);
   }
