@@ -209,7 +209,7 @@ int SettleAndMeetPins(const Model& m, Data& d, int budget, bool settle) {
   // correction has put them back (a coin flip on the last bits).
   if (settle && m.priorities && cost.pins > m.pin_tolerance) iterations += PolishPins(m, d, cost, budget);
   // The settling has a whole frame's budget: cut at half, it ended on its budget on walk60's frames
-  // where the arm comes back into reach, the null space left where its steps stopped (a pop of 2.9 deg
+  // where the arm comes back into reach, the null space left where its steps stopped (a pop of 2.8 deg
   // against 1.3 with the whole budget).
   if (settle) iterations += SettlePosture(m, d, cost, m.options.max_iterations);
   if (m.priorities && cost.pins > m.pin_tolerance) iterations += PolishPins(m, d, cost, budget);
