@@ -126,6 +126,9 @@ struct SecondPass {
   std::vector<Quat> corrections;  // per frame and joint
   std::vector<double> correction_scales;
   std::vector<Vec3> root_shifts;  // per frame
+  // Per frame: how far the levels moved the hips from the smoothed start (the balance, mostly), and how far
+  // the last sweep starts them ahead of it.
+  std::vector<Vec3> hip_moves, hip_leads;
   std::vector<Vec3> shortfalls;   // per frame and effector
   std::vector<int> end_stages;    // per frame
   std::vector<Vec3> rotation_sum;  // per joint

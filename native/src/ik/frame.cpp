@@ -184,6 +184,12 @@ void StartFrame(const Model& m, Data& d, Eigen::Index f) {
     TryExtrapolatedStart(m, d);
   }
   if (m.stages > 1 && m.options.method != IkMethod::kCcd) StartLaterStagesFromInput(m, d);
+  // A step writes the unknowns' joints alone, so every pose a trial is swapped in from must hold this
+  // frame's start on the other bones (the other arm, the head, the fingers): the centre of mass, which the
+  // balance weighs, is computed from every bone, and a buffer holding another frame's rotations there
+  // would make the balance depend on how many corrections the frame kept.
+  d.correction.pose = d.current;
+  d.fallback.pose = d.current;
 }
 
 void FinishFrame(const Model& m, Data& d, IkClipJob& out, Eigen::Index f, int iterations) {
@@ -207,6 +213,8 @@ void SolveFrames(const Model& m, Data& d, IkClipJob& out, Eigen::Index first, Ei
     s.corrections.assign(n * joints, Quat::Identity());
     s.correction_scales.assign(n * joints, 1.0);
     s.root_shifts.assign(n, Vec3::Zero());
+    s.hip_moves.assign(n, Vec3::Zero());
+    s.hip_leads.assign(n, Vec3::Zero());
     s.shortfalls.assign(n * static_cast<std::size_t>(m.effector_count), Vec3::Zero());
     s.end_stages.assign(n, 0);
   }

@@ -40,17 +40,15 @@ constexpr double kStationary = 1e-9;
 // The transpose and the pseudo-inverse (without the curvature term, which lets
 // DLS settle at once) creep by small fractions: only a standstill ends them.
 constexpr double kCreeping = 1e-13;
-// With recruitment stages an unreachable target is approached by ever
-// smaller steps: on a warm-started frame, once a step has gained ground, one
-// that lowers the cost by less than this fraction ends the stage (a cold
-// start, which has further to go, keeps kStationary).
-constexpr double kSettled = 1e-5;
 // The clip's second pass low-passes the first's corrections with a Gaussian
 // of this many frames (see SolveSmoothed): a pop spread over about five frames.
 constexpr double kSmoothSigma = 2.0;
 // The second pass's steps a frame, before its settling and polish: from the smoothed pose a reachable
 // target takes a few; one that the first pass only just reached (a limb at a limit) takes more.
 constexpr int kSmoothIterations = 32;
+// With the balance on, the second pass's last sweep starts the hips ahead of where the balance moved them
+// on the sweep before: their moves low-passed, times this (see LeadHips).
+constexpr double kHipLead = 2.0;
 constexpr double kPriorGain = 0.2;
 // With priorities, the levels' rows are scaled so that the merit a step must
 // lower ranks them as the priorities do (a pin's error costs a hundred times a
@@ -111,6 +109,8 @@ void FinishFrame(const Model& m, Data& d, IkClipJob& out, Eigen::Index f, int it
 // ---- second_pass.cpp: the clip's second pass (natural defaults, warm-started runs).
 void RecordFirstPassCorrection(const Model& m, Data& d, Eigen::Index i);
 void SolveSmoothed(const Model& m, Data& d, IkClipJob& out, Eigen::Index first, Eigen::Index last);
+void SweepSmoothed(const Model& m, Data& d, IkClipJob& out, Eigen::Index first, Eigen::Index last, int budget);
+void LeadHips(Data& d, Eigen::Index n);
 int SolveNear(const Model& m, Data& d, int budget);
 
 // ---- kinematics.cpp
