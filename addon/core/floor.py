@@ -61,11 +61,17 @@ def clip_floor(rest_floor: float, lowest, leg_length: float) -> float:
     lowest = np.asarray(lowest, dtype=np.float64)
     if not len(lowest):
         return rest_floor
-    reached = float(np.percentile(lowest, _FLOOR_PERCENTILE))
+    reached = clip_low(lowest)
     near = _HANGING_REST * leg_length
     if abs(reached - rest_floor) <= near:
         return rest_floor
     return 0.0 if abs(reached) <= near else reached
+
+
+def clip_low(lowest) -> float:
+    """How low a clip's feet come (lowest: (frames,) the lowest foot point on each frame): a low percentile,
+    a few stray frames aside."""
+    return float(np.percentile(np.asarray(lowest, dtype=np.float64), _FLOOR_PERCENTILE))
 
 
 def own_clip_floor(rest_floor: float, lowest, leg_length: float) -> float:

@@ -11,8 +11,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import bone_mapping, native_state, rotation_channels
-from .floor import (clearance, clip_floor, feet_lifts, hips_lift, leg_reaches, own_clip_floor, reach_drops, rest_floor,
-                    sole_height)
+from .floor import (clearance, clip_floor, clip_low, feet_lifts, hips_lift, leg_reaches, own_clip_floor, reach_drops,
+                    rest_floor, sole_height)
 from .rig_data import Pose, RigData
 from .root_motion import Leg, leg_length as _one_leg
 
@@ -91,7 +91,26 @@ def floor_height(rig: RigData, body, up, given=None, heads_over_clip=None, own=F
                + np.linalg.norm(rig.tails[leg.shin] - rig.heads[leg.shin]) for leg in found]
     rest = sole_height(soles, up) if soles is not None else None
     floor = _floor_of(rig, found, up, given, heads_over_clip, rest, lengths, own)
+    if own and rest is not None and floor != _floor_of(rig, found, up, given, None, rest, lengths, own):
+        rest += _lifted(found, up, heads_over_clip, rig.heads)  # the soles where the clip stands them
     return floor, clearance(rest, floor, float(np.mean(lengths))) if rest is not None and lengths else 0.0
+
+
+def own_lift(rig: RigData, body, up, heads_over_clip) -> float:
+    """How far (along up, armature units) a target's own clip stands it above its rest, where its floor is
+    read from that clip (floor_height's own=True, core.floor.own_clip_floor); 0 where it is not."""
+    floor, _ = floor_height(rig, body, up, None, heads_over_clip, own=True)
+    if floor == floor_height(rig, body, up)[0]:
+        return 0.0
+    return _lifted(legs(rig, body), up, heads_over_clip, rig.heads)
+
+
+def _lifted(found, up, heads_over_clip, rest_heads) -> float:
+    """How far a target's own clip stands its feet above where its rest has them, along up: its feet's
+    lowest head as low as the clip brings it (core.floor.clip_low) against the rest's."""
+    feet = [leg.foot for leg in found if leg.foot >= 0]
+    lowest = np.min(np.stack([heads_over_clip[:, 3 * f:3 * f + 3] @ up for f in feet], axis=1), axis=1)
+    return clip_low(lowest) - float(np.min(rest_heads[feet] @ up))
 
 
 def _floor_of(rig: RigData, found, up, given, heads_over_clip, soles, lengths, own) -> float:

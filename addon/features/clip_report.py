@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..blender import animdata, object_channels, pose_channels
-from ..core import bone_mapping, clip_quality, rotation_channels
+from ..core import bone_mapping, clip_quality, floor_fit, rotation_channels
 from . import contacts, retargeting
 
 WORLD_UP = np.array([0.0, 0.0, 1.0])  # the figures are in world space, where Blender's up is Z
@@ -87,7 +87,19 @@ def _feet(source: _Posed, target: _Posed, fps: float) -> clip_quality.FeetMotion
     points, _ = contacts.foot_points(target.rig, target.basis, target.moved, target_feet, posed=target.pose)
     rest_basis = np.tile([1.0, 0.0, 0.0, 0.0], (1, len(target.rig)))
     rest, _ = contacts.foot_points(target.rig, rest_basis, np.zeros((1, 3 * len(target.rig))), target_feet)
-    return clip_quality.FeetMotion(points=points, rest=rest[0], stance=stance, up=WORLD_UP, feet=FEET)
+    return clip_quality.FeetMotion(points=points, rest=rest[0] + _floor_shift(target) * WORLD_UP, stance=stance,
+                                   up=WORLD_UP, feet=FEET)
+
+
+def _floor_shift(target: _Posed) -> float:
+    """How far (world, along Z) the target's clip stands it above its rest where the retarget reads its floor
+    from that clip (floor_fit.own_lift: a rest hanging off its origin while the clip walks on it), else 0:
+    its feet are judged against its rest's feet stood there."""
+    rig = target.rig
+    try:
+        return rig.scale * floor_fit.own_lift(rig, rig.body, rig.up, target.pose[1])
+    except ValueError:  # no legs to stand on, or a non-uniform scale: the rest soles
+        return 0.0
 
 
 def measure(source, target, pairs, kept=()) -> clip_quality.Quality:

@@ -60,6 +60,26 @@ def test_floor_and_clearance():
     assert floor_fit.floor_height(recorded, recorded.body, UP)[0] == -0.3
 
 
+def test_a_target_hung_below_its_origin_stands_where_its_own_clip_stands_it():
+    """The sample character's rest moved 0.9 m down (its hips near its origin, as girl1's FBX has it): alone
+    it stands on its rest soles; with a clip of its own that stands it back on the origin, on the origin
+    with the same 2.5 cm clearance, and the clip lifts it by the drop. A clip that never comes down near the
+    origin (a jump, a climb) sets nothing: the rest soles. A rig standing on its origin is not lifted."""
+    drop = 0.9
+    rig = from_spec(characters.RIGIFY_A)
+    hung = from_spec(characters.RIGIFY_A, placed(Rotation.identity(), 1.0, (0, 0, 0)))
+    hung.heads, hung.tails = rig.heads - drop * UP, rig.tails - drop * UP
+    assert floor_fit.floor_height(hung, hung.body, UP) == pytest.approx((0.025 - drop, 0.0), abs=1e-12)
+    own = _standing(rig)[1]  # its clip: every frame where the unhung rest stands
+    floor, clearance = floor_fit.floor_height(hung, hung.body, UP, None, own, own=True)
+    assert (floor, clearance) == pytest.approx((0.0, 0.025), abs=1e-12)
+    assert floor_fit.own_lift(hung, hung.body, UP, own) == pytest.approx(drop, abs=1e-12)
+    jump = own + 0.8 * np.tile(UP, own.shape[1] // 3)  # never down near the origin
+    assert floor_fit.floor_height(hung, hung.body, UP, None, jump, own=True)[0] == pytest.approx(0.025 - drop,
+                                                                                               abs=1e-12)
+    assert floor_fit.own_lift(rig, rig.body, UP, own) == 0.0
+
+
 def _standing(rig, frames=4, drop=0.0):
     """The rig at rest on every frame, moved down by drop: (orientations, heads) as a native pose gives."""
     heads = (rig.heads - drop * UP).reshape(1, -1)
