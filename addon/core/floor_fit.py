@@ -109,8 +109,12 @@ def _lifted(found, up, heads_over_clip, rest_heads) -> float:
     """How far a target's own clip stands its feet above where its rest has them, along up: its feet's
     lowest head as low as the clip brings it (core.floor.clip_low) against the rest's."""
     feet = [leg.foot for leg in found if leg.foot >= 0]
-    lowest = np.min(np.stack([heads_over_clip[:, 3 * f:3 * f + 3] @ up for f in feet], axis=1), axis=1)
-    return clip_low(lowest) - float(np.min(rest_heads[feet] @ up))
+    return clip_low(_lowest_feet(feet, up, heads_over_clip)) - float(np.min(rest_heads[feet] @ up))
+
+
+def _lowest_feet(feet, up, heads_over_clip) -> np.ndarray:
+    """(frames,) the lowest of the feet bones' heads along up on each frame of a clip (frames, 3B)."""
+    return np.min(np.stack([heads_over_clip[:, 3 * f:3 * f + 3] @ up for f in feet], axis=1), axis=1)
 
 
 def _floor_of(rig: RigData, found, up, given, heads_over_clip, soles, lengths, own) -> float:
@@ -124,7 +128,7 @@ def _floor_of(rig: RigData, found, up, given, heads_over_clip, soles, lengths, o
     feet = [leg.foot for leg in found if leg.foot >= 0]
     if heads_over_clip is None or not feet:
         return rest
-    lowest = np.min(np.stack([heads_over_clip[:, 3 * f:3 * f + 3] @ up for f in feet], axis=1), axis=1)
+    lowest = _lowest_feet(feet, up, heads_over_clip)
     return (own_clip_floor if own else clip_floor)(rest, lowest, float(np.mean(lengths)))
 
 

@@ -504,8 +504,9 @@ def _fit(rigs: _Rigs, clip: _Clip, o: RetargetOptions) -> _Fit:
                               o.align_facing)
     source_floor, source_clearance = floor_fit.floor_height(src, src.body, placed.source_up, o.source_floor,
                                                             clip.heads)
-    target_floor, target_clearance = floor_fit.floor_height(tgt, tgt.body, placed.up, o.target_floor,
-                                                            _own_heads(rigs.target, tgt), own=True)
+    own = _own_heads(rigs.target, tgt) if o.target_floor is None and tgt.floor is None else None
+    target_floor, target_clearance = floor_fit.floor_height(tgt, tgt.body, placed.up, o.target_floor, own,
+                                                            own=True)
     source_height = floor_fit.leg_length(src, src.body, rigs.source_pose, placed.source_up, source_root, clip.heads,
                                          floor=source_floor)
     # The target's own action (whatever is assigned now) never sets its proportions: a zero pose's feet
@@ -531,11 +532,7 @@ def _own_heads(target, tgt: RigData) -> np.ndarray | None:
         return None
     start, end = (float(f) for f in action.frame_range)
     frames = np.linspace(start, end, int(min(end - start + 1, _OWN_FRAMES)))
-    basis = pose_channels.rotations(target, action, tgt.names, frames)
-    locations = pose_channels.locations(target, action, tgt.names, frames)[0]
-    with native_state.blender_frames(frames):
-        return native_state.native().armature_pose(tgt.native, np.ascontiguousarray(basis),
-                                                   np.ascontiguousarray(locations))[1]
+    return pose_channels.armature_motion(target, action, frames, tgt.native, tgt.names)[1]
 
 
 def _chain_poses(rigs: _Rigs, fit: _Fit, chain_modes) -> list:
