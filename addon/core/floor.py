@@ -142,30 +142,41 @@ def hips_lift(drops, stance, slope: float) -> np.ndarray:
     return _below_with_bounded_slope(needed, slope)
 
 
-def _near_stance(stance, blend_frames: float) -> np.ndarray:
-    """(frames,) 1 on stance frames, easing to 0 (smoothstep) over blend_frames frames either side."""
+def _near_stance(stance, blend_frames: float, values=None, slope: float = np.inf) -> np.ndarray:
+    """(frames,) 1 on stance frames, easing to 0 (smoothstep) either side over blend_frames frames, or, where
+    values (frames,) is large at the stance's edge, over 1.5 |value| / slope frames: what is eased out then
+    changes by at most slope a frame (a smoothstep's steepest is 1.5 times its mean), so that a foot's large
+    lift neither pops on nor off."""
     frames = len(stance)
     on = np.flatnonzero(stance)
     if not len(on):
         return np.zeros(frames)
+    length = np.full(len(on), max(blend_frames, 1e-9))
+    if values is not None and np.isfinite(slope) and slope > 0:
+        length = np.maximum(length, 1.5 * np.abs(np.asarray(values, dtype=np.float64)[on]) / slope)
     index = np.arange(frames)
     after = np.clip(np.searchsorted(on, index), 0, len(on) - 1)
     before = np.clip(after - 1, 0, len(on) - 1)
-    distance = np.minimum(np.abs(on[after] - index), np.abs(on[before] - index))
-    x = np.clip(1.0 - distance / max(blend_frames, 1e-9), 0.0, 1.0)
-    return x * x * (3.0 - 2.0 * x)
+
+    def eased(k):
+        x = np.clip(1.0 - np.abs(on[k] - index) / length[k], 0.0, 1.0)
+        return x * x * (3.0 - 2.0 * x)
+
+    return np.maximum(eased(after), eased(before))
 
 
-def feet_lifts(wanted, heights, stance, floor: float, blend_frames: float) -> np.ndarray:
+def feet_lifts(wanted, heights, stance, floor: float, blend_frames: float, slope: float = np.inf) -> np.ndarray:
     """(frames, feet) how far each foot is still to rise once the hips are lifted (heights include that):
     on its stance frames what it lacks (two feet standing at once where the rigs' legs differ), eased in
-    and out over blend_frames either side so that nothing pops; and on any frame at least enough that it
+    and out over blend_frames either side, longer where that is more than slope a frame (_near_stance), so
+    that nothing pops; and on any frame at least enough that it
     sinks no deeper below the floor than it should (wanted: the source's own depth below its floor,
     scaled; a capture's toes may dip a little), so the retarget never pushes a foot into the ground."""
     wanted, heights = np.asarray(wanted, dtype=np.float64), np.asarray(heights, dtype=np.float64)
     stance = np.asarray(stance, dtype=bool)
     if not len(heights):
         return np.zeros_like(heights)
-    lacking = np.stack([_through_stance(wanted[:, k] - heights[:, k], stance[:, k])
-                        * _near_stance(stance[:, k], blend_frames) for k in range(heights.shape[1])], axis=1)
+    through = [_through_stance(wanted[:, k] - heights[:, k], stance[:, k]) for k in range(heights.shape[1])]
+    lacking = np.stack([through[k] * _near_stance(stance[:, k], blend_frames, through[k], slope)
+                        for k in range(heights.shape[1])], axis=1)
     return np.maximum(lacking, np.minimum(wanted, floor) - heights)

@@ -190,4 +190,5 @@ def stand_on_floor(source: Ground, source_pose, target: Ground, rotations, locat
         basis / np.linalg.norm(basis, axis=1, keepdims=True)))
     locations[:, 3 * hips:3 * hips + 3] += rotation_channels.rotate_each(rotation_channels.conjugate(frame),
                                                                            lift[:, None] * up)
-    return feet_lifts(wanted, heights + lift[:, None], stance, target.standing, blend_frames=0.1 * fps)
+    return feet_lifts(wanted, heights + lift[:, None], stance, target.standing, blend_frames=0.1 * fps,
+                      slope=0.5 * leg / fps)

@@ -649,7 +649,11 @@ def _solve_call(part: _SolvePart, solve: _LegSolve, targets, frames, report, *, 
     arguments = (solve.rig, np.ascontiguousarray(solve.basis.reshape(count, -1)),
                  np.ascontiguousarray(solve.hip_loc), np.ascontiguousarray(targets.reshape(count, -1)),
                  np.zeros((count, 0)), part.effectors)
-    joints = native.IkJoints(limit_min=solve.limit_min, limit_max=solve.limit_max, excluded=excluded)
+    # The hips' translation is recruited only on frames where the legs alone cannot hold the feet: the
+    # body stays on the source's scaled path wherever the legs can take up the difference.
+    stage = np.zeros(len(part.part), dtype=np.int32)
+    stage[0] = 1
+    joints = native.IkJoints(limit_min=solve.limit_min, limit_max=solve.limit_max, excluded=excluded, stage=stage)
     options = native.IkOptions(**{"method": "dls", "max_iterations": 64, "reference": "input", **_SOLVE_OPTIONS},
                                root_translation=hips_move, root_rotation=False, warm_start=False, size=part.size,
                                threads=threads)

@@ -15,7 +15,10 @@ import san_protocol as sp
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 SHARED = os.path.join(os.path.dirname(ROOT), "shared")
 
-CASES = [("Jumping", "Aj", "Kaya"), ("Jumping", "Kaya", "Aj"), ("Running", "Aj", "Kaya"), ("Running", "Kaya", "Aj")]
+# Getting Up: the body rising from the floor on planted feet (the hips held on the source's scaled path but
+# where the legs alone cannot hold the feet).
+CASES = [("Jumping", "Aj", "Kaya"), ("Jumping", "Kaya", "Aj"), ("Running", "Aj", "Kaya"), ("Running", "Kaya", "Aj"),
+         ("Getting Up", "Aj", "Kaya")]
 IDS = [f"{clip}-{a}-to-{b}" for clip, a, b in CASES]
 
 # Blender's evaluation of a target's own imported clip against san_protocol's float64 forward kinematics:
@@ -26,10 +29,10 @@ IDS = [f"{clip}-{a}-to-{b}" for clip, a, b in CASES]
 SANITY = 5e-5
 # The issue's targets (issue 37, "Done means"), means over the clips.
 TARGET_ALL, TARGET_POSE = 3.0, 1.0
-# MotionKit's defaults over these four cases, measured on Blender 3.4, 4.3 and 5.2 (means, % of the height):
+# MotionKit's defaults over these cases, measured on Blender 3.4, 4.3 and 5.2 (means, % of the height):
 # what a change may not make worse by more than REGRESSION (about a millimetre on these 1.5 m characters;
 # the figures agree across the Blenders to 1e-4 %).
-MEASURED_ALL, MEASURED_POSE = 1.43, 0.51
+MEASURED_ALL, MEASURED_POSE = 1.28, 0.48
 REGRESSION = 0.05
 # Two methods whose joints Blender evaluates alike differ by the evaluation's own noise (SANITY), in %: a
 # retarget that keeps the plain copy's pose exactly ties with it to that.
@@ -90,6 +93,29 @@ def test_motionkit_defaults_within_the_issue_targets_on_average(mk, pairs):
     assert mean_all <= TARGET_ALL and mean_pose <= TARGET_POSE, (mean_all, mean_pose)
     assert mean_all <= MEASURED_ALL + REGRESSION and mean_pose <= MEASURED_POSE + REGRESSION, (mean_all, mean_pose)
 
+
+# A pop is a joint's sudden change of speed: its largest second difference over the frames. Mixamo's own clip
+# on the target has its own (a foot landing, 0.3-0.5 % of the height a frame squared on these clips); the
+# retarget's hips and feet may land harder, not pop: measured at most 2.4 times Mixamo's own on Blender 3.4
+# (Getting Up's toes; 6 times when a foot's lift off the floor was eased out over a tenth of a second
+# whatever its size), bounded at 3 times.
+POP_RATIO = 3.0
+POP_JOINTS = ("Hips", "LeftFoot", "RightFoot", "LeftToeBase", "RightToeBase")
+
+
+def largest_jolt(joints) -> float:
+    """The largest second difference of any of POP_JOINTS over the frames (metres)."""
+    picked = joints[:, [sp.BODY_JOINTS.index(j) for j in POP_JOINTS]]
+    return float(np.linalg.norm(np.diff(picked, 2, axis=0), axis=-1).max())
+
+
+@pytest.mark.parametrize("case", CASES, ids=IDS)
+def test_motionkit_hips_and_feet_land_no_harder_than_mixamo_s_by_a_pop(mk, pairs, case):
+    result = measured(mk, pairs, case)
+    ours, theirs = largest_jolt(result["joints"]["MotionKit"]), largest_jolt(result["reference"])
+    print(f"{case}: largest jolt of the hips and feet {100 * ours / result['height']:.2f} % of the height "
+          f"(Mixamo's own {100 * theirs / result['height']:.2f} %)")
+    assert ours <= POP_RATIO * theirs, (ours, theirs)
 
 # girl2 onto girl1 (../shared/data/pairs/fbx), girl1 playing another clip of her own when the retarget starts,
 # as a character downloaded from Mixamo with an animation does (her rest's hips sit at her origin, 55 % of her

@@ -239,7 +239,8 @@ def measure_san(mk, shared, source: str, target: str, clip: str, every: int = 1,
     (joints in Blender's world, metres). Returns frames, height, "sanity" (the largest distance between
     Blender's evaluation of target's own imported clip and san_protocol's forward kinematics, over the
     height), "errors" {method: san_protocol.errors}, "joint_pose" {method: per-joint pose-alone %, in
-    BODY_JOINTS order} and "seconds" {method: wall time}."""
+    BODY_JOINTS order}, "seconds" {method: wall time}, "joints" {method: (frames, joints, 3) world positions}
+    and "reference" (the target's own clip's, the same shape)."""
     src, tgt = sp.read_bvh(san_path(shared, source, clip)), sp.read_bvh(san_path(shared, target, clip))
     last = tgt.values.shape[0]
     if src.values.shape[0] != last:
@@ -265,7 +266,8 @@ def measure_san(mk, shared, source: str, target: str, clip: str, every: int = 1,
     remove(source_obj, template)
     return {"frames": len(frames), "height": height, "sanity": sanity, "seconds": seconds,
             "errors": {m: sp.errors(joints[m], reference, height) for m in methods},
-            "joint_pose": {m: sp.joint_pose_errors(joints[m], reference, height) for m in methods}}
+            "joint_pose": {m: sp.joint_pose_errors(joints[m], reference, height) for m in methods},
+            "joints": joints, "reference": reference}
 
 
 def fbx_body(character: str) -> dict:

@@ -1,0 +1,47 @@
+"""core.floor.feet_lifts (no Blender): how far each standing foot is still to rise, eased on and off its
+stance so that a large lift changes at most a given amount a frame, while a small one eases over the blend as
+before; judged on the returned curve's own frame-to-frame changes."""
+import numpy as np
+import pytest
+
+from core import floor
+
+FRAMES = 60
+BLEND = 2.4          # frames (0.1 s at 24 fps)
+SLOPE = 0.0167       # metres a frame (half a 0.8 m leg a second at 24 fps)
+
+
+def lifts(lack: float, stance_frames=range(10, 30)):
+    """One leg standing over stance_frames lacking lack metres of height, the other never standing; the
+    floor far below (no sinking to prevent)."""
+    stance = np.zeros((FRAMES, 2), dtype=bool)
+    stance[list(stance_frames), 0] = True
+    wanted = np.zeros((FRAMES, 2))
+    heights = np.full((FRAMES, 2), -lack)
+    heights[:, 1] = 1.0
+    return floor.feet_lifts(wanted, heights, stance, -10.0, BLEND, slope=SLOPE)[:, 0]
+
+
+def test_a_large_lift_comes_on_and_off_at_most_slope_a_frame():
+    lift = lifts(0.08)  # an 8 cm lack: eased over 1.5 * 0.08 / SLOPE = 7.2 frames, not 2.4
+    np.testing.assert_allclose(lift[10:30], 0.08, rtol=0, atol=1e-15)
+    # The smoothstep's steepest change is 1.5 times its mean: SLOPE at most, up to rounding.
+    assert np.abs(np.diff(lift)).max() <= SLOPE * (1 + 1e-12)
+    assert lift[2] == 0.0 and lift[37] == 0.0  # eased out within 7.2 frames either side
+
+
+def test_a_small_lift_eases_over_the_blend_as_before():
+    lift = lifts(0.01)  # 1.5 * 0.01 / SLOPE = 0.9 frames: the blend's 2.4 frames
+    x = 1.0 - np.arange(1, 4) / BLEND
+    eased = np.clip(x, 0, 1) ** 2 * (3 - 2 * np.clip(x, 0, 1))
+    np.testing.assert_allclose(lift[30:33], 0.01 * eased, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(lift[7:10][::-1], 0.01 * eased, rtol=0, atol=1e-15)
+
+
+def test_without_a_slope_the_blend_alone_sets_the_ease():
+    stance = np.zeros((FRAMES, 1), dtype=bool)
+    stance[10:30] = True
+    lift = floor.feet_lifts(np.zeros((FRAMES, 1)), np.full((FRAMES, 1), -0.08), stance, -10.0, BLEND)[:, 0]
+    step = lambda x: x * x * (3 - 2 * x)  # noqa: E731
+    steepest = 0.08 * (step(1 - 1 / BLEND) - step(1 - 2 / BLEND))  # 2.6 times SLOPE
+    assert lift[33] == 0.0 and np.abs(np.diff(lift)).max() == pytest.approx(steepest, rel=1e-12)
