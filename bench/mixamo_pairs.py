@@ -1,7 +1,7 @@
 """Benchmark: retargets measured against Mixamo's own (the SAN protocol, tests/common/san_protocol.py).
 
     tools/with_blender.sh 3.4 -b --factory-startup --python bench/mixamo_pairs.py -- \\
-        --zip dist/motionkit-0.1.0-linux-x64-py311.zip [--every N] [--no-fbx]
+        --zip dist/motionkit-0.1.0-linux-x64-py311.zip [--every N] [--no-fbx] [--no-san] [--excerpts]
 
 Mixamo retargets every animation onto every character itself, so one clip on
 two characters is a reference answer (../shared/data/pairs, README there).
@@ -71,6 +71,8 @@ def main() -> None:
         parser.add_argument("--joints", action="store_true",
                             help="also each body joint's pose-alone error, mean over the SAN retargets")
         parser.add_argument("--clips", nargs="*", help="only these SAN clips")
+        parser.add_argument("--excerpts", action="store_true",
+                            help="also Aj's and Kaya's Jumping onto the four characters of tests/data/mixamo_excerpts")
         parser.add_argument("--own", action="store_true",
                             help="each FBX target plays another clip of its own when the retarget starts")
 
@@ -79,6 +81,23 @@ def main() -> None:
         san_pairs(motionkit, args)
     if not args.no_fbx:
         fbx_pairs(motionkit, args)
+    if args.excerpts:
+        excerpt_pairs(motionkit)
+
+
+def excerpt_pairs(motionkit) -> None:
+    """Aj's and Kaya's whole Jumping onto each excerpt's rest, measured on the excerpt's frames."""
+    rows = []
+    for source in mp.SAN_CHARACTERS:
+        for target in mp.EXCERPT_CHARACTERS:
+            for part in mp.EXCERPT_PARTS:
+                result = mp.measure_excerpt(motionkit, mp.san_path(harness.SHARED, source, "Jumping"), target, part)
+                if not result["sanity"] <= SANITY:
+                    raise SystemExit(f"{target}'s {part} frames: Blender's joints {result['sanity']:.2e} of the "
+                                     f"height from the numpy reference (asked {SANITY})")
+                rows.append((f"Jumping {source}->{target} ({part}, frames {result['start']}+{result['frames']})",
+                             result))
+    print_table("san/Aj, san/Kaya -> tests/data/mixamo_excerpts (BVH)", rows)
 
 
 def san_pairs(motionkit, args) -> None:

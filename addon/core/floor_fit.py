@@ -40,10 +40,11 @@ def leg_length(rig: RigData, body, pose: Pose, up, hips: int, heads_over_clip=No
     thigh + shin + the ankle's height above the sole (the legs' mean), so
     that the same skeleton in any rest pose measures the same: the stride and
     the hips' rise scale with the legs, not with how far the hips bone's head
-    stands above the hip joints (a rig's own choice: Mixamo's own retargets
-    scale the root's path between Aj and Kaya by 0.88, their legs' ratio,
-    where their hips' heads stand 0.86 apart); the hips' height above the
-    lowest point only for a rig without labelled legs.
+    stands above the hip joints (a rig's own choice), nor with how a character
+    stands (Mixamo's own retargets scale the root's path from Aj to the
+    bent-kneed Goblin by 1.22-1.24, their legs' ratio 1.25, where Goblin's
+    hips stand 1.21 times as high; tests/data/mixamo_excerpts); the hips'
+    height above the lowest point only for a rig without labelled legs.
     heads_over_clip (frames, 3B): the rig's motion, for a zero pose's feet above the floor's height.
     """
     found = legs(rig, body)
@@ -56,7 +57,7 @@ def leg_length(rig: RigData, body, pose: Pose, up, hips: int, heads_over_clip=No
         if heads_over_clip is not None and leg.foot >= 0:
             lowest = float(np.min(heads_over_clip[:, 3 * leg.foot:3 * leg.foot + 3] @ up)) - floor
             lowest = lowest if lowest > 0 else None
-        lengths.append(_one_leg(leg, pose.heads, tails, lowest))
+        lengths.append(_one_leg(leg, pose.heads, tails, lowest, up))
     return float(np.mean(lengths))
 
 

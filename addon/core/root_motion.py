@@ -72,12 +72,16 @@ class Leg:
     below_ankle: tuple[int, ...]  # the foot's bone and everything under it
 
 
-def leg_length(leg: Leg, heads: np.ndarray, tails: np.ndarray, ankle_lowest: float | None = None) -> float:
+def leg_length(leg: Leg, heads: np.ndarray, tails: np.ndarray, ankle_lowest: float | None = None,
+               up=None) -> float:
     """thigh + shin + the ankle's height above the sole, in a pose given by its bones' heads and tails.
 
     The ankle's height is measured along the shin (the farthest foot point
     beyond the ankle in the shin's direction), so turning the whole leg at the
-    hip, as an A-pose with spread legs does, changes nothing. A zero pose's
+    hip, as an A-pose with spread legs does, changes nothing; or, given up and
+    where it is more, along up (how high the ankle stands above the foot's
+    lowest point): a character standing on bent knees, its shins slanted and
+    its feet flat, has its ankles that high when its legs straighten. A zero pose's
     foot runs on along the shin and has no sole to measure: then
     ankle_lowest, the ankle's lowest height above the floor over a clip, is
     used when given, else a tenth of thigh + shin (a person's proportion).
@@ -99,6 +103,8 @@ def leg_length(leg: Leg, heads: np.ndarray, tails: np.ndarray, ankle_lowest: flo
         ankle_height = ankle_lowest if ankle_lowest is not None else 0.1 * (upper + lower)
     else:
         ankle_height = max(0.0, float(along.max()))
+        if up is not None:
+            ankle_height = max(ankle_height, float(-(offsets @ np.asarray(up, dtype=np.float64)).min()))
     return upper + lower + ankle_height
 
 

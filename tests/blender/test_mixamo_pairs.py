@@ -32,7 +32,7 @@ TARGET_ALL, TARGET_POSE = 3.0, 1.0
 # MotionKit's defaults over these cases, measured on Blender 3.4, 4.3 and 5.2 (means, % of the height):
 # what a change may not make worse by more than REGRESSION (about a millimetre on these 1.5 m characters;
 # the figures agree across the Blenders to 1e-4 %).
-MEASURED_ALL, MEASURED_POSE = 1.28, 0.48
+MEASURED_ALL, MEASURED_POSE = 1.94, 0.49
 REGRESSION = 0.05
 # Two methods whose joints Blender evaluates alike differ by the evaluation's own noise (SANITY), in %: a
 # retarget that keeps the plain copy's pose exactly ties with it to that.
@@ -112,30 +112,59 @@ def largest_jolt(joints) -> float:
 @pytest.mark.parametrize("case", CASES, ids=IDS)
 def test_motionkit_hips_and_feet_land_no_harder_than_mixamo_s_by_a_pop(mk, pairs, case):
     result = measured(mk, pairs, case)
-    ours, theirs = largest_jolt(result["joints"]["MotionKit"]), largest_jolt(result["reference"])
+    ours, theirs = largest_jolt(result["positions"]["MotionKit"]), largest_jolt(result["reference"])
     print(f"{case}: largest jolt of the hips and feet {100 * ours / result['height']:.2f} % of the height "
           f"(Mixamo's own {100 * theirs / result['height']:.2f} %)")
     assert ours <= POP_RATIO * theirs, (ours, theirs)
 
-# girl2 onto girl1 (../shared/data/pairs/fbx), girl1 playing another clip of her own when the retarget starts,
-# as a character downloaded from Mixamo with an animation does (her rest's hips sit at her origin, 55 % of her
-# height above the floor her clips walk on: her own clip tells where that floor is).
-OWN_CASES = [("Happy Walk Backward", "Right Strafe Walk"), ("Right Strafe Walk", "Left Strafe Walk")]
-# The whole body's error beyond the pose's alone: where she stands. Measured at most 1.02 % of her height on
-# Blender 3.4 (the hips' path scaled by the legs' ratio, her feet on her floor); 43-53 % when her rest's soles
-# were taken for her floor. Bounded at 2 %: about a twentieth of a stride, far under the defect's size.
-STANDS_OFF = 2.0
+# Four more characters of the same set (tests/data/mixamo_excerpts: Mixamo's own Jumping on each, a run of
+# frames at its start and one from its middle), each the target of Aj's and Kaya's whole clip: characters
+# MotionKit was not tuned on.
+EXCERPT_CASES = [(source, target, part) for source in ("Aj", "Kaya") for target in mp.EXCERPT_CHARACTERS
+                 for part in mp.EXCERPT_PARTS]
+EXCERPT_IDS = [f"{a}-to-{b}-{part}" for a, b, part in EXCERPT_CASES]
+# Blender's evaluation of an excerpt against the numpy reference: measured at most 2.1e-5 of the height
+# (BigVegas's mid frames, 83 joints deep in capes; 4.0e-6 on the others), within SANITY.
+# MotionKit's defaults over these 16 retargets on Blender 3.4 (means, % of the height; the plain copy 5.74 and
+# 0.75): what a change may not make worse by more than REGRESSION. The known gap (issue 37, the xfail below):
+# Mousey's pose and where Granny's and Mousey's hips stand.
+EXCERPT_MEASURED_ALL, EXCERPT_MEASURED_POSE = 8.95, 1.48
+_excerpts = {}
 
 
-@pytest.mark.parametrize("clip,own", OWN_CASES, ids=[c for c, _ in OWN_CASES])
-def test_a_target_playing_its_own_clip_stands_on_the_floor_that_clip_walks_on(mk, pairs, clip, own):
-    """girl2's clip onto girl1 playing one of her other clips: the whole body stands where Mixamo's girl1
-    stands (its error beyond the pose alone within STANDS_OFF); on Happy Walk Backward, where the two
-    characters' objects stand alike, at least as close as the plain copy in both measures."""
-    result = mp.measure_fbx(mk, pairs, "girl2", "girl1", clip, methods=("plain copy", "MotionKit"), own=own)
-    plain, ours = result["errors"]["plain copy"], result["errors"]["MotionKit"]
-    print(f"{clip} girl2 -> girl1 playing {own}: all joints {ours['all']:.2f} % (plain copy {plain['all']:.2f} %), "
-          f"pose alone {ours['pose']:.2f} % (plain copy {plain['pose']:.2f} %)")
-    assert ours["all"] - ours["pose"] <= STANDS_OFF, ours
-    if clip == "Happy Walk Backward":
-        assert ours["all"] <= plain["all"] + TIE and ours["pose"] <= plain["pose"] + TIE, (ours, plain)
+def measured_excerpt(mk, shared, case):
+    if case not in _excerpts:
+        source, target, part = case
+        _excerpts[case] = mp.measure_excerpt(mk, mp.san_path(shared, source, "Jumping"), target, part)
+    return _excerpts[case]
+
+
+@pytest.mark.parametrize("case", EXCERPT_CASES, ids=EXCERPT_IDS)
+def test_blender_evaluates_each_excerpt_as_the_protocol(mk, pairs, case):
+    result = measured_excerpt(mk, pairs, case)
+    errors = result["errors"]
+    print(f"{case}: frames {result['start']}+{result['frames']}, sanity {result['sanity']:.1e}; all joints "
+          f"{errors['MotionKit']['all']:.2f} % (plain copy {errors['plain copy']['all']:.2f} %), pose alone "
+          f"{errors['MotionKit']['pose']:.2f} % (plain copy {errors['plain copy']['pose']:.2f} %)")
+    assert result["sanity"] <= SANITY
+
+
+def test_motionkit_defaults_on_more_characters_no_worse_than_measured(mk, pairs):
+    figures = [measured_excerpt(mk, pairs, case)["errors"] for case in EXCERPT_CASES]
+    ours = {k: float(np.mean([f["MotionKit"][k] for f in figures])) for k in ("all", "pose")}
+    plain = {k: float(np.mean([f["plain copy"][k] for f in figures])) for k in ("all", "pose")}
+    print(f"more characters: MotionKit all joints {ours['all']:.2f} %, pose alone {ours['pose']:.2f} % "
+          f"(plain copy {plain['all']:.2f} %, {plain['pose']:.2f} %)")
+    assert ours["all"] <= EXCERPT_MEASURED_ALL + REGRESSION and ours["pose"] <= EXCERPT_MEASURED_POSE + REGRESSION
+
+
+@pytest.mark.xfail(strict=True, reason="issue 37, open: on Mousey (pose 2.8 % against the copy's 0.4 %) and where "
+                                       "Granny's and Mousey's hips stand, MotionKit trails the plain copy")
+def test_motionkit_defaults_on_more_characters_at_least_as_close_as_the_plain_copy(mk, pairs):
+    behind = []
+    for case in EXCERPT_CASES:
+        errors = measured_excerpt(mk, pairs, case)["errors"]
+        plain, ours = errors["plain copy"], errors["MotionKit"]
+        if not (ours["all"] <= plain["all"] + TIE and ours["pose"] <= plain["pose"] + TIE):
+            behind.append(case)
+    assert not behind, behind

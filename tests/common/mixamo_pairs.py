@@ -239,7 +239,7 @@ def measure_san(mk, shared, source: str, target: str, clip: str, every: int = 1,
     (joints in Blender's world, metres). Returns frames, height, "sanity" (the largest distance between
     Blender's evaluation of target's own imported clip and san_protocol's forward kinematics, over the
     height), "errors" {method: san_protocol.errors}, "joint_pose" {method: per-joint pose-alone %, in
-    BODY_JOINTS order}, "seconds" {method: wall time}, "joints" {method: (frames, joints, 3) world positions}
+    BODY_JOINTS order}, "seconds" {method: wall time}, "positions" {method: (frames, joints, 3) in world}
     and "reference" (the target's own clip's, the same shape)."""
     src, tgt = sp.read_bvh(san_path(shared, source, clip)), sp.read_bvh(san_path(shared, target, clip))
     last = tgt.values.shape[0]
@@ -267,8 +267,74 @@ def measure_san(mk, shared, source: str, target: str, clip: str, every: int = 1,
     return {"frames": len(frames), "height": height, "sanity": sanity, "seconds": seconds,
             "errors": {m: sp.errors(joints[m], reference, height) for m in methods},
             "joint_pose": {m: sp.joint_pose_errors(joints[m], reference, height) for m in methods},
-            "joints": joints, "reference": reference}
+            "positions": joints, "reference": reference}
 
+
+# Mixamo's own Jumping on four more characters of the SAN test set, from the SAN repository (the README beside
+# them): each file's hierarchy whole and two runs of its frames, "head" (the clip's first) and "mid" (from the
+# middle, airborne): Mixamo's answer for those frames of Aj's and Kaya's Jumping.
+EXCERPTS = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "data", "mixamo_excerpts")
+EXCERPT_CHARACTERS = ("BigVegas", "Goblin_m", "Mousey_m", "SportyGranny")
+EXCERPT_PARTS = ("head", "mid")
+# The upper body's local rotations, which Mixamo keeps the same on every character (BRIEF section 8): where an
+# excerpt's agree with a whole clip's, it starts there.
+_UPPER = ("LeftArm", "RightArm", "LeftForeArm", "RightForeArm")
+
+
+def excerpt_path(character: str, part: str) -> str:
+    return os.path.join(EXCERPTS, character, f"Jumping_{part}.bvh")
+
+
+def _base_names(clip: sp.Bvh) -> sp.Bvh:
+    """clip with its joints' names less a character's prefix (BigVegas's "newVegas:")."""
+    return sp.Bvh([n.split(":")[-1] for n in clip.names], clip.parents, clip.offsets, clip.channels, clip.values,
+                  clip.frame_time)
+
+
+def excerpt_start(whole: sp.Bvh, excerpt: sp.Bvh) -> int:
+    """The frame (0-based) of whole at which excerpt's frames begin: where their upper-body rotations agree."""
+    def columns(clip):
+        return np.concatenate([clip.values[:, clip.first[clip.index(n)]:clip.first[clip.index(n)] + 3]
+                               for n in _UPPER], axis=1)
+    a, e = columns(whole), columns(excerpt)
+    gaps = [np.abs(a[s:s + len(e)] - e).max() for s in range(len(a) - len(e) + 1)]
+    start = int(np.argmin(gaps))
+    if gaps[start] > 1.5:  # degrees: the same frames differ by under one, the clip a frame away by 2.3 or more
+        raise RuntimeError(f"no run of the whole clip's frames agrees with the excerpt ({gaps[start]:.2f} deg)")
+    return start
+
+
+def measure_excerpt(mk, source_path: str, target: str, part: str,
+                    methods=("plain copy", "MotionKit")) -> dict:
+    """source_path's whole clip retargeted onto the rest of target's excerpt (Blender's BVH importer), its
+    body joints on the excerpt's frames against the excerpt's own (Mixamo's answer), as measure_san."""
+    whole, excerpt = _base_names(sp.read_bvh(source_path)), _base_names(sp.read_bvh(excerpt_path(target, part)))
+    start = excerpt_start(whole, excerpt)
+    count = min(len(excerpt.values), len(whole.values) - start)
+    frames = start + 1 + np.arange(count)  # Blender's frames of the source's clip
+    body = sp.body_indices(excerpt.names)
+    height = BVH_SCALE * sp.height(excerpt.names, excerpt.parents, excerpt.offsets)
+    reference = bvh_to_blender(sp.clip_positions(excerpt)[:count][:, body])
+    clip_obj = import_bvh(excerpt_path(target, part))
+    bones = [clip_obj.data.bones[i].name for i in range(len(clip_obj.data.bones))]
+    names = [next(b for b in bones if b.split(":")[-1] == j) for j in sp.BODY_JOINTS]
+    sanity = float(np.linalg.norm(joints_world(clip_obj, names, frames - start) - reference, axis=-1).max()) / height
+    template = rest_copy(clip_obj, target + " rest")
+    remove(clip_obj)
+    source_obj = import_bvh(source_path)
+    joints, seconds = {}, {}
+    if "plain copy" in methods:
+        part_clip = sp.Bvh(whole.names, whole.parents, whole.offsets, whole.channels,
+                           whole.values[start:start + count], whole.frame_time)
+        plain, seconds["plain copy"] = _timed(lambda: sp.plain_copy(part_clip, excerpt))
+        joints["plain copy"] = bvh_to_blender(plain[:, body])
+    for method, (found, secs) in _blender_methods(mk, source_obj, template, [], (sp.HIPS, sp.HIPS), names, frames,
+                                                  int(frames[-1]), [m for m in methods if m == "MotionKit"]).items():
+        joints[method], seconds[method] = found, secs
+    remove(source_obj, template)
+    return {"frames": count, "start": start, "height": height, "sanity": sanity, "seconds": seconds,
+            "errors": {m: sp.errors(joints[m], reference, height) for m in methods},
+            "positions": joints, "reference": reference}
 
 def fbx_body(character: str) -> dict:
     """Mixamo joint name -> the character's bone name (girl1 carries Mixamo's names with its prefix)."""

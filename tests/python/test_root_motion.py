@@ -46,6 +46,28 @@ def test_turning_the_whole_leg_at_the_hip_changes_nothing(seed):
     assert abs(turned[1][:, 2].min() - heads[:, 2].min()) > 1e-3 or seed == 0
 
 
+def test_a_bent_knee_on_a_flat_foot_counts_the_ankle_as_high_as_it_stands():
+    """Goblin's stance: thigh forward, shin slanted back 23 degrees, the foot flat on the floor. Along the slanted
+    shin the ball is only 5 cm beyond the ankle; given up, the ankle's 15 cm above the sole counts, as it will when
+    the leg straightens (thigh 41.9, shin 41.2, the ankle 15.1 above the ball: Goblin_m's rest, in cm)."""
+    hip = np.array([0.0, 0.0, 98.0])
+    knee = hip + [0.0, -13.0, -39.6]        # the file's (x, y, z) offsets as Blender's (x, -z, y)
+    ankle = knee + [0.0, 16.0, -37.7]
+    ball = ankle + [0.0, -20.6, -15.1]
+    tip = ball + [0.0, -11.3, 0.9]
+    heads, tails = np.array([hip, knee, ankle, ball]), np.array([knee, ankle, ball, tip])
+    spec = rm.Leg(0, 1, 2, (2, 3))
+    upper, lower = np.linalg.norm(knee - hip), np.linalg.norm(ankle - knee)
+    down = (ankle - knee) / lower
+    along = max((p - ankle) @ down for p in (ball, tip))
+    assert along < 6.0
+    assert rm.leg_length(spec, heads, tails) == pytest.approx(upper + lower + along, abs=1e-12)
+    assert rm.leg_length(spec, heads, tails, up=(0, 0, 1)) == pytest.approx(upper + lower + 15.1, abs=1e-12)
+    # An upright leg whose foot turned with it (the A-pose case above) keeps the measure along the shin.
+    spec, heads, tails = leg(Rotation.from_euler("y", 20, degrees=True))
+    assert rm.leg_length(spec, heads, tails, up=(0, 0, 1)) == pytest.approx(rm.leg_length(spec, heads, tails),
+                                                                             abs=1e-14)
+
 def test_a_zero_pose_foot_takes_the_height_it_is_given():
     spec = rm.Leg(0, 1, 2, (2,))
     heads = np.array([[0, 0, 0], [0.4, 0, 0], [0.8, 0, 0]], dtype=float)  # everything along X
