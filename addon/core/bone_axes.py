@@ -104,17 +104,51 @@ def aims(heads, tails, parents, rest, continuing=None) -> tuple[np.ndarray, np.n
     return out, np.where(off, reach_of, reach)
 
 
+# An unmapped joint between two mapped ones that stands this far off the line between them is a helper
+# (Mixamo's `*_split` joints, 55 degrees off a clavicle), not a segment of the limb (a two-bone neck's middle
+# joint lies within a few degrees of the line from the neck to the head).
+_OFF_CHAIN_DEG = 20.0
+
+
+def _mapped_below(rig, mapped) -> dict:
+    """Per bone, its mapped descendants reached through unmapped helper joints only (a clavicle's arm past a
+    `*_split` joint: each joint between stands more than _OFF_CHAIN_DEG off the line to the descendant), a
+    direct child first."""
+    below: dict = {}
+    heads = np.asarray(rig.heads, dtype=np.float64)
+    for child in range(len(rig.parents)):
+        if not mapped[child]:
+            continue
+        between, up = [], int(rig.parents[child])
+        while up >= 0 and not mapped[up]:
+            between.append(up)
+            up = int(rig.parents[up])
+        if up < 0 or not all(_off_line(heads[up], heads[j], heads[child]) for j in between):
+            continue
+        below.setdefault(up, []).append((len(between), child))
+    return {bone: [c for _, c in sorted(found)] for bone, found in below.items()}
+
+
+def _off_line(start, joint, end) -> bool:
+    to_end, to_joint = end - start, joint - start
+    norms = np.linalg.norm(to_end) * np.linalg.norm(to_joint)
+    return norms > 0 and float(to_end @ to_joint) < np.cos(np.radians(_OFF_CHAIN_DEG)) * norms
+
+
 def _prefer_mapped_children(source, target, source_next, bone_map) -> None:
-    """A mapped source bone whose continuing child is no mapped bone, but which has a mapped child (the
-    target bone of which hangs directly under its own target bone), continues into that child instead: a
-    thigh carrying secondary joints (pant legs, skin helpers) that carry the hip's line on more straightly
-    than the knee points at its knee, as the other rig's does. source_next changed in place."""
+    """A mapped source bone whose continuing child is no mapped bone, but which has a mapped descendant (the
+    target bone of which hangs under its own target bone, past unmapped bones only), continues into that
+    descendant instead: a thigh carrying secondary joints (pant legs, skin helpers) that carry the hip's line
+    on more straightly than the knee points at its knee, as the other rig's does. source_next changed in
+    place."""
     target_of = {int(a): t for t, a in enumerate(bone_map) if a >= 0}
+    below = _mapped_below(source, [a in target_of for a in range(len(source.parents))])
+    target_below = _mapped_below(target, [a >= 0 for a in bone_map])
     for t, a in enumerate(bone_map):
         if a < 0 or int(source_next[a]) in target_of:
             continue
-        for child, parent in enumerate(source.parents):
-            if parent == a and child in target_of and target.parents[target_of[child]] == t:
+        for child in below.get(int(a), []):
+            if target_of[child] in target_below.get(t, []):
                 source_next[a] = child
                 break
 
@@ -131,9 +165,12 @@ def paired_aims(source, target, bone_map) -> tuple[np.ndarray | None, np.ndarray
     for t, a in enumerate(bone_map):
         if a >= 0 and (source_next[a] < 0 or target_next[t] < 0):
             source_next[a] = target_next[t] = -1
-    for child, parent in enumerate(target.parents):
-        if parent >= 0 and bone_map[parent] >= 0 and bone_map[child] >= 0 \
-                and source_next[bone_map[parent]] == bone_map[child]:
-            target_next[parent] = child
+    # A target bone points at the mapped descendant (past unmapped bones: a clavicle past a `*_split`
+    # joint to its arm) that is the source's continuing child's.
+    for parent, children in _mapped_below(target, [a >= 0 for a in bone_map]).items():
+        for child in children:
+            if bone_map[parent] >= 0 and source_next[bone_map[parent]] == bone_map[child]:
+                target_next[parent] = child
+                break
     found = (source.aims(source_next), target.aims(target_next))
     return tuple(None if found_aims is None else found_aims[0] for found_aims in found)

@@ -86,8 +86,12 @@ class Plan {
       d.from = a;
     }
     CountMappedBranches();
+    spanned_.assign(static_cast<std::size_t>(nt), false);
     for (int b = 0; b < nt; ++b) {
       if (job.bone_map[static_cast<std::size_t>(b)] >= 0) PlanChain(b);
+    }
+    for (int b = 0; b < nt; ++b) {
+      if (spanned_[static_cast<std::size_t>(b)]) drives_[static_cast<std::size_t>(b)].kind = Drive::kKeep;
     }
     // A bone two chains continue alike (a pelvis both legs hang from) follows neither: it is carried.
     for (Drive& d : drives_) {
@@ -185,6 +189,7 @@ class Plan {
   static constexpr double kPostureCos = 0.7071067811865476;  // cos 45 degrees: bodies differ less, poses more
   static constexpr double kOffLine = 0.17;  // sin 10 degrees: a child head this far off the line shows a roll
   static constexpr double kTie = 0.05;      // chains continuing a bone within this (in cosine) are alike
+  static constexpr double kSpans = 0.99999;  // cos 0.26 degrees: a bone aimed at a head (bone_axes) points at it
 
   static Eigen::Vector3d Across(const Eigen::Vector3d& axis, const Eigen::Vector3d& v) {
     return v - v.dot(axis) * axis;
@@ -207,6 +212,14 @@ class Plan {
       top = t.parent(top);
     }
     if (top < 0 || chain.size() < 2) return;
+    // The top bone aims past the chain at b (a clavicle past a `*_split` joint at its arm, core/bone_axes):
+    // it spans the chain itself, as the source's one bone does, and the bones between are carried.
+    const Eigen::Vector3d top_to_b =
+        target_heads_[static_cast<std::size_t>(b)] - target_heads_[static_cast<std::size_t>(top)];
+    if (top_to_b.norm() > 1e-12 && (match(top) * Aim(job_.target_aims, top)).dot(top_to_b.normalized()) > kSpans) {
+      for (std::size_t j = 1; j < chain.size(); ++j) spanned_[static_cast<std::size_t>(chain[j])] = true;
+      return;
+    }
     const int a = job_.bone_map[static_cast<std::size_t>(b)];
     const int a0 = job_.bone_map[static_cast<std::size_t>(top)];
     if (a0 == a || !s.IsAncestor(a0, a)) return;
@@ -291,6 +304,7 @@ class Plan {
   std::vector<bool> kept_;    // per target bone: keeps its own posture (options.posture_bones, posture_always)
   std::vector<bool> always_;  // per target bone: whatever the angle (options.posture_always)
   std::vector<int> mapped_branches_;  // per source bone: children leading to a mapped bone
+  std::vector<bool> spanned_;         // per target bone: between a mapped bone and the one it aims at past it
 };
 
 // Poses the target frame by frame from the plan: every bone's orientation, written as its pose basis, then

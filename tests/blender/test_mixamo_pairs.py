@@ -127,8 +127,8 @@ EXCERPT_IDS = [f"{a}-to-{b}-{part}" for a, b, part in EXCERPT_CASES]
 # (BigVegas's mid frames, 83 joints deep in capes; 4.0e-6 on the others), within SANITY.
 # MotionKit's defaults over these 16 retargets on Blender 3.4 (means, % of the height; the plain copy 5.74 and
 # 0.75): what a change may not make worse by more than REGRESSION. The known gap (issue 37, the xfail below):
-# Mousey's pose and where Granny's and Mousey's hips stand.
-EXCERPT_MEASURED_ALL, EXCERPT_MEASURED_POSE = 8.95, 1.48
+# where the hips stand (the root path's scale: Granny's, Mousey's, Goblin's from Kaya).
+EXCERPT_MEASURED_ALL, EXCERPT_MEASURED_POSE = 8.79, 0.75
 _excerpts = {}
 
 
@@ -158,8 +158,17 @@ def test_motionkit_defaults_on_more_characters_no_worse_than_measured(mk, pairs)
     assert ours["all"] <= EXCERPT_MEASURED_ALL + REGRESSION and ours["pose"] <= EXCERPT_MEASURED_POSE + REGRESSION
 
 
-@pytest.mark.xfail(strict=True, reason="issue 37, open: on Mousey (pose 2.8 % against the copy's 0.4 %) and where "
-                                       "Granny's and Mousey's hips stand, MotionKit trails the plain copy")
+@pytest.mark.parametrize("case", EXCERPT_CASES, ids=EXCERPT_IDS)
+def test_motionkit_keeps_each_character_s_pose_as_mixamo_does(mk, pairs, case):
+    """The pose alone at least as close as the plain copy (which has Mixamo's own upper-body rotations): Goblin's
+    and Mousey's `*_split` clavicles (2.8-4.3 % of the height off the copy's when the clavicle was aimed at its
+    split joint, 60 degrees up its chest) included."""
+    errors = measured_excerpt(mk, pairs, case)["errors"]
+    assert errors["MotionKit"]["pose"] <= errors["plain copy"]["pose"] + TIE, errors
+
+
+@pytest.mark.xfail(strict=True, reason="issue 37, open: where the hips stand (the root path's scale read from the "
+                                       "skeleton: Granny's, Mousey's, Goblin's from Kaya), MotionKit trails the copy")
 def test_motionkit_defaults_on_more_characters_at_least_as_close_as_the_plain_copy(mk, pairs):
     behind = []
     for case in EXCERPT_CASES:

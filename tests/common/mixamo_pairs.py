@@ -48,8 +48,11 @@ def _new_armature(before, path: str) -> bpy.types.Object:
 def import_bvh(path: str) -> bpy.types.Object:
     """The file's armature and clip through bpy.ops.import_anim.bvh (frame 1 = the file's first frame).
     3.4's importer opens its file with mode 'rU', which its Python 3.11 refuses; its module is given an
-    open() that drops the 'U' (universal newlines are Python 3's default): the importer is unchanged."""
+    open() that drops the 'U' (universal newlines are Python 3's default): the importer is unchanged. The
+    scene is set to factory settings' 24 frames a second first: the importer records no rate, so the clip
+    plays at the scene's, and a retarget's contacts and blends follow it (whatever an earlier test left)."""
     import io_anim_bvh.import_bvh as importer
+    bpy.context.scene.render.fps, bpy.context.scene.render.fps_base = 24, 1.0
     importer.open = lambda file, mode="r", *args, **kw: builtins.open(file, mode.replace("U", ""), *args, **kw)
     before = set(bpy.data.objects)
     result = bpy.ops.import_anim.bvh(filepath=path, global_scale=BVH_SCALE, frame_start=1, use_fps_scale=False,

@@ -32,14 +32,15 @@ def test_legs_are_the_labelled_thigh_shin_foot_and_all_below():
 
 @pytest.mark.parametrize("spec", characters.CHARACTERS, ids=lambda s: s.name)
 def test_leg_length_by_hand(spec):
-    """thigh + shin + how far the foot reaches beyond the ankle along the shin, both legs' mean."""
+    """thigh + shin + how far the foot reaches beyond the ankle along the shin, or how high the ankle stands
+    above the foot's lowest point where that is more (the sample rigs' shins slant a little), both legs' mean."""
     rig = from_spec(spec)
     by_hand = []
     for side in "LR":
         hip, knee, ankle, ball, tip = _joints(spec, side)
         down = (ankle - knee) / np.linalg.norm(ankle - knee)
-        by_hand.append(np.linalg.norm(knee - hip) + np.linalg.norm(ankle - knee)
-                       + max((p - ankle) @ down for p in (ball, tip)))
+        ankle_height = max(max((p - ankle) @ down for p in (ball, tip)), max((ankle - p) @ UP for p in (ball, tip)))
+        by_hand.append(np.linalg.norm(knee - hip) + np.linalg.norm(ankle - knee) + ankle_height)
     hips = rig.index(rig.body.hips)
     assert floor_fit.leg_length(rig, rig.body, Pose.rest(rig), UP, hips) == pytest.approx(np.mean(by_hand),
                                                                                            abs=1e-14)
