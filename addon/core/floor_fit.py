@@ -38,13 +38,10 @@ def leg_length(rig: RigData, body, pose: Pose, up, hips: int, heads_over_clip=No
     """The rig's leg length in its own armature units.
 
     thigh + shin + the ankle's height above the sole (the legs' mean), so
-    that the same skeleton in any rest pose measures the same: the stride and
-    the hips' rise scale with the legs, not with how far the hips bone's head
-    stands above the hip joints (a rig's own choice), nor with how a character
-    stands (Mixamo's own retargets scale the root's path from Aj to the
-    bent-kneed Goblin by 1.22-1.24, their legs' ratio 1.25, where Goblin's
-    hips stand 1.21 times as high; tests/data/mixamo_excerpts); the hips'
-    height above the lowest point only for a rig without labelled legs.
+    that the same skeleton in any rest pose measures the same: what a leg
+    reaches, and the contacts' and the floor's thresholds, scale with it (the
+    root's path with standing_height); the hips' height above the lowest point
+    only for a rig without labelled legs.
     heads_over_clip (frames, 3B): the rig's motion, for a zero pose's feet above the floor's height.
     """
     found = legs(rig, body)
@@ -60,6 +57,26 @@ def leg_length(rig: RigData, body, pose: Pose, up, hips: int, heads_over_clip=No
         lengths.append(_one_leg(leg, pose.heads, tails, lowest, up))
     return float(np.mean(lengths))
 
+
+
+def standing_height(rig: RigData, body, pose: Pose, up, hips: int, legs_length: float, clearance: float) -> float:
+    """How high the hips stand above the floor as the rig stands upright: the hips' head above the hip joints
+    (the legs' mean), the legs' reach from hip joint to ankle, the ankle's height above the sole and the
+    sole's clearance above the floor. The hip-to-ankle distance, not its height, so that legs spread at the
+    hip (an A-pose) measure as when they hang, while a bent knee counts as it stands (Mixamo scales the root's
+    path by the rest hips' heights: Goblin 1.21 of Aj's, SportyGranny 1.06, where their legs give 1.25 and
+    0.97). legs_length: leg_length's (thigh + shin + ankle height); 0 where the rig has no labelled legs."""
+    found = [leg for leg in legs(rig, body) if leg.foot >= 0]
+    if not found or not legs_length > 0:
+        return legs_length
+    heads = pose.heads
+    above = float(heads[hips] @ up - np.mean([heads[leg.thigh] @ up for leg in found]))
+    reach = float(np.mean([np.linalg.norm(heads[leg.foot] - heads[leg.thigh]) for leg in found]))
+    bones = float(np.mean([np.linalg.norm(heads[leg.shin] - heads[leg.thigh])
+                           + np.linalg.norm(heads[leg.foot] - heads[leg.shin]) for leg in found]))
+    # legs_length less thigh + shin: the ankle's height as leg_length measured it.
+    height = above + reach + (legs_length - bones) + max(clearance, 0.0)
+    return height if height > 0.5 * legs_length else legs_length
 
 def foot_heights(rig: RigData, body, rotations, heads, up, column=None) -> np.ndarray:
     """(frames, legs) the lowest of each foot's ankle (its head) and ball (the toe's head, else the foot's tail)

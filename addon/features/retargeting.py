@@ -514,8 +514,14 @@ def _fit(rigs: _Rigs, clip: _Clip, o: RetargetOptions) -> _Fit:
     target_height = floor_fit.leg_length(tgt, tgt.body, rigs.target_pose, placed.up, target_root)
     if not (source_height > 1e-9 and target_height > 1e-9):
         raise ValueError("the root stands at the lowest point of a rig: no leg length to scale the motion by")
+    # The root's path scales with how high each rig's hips stand (Mixamo's own retargets do), the legs' own
+    # measures (heights) with their lengths.
+    standing = (floor_fit.standing_height(src, src.body, rigs.source_pose, placed.source_up, source_root,
+                                          source_height, source_clearance),
+                floor_fit.standing_height(tgt, tgt.body, rigs.target_pose, placed.up, target_root, target_height,
+                                          target_clearance))
     return _Fit(placed.space, placed.up, placed.source_up, (source_floor, target_floor),
-                (source_clearance, target_clearance), (source_height, target_height), target_height / source_height,
+                (source_clearance, target_clearance), (source_height, target_height), standing[1] / standing[0],
                 src.scale / tgt.scale, tgt.scale)
 
 

@@ -32,7 +32,7 @@ TARGET_ALL, TARGET_POSE = 3.0, 1.0
 # MotionKit's defaults over these cases, measured on Blender 3.4, 4.3 and 5.2 (means, % of the height):
 # what a change may not make worse by more than REGRESSION (about a millimetre on these 1.5 m characters;
 # the figures agree across the Blenders to 1e-4 %).
-MEASURED_ALL, MEASURED_POSE = 1.94, 0.49
+MEASURED_ALL, MEASURED_POSE = 2.06, 0.49
 REGRESSION = 0.05
 # Two methods whose joints Blender evaluates alike differ by the evaluation's own noise (SANITY), in %: a
 # retarget that keeps the plain copy's pose exactly ties with it to that.
@@ -126,9 +126,9 @@ EXCERPT_IDS = [f"{a}-to-{b}-{part}" for a, b, part in EXCERPT_CASES]
 # Blender's evaluation of an excerpt against the numpy reference: measured at most 2.1e-5 of the height
 # (BigVegas's mid frames, 83 joints deep in capes; 4.0e-6 on the others), within SANITY.
 # MotionKit's defaults over these 16 retargets on Blender 3.4 (means, % of the height; the plain copy 5.74 and
-# 0.75): what a change may not make worse by more than REGRESSION. The known gap (issue 37, the xfail below):
-# where the hips stand (the root path's scale: Granny's, Mousey's, Goblin's from Kaya).
-EXCERPT_MEASURED_ALL, EXCERPT_MEASURED_POSE = 8.79, 0.75
+# 0.75): what a change may not make worse by more than REGRESSION; closer than the copy on average. The known
+# gap (issue 37, the xfail below): where the hips stand, from Kaya onto four of the eight.
+EXCERPT_MEASURED_ALL, EXCERPT_MEASURED_POSE = 5.44, 0.75
 _excerpts = {}
 
 
@@ -149,12 +149,13 @@ def test_blender_evaluates_each_excerpt_as_the_protocol(mk, pairs, case):
     assert result["sanity"] <= SANITY
 
 
-def test_motionkit_defaults_on_more_characters_no_worse_than_measured(mk, pairs):
+def test_motionkit_defaults_on_more_characters_closer_than_the_copy_on_average(mk, pairs):
     figures = [measured_excerpt(mk, pairs, case)["errors"] for case in EXCERPT_CASES]
     ours = {k: float(np.mean([f["MotionKit"][k] for f in figures])) for k in ("all", "pose")}
     plain = {k: float(np.mean([f["plain copy"][k] for f in figures])) for k in ("all", "pose")}
     print(f"more characters: MotionKit all joints {ours['all']:.2f} %, pose alone {ours['pose']:.2f} % "
           f"(plain copy {plain['all']:.2f} %, {plain['pose']:.2f} %)")
+    assert ours["all"] <= plain["all"] and ours["pose"] <= plain["pose"] + TIE, (ours, plain)
     assert ours["all"] <= EXCERPT_MEASURED_ALL + REGRESSION and ours["pose"] <= EXCERPT_MEASURED_POSE + REGRESSION
 
 
@@ -167,8 +168,8 @@ def test_motionkit_keeps_each_character_s_pose_as_mixamo_does(mk, pairs, case):
     assert errors["MotionKit"]["pose"] <= errors["plain copy"]["pose"] + TIE, errors
 
 
-@pytest.mark.xfail(strict=True, reason="issue 37, open: where the hips stand (the root path's scale read from the "
-                                       "skeleton: Granny's, Mousey's, Goblin's from Kaya), MotionKit trails the copy")
+@pytest.mark.xfail(strict=True, reason="issue 37, open: from Kaya onto BigVegas, Mousey, Goblin's start and Granny's "
+                                       "middle MotionKit trails the copy over all joints by 0.05-0.7 % of the height")
 def test_motionkit_defaults_on_more_characters_at_least_as_close_as_the_plain_copy(mk, pairs):
     behind = []
     for case in EXCERPT_CASES:

@@ -46,6 +46,34 @@ def test_leg_length_by_hand(spec):
                                                                                            abs=1e-14)
 
 
+
+@pytest.mark.parametrize("spec", characters.CHARACTERS, ids=lambda s: s.name)
+def test_standing_height_by_hand_and_the_same_with_the_legs_spread(spec):
+    """How high the hips stand: the hips' head above the hip joints, hip joint to ankle, the ankle above the sole
+    (leg_length's), and the clearance; legs spread 20 degrees at the hip (an A-pose) measure the same, whereas
+    the hips' head's height above the floor drops."""
+    rig = from_spec(spec)
+    hips = rig.index(rig.body.hips)
+    rest = Pose.rest(rig)
+    legs_length = floor_fit.leg_length(rig, rig.body, rest, UP, hips)
+    by_hand = []
+    for side in "LR":
+        hip, knee, ankle, _, _ = _joints(spec, side)
+        by_hand.append((rig.heads[hips] - hip) @ UP + np.linalg.norm(ankle - hip)
+                       + legs_length - np.linalg.norm(knee - hip) - np.linalg.norm(ankle - knee))
+    got = floor_fit.standing_height(rig, rig.body, rest, UP, hips, legs_length, 0.01)
+    assert got == pytest.approx(np.mean(by_hand) + 0.01, abs=1e-12)
+    heads = rest.heads.copy()
+    for leg, sign in zip(floor_fit.legs(rig, rig.body), (1.0, -1.0)):
+        turn = Rotation.from_euler("y", sign * 20.0, degrees=True)  # about the hip joint, sideways
+        below = [leg.shin, leg.foot, *leg.below_ankle]
+        heads[below] = heads[leg.thigh] + turn.apply(heads[below] - heads[leg.thigh])
+    spread = Pose(rest.rotations, heads, rest.lengths)
+    assert floor_fit.standing_height(rig, rig.body, spread, UP, hips, legs_length, 0.01) == pytest.approx(got,
+                                                                                                         abs=1e-12)
+    feet = [b for leg in floor_fit.legs(rig, rig.body) for b in leg.below_ankle]
+    assert min(heads[feet] @ UP) > min(rest.heads[feet] @ UP) + 1e-3
+
 def test_floor_and_clearance():
     """The sample characters stand their balls 2.5 cm above the origin: the floor is the origin and a
     standing foot's lowest joint rides 2.5 cm above it; a floor given in world Z goes through the object's
