@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import bone_mapping
 from .rotation_channels import conjugate, rotate_each
 
 # A bone whose Y axis lies farther than this from its continuing child's head does not run along its limb.
@@ -105,17 +106,17 @@ def aims(heads, tails, parents, rest, continuing=None) -> tuple[np.ndarray, np.n
 
 
 # An unmapped joint between two mapped ones that stands this far off the line between them is a helper
-# (Mixamo's `*_split` joints, 55 degrees off a clavicle), not a segment of the limb (a two-bone neck's middle
-# joint lies within a few degrees of the line from the neck to the head).
+# (a Mixamo clavicle's `*_split` joint stands 55 degrees off it), not a segment of the limb (a two-bone neck's
+# middle joint lies within a few degrees of the line from the neck to the head).
 _OFF_CHAIN_DEG = 20.0
 
 
-def _mapped_below(rig, mapped) -> dict:
-    """Per bone, its mapped descendants reached through unmapped helper joints only (a clavicle's arm past a
-    `*_split` joint: each joint between stands more than _OFF_CHAIN_DEG off the line to the descendant), a
-    direct child first."""
-    below: dict = {}
+def helpers_between(rig, mapped) -> list[int]:
+    """The unmapped bones between two mapped ones that are helpers, not segments of a limb: named so
+    (core.bone_mapping: Mixamo's `*_split` joints, twist bones) or standing more than _OFF_CHAIN_DEG off the
+    line from the mapped bone above to the one below. mapped: per bone, whether it is mapped."""
     heads = np.asarray(rig.heads, dtype=np.float64)
+    found = set()
     for child in range(len(rig.parents)):
         if not mapped[child]:
             continue
@@ -123,7 +124,25 @@ def _mapped_below(rig, mapped) -> dict:
         while up >= 0 and not mapped[up]:
             between.append(up)
             up = int(rig.parents[up])
-        if up < 0 or not all(_off_line(heads[up], heads[j], heads[child]) for j in between):
+        if up >= 0:
+            found.update(j for j in between if bone_mapping.name_info(rig.names[j]).helper
+                         or _off_line(heads[up], heads[j], heads[child]))
+    return sorted(found)
+
+
+def _mapped_below(rig, mapped) -> dict:
+    """Per bone, its mapped descendants reached through unmapped helper joints only (helpers_between: a
+    clavicle's arm past a `*_split` joint), a direct child first."""
+    below: dict = {}
+    helpers = set(helpers_between(rig, mapped))
+    for child in range(len(rig.parents)):
+        if not mapped[child]:
+            continue
+        between, up = [], int(rig.parents[child])
+        while up >= 0 and not mapped[up]:
+            between.append(up)
+            up = int(rig.parents[up])
+        if up < 0 or not helpers.issuperset(between):
             continue
         below.setdefault(up, []).append((len(between), child))
     return {bone: [c for _, c in sorted(found)] for bone, found in below.items()}

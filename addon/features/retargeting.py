@@ -578,6 +578,7 @@ def _native_options(native, rigs: _Rigs, fit: _Fit, root, ground, chains):
     options.ground_bones = list(range(len(rigs.tgt))) if ground else []
     options.posture_bones = _posture_bones(rigs, chains, False)
     options.posture_always = _posture_bones(rigs, chains, True)
+    options.helper_bones = bone_axes.helpers_between(rigs.tgt, [int(v) >= 0 for v in rigs.bone_map])
     return options
 
 

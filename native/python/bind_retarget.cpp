@@ -109,7 +109,9 @@ void BindRetargetOptions(py::module_& m) {
       .def_readwrite("ground_bones", &RetargetOptions::ground_bones, "touch the floor on the first frame")
       .def_readwrite("posture_bones", &RetargetOptions::posture_bones,
                      "keep their own posture unless carried 45 degrees across the source's")
-      .def_readwrite("posture_always", &RetargetOptions::posture_always, "keep it whatever the angle");
+      .def_readwrite("posture_always", &RetargetOptions::posture_always, "keep it whatever the angle")
+      .def_readwrite("helper_bones", &RetargetOptions::helper_bones,
+                     "unmapped helpers carried where the mapped bone above aims past them");
 }
 
 void BindRetarget(py::module_& m) {

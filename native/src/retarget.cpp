@@ -87,6 +87,8 @@ class Plan {
     }
     CountMappedBranches();
     spanned_.assign(static_cast<std::size_t>(nt), false);
+    helper_.assign(static_cast<std::size_t>(nt), false);
+    for (int b : job.options.helper_bones) helper_[static_cast<std::size_t>(b)] = true;
     for (int b = 0; b < nt; ++b) {
       if (job.bone_map[static_cast<std::size_t>(b)] >= 0) PlanChain(b);
     }
@@ -212,11 +214,10 @@ class Plan {
       top = t.parent(top);
     }
     if (top < 0 || chain.size() < 2) return;
-    // The top bone aims past the chain at b (a clavicle past a `*_split` joint at its arm, core/bone_axes):
-    // it spans the chain itself, as the source's one bone does, and the bones between are carried.
-    const Eigen::Vector3d top_to_b =
-        target_heads_[static_cast<std::size_t>(b)] - target_heads_[static_cast<std::size_t>(top)];
-    if (top_to_b.norm() > 1e-12 && (match(top) * Aim(job_.target_aims, top)).dot(top_to_b.normalized()) > kSpans) {
+    // The top bone aims past helper joints at b (a clavicle past a `*_split` joint at its arm,
+    // core/bone_axes): it spans the chain itself, as the source's one bone does, and the joints between are
+    // carried. Other joints between (a two-bone neck's, a spine's) are segments: they share the turn.
+    if (SpansHelpers(top, chain)) {
       for (std::size_t j = 1; j < chain.size(); ++j) spanned_[static_cast<std::size_t>(chain[j])] = true;
       return;
     }
@@ -258,6 +259,20 @@ class Plan {
       d.alpha = alpha;
       d.fit = fit;
     }
+  }
+
+  // Whether `top` points at the chain's mapped end (chain[0]) and every joint between is a helper
+  // (options.helper_bones).
+  bool SpansHelpers(int top, const std::vector<int>& chain) const {
+    const Eigen::Vector3d to_end =
+        target_heads_[static_cast<std::size_t>(chain[0])] - target_heads_[static_cast<std::size_t>(top)];
+    if (to_end.norm() < 1e-12 || (match(top) * Aim(job_.target_aims, top)).dot(to_end.normalized()) <= kSpans) {
+      return false;
+    }
+    for (std::size_t j = 1; j < chain.size(); ++j) {
+      if (!helper_[static_cast<std::size_t>(chain[j])]) return false;
+    }
+    return true;
   }
 
   // Where each bone of `first` then `bones` (a chain, top first) ends along it, from first's head: 0, then
@@ -305,6 +320,7 @@ class Plan {
   std::vector<bool> always_;  // per target bone: whatever the angle (options.posture_always)
   std::vector<int> mapped_branches_;  // per source bone: children leading to a mapped bone
   std::vector<bool> spanned_;         // per target bone: between a mapped bone and the one it aims at past it
+  std::vector<bool> helper_;          // per target bone: options.helper_bones
 };
 
 // Poses the target frame by frame from the plan: every bone's orientation, written as its pose basis, then
@@ -518,6 +534,9 @@ Status RetargetJob::Validate() const {
     for (int k : *bones) {
       if (k < 0 || k >= nt) return Status::Fail("retarget: posture bone index out of range");
     }
+  }
+  for (int k : options.helper_bones) {
+    if (k < 0 || k >= nt) return Status::Fail("retarget: helper bone index out of range");
   }
   for (const bool is_source : {true, false}) {
     const RowMatrixXd& aims = is_source ? source_aims : target_aims;

@@ -339,6 +339,64 @@ TEST(Retarget, ASecondNeckBoneSharesTheNecksTurnAndAPelvisIsCarried) {
   }
 }
 
+// Mixamo's `*_split` joints: the target's clavicle runs to a helper joint 63 degrees up before its arm, the
+// source's straight to its arm. Aimed past the helper at the arm (target_aims) with the helper among
+// helper_bones, the clavicle turns as the source's and the helper is carried; without helper_bones the
+// helper is turned along the chain as a segment would be.
+TEST(Retarget, AHelperJointTheMappedBoneAimsPastIsCarried) {
+  const std::vector<BoneSpec> plain{{"hips", -1, {0, 0, 1.0}, {0, 0, 1.1}, 0.0},
+                                    {"chest", 0, {0, 0, 1.1}, {0, 0, 1.4}, 0.0},
+                                    {"clavicle", 1, {0.02, 0, 1.45}, {0.15, 0, 1.45}, 0.0},
+                                    {"arm", 2, {0.15, 0, 1.45}, {0.4, 0, 1.45}, 0.0}};
+  const std::vector<BoneSpec> split{{"hips", -1, {0, 0, 1.0}, {0, 0, 1.1}, 0.0},
+                                    {"chest", 0, {0, 0, 1.1}, {0, 0, 1.4}, 0.0},
+                                    {"clavicle", 1, {0.02, 0, 1.45}, {0.04, 0, 1.49}, 0.0},
+                                    {"clavicle_split", 2, {0.04, 0, 1.49}, {0.15, 0, 1.45}, 0.0},
+                                    {"arm", 3, {0.15, 0, 1.45}, {0.4, 0, 1.45}, 0.0}};
+  const RigModel source = MakeRig(plain), target = MakeRig(split);
+  const int frames = 8;
+  const Posed posed = Pose(source, RandomPoses(source.size(), frames, 5), RowMatrixXd::Zero(frames, 3 * source.size()));
+  RowMatrixXd aims(target.size(), 3);
+  for (int b = 0; b < target.size(); ++b) aims.row(b) = Eigen::Vector3d::UnitY().transpose();
+  const int clavicle = target.Find("clavicle"), helper = target.Find("clavicle_split");
+  aims.row(clavicle) =
+      (target.rest(clavicle).conjugate() * (target.head(target.Find("arm")) - target.head(clavicle)).normalized())
+          .transpose();
+  auto run = [&](std::vector<int> helpers) {
+    RetargetOptions options;
+    options.helper_bones = std::move(helpers);
+    RowMatrixXd rotations(frames, 4 * target.size()), roots(frames, 3);
+    RowMatrixXd source_match(1, 4 * source.size()), target_match(1, 4 * target.size());
+    for (int a = 0; a < source.size(); ++a) {
+      const Eigen::Quaterniond q = source.rest(a);
+      source_match.row(0).segment<4>(4 * a) << q.w(), q.x(), q.y(), q.z();
+    }
+    for (int b = 0; b < target.size(); ++b) target_match.row(0).segment<4>(4 * b) << 1, 0, 0, 0;
+    RowMatrixXd root_heads = posed.heads.leftCols(3);
+    RetargetJob job(source, target, posed.rotations, root_heads, source_match, target_match, rotations, roots);
+    for (int b = 0; b < target.size(); ++b) job.bone_map.push_back(source.Find(target.name(b)));
+    job.source_match_root = source.head(0);
+    job.source_root = job.target_root = 0;
+    job.target_aims = aims;
+    job.options = options;
+    job.Run();
+    return Pose(target, rotations, RowMatrixXd::Zero(frames, 3 * target.size()));
+  };
+  const Posed carried = run({helper}), chained = run({});
+  double turned = 0.0;
+  for (int f = 0; f < frames; ++f) {
+    // The clavicle's world turn from its rest is the source's (rounding of a few products: 1e-9).
+    const Eigen::Quaterniond ours = QuatAt(carried.rotations, f, clavicle) * target.rest(clavicle).conjugate();
+    const Eigen::Quaterniond theirs = QuatAt(posed.rotations, f, 2) * source.rest(2).conjugate();
+    EXPECT_LT(ours.angularDistance(theirs), 1e-9) << "frame " << f;
+    const Eigen::Quaterniond held = QuatAt(carried.rotations, f, clavicle) * target.relative(helper);
+    EXPECT_LT(QuatAt(carried.rotations, f, helper).angularDistance(held), 1e-9) << "helper, frame " << f;
+    turned = std::max(turned, QuatAt(chained.rotations, f, helper).angularDistance(
+                                  QuatAt(chained.rotations, f, clavicle) * target.relative(helper)));
+  }
+  EXPECT_GT(turned, 0.1);  // radians: as a segment the helper turns along the chain
+}
+
 TEST(Retarget, RootMotionScalesAndGroundsAsAsked) {
   const RigModel source = MakeRig(Humanoid(3, 0.0));
   const RigModel target = MakeRig(Humanoid(3, 0.0, 0.0, 0.5));  // half the size

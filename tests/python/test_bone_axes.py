@@ -106,14 +106,14 @@ def test_a_mapped_bone_points_at_its_mapped_child_past_a_straighter_helper():
         np.testing.assert_allclose(aims[1], [0.0, 1.0, 0.0], atol=1e-12)  # a rotation of exact unit vectors
 
 
-def _clavicle_rig(name, middle=None):
+def _clavicle_rig(name, middle=None, middle_name="LeftShoulder_split"):
     """A chest, a clavicle and an arm (along X); middle: the head of an unmapped joint between the clavicle and
     the arm. Each bone's Y axis runs to its child's head (the arm's along X), as Blender's BVH import draws it."""
     from core.rig_data import RigData
     heads = [[0, 0, 1.4], [0.02, 0, 1.45]] + ([middle] if middle is not None else []) + [[0.15, 0, 1.45]]
     heads = np.array(heads, dtype=float)
     ends = np.vstack([heads[1:], heads[-1:] + [0.25, 0, 0]])
-    names = ("chest", "clavicle") + (("split",) if middle is not None else ()) + ("arm",)
+    names = ("chest", "clavicle") + ((middle_name,) if middle is not None else ()) + ("arm",)
     parents = tuple(range(-1, len(names) - 1))
     return RigData(name, names, parents, _rest_from_y(ends - heads), heads, ends,
                    np.linalg.norm(ends - heads, axis=1), (False,) * len(names))
@@ -139,6 +139,13 @@ def test_a_middle_joint_on_the_line_is_a_segment_not_a_helper():
     """A two-bone neck under a one-bone neck: its middle joint lies 5 degrees off the line to the head, a
     segment of the chain that shares its turn (the retarget's chains): the first bone keeps pointing at it."""
     source = _clavicle_rig("source")
-    target = _clavicle_rig("target", middle=[0.085, 0, 1.45 + 0.065 * np.tan(np.radians(5.0))])
+    middle = [0.085, 0, 1.45 + 0.065 * np.tan(np.radians(5.0))]
+    target = _clavicle_rig("target", middle=middle, middle_name="neck.001")
     _, target_aims = bone_axes.paired_aims(source, target, [0, 1, -1, 2])
     assert target_aims is None or _aimed_at(target, target_aims, 1, 2) == pytest.approx(1.0, abs=1e-12)
+    assert bone_axes.helpers_between(target, [True, True, False, True]) == []
+    # Named a helper (Mousey's Spine1_split lies on its spine's line), the same joint is passed and carried.
+    target = _clavicle_rig("target", middle=middle, middle_name="Spine1_split")
+    _, target_aims = bone_axes.paired_aims(source, target, [0, 1, -1, 2])
+    assert _aimed_at(target, target_aims, 1, 3) == pytest.approx(1.0, abs=1e-12)
+    assert bone_axes.helpers_between(target, [True, True, False, True]) == [2]

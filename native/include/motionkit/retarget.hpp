@@ -78,6 +78,9 @@ struct RetargetOptions {
   std::vector<int> ground_bones;  // target bones that touch the floor on the first frame
   std::vector<int> posture_bones;  // target bones that keep their own posture in the match pose (S_b = 1)
   std::vector<int> posture_always;  // ... and do so even where their parents carry them 45 degrees across
+  // Unmapped target bones that are helpers (Mixamo's `*_split` joints): where the mapped bone above aims past
+  // them at the mapped one below (target_aims), they are carried, not turned along the chain.
+  std::vector<int> helper_bones;
 };
 
 // Inputs (caller-owned, read-only):
