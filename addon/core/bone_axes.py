@@ -117,6 +117,15 @@ def helpers_between(rig, mapped) -> list[int]:
     line from the mapped bone above to the one below. mapped: per bone, whether it is mapped."""
     heads = np.asarray(rig.heads, dtype=np.float64)
     found = set()
+    for child, up, between in _mapped_spans(rig, mapped):
+        found.update(j for j in between if bone_mapping.name_info(rig.names[j]).helper
+                     or _off_line(heads[up], heads[j], heads[child]))
+    return sorted(found)
+
+
+def _mapped_spans(rig, mapped):
+    """(mapped bone, its nearest mapped ancestor, the unmapped bones between, lowest first) for every mapped
+    bone that has a mapped ancestor."""
     for child in range(len(rig.parents)):
         if not mapped[child]:
             continue
@@ -125,9 +134,7 @@ def helpers_between(rig, mapped) -> list[int]:
             between.append(up)
             up = int(rig.parents[up])
         if up >= 0:
-            found.update(j for j in between if bone_mapping.name_info(rig.names[j]).helper
-                         or _off_line(heads[up], heads[j], heads[child]))
-    return sorted(found)
+            yield child, up, between
 
 
 def _mapped_below(rig, mapped) -> dict:
@@ -135,14 +142,8 @@ def _mapped_below(rig, mapped) -> dict:
     clavicle's arm past a `*_split` joint), a direct child first."""
     below: dict = {}
     helpers = set(helpers_between(rig, mapped))
-    for child in range(len(rig.parents)):
-        if not mapped[child]:
-            continue
-        between, up = [], int(rig.parents[child])
-        while up >= 0 and not mapped[up]:
-            between.append(up)
-            up = int(rig.parents[up])
-        if up < 0 or not helpers.issuperset(between):
+    for child, up, between in _mapped_spans(rig, mapped):
+        if not helpers.issuperset(between):
             continue
         below.setdefault(up, []).append((len(between), child))
     return {bone: [c for _, c in sorted(found)] for bone, found in below.items()}

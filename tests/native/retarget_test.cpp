@@ -78,7 +78,7 @@ struct Retargeted {
 };
 
 Retargeted Retarget(const RigModel& source, const RigModel& target, const Posed& posed, RetargetOptions options = {},
-             std::vector<int> map = {}) {
+             std::vector<int> map = {}, const RowMatrixXd& target_aims = RowMatrixXd()) {
   const Eigen::Index frames = posed.rotations.rows();
   Retargeted out{RowMatrixXd(frames, 4 * target.size()), RowMatrixXd(frames, 3)};
   RowMatrixXd source_match(1, 4 * source.size()), target_match(1, 4 * target.size());
@@ -97,6 +97,7 @@ Retargeted Retarget(const RigModel& source, const RigModel& target, const Posed&
   job.source_match_root = source.head(0);
   job.source_root = 0;
   job.target_root = 0;
+  job.target_aims = target_aims;
   job.options = options;
   job.Run();
   return out;
@@ -365,22 +366,8 @@ TEST(Retarget, AHelperJointTheMappedBoneAimsPastIsCarried) {
   auto run = [&](std::vector<int> helpers) {
     RetargetOptions options;
     options.helper_bones = std::move(helpers);
-    RowMatrixXd rotations(frames, 4 * target.size()), roots(frames, 3);
-    RowMatrixXd source_match(1, 4 * source.size()), target_match(1, 4 * target.size());
-    for (int a = 0; a < source.size(); ++a) {
-      const Eigen::Quaterniond q = source.rest(a);
-      source_match.row(0).segment<4>(4 * a) << q.w(), q.x(), q.y(), q.z();
-    }
-    for (int b = 0; b < target.size(); ++b) target_match.row(0).segment<4>(4 * b) << 1, 0, 0, 0;
-    RowMatrixXd root_heads = posed.heads.leftCols(3);
-    RetargetJob job(source, target, posed.rotations, root_heads, source_match, target_match, rotations, roots);
-    for (int b = 0; b < target.size(); ++b) job.bone_map.push_back(source.Find(target.name(b)));
-    job.source_match_root = source.head(0);
-    job.source_root = job.target_root = 0;
-    job.target_aims = aims;
-    job.options = options;
-    job.Run();
-    return Pose(target, rotations, RowMatrixXd::Zero(frames, 3 * target.size()));
+    const Retargeted out = Retarget(source, target, posed, options, {}, aims);
+    return Pose(target, out.rotations, RowMatrixXd::Zero(frames, 3 * target.size()));
   };
   const Posed carried = run({helper}), chained = run({});
   double turned = 0.0;
