@@ -155,15 +155,14 @@ def _off_line(start, joint, end) -> bool:
     return norms > 0 and float(to_end @ to_joint) < np.cos(np.radians(_OFF_CHAIN_DEG)) * norms
 
 
-def _prefer_mapped_children(source, target, source_next, bone_map) -> None:
+def _prefer_mapped_children(source, target_below, source_next, bone_map) -> None:
     """A mapped source bone whose continuing child is no mapped bone, but which has a mapped descendant (the
     target bone of which hangs under its own target bone, past unmapped bones only), continues into that
     descendant instead: a thigh carrying secondary joints (pant legs, skin helpers) that carry the hip's line
-    on more straightly than the knee points at its knee, as the other rig's does. source_next changed in
-    place."""
+    on more straightly than the knee points at its knee, as the other rig's does. target_below: the target's
+    _mapped_below. source_next changed in place."""
     target_of = {int(a): t for t, a in enumerate(bone_map) if a >= 0}
     below = _mapped_below(source, [a in target_of for a in range(len(source.parents))])
-    target_below = _mapped_below(target, [a >= 0 for a in bone_map])
     for t, a in enumerate(bone_map):
         if a < 0 or int(source_next[a]) in target_of:
             continue
@@ -181,13 +180,14 @@ def paired_aims(source, target, bone_map) -> tuple[np.ndarray | None, np.ndarray
     bone its source bone, -1 for none."""
     source_next = source.continuing_children()
     target_next = target.continuing_children()
-    _prefer_mapped_children(source, target, source_next, bone_map)
+    target_below = _mapped_below(target, [a >= 0 for a in bone_map])
+    _prefer_mapped_children(source, target_below, source_next, bone_map)
     for t, a in enumerate(bone_map):
         if a >= 0 and (source_next[a] < 0 or target_next[t] < 0):
             source_next[a] = target_next[t] = -1
     # A target bone points at the mapped descendant (past unmapped bones: a clavicle past a `*_split`
     # joint to its arm) that is the source's continuing child's.
-    for parent, children in _mapped_below(target, [a >= 0 for a in bone_map]).items():
+    for parent, children in target_below.items():
         for child in children:
             if bone_map[parent] >= 0 and source_next[bone_map[parent]] == bone_map[child]:
                 target_next[parent] = child

@@ -124,11 +124,14 @@ EXCERPT_CASES = [(source, target, part) for source in ("Aj", "Kaya") for target 
                  for part in mp.EXCERPT_PARTS]
 EXCERPT_IDS = [f"{a}-to-{b}-{part}" for a, b, part in EXCERPT_CASES]
 # Blender's evaluation of an excerpt against the numpy reference: measured at most 2.1e-5 of the height
-# (BigVegas's mid frames, 83 joints deep in capes; 4.0e-6 on the others), within SANITY.
+# (BigVegas's mid frames, its hips 2 m up; 4.0e-6 on the others; the same on 3.4 and 5.2), bounded at about 10x
+# that; two methods whose joints Blender evaluates alike tie to it, in % (EXCERPT_TIE).
 # MotionKit's defaults over these 16 retargets on Blender 3.4 (means, % of the height; the plain copy 5.74 and
 # 0.75): what a change may not make worse by more than REGRESSION; closer than the copy on average. The known
 # gap (issue 37, the xfail below): where the hips stand, from Kaya onto four of the eight.
 EXCERPT_MEASURED_ALL, EXCERPT_MEASURED_POSE = 5.44, 0.75
+EXCERPT_SANITY = 2e-4
+EXCERPT_TIE = 100 * EXCERPT_SANITY
 _excerpts = {}
 
 
@@ -146,7 +149,7 @@ def test_blender_evaluates_each_excerpt_as_the_protocol(mk, pairs, case):
     print(f"{case}: frames {result['start']}+{result['frames']}, sanity {result['sanity']:.1e}; all joints "
           f"{errors['MotionKit']['all']:.2f} % (plain copy {errors['plain copy']['all']:.2f} %), pose alone "
           f"{errors['MotionKit']['pose']:.2f} % (plain copy {errors['plain copy']['pose']:.2f} %)")
-    assert result["sanity"] <= SANITY
+    assert result["sanity"] <= EXCERPT_SANITY
 
 
 def test_motionkit_defaults_on_more_characters_closer_than_the_copy_on_average(mk, pairs):
@@ -155,7 +158,7 @@ def test_motionkit_defaults_on_more_characters_closer_than_the_copy_on_average(m
     plain = {k: float(np.mean([f["plain copy"][k] for f in figures])) for k in ("all", "pose")}
     print(f"more characters: MotionKit all joints {ours['all']:.2f} %, pose alone {ours['pose']:.2f} % "
           f"(plain copy {plain['all']:.2f} %, {plain['pose']:.2f} %)")
-    assert ours["all"] <= plain["all"] and ours["pose"] <= plain["pose"] + TIE, (ours, plain)
+    assert ours["all"] <= plain["all"] and ours["pose"] <= plain["pose"] + EXCERPT_TIE, (ours, plain)
     assert ours["all"] <= EXCERPT_MEASURED_ALL + REGRESSION and ours["pose"] <= EXCERPT_MEASURED_POSE + REGRESSION
 
 
@@ -165,7 +168,7 @@ def test_motionkit_keeps_each_character_s_pose_as_mixamo_does(mk, pairs, case):
     and Mousey's `*_split` clavicles (2.8-4.3 % of the height off the copy's when the clavicle was aimed at its
     split joint, 60 degrees up its chest) included."""
     errors = measured_excerpt(mk, pairs, case)["errors"]
-    assert errors["MotionKit"]["pose"] <= errors["plain copy"]["pose"] + TIE, errors
+    assert errors["MotionKit"]["pose"] <= errors["plain copy"]["pose"] + EXCERPT_TIE, errors
 
 
 @pytest.mark.xfail(strict=True, reason="issue 37, open: from Kaya onto BigVegas, Mousey, Goblin's start and Granny's "
@@ -175,7 +178,7 @@ def test_motionkit_defaults_on_more_characters_at_least_as_close_as_the_plain_co
     for case in EXCERPT_CASES:
         errors = measured_excerpt(mk, pairs, case)["errors"]
         plain, ours = errors["plain copy"], errors["MotionKit"]
-        if not (ours["all"] <= plain["all"] + TIE and ours["pose"] <= plain["pose"] + TIE):
+        if not (ours["all"] <= plain["all"] + EXCERPT_TIE and ours["pose"] <= plain["pose"] + EXCERPT_TIE):
             behind.append(case)
     assert not behind, behind
 

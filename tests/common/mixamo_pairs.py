@@ -244,30 +244,43 @@ def measure_san(mk, shared, source: str, target: str, clip: str, every: int = 1,
     height), "errors" {method: san_protocol.errors}, "joint_pose" {method: per-joint pose-alone %, in
     BODY_JOINTS order}, "seconds" {method: wall time}, "positions" {method: (frames, joints, 3) in world}
     and "reference" (the target's own clip's, the same shape)."""
-    src, tgt = sp.read_bvh(san_path(shared, source, clip)), sp.read_bvh(san_path(shared, target, clip))
-    last = tgt.values.shape[0]
-    if src.values.shape[0] != last:
-        raise RuntimeError(f"{clip}: {source} has {src.values.shape[0]} frames, {target} {last}")
-    frames = np.arange(1, last + 1, every)
-    body = sp.body_indices(tgt.names)
-    height = BVH_SCALE * sp.height(tgt.names, tgt.parents, tgt.offsets)
-    reference = bvh_to_blender(sp.clip_positions(tgt)[frames - 1][:, body])
-    clip_obj = import_bvh(san_path(shared, target, clip))
-    evaluated = joints_world(clip_obj, sp.BODY_JOINTS, frames)
-    sanity = float(np.linalg.norm(evaluated - reference, axis=-1).max()) / height
-    template = rest_copy(clip_obj, target + " rest")
+    source_path, target_path = san_path(shared, source, clip), san_path(shared, target, clip)
+    counts = [sp.read_bvh(path).values.shape[0] for path in (source_path, target_path)]
+    if counts[0] != counts[1]:
+        raise RuntimeError(f"{clip}: {source} has {counts[0]} frames, {target} {counts[1]}")
+    return _measure_bvh(mk, source_path, target_path, target, 0, every, methods)
+
+
+def _measure_bvh(mk, source_path: str, target_path: str, name: str, start: int, every: int, methods) -> dict:
+    """source_path's clip retargeted onto the rest of target_path's armature, measured on every every-th frame
+    of target_path's own clip (Mixamo's answer), whose frames are the source's from start (0-based) on:
+    measure_san's figures, and "start". Joints by their names less a character's prefix."""
+    whole, own = _base_names(sp.read_bvh(source_path)), _base_names(sp.read_bvh(target_path))
+    count = min(len(own.values), len(whole.values) - start)
+    rows = np.arange(0, count, every)  # the target clip's frames, 0-based
+    frames = start + 1 + rows  # the same, as Blender's frames of the source's clip
+    body = sp.body_indices(own.names)
+    height = BVH_SCALE * sp.height(own.names, own.parents, own.offsets)
+    reference = bvh_to_blender(sp.clip_positions(own)[rows][:, body])
+    clip_obj = import_bvh(target_path)
+    bones = [bone.name for bone in clip_obj.data.bones]
+    names = [next(b for b in bones if b.split(":")[-1] == j) for j in sp.BODY_JOINTS]
+    sanity = float(np.linalg.norm(joints_world(clip_obj, names, rows + 1) - reference, axis=-1).max()) / height
+    template = rest_copy(clip_obj, name + " rest")
     remove(clip_obj)
-    source_obj = import_bvh(san_path(shared, source, clip))
+    source_obj = import_bvh(source_path)
     joints, seconds = {}, {}
     if "plain copy" in methods:
-        plain, seconds["plain copy"] = _timed(lambda: sp.plain_copy(src, tgt))
-        joints["plain copy"] = bvh_to_blender(plain[frames - 1][:, body])
+        part = sp.Bvh(whole.names, whole.parents, whole.offsets, whole.channels, whole.values[start:start + count],
+                      whole.frame_time)
+        plain, seconds["plain copy"] = _timed(lambda: sp.plain_copy(part, own))
+        joints["plain copy"] = bvh_to_blender(plain[rows][:, body])
     pairs = [(b.name, b.name) for b in template.data.bones if b.name in source_obj.data.bones]
-    for method, (found, secs) in _blender_methods(mk, source_obj, template, pairs, (sp.HIPS, sp.HIPS),
-                                                  sp.BODY_JOINTS, frames, last, methods).items():
+    for method, (found, secs) in _blender_methods(mk, source_obj, template, pairs, (sp.HIPS, sp.HIPS), names,
+                                                  frames, start + count, methods).items():
         joints[method], seconds[method] = found, secs
     remove(source_obj, template)
-    return {"frames": len(frames), "height": height, "sanity": sanity, "seconds": seconds,
+    return {"frames": len(rows), "start": start, "height": height, "sanity": sanity, "seconds": seconds,
             "errors": {m: sp.errors(joints[m], reference, height) for m in methods},
             "joint_pose": {m: sp.joint_pose_errors(joints[m], reference, height) for m in methods},
             "positions": joints, "reference": reference}
@@ -311,33 +324,9 @@ def measure_excerpt(mk, source_path: str, target: str, part: str,
                     methods=("plain copy", "MotionKit")) -> dict:
     """source_path's whole clip retargeted onto the rest of target's excerpt (Blender's BVH importer), its
     body joints on the excerpt's frames against the excerpt's own (Mixamo's answer), as measure_san."""
-    whole, excerpt = _base_names(sp.read_bvh(source_path)), _base_names(sp.read_bvh(excerpt_path(target, part)))
-    start = excerpt_start(whole, excerpt)
-    count = min(len(excerpt.values), len(whole.values) - start)
-    frames = start + 1 + np.arange(count)  # Blender's frames of the source's clip
-    body = sp.body_indices(excerpt.names)
-    height = BVH_SCALE * sp.height(excerpt.names, excerpt.parents, excerpt.offsets)
-    reference = bvh_to_blender(sp.clip_positions(excerpt)[:count][:, body])
-    clip_obj = import_bvh(excerpt_path(target, part))
-    bones = [clip_obj.data.bones[i].name for i in range(len(clip_obj.data.bones))]
-    names = [next(b for b in bones if b.split(":")[-1] == j) for j in sp.BODY_JOINTS]
-    sanity = float(np.linalg.norm(joints_world(clip_obj, names, frames - start) - reference, axis=-1).max()) / height
-    template = rest_copy(clip_obj, target + " rest")
-    remove(clip_obj)
-    source_obj = import_bvh(source_path)
-    joints, seconds = {}, {}
-    if "plain copy" in methods:
-        part_clip = sp.Bvh(whole.names, whole.parents, whole.offsets, whole.channels,
-                           whole.values[start:start + count], whole.frame_time)
-        plain, seconds["plain copy"] = _timed(lambda: sp.plain_copy(part_clip, excerpt))
-        joints["plain copy"] = bvh_to_blender(plain[:, body])
-    for method, (found, secs) in _blender_methods(mk, source_obj, template, [], (sp.HIPS, sp.HIPS), names, frames,
-                                                  int(frames[-1]), [m for m in methods if m == "MotionKit"]).items():
-        joints[method], seconds[method] = found, secs
-    remove(source_obj, template)
-    return {"frames": count, "start": start, "height": height, "sanity": sanity, "seconds": seconds,
-            "errors": {m: sp.errors(joints[m], reference, height) for m in methods},
-            "positions": joints, "reference": reference}
+    start = excerpt_start(_base_names(sp.read_bvh(source_path)), _base_names(sp.read_bvh(excerpt_path(target, part))))
+    return _measure_bvh(mk, source_path, excerpt_path(target, part), target, start, 1, methods)
+
 
 def fbx_body(character: str) -> dict:
     """Mixamo joint name -> the character's bone name (girl1 carries Mixamo's names with its prefix)."""
