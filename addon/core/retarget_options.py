@@ -28,7 +28,7 @@ FLOOR_FITS = (
     ("off", "Off", "The hips at the source's height above its floor, scaled; nothing else"),
 )
 ROOT_MOTIONS = (
-    ("scaled", "Scaled", "Translation scaled by the ratio of leg lengths"),
+    ("scaled", "Scaled", "Translation scaled by the ratio of how high the rigs' hips stand"),
     ("in_place", "In place", "Keep only the vertical motion (scaled)"),
     ("offset", "Offset Height",
      "Horizontal translation scaled, vertical as the source's plus the difference in hip height"),
@@ -65,7 +65,7 @@ REFERENCE = ("source_match", "match_frame", "target_match", "align_facing", "cha
 @dataclass
 class RetargetOptions:
     """How the source's motion is laid on the target (see motionkit.retarget for the whole story)."""
-    # How the hips travel (ROOT_MOTIONS): "scaled" by the ratio of leg lengths measured along the legs,
+    # How the hips travel (ROOT_MOTIONS): "scaled" by the ratio of how high each rig's hips stand,
     # "in_place" (only the vertical motion), "offset" (vertical as the source's plus the difference in
     # hip height) or "none" (the root stays where the match pose has it).
     root: str = "scaled"

@@ -7,9 +7,10 @@ still, copy the source's floor root, or extract root motion for game engines
 (it follows the hips' ground projection and facing, smoothed). Whatever it
 does, the hips are re-expressed under it so that the world pose is unchanged.
 
-Proportions: the ratio of leg lengths measured along the leg (thigh + shin +
-the ankle's height above the sole), which a rest pose with spread legs does
-not change, unlike the hips' height above the lowest point.
+Proportions: each leg's length measured along it (thigh + shin + the ankle's
+height above the sole), which a rest pose with spread legs does not change,
+unlike the hips' height above the lowest point; the legs' heights scale by
+their ratio (the root's path by the standing heights, core.floor_fit).
 
 Quaternions are w x y z; positions are armature space with Z up.
 """

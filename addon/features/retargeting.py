@@ -491,7 +491,7 @@ class _Fit:
     floors: tuple        # (source, target) heights along up
     clearances: tuple    # (source, target) how high each one's lowest foot joint rides above its floor
     heights: tuple       # (source, target) leg lengths
-    scale: float         # target leg length / source leg length
+    scale: float         # the root path's: target standing height / source's (floor_fit.standing_height)
     unit_scale: float    # source object scale / target object scale
     target_scale: float  # the target object's scale
 
@@ -867,8 +867,8 @@ def retarget_clip(source, target, bone_map=None, frame_range=None, options: Reta
     the new action as 0/1 contact curves), channels and channel_map (bone
     scale, custom properties and shape keys carried by name; what the target
     has no place for is left out: Retargeted.channels_left_out). The hips are the body's root on both
-    sides and the translation is scaled by the ratio of leg lengths measured
-    along the legs. The new action is assigned to the target (its previous
+    sides and the translation is scaled by the ratio of how high each rig's
+    hips stand (core.floor_fit.standing_height). The new action is assigned to the target (its previous
     action keeps a fake user rather than being lost); with overwrite the keys
     replace the target's own action's curves instead. A ValueError leaves the
     file as it was (a BVH source is removed again).
