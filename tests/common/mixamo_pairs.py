@@ -265,7 +265,10 @@ def _measure_bvh(mk, source_path: str, target_path: str, name: str, start: int, 
     clip_obj = import_bvh(target_path)
     bones = [bone.name for bone in clip_obj.data.bones]
     names = [next(b for b in bones if b.split(":")[-1] == j) for j in sp.BODY_JOINTS]
-    sanity = float(np.linalg.norm(joints_world(clip_obj, names, rows + 1) - reference, axis=-1).max()) / height
+    evaluated = joints_world(clip_obj, names, rows + 1)
+    sanity = float(np.linalg.norm(evaluated - reference, axis=-1).max()) / height
+    pose_sanity = float(np.linalg.norm((evaluated - evaluated[:, :1]) - (reference - reference[:, :1]),
+                                       axis=-1).max()) / height
     template = rest_copy(clip_obj, name + " rest")
     remove(clip_obj)
     source_obj = import_bvh(source_path)
@@ -280,25 +283,27 @@ def _measure_bvh(mk, source_path: str, target_path: str, name: str, start: int, 
                                                   frames, start + count, methods).items():
         joints[method], seconds[method] = found, secs
     remove(source_obj, template)
-    return {"frames": len(rows), "start": start, "height": height, "sanity": sanity, "seconds": seconds,
+    return {"frames": len(rows), "start": start, "height": height, "sanity": sanity, "pose_sanity": pose_sanity,
+            "seconds": seconds,
             "errors": {m: sp.errors(joints[m], reference, height) for m in methods},
             "joint_pose": {m: sp.joint_pose_errors(joints[m], reference, height) for m in methods},
             "positions": joints, "reference": reference}
 
 
-# Mixamo's own Jumping on four more characters of the SAN test set, from the SAN repository (the README beside
-# them): each file's hierarchy whole and two runs of its frames, "head" (the clip's first) and "mid" (from the
-# middle, airborne): Mixamo's answer for those frames of Aj's and Kaya's Jumping.
+# Mixamo's own four SAN clips on four more characters of the SAN test set, from the SAN repository (the README
+# beside them): each file's hierarchy whole and a run of its frames, "head" (the clip's first) or "mid" (from
+# its middle): Mixamo's answer for those frames of Aj's and Kaya's clip.
 EXCERPTS = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "data", "mixamo_excerpts")
 EXCERPT_CHARACTERS = ("BigVegas", "Goblin_m", "Mousey_m", "SportyGranny")
-EXCERPT_PARTS = ("head", "mid")
+EXCERPT_RUNS = (("Jumping", "head"), ("Jumping", "mid"), ("Running", "mid"), ("Catwalk Walk", "mid"),
+                ("Getting Up", "mid"))
 # The upper body's local rotations, which Mixamo keeps the same on every character (BRIEF section 8): where an
 # excerpt's agree with a whole clip's, it starts there.
 _UPPER = ("LeftArm", "RightArm", "LeftForeArm", "RightForeArm")
 
 
-def excerpt_path(character: str, part: str) -> str:
-    return os.path.join(EXCERPTS, character, f"Jumping_{part}.bvh")
+def excerpt_path(character: str, part: str, clip: str = "Jumping") -> str:
+    return os.path.join(EXCERPTS, character, f"{clip}_{part}.bvh")
 
 
 def _base_names(clip: sp.Bvh) -> sp.Bvh:
@@ -321,11 +326,12 @@ def excerpt_start(whole: sp.Bvh, excerpt: sp.Bvh) -> int:
 
 
 def measure_excerpt(mk, source_path: str, target: str, part: str,
-                    methods=("plain copy", "MotionKit")) -> dict:
-    """source_path's whole clip retargeted onto the rest of target's excerpt (Blender's BVH importer), its
-    body joints on the excerpt's frames against the excerpt's own (Mixamo's answer), as measure_san."""
-    start = excerpt_start(_base_names(sp.read_bvh(source_path)), _base_names(sp.read_bvh(excerpt_path(target, part))))
-    return _measure_bvh(mk, source_path, excerpt_path(target, part), target, start, 1, methods)
+                    methods=("plain copy", "MotionKit"), clip: str = "Jumping") -> dict:
+    """source_path's whole clip retargeted onto the rest of target's excerpt of clip (Blender's BVH importer),
+    its body joints on the excerpt's frames against the excerpt's own (Mixamo's answer), as measure_san."""
+    path = excerpt_path(target, part, clip)
+    start = excerpt_start(_base_names(sp.read_bvh(source_path)), _base_names(sp.read_bvh(path)))
+    return _measure_bvh(mk, source_path, path, target, start, 1, methods)
 
 
 def fbx_body(character: str) -> dict:
