@@ -130,15 +130,21 @@ def leg_reaches(straight, rest, farthest) -> np.ndarray:
     return np.minimum(straight, np.maximum(rest, farthest)) - _REACH_MARGIN * straight
 
 
-def hips_lift(drops, stance, slope: float) -> np.ndarray:
+def hips_lift(drops, stance, slope: float, floats=None) -> np.ndarray:
     """How far to move the hips along up on each frame (frames,), <= 0: on stance frames the most any
     standing leg needs (reach_drops), eased in beforehand and out afterwards at most slope a frame, never
     short of what a frame needs; 0 wherever no standing leg needs it (a jump keeps the source's height,
-    scaled)."""
+    scaled). floats (frames, legs), where given: how far each foot is from where it should stand (wanted
+    less its height; 0 on frames the body does not stand on its feet alone): where every standing foot
+    floats, the hips also come down until the nearest one stands, so that the legs keep the source's bend
+    (a bent-kneed character's crouch settles lower, as Mixamo's own retargets do) rather than stretch."""
     drops, stance = np.asarray(drops, dtype=np.float64), np.asarray(stance, dtype=bool)
     if not len(drops):
         return np.zeros(0)
     needed = np.where(stance, drops, 0.0).min(axis=1)
+    if floats is not None:
+        floating = np.where(stance, np.minimum(np.asarray(floats, dtype=np.float64), 0.0), -np.inf).max(axis=1)
+        needed = np.minimum(needed, np.where(np.isfinite(floating), floating, 0.0))
     return _below_with_bounded_slope(needed, slope)
 
 

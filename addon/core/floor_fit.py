@@ -198,7 +198,9 @@ def stand_on_floor(source: Ground, source_pose, target: Ground, rotations, locat
                             [np.linalg.norm(a - h, axis=1).max() for h, _, a in ends])
         drops = reach_drops(np.stack([h for h, _, _ in ends], axis=1), np.stack([a for _, _, a in ends], axis=1),
                             wanted - heights, up, reach)
-        lift = hips_lift(drops, stance, slope=0.5 * leg / fps)
+        on_feet = on_its_feet(source, source_pose, leg / height_scale)
+        floats = np.where(on_feet[:, None], wanted - heights, 0.0)
+        lift = hips_lift(drops, stance, slope=0.5 * leg / fps, floats=floats)
     else:
         lift = np.zeros(len(heights))
     # The location channel moves the head in the bone's posed frame less its own rotation.
@@ -210,3 +212,26 @@ def stand_on_floor(source: Ground, source_pose, target: Ground, rotations, locat
                                                                            lift[:, None] * up)
     return feet_lifts(wanted, heights + lift[:, None], stance, target.standing, blend_frames=0.1 * fps,
                       slope=0.5 * leg / fps)
+
+
+# A body point this close above where the source's feet stand (in its leg lengths) rests on the floor: lying and
+# on all fours in the SAN Getting Up, the lowest of them measured -0.12 to 0.06 (Kaya's hand dips through the
+# floor); crouched on its feet, 0.14 (a hand near the floor) and 0.2 or more (the knees).
+RESTING = 0.12
+_ABOVE_FEET = ("upper_arm", "forearm", "hand", "thigh", "shin")
+
+
+def on_its_feet(ground: Ground, pose, leg: float) -> np.ndarray:
+    """(frames,) the frames on which the rig stands on its feet alone: none of its hips, spine, neck, head,
+    shoulders, elbows, wrists, hip joints or knees (heads of the labelled bones) rests on its floor (within
+    RESTING legs of where it stands; leg: its leg length). pose: (orientations (frames, 4B), heads (frames,
+    3B))."""
+    body, rig = ground.body, ground.rig
+    names = [body.hips, *body.spine, *body.neck, body.head] + [
+        body.limbs.get(f"{key}.{side}") for key in _ABOVE_FEET for side in bone_mapping.SIDES]
+    bones = [rig.index(n) for n in names if n in rig]
+    heads = pose[1]
+    if not bones:
+        return np.ones(len(heads), dtype=bool)
+    heights = np.stack([heads[:, 3 * b:3 * b + 3] @ ground.up for b in bones], axis=1)
+    return (heights - ground.standing).min(axis=1) > RESTING * leg

@@ -32,7 +32,7 @@ TARGET_ALL, TARGET_POSE = 3.0, 1.0
 # MotionKit's defaults over these cases, measured on Blender 3.4, 4.3 and 5.2 (means, % of the height):
 # what a change may not make worse by more than REGRESSION (about a millimetre on these 1.5 m characters;
 # the figures agree across the Blenders to 1e-4 %).
-MEASURED_ALL, MEASURED_POSE = 2.06, 0.49
+MEASURED_ALL, MEASURED_POSE = 2.10, 0.49
 REGRESSION = 0.05
 # Two methods whose joints Blender evaluates alike differ by the evaluation's own noise (SANITY), in %: a
 # retarget that keeps the plain copy's pose exactly ties with it to that.
@@ -117,28 +117,34 @@ def test_motionkit_hips_and_feet_land_no_harder_than_mixamo_s_by_a_pop(mk, pairs
           f"(Mixamo's own {100 * theirs / result['height']:.2f} %)")
     assert ours <= POP_RATIO * theirs, (ours, theirs)
 
-# Four more characters of the same set (tests/data/mixamo_excerpts: Mixamo's own Jumping on each, a run of
-# frames at its start and one from its middle), each the target of Aj's and Kaya's whole clip: characters
-# MotionKit was not tuned on.
-EXCERPT_CASES = [(source, target, part) for source in ("Aj", "Kaya") for target in mp.EXCERPT_CHARACTERS
-                 for part in mp.EXCERPT_PARTS]
-EXCERPT_IDS = [f"{a}-to-{b}-{part}" for a, b, part in EXCERPT_CASES]
-# Blender's evaluation of an excerpt against the numpy reference: measured at most 2.1e-5 of the height
-# (BigVegas's mid frames, its hips 2 m up; 4.0e-6 on the others; the same on 3.4 and 5.2), bounded at about 10x
-# that; two methods whose joints Blender evaluates alike tie to it, in % (EXCERPT_TIE).
-# MotionKit's defaults over these 16 retargets on Blender 3.4 (means, % of the height; the plain copy 5.74 and
-# 0.75): what a change may not make worse by more than REGRESSION; closer than the copy on average. The known
-# gap (issue 37, the xfail below): where the hips stand, from Kaya onto four of the eight.
-EXCERPT_MEASURED_ALL, EXCERPT_MEASURED_POSE = 5.44, 0.75
-EXCERPT_SANITY = 2e-4
-EXCERPT_TIE = 100 * EXCERPT_SANITY
+# Four more characters of the same set (tests/data/mixamo_excerpts: Mixamo's own clips on each, a run of frames
+# from the start of Jumping and one from the middle of each of the four clips), each the target of Aj's and
+# Kaya's whole clip: characters MotionKit was not tuned on.
+EXCERPT_CASES = [(source, target, clip, part) for source in ("Aj", "Kaya") for target in mp.EXCERPT_CHARACTERS
+                 for clip, part in mp.EXCERPT_RUNS]
+EXCERPT_IDS = [f"{clip}-{part}-{a}-to-{b}" for a, b, clip, part in EXCERPT_CASES]
+# Blender's evaluation of an excerpt against the numpy reference, measured on Blender 3.4 and 5.2: at most
+# 9.7e-5 of the height over all joints (BigVegas's root, 4.7 m out along his Catwalk Walk, imported 0.17 mm
+# from the file's; 5.4e-6 on the other characters) and 1.6e-5 relative to the hips (where the root's offset
+# cancels); bounded at about 10x each. Two methods whose joints Blender evaluates alike tie to the bound, in %
+# (EXCERPT_TIE over all joints, EXCERPT_POSE_TIE for the pose alone).
+EXCERPT_SANITY, EXCERPT_POSE_SANITY = 1e-3, 2e-4
+EXCERPT_TIE, EXCERPT_POSE_TIE = 100 * EXCERPT_SANITY, 100 * EXCERPT_POSE_SANITY
+# MotionKit's defaults over these 40 retargets on Blender 3.4 (means, % of the height; the plain copy 11.01 and
+# 0.92): what a change may not make worse by more than REGRESSION; closer than the copy on average. The known
+# gap (issue 37, the xfail below): how far Mixamo carries each character across the floor (its path's scale is
+# none of the skeleton's measures: docs/benchmarks.md), and the legs of some of them.
+EXCERPT_MEASURED_ALL, EXCERPT_MEASURED_POSE = 10.47, 0.90
+# The same for the hips' height alone (mean distance along up from Mixamo's, % of the height; the copy 3.46,
+# MotionKit 3.12 while its hips kept the source's scaled height wherever the legs could reach the floor).
+EXCERPT_MEASURED_HIPS_HEIGHT = 2.68
 _excerpts = {}
 
 
 def measured_excerpt(mk, shared, case):
     if case not in _excerpts:
-        source, target, part = case
-        _excerpts[case] = mp.measure_excerpt(mk, mp.san_path(shared, source, "Jumping"), target, part)
+        source, target, clip, part = case
+        _excerpts[case] = mp.measure_excerpt(mk, mp.san_path(shared, source, clip), target, part, clip=clip)
     return _excerpts[case]
 
 
@@ -146,10 +152,11 @@ def measured_excerpt(mk, shared, case):
 def test_blender_evaluates_each_excerpt_as_the_protocol(mk, pairs, case):
     result = measured_excerpt(mk, pairs, case)
     errors = result["errors"]
-    print(f"{case}: frames {result['start']}+{result['frames']}, sanity {result['sanity']:.1e}; all joints "
-          f"{errors['MotionKit']['all']:.2f} % (plain copy {errors['plain copy']['all']:.2f} %), pose alone "
-          f"{errors['MotionKit']['pose']:.2f} % (plain copy {errors['plain copy']['pose']:.2f} %)")
-    assert result["sanity"] <= EXCERPT_SANITY
+    print(f"{case}: frames {result['start']}+{result['frames']}, sanity {result['sanity']:.1e} "
+          f"(pose {result['pose_sanity']:.1e}); all joints {errors['MotionKit']['all']:.2f} % (plain copy "
+          f"{errors['plain copy']['all']:.2f} %), pose alone {errors['MotionKit']['pose']:.2f} % (plain copy "
+          f"{errors['plain copy']['pose']:.2f} %)")
+    assert result["sanity"] <= EXCERPT_SANITY and result["pose_sanity"] <= EXCERPT_POSE_SANITY
 
 
 def test_motionkit_defaults_on_more_characters_closer_than_the_copy_on_average(mk, pairs):
@@ -158,27 +165,57 @@ def test_motionkit_defaults_on_more_characters_closer_than_the_copy_on_average(m
     plain = {k: float(np.mean([f["plain copy"][k] for f in figures])) for k in ("all", "pose")}
     print(f"more characters: MotionKit all joints {ours['all']:.2f} %, pose alone {ours['pose']:.2f} % "
           f"(plain copy {plain['all']:.2f} %, {plain['pose']:.2f} %)")
-    assert ours["all"] <= plain["all"] and ours["pose"] <= plain["pose"] + EXCERPT_TIE, (ours, plain)
+    assert ours["all"] <= plain["all"] and ours["pose"] <= plain["pose"] + EXCERPT_POSE_TIE, (ours, plain)
     assert ours["all"] <= EXCERPT_MEASURED_ALL + REGRESSION and ours["pose"] <= EXCERPT_MEASURED_POSE + REGRESSION
 
 
-@pytest.mark.parametrize("case", EXCERPT_CASES, ids=EXCERPT_IDS)
+def _hips_height_error(result, method):
+    """Mean distance along up (Blender's Z) of the hips from Mixamo's, % of the height."""
+    positions = result["positions"][method]
+    return 100 * float(np.abs(positions[:, 0, 2] - result["reference"][:, 0, 2]).mean()) / result["height"]
+
+
+def test_a_crouching_or_walking_body_settles_its_hips_as_mixamo_s_does(mk, pairs):
+    """Where the feet would float the hips come down until they stand, the legs keeping the source's bend:
+    Goblin's bent knees crouch (Getting Up) and walk (Catwalk Walk) at Mixamo's height, closer than the copy
+    on each of those four (MotionKit 2.8-7.3 % of his height off while it held the source's scaled height,
+    the copy 2.8-8.7), and over all 40 the hips' height no farther from Mixamo's than measured."""
+    goblin = [case for case in EXCERPT_CASES if case[1] == "Goblin_m" and case[2] in ("Getting Up", "Catwalk Walk")]
+    for case in goblin:
+        result = measured_excerpt(mk, pairs, case)
+        ours, plain = _hips_height_error(result, "MotionKit"), _hips_height_error(result, "plain copy")
+        print(f"{case}: hips' height {ours:.2f} % of the height from Mixamo's (plain copy {plain:.2f} %)")
+        assert ours <= plain, (case, ours, plain)
+    means = {m: float(np.mean([_hips_height_error(measured_excerpt(mk, pairs, case), m) for case in EXCERPT_CASES]))
+             for m in ("MotionKit", "plain copy")}
+    print(f"hips' height over the 40: MotionKit {means['MotionKit']:.2f} %, plain copy {means['plain copy']:.2f} %")
+    assert means["MotionKit"] <= min(means["plain copy"], EXCERPT_MEASURED_HIPS_HEIGHT + REGRESSION), means
+
+
+JUMPING_CASES = [case for case in EXCERPT_CASES if case[2] == "Jumping"]
+
+
+@pytest.mark.parametrize("case", JUMPING_CASES, ids=[f"{c}-{p}-{a}-to-{b}" for a, b, c, p in JUMPING_CASES])
 def test_motionkit_keeps_each_character_s_pose_as_mixamo_does(mk, pairs, case):
     """The pose alone at least as close as the plain copy (which has Mixamo's own upper-body rotations): Goblin's
     and Mousey's `*_split` clavicles (2.8-4.3 % of the height off the copy's when the clavicle was aimed at its
-    split joint, 60 degrees up its chest) included."""
+    split joint, 60 degrees up its chest) included. Jumping's: on the other clips some legs trail (the xfail
+    below)."""
     errors = measured_excerpt(mk, pairs, case)["errors"]
-    assert errors["MotionKit"]["pose"] <= errors["plain copy"]["pose"] + EXCERPT_TIE, errors
+    assert errors["MotionKit"]["pose"] <= errors["plain copy"]["pose"] + EXCERPT_POSE_TIE, errors
 
 
-@pytest.mark.xfail(strict=True, reason="issue 37, open: from Kaya onto BigVegas, Mousey, Goblin's start and Granny's "
-                                       "middle MotionKit trails the copy over all joints by 0.05-0.7 % of the height")
+@pytest.mark.xfail(strict=True, reason="issue 37, open: over all joints MotionKit trails the copy on 11 of the 40 "
+                                       "(10 from Kaya: Mixamo's path across the floor scales apart from any skeleton "
+                                       "measure; Granny's Getting Up from Aj by 0.12 %), and the pose alone on 5 "
+                                       "(legs: Goblin's Getting Up from both and Catwalk from Aj, Mousey's Getting "
+                                       "Up and Granny's Catwalk from Kaya; 0.03-0.45 %)")
 def test_motionkit_defaults_on_more_characters_at_least_as_close_as_the_plain_copy(mk, pairs):
     behind = []
     for case in EXCERPT_CASES:
         errors = measured_excerpt(mk, pairs, case)["errors"]
         plain, ours = errors["plain copy"], errors["MotionKit"]
-        if not (ours["all"] <= plain["all"] + EXCERPT_TIE and ours["pose"] <= plain["pose"] + EXCERPT_TIE):
+        if not (ours["all"] <= plain["all"] + EXCERPT_TIE and ours["pose"] <= plain["pose"] + EXCERPT_POSE_TIE):
             behind.append(case)
     assert not behind, behind
 

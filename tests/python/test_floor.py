@@ -1,6 +1,6 @@
-"""core.floor.feet_lifts (no Blender): how far each standing foot is still to rise, eased on and off its
-stance so that a large lift changes at most a given amount a frame, while a small one eases over the blend as
-before; judged on the returned curve's own frame-to-frame changes."""
+"""core.floor (no Blender): feet_lifts, how far each standing foot is still to rise, eased on and off its stance
+so that a large lift changes at most a given amount a frame, while a small one eases over the blend as before;
+hips_lift, how far the hips come down where the feet float; judged on the returned curves themselves."""
 import numpy as np
 import pytest
 
@@ -45,3 +45,42 @@ def test_without_a_slope_the_blend_alone_sets_the_ease():
     step = lambda x: x * x * (3 - 2 * x)  # noqa: E731
     steepest = 0.08 * (step(1 - 1 / BLEND) - step(1 - 2 / BLEND))  # 2.6 times SLOPE
     assert lift[33] == 0.0 and np.abs(np.diff(lift)).max() == pytest.approx(steepest, rel=1e-12)
+
+
+def _both_standing(floats_0, floats_1, frames=range(10, 30)):
+    stance = np.zeros((FRAMES, 2), dtype=bool)
+    stance[list(frames)] = True
+    floats = np.tile([floats_0, floats_1], (FRAMES, 1))
+    return floor.hips_lift(np.zeros((FRAMES, 2)), stance, SLOPE, floats=floats)
+
+
+def test_where_every_standing_foot_floats_the_hips_settle_until_the_nearest_stands():
+    """Both feet standing 5 and 12 cm above where they should: the hips come down 5 cm (the other foot is the
+    legs' to put down), eased in and out at most SLOPE a frame; without floats nothing moves."""
+    lift = _both_standing(-0.05, -0.12)
+    np.testing.assert_allclose(lift[10:30], -0.05, rtol=0, atol=1e-15)
+    assert np.abs(np.diff(lift)).max() <= SLOPE * (1 + 1e-12)
+    assert lift[0] == 0.0 and lift[-1] == 0.0
+    stance = np.zeros((FRAMES, 2), dtype=bool)
+    stance[10:30] = True
+    assert not floor.hips_lift(np.zeros((FRAMES, 2)), stance, SLOPE).any()
+
+
+def test_a_foot_that_stands_or_sinks_keeps_the_hips_up_and_a_swinging_one_is_not_asked():
+    assert not _both_standing(-0.05, 0.0).any()       # one foot where it should be
+    assert not _both_standing(-0.05, 0.03).any()      # one below it (the legs lift it)
+    stance = np.zeros((FRAMES, 2), dtype=bool)
+    stance[10:30, 0] = True                           # only the first foot stands
+    floats = np.tile([-0.05, -0.3], (FRAMES, 1))
+    lift = floor.hips_lift(np.zeros((FRAMES, 2)), stance, SLOPE, floats=floats)
+    np.testing.assert_allclose(lift[10:30], -0.05, rtol=0, atol=1e-15)
+
+
+def test_a_leg_that_cannot_reach_still_brings_the_hips_further_down():
+    """reach_drops' need (here 8 cm) wins over a smaller float (5 cm)."""
+    stance = np.zeros((FRAMES, 2), dtype=bool)
+    stance[10:30] = True
+    drops = np.zeros((FRAMES, 2))
+    drops[:, 1] = -0.08
+    lift = floor.hips_lift(drops, stance, SLOPE, floats=np.full((FRAMES, 2), -0.05))
+    np.testing.assert_allclose(lift[10:30], -0.08, rtol=0, atol=1e-15)

@@ -149,3 +149,52 @@ def test_feet_wanted_below_reach_bring_the_hips_down(core_native):
                               locations[:, 3 * hips:3 * hips + 3])
     drop = target.heads[hips] @ UP - heads[:, hips] @ UP
     assert np.all(drop > 0.02) and np.all(drop < 0.031)
+
+
+def test_on_its_feet_unless_a_knee_or_a_wrist_rests_on_the_floor():
+    """At rest the rig stands on its feet; a knee, then a wrist, put 5 % of a leg above where it stands (under
+    RESTING) rest on the floor; a knee 20 % up (a deep crouch's) does not."""
+    rig = from_spec(characters.MIXAMO_T)
+    leg = floor_fit.leg_length(rig, rig.body, Pose.rest(rig), UP, rig.index(rig.body.hips))
+    ground = floor_fit.Ground(rig, rig.body, UP, 0.025)
+    orientations, heads = _standing(rig, 4)
+    for frame, (bone, up) in enumerate([("shin.L", 0.05), ("hand.R", 0.05), ("shin.R", 0.2)], start=1):
+        b = rig.index(rig.body.limbs[bone])
+        heads[frame, 3 * b + 2] = ground.standing + up * leg
+    assert floor_fit.on_its_feet(ground, (orientations, heads), leg).tolist() == [True, False, False, True]
+
+
+def test_a_crouching_target_whose_feet_float_settles_its_hips_unless_the_source_kneels(core_native):
+    """The source stands at rest, the target crouches (thighs 30 degrees forward, shins 60 back, posed by
+    rig_fk) with its floor half the crouch's rise above its rest soles: its feet float, so its hips come down
+    until they stand, the legs' bend kept (no foot left to move); with the source's knee on its floor the hips
+    stay and the legs are to reach down instead."""
+    source, target = from_spec(characters.MIXAMO_T), from_spec(characters.MIXAMO_T)
+    frames, hips = 3, target.index(target.body.hips)
+    rotations = np.tile([1.0, 0.0, 0.0, 0.0], (frames, len(target)))
+    for key, degrees in (("thigh", 30.0), ("shin", -60.0)):
+        for side in "LR":
+            b = target.index(target.body.limbs[f"{key}.{side}"])
+            rotations[:, 4 * b:4 * b + 4] = np.roll(Rotation.from_euler("x", degrees, degrees=True).as_quat(), 1)
+    _, crouched, _ = rig_fk.pose(target.parents, target.unit_rest, target.heads, target.lengths, rotations)
+    def soles(heads):  # rotations unused: every leg has a toe
+        return floor_fit.foot_heights(target, target.body, np.zeros((len(heads), 4 * len(target))), heads, UP)
+    floating = soles(crouched.reshape(frames, -1)) - soles(_standing(target, 1)[1])
+    assert np.ptp(floating) < 1e-12 and 0.05 < floating[0, 0] < 0.3
+    floating = floating[0, 0]
+    for kneels in (False, True):
+        pose = _standing(source, frames)
+        if kneels:
+            knee = source.index(source.body.limbs["shin.L"])
+            pose[1][:, 3 * knee + 2] = 0.025 + 0.01
+        locations = np.zeros((frames, 3 * len(target)))
+        # The target's floor half the crouch's rise above its rest soles' (its legs can reach that far).
+        lifts = floor_fit.stand_on_floor(floor_fit.Ground(source, source.body, UP, 0.025), pose,
+                                         floor_fit.Ground(target, target.body, UP, 0.025 + floating / 2), rotations,
+                                         locations, hips, np.ones((frames, 4), dtype=bool), 1.0, 0.9, 30.0)
+        _, heads, _ = rig_fk.pose(target.parents, target.unit_rest, target.heads, target.lengths, rotations,
+                                  locations[:, 3 * hips:3 * hips + 3])
+        drop = target.heads[hips] @ UP - heads[:, hips] @ UP
+        # Doubles, a few operations on lengths of about a metre.
+        np.testing.assert_allclose(drop, 0.0 if kneels else floating / 2, rtol=0, atol=1e-14)
+        np.testing.assert_allclose(lifts, -floating / 2 if kneels else 0.0, rtol=0, atol=1e-14)
