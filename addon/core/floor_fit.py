@@ -198,7 +198,7 @@ def stand_on_floor(source: Ground, source_pose, target: Ground, rotations, locat
                             [np.linalg.norm(a - h, axis=1).max() for h, _, a in ends])
         drops = reach_drops(np.stack([h for h, _, _ in ends], axis=1), np.stack([a for _, _, a in ends], axis=1),
                             wanted - heights, up, reach)
-        on_feet = on_its_feet(source, source_pose, leg / height_scale)
+        on_feet = on_its_feet(source, source_pose, leg / height_scale)  # the target's leg in the source's units
         floats = np.where(on_feet[:, None], wanted - heights, 0.0)
         lift = hips_lift(drops, stance, slope=0.5 * leg / fps, floats=floats)
     else:
