@@ -167,21 +167,23 @@ def pose_legs(rig: RigData, body, rotations, locations, hips: int):
 
 @dataclass
 class Ground:
-    """A rig standing on its floor: its labels, Blender's up in its armature space, and the height its lowest
-    foot joint stands at when it stands (its floor plus its clearance)."""
+    """A rig standing on its floor: its labels, Blender's up in its armature space, the height its lowest
+    foot joint stands at when it stands (its floor plus its clearance), and its leg length (leg_length's)."""
     rig: RigData
     body: bone_mapping.Body
     up: np.ndarray
     standing: float
+    leg: float
 
 
 def stand_on_floor(source: Ground, source_pose, target: Ground, rotations, locations, hips: int, stances,
-                   height_scale: float, leg: float, fps: float) -> np.ndarray:
+                   height_scale: float, fps: float) -> np.ndarray:
     """Lifts the target's hips (its location channel, in place) where a standing leg cannot reach down to the
     height the source's foot stands at, scaled (height_scale), and returns how far each foot is still to
     rise (frames, legs) for the legs' solve, core.floor.feet_lifts. source_pose: the source clip's
     (orientations (frames, 4B), heads (frames, 3B)); rotations, locations: the target's pose channels;
-    stances: (frames, 4) the source's contacts (foot_contacts.POINTS order); leg: the target's leg length."""
+    stances: (frames, 4) the source's contacts (foot_contacts.POINTS order)."""
+    leg = target.leg
     wanted = target.standing + height_scale * (
         foot_heights(source.rig, source.body, *source_pose, source.up) - source.standing)
     tgt, up = target.rig, target.up
@@ -198,7 +200,7 @@ def stand_on_floor(source: Ground, source_pose, target: Ground, rotations, locat
                             [np.linalg.norm(a - h, axis=1).max() for h, _, a in ends])
         drops = reach_drops(np.stack([h for h, _, _ in ends], axis=1), np.stack([a for _, _, a in ends], axis=1),
                             wanted - heights, up, reach)
-        on_feet = on_its_feet(source, source_pose, leg / height_scale)  # the target's leg in the source's units
+        on_feet = on_its_feet(source, source_pose)
         floats = np.where(on_feet[:, None], wanted - heights, 0.0)
         lift = hips_lift(drops, stance, slope=0.5 * leg / fps, floats=floats)
     else:
@@ -221,11 +223,10 @@ RESTING = 0.12
 _ABOVE_FEET = ("upper_arm", "forearm", "hand", "thigh", "shin")
 
 
-def on_its_feet(ground: Ground, pose, leg: float) -> np.ndarray:
+def on_its_feet(ground: Ground, pose) -> np.ndarray:
     """(frames,) the frames on which the rig stands on its feet alone: none of its hips, spine, neck, head,
     shoulders, elbows, wrists, hip joints or knees (heads of the labelled bones) rests on its floor (within
-    RESTING legs of where it stands; leg: its leg length). pose: (orientations (frames, 4B), heads (frames,
-    3B))."""
+    RESTING of its legs of where it stands). pose: (orientations (frames, 4B), heads (frames, 3B))."""
     body, rig = ground.body, ground.rig
     names = [body.hips, *body.spine, *body.neck, body.head] + [
         body.limbs.get(f"{key}.{side}") for key in _ABOVE_FEET for side in bone_mapping.SIDES]
@@ -234,4 +235,4 @@ def on_its_feet(ground: Ground, pose, leg: float) -> np.ndarray:
     if not bones:
         return np.ones(len(heads), dtype=bool)
     heights = np.stack([heads[:, 3 * b:3 * b + 3] @ ground.up for b in bones], axis=1)
-    return (heights - ground.standing).min(axis=1) > RESTING * leg
+    return (heights - ground.standing).min(axis=1) > RESTING * ground.leg

@@ -356,10 +356,10 @@ def _stand_on_floor(rigs, clip, fit, rotations, locations, found, root) -> np.nd
     place), and how far each foot is still to rise, in world units."""
     height_scale = fit.unit_scale if root == "offset" else fit.scale
     lifts = floor_fit.stand_on_floor(
-        floor_fit.Ground(rigs.src, rigs.src.body, fit.source_up, fit.floors[0] + fit.clearances[0]),
+        floor_fit.Ground(rigs.src, rigs.src.body, fit.source_up, fit.floors[0] + fit.clearances[0], fit.heights[0]),
         (clip.rotations, clip.heads),
-        floor_fit.Ground(rigs.tgt, rigs.tgt.body, fit.up, fit.floors[1] + fit.clearances[1]),
-        rotations, locations, rigs.roots[1], found, height_scale, fit.heights[1], clip.fps)
+        floor_fit.Ground(rigs.tgt, rigs.tgt.body, fit.up, fit.floors[1] + fit.clearances[1], fit.heights[1]),
+        rotations, locations, rigs.roots[1], found, height_scale, clip.fps)
     return fit.target_scale * lifts
 
 

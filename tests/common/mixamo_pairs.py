@@ -244,18 +244,19 @@ def measure_san(mk, shared, source: str, target: str, clip: str, every: int = 1,
     height), "errors" {method: san_protocol.errors}, "joint_pose" {method: per-joint pose-alone %, in
     BODY_JOINTS order}, "seconds" {method: wall time}, "positions" {method: (frames, joints, 3) in world}
     and "reference" (the target's own clip's, the same shape)."""
-    source_path, target_path = san_path(shared, source, clip), san_path(shared, target, clip)
-    counts = [sp.read_bvh(path).values.shape[0] for path in (source_path, target_path)]
-    if counts[0] != counts[1]:
-        raise RuntimeError(f"{clip}: {source} has {counts[0]} frames, {target} {counts[1]}")
-    return _measure_bvh(mk, source_path, target_path, target, 0, every, methods)
+    paths = san_path(shared, source, clip), san_path(shared, target, clip)
+    whole, own = (_base_names(sp.read_bvh(path)) for path in paths)
+    if len(whole.values) != len(own.values):
+        raise RuntimeError(f"{clip}: {source} has {len(whole.values)} frames, {target} {len(own.values)}")
+    return _measure_bvh(mk, paths, (whole, own), target, 0, every, methods)
 
 
-def _measure_bvh(mk, source_path: str, target_path: str, name: str, start: int, every: int, methods) -> dict:
-    """source_path's clip retargeted onto the rest of target_path's armature, measured on every every-th frame
-    of target_path's own clip (Mixamo's answer), whose frames are the source's from start (0-based) on:
-    measure_san's figures, and "start". Joints by their names less a character's prefix."""
-    whole, own = _base_names(sp.read_bvh(source_path)), _base_names(sp.read_bvh(target_path))
+def _measure_bvh(mk, paths, clips, name: str, start: int, every: int, methods) -> dict:
+    """The source's clip retargeted onto the rest of the target's armature, measured on every every-th frame
+    of the target's own clip (Mixamo's answer), whose frames are the source's from start (0-based) on:
+    measure_san's figures, and "start". paths: (source, target) BVH files; clips: the same read, joints by
+    their names less a character's prefix (_base_names)."""
+    (source_path, target_path), (whole, own) = paths, clips
     count = min(len(own.values), len(whole.values) - start)
     rows = np.arange(0, count, every)  # the target clip's frames, 0-based
     frames = start + 1 + rows  # the same, as Blender's frames of the source's clip
@@ -329,9 +330,9 @@ def measure_excerpt(mk, source_path: str, target: str, part: str,
                     methods=("plain copy", "MotionKit"), clip: str = "Jumping") -> dict:
     """source_path's whole clip retargeted onto the rest of target's excerpt of clip (Blender's BVH importer),
     its body joints on the excerpt's frames against the excerpt's own (Mixamo's answer), as measure_san."""
-    path = excerpt_path(target, part, clip)
-    start = excerpt_start(_base_names(sp.read_bvh(source_path)), _base_names(sp.read_bvh(path)))
-    return _measure_bvh(mk, source_path, path, target, start, 1, methods)
+    paths = source_path, excerpt_path(target, part, clip)
+    clips = tuple(_base_names(sp.read_bvh(path)) for path in paths)
+    return _measure_bvh(mk, paths, clips, target, excerpt_start(*clips), 1, methods)
 
 
 def fbx_body(character: str) -> dict:

@@ -119,13 +119,13 @@ def test_a_target_standing_where_the_source_stands_stays_standing(core_native):
     """Both stand at rest: the target's hips come down no more than its legs' 0.1 % kept short of straight
     (the sample's knees are bent 0.6 degrees only), and the feet are to rise back by just that."""
     source, target = from_spec(characters.MIXAMO_T), from_spec(characters.RIGIFY_A)
-    ground = lambda rig: floor_fit.Ground(rig, rig.body, UP, 0.025)  # noqa: E731
+    ground = lambda rig: floor_fit.Ground(rig, rig.body, UP, 0.025, 0.9)  # noqa: E731
     frames, hips = 4, target.index(target.body.hips)
     rotations = np.tile([1.0, 0.0, 0.0, 0.0], (frames, len(target)))
     locations = np.zeros((frames, 3 * len(target)))
     stances = np.ones((frames, 4), dtype=bool)
     lifts = floor_fit.stand_on_floor(ground(source), _standing(source), ground(target), rotations, locations,
-                                     hips, stances, 1.0, 0.9, 30.0)
+                                     hips, stances, 1.0, 30.0)
     _, heads, _ = rig_fk.pose(target.parents, target.unit_rest, target.heads, target.lengths, rotations,
                               locations[:, 3 * hips:3 * hips + 3])
     drop = target.heads[hips] @ UP - heads[:, hips] @ UP
@@ -139,12 +139,12 @@ def test_feet_wanted_below_reach_bring_the_hips_down(core_native):
     its hips come down, and once posed (rig_fk) its ankles reach where they are wanted, within the 0.1 % of
     the leg the solve keeps short of a straight knee."""
     source, target = from_spec(characters.MIXAMO_T), from_spec(characters.MIXAMO_T)
-    ground = lambda rig: floor_fit.Ground(rig, rig.body, UP, 0.025)  # noqa: E731
+    ground = lambda rig: floor_fit.Ground(rig, rig.body, UP, 0.025, 0.9)  # noqa: E731
     frames, hips = 3, target.index(target.body.hips)
     rotations = np.tile([1.0, 0.0, 0.0, 0.0], (frames, len(target)))
     locations = np.zeros((frames, 3 * len(target)))
     floor_fit.stand_on_floor(ground(source), _standing(source, frames, 0.03), ground(target), rotations, locations,
-                             hips, np.ones((frames, 4), dtype=bool), 1.0, 0.9, 30.0)
+                             hips, np.ones((frames, 4), dtype=bool), 1.0, 30.0)
     _, heads, _ = rig_fk.pose(target.parents, target.unit_rest, target.heads, target.lengths, rotations,
                               locations[:, 3 * hips:3 * hips + 3])
     drop = target.heads[hips] @ UP - heads[:, hips] @ UP
@@ -156,12 +156,12 @@ def test_on_its_feet_unless_a_knee_or_a_wrist_rests_on_the_floor():
     RESTING) rest on the floor; a knee 20 % up (a deep crouch's) does not."""
     rig = from_spec(characters.MIXAMO_T)
     leg = floor_fit.leg_length(rig, rig.body, Pose.rest(rig), UP, rig.index(rig.body.hips))
-    ground = floor_fit.Ground(rig, rig.body, UP, 0.025)
+    ground = floor_fit.Ground(rig, rig.body, UP, 0.025, leg)
     orientations, heads = _standing(rig, 4)
     for frame, (bone, up) in enumerate([("shin.L", 0.05), ("hand.R", 0.05), ("shin.R", 0.2)], start=1):
         b = rig.index(rig.body.limbs[bone])
         heads[frame, 3 * b + 2] = ground.standing + up * leg
-    assert floor_fit.on_its_feet(ground, (orientations, heads), leg).tolist() == [True, False, False, True]
+    assert floor_fit.on_its_feet(ground, (orientations, heads)).tolist() == [True, False, False, True]
 
 
 def test_a_crouching_target_whose_feet_float_settles_its_hips_unless_the_source_kneels(core_native):
@@ -189,9 +189,9 @@ def test_a_crouching_target_whose_feet_float_settles_its_hips_unless_the_source_
             pose[1][:, 3 * knee + 2] = 0.025 + 0.01
         locations = np.zeros((frames, 3 * len(target)))
         # The target's floor half the crouch's rise above its rest soles' (its legs can reach that far).
-        lifts = floor_fit.stand_on_floor(floor_fit.Ground(source, source.body, UP, 0.025), pose,
-                                         floor_fit.Ground(target, target.body, UP, 0.025 + floating / 2), rotations,
-                                         locations, hips, np.ones((frames, 4), dtype=bool), 1.0, 0.9, 30.0)
+        lifts = floor_fit.stand_on_floor(floor_fit.Ground(source, source.body, UP, 0.025, 0.9), pose,
+                                         floor_fit.Ground(target, target.body, UP, 0.025 + floating / 2, 0.9),
+                                         rotations, locations, hips, np.ones((frames, 4), dtype=bool), 1.0, 30.0)
         _, heads, _ = rig_fk.pose(target.parents, target.unit_rest, target.heads, target.lengths, rotations,
                                   locations[:, 3 * hips:3 * hips + 3])
         drop = target.heads[hips] @ UP - heads[:, hips] @ UP
