@@ -90,6 +90,7 @@ class RetargetOptions:
     scale: float
     unit_scale: float
     vertical_offset: float
+    scale_horizontal: float
     space: npt.ArrayLike
     up: npt.ArrayLike
     source_floor: float

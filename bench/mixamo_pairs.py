@@ -1,7 +1,7 @@
 """Benchmark: retargets measured against Mixamo's own (the SAN protocol, tests/common/san_protocol.py).
 
     tools/with_blender.sh 3.4 -b --factory-startup --python bench/mixamo_pairs.py -- \\
-        --zip dist/motionkit-0.1.0-linux-x64-py311.zip [--every N] [--no-fbx] [--no-san] [--excerpts]
+        --zip dist/motionkit-0.1.0-linux-x64-py311.zip [--every N] [--no-fbx] [--no-san] [--excerpts [--stride]]
 
 Mixamo retargets every animation onto every character itself, so one clip on
 two characters is a reference answer (../shared/data/pairs, README there).
@@ -74,6 +74,8 @@ def main() -> None:
         parser.add_argument("--clips", nargs="*", help="only these SAN clips")
         parser.add_argument("--excerpts", action="store_true",
                             help="also Aj's and Kaya's clips onto the four characters of tests/data/mixamo_excerpts")
+        parser.add_argument("--stride", action="store_true",
+                            help="with --excerpts: also MotionKit given Mixamo's stride (Scale Horizontal)")
         parser.add_argument("--own", action="store_true",
                             help="each FBX target plays another clip of its own when the retarget starts")
 
@@ -83,18 +85,20 @@ def main() -> None:
     if not args.no_fbx:
         fbx_pairs(motionkit, args)
     if args.excerpts:
-        excerpt_pairs(motionkit)
+        excerpt_pairs(motionkit, args.stride)
 
 
-def excerpt_pairs(motionkit) -> None:
-    """Aj's and Kaya's whole clips onto each excerpt's rest, measured on the excerpt's frames; a table per clip."""
+def excerpt_pairs(motionkit, stride: bool) -> None:
+    """Aj's and Kaya's whole clips onto each excerpt's rest, measured on the excerpt's frames; a table per clip.
+    stride: MotionKit with Mixamo's own stride given (mixamo_pairs.STRIDE) besides."""
+    methods = ("plain copy", "MotionKit") + ((mp.STRIDE,) if stride else ())
     for clip in dict.fromkeys(c for c, _ in mp.EXCERPT_RUNS):
         rows = []
         for source in mp.SAN_CHARACTERS:
             for target in mp.EXCERPT_CHARACTERS:
                 for part in (p for c, p in mp.EXCERPT_RUNS if c == clip):
                     result = mp.measure_excerpt(motionkit, mp.san_path(harness.SHARED, source, clip), target, part,
-                                                clip=clip)
+                                                methods, clip=clip)
                     if not result["sanity"] <= EXCERPT_SANITY:
                         raise SystemExit(f"{target}'s {clip} ({part}): Blender's joints {result['sanity']:.2e} of "
                                          f"the height from the numpy reference (asked {EXCERPT_SANITY})")

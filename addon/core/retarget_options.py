@@ -69,6 +69,10 @@ class RetargetOptions:
     # "in_place" (only the vertical motion), "offset" (vertical as the source's plus the difference in
     # hip height) or "none" (the root stays where the match pose has it).
     root: str = "scaled"
+    # The travel across the floor ("scaled", "offset") times this, on top of the rigs' ratio: for a character
+    # whose stride its proportions do not give (Mixamo's path scales by a factor of each character's own that
+    # no skeleton measure gives, docs/benchmarks.md); Unreal's "Scale Horizontal". The height is not touched.
+    scale_horizontal: float = 1.0
     # The poses in which the two rigs stand alike: the source's 'REST' pose or its pose on match_frame
     # ('FRAME'), and the target's 'REST' or 'CURRENT' pose (SOURCE_MATCHES, TARGET_MATCHES).
     source_match: str = 'REST'
@@ -136,6 +140,9 @@ class RetargetOptions:
         if implied is not None and self.floor_root not in ("auto", implied):
             raise ValueError(f"root_motion_onto {self.root_motion_onto!r} moves the floor root itself "
                              f"({implied!r}): floor_root must be 'auto' or {implied!r}, not {self.floor_root!r}")
+        stride = self.scale_horizontal
+        if not (is_number(stride) and np.isfinite(stride) and stride >= 0):
+            raise ValueError(f"scale_horizontal must be a non-negative number, not {self.scale_horizontal!r}")
         smoothing = self.root_smoothing
         if not (is_number(smoothing) and np.isfinite(smoothing) and smoothing >= 0):
             raise ValueError(f"root_smoothing must be a non-negative number of seconds, not {smoothing!r}")

@@ -166,13 +166,13 @@ def extract_track(hips_rotations, hips_heads, hips_match_rotation, hips_match_he
 
 
 def copy_track(source_rotations, source_heads, source_match_rotation, source_match_head, space,
-               root_match_rotation, root_match_head, scale: float, horizontal: bool, vertical: bool):
+               root_match_rotation, root_match_head, scale: float, horizontal: float, vertical: bool):
     """The floor root moved as the source's floor root moved from its match pose, carried into target
-    space by `space` (4,) and scaled; horizontal/vertical False keep that part of the match pose."""
+    space by `space` (4,) and scaled; across the floor times horizontal besides (0 keeps the match pose's),
+    vertical False keeps the match pose's height."""
     turn = multiply(multiply(space, multiply(source_rotations, conjugate(source_match_rotation))), conjugate(space))
     moved = scale * rotate(space, source_heads - source_match_head)
-    if not horizontal:
-        moved[:, :2] = 0.0
+    moved[:, :2] *= horizontal
     if not vertical:
         moved[:, 2] = 0.0
     return sign_continuous(multiply(turn, root_match_rotation), _IDENTITY), root_match_head + moved
@@ -226,6 +226,7 @@ class FloorRootMotion:
     sigma_frames: float
     height: float | None = None  # "extract": the root's height (the floor's), else its match pose's
     up: np.ndarray | None = None  # "extract": the world's up in armature space (default Z)
+    scale_horizontal: float = 1.0  # "copy": the travel across the floor, times this on top of scale
 
 
 def move_floor_root(rig, match, rotations, locations, floor: int, hips: int, how: FloorRootMotion) -> None:
@@ -241,7 +242,8 @@ def move_floor_root(rig, match, rotations, locations, floor: int, hips: int, how
                               how.height, how.up)
     else:
         track = copy_track(*how.source_motion, how.space, match.rotations[floor], match.heads[floor], how.scale,
-                           horizontal=how.root in ("scaled", "offset"), vertical=how.root != "none")
+                           horizontal=how.scale_horizontal if how.root in ("scaled", "offset") else 0.0,
+                           vertical=how.root != "none")
     rest = FloorRootRest(floor, rig.parents[floor], hips, rig.parents[hips], rig.rest, rig.heads)
     root_parent = rig.parents[floor]
     parent_pose = None if root_parent < 0 else (block(posed_rotations, root_parent, 4),

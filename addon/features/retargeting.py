@@ -161,7 +161,7 @@ class Plan:
     pairs: list
     still_channels: list  # bones that keep the match pose: one key on the first frame
     still_values: np.ndarray  # (still_channels, 1)
-    leg_ratio: float = 1.0  # target leg length / source leg length, each along its legs
+    leg_ratio: float = 1.0  # the root path's scale: how high the target's hips stand / the source's (_Fit.scale)
     hips: tuple = (None, None)  # (source, target) bones that carry the body's translation
     floor_roots: tuple = (None, None)  # (source, target) floor roots above the hips, or None
     floor_root: str = "still"  # what the target's floor root did (FLOOR_ROOTS, "auto" resolved)
@@ -494,6 +494,7 @@ class _Fit:
     scale: float         # the root path's: target standing height / source's (floor_fit.standing_height)
     unit_scale: float    # source object scale / target object scale
     target_scale: float  # the target object's scale
+    scale_horizontal: float = 1.0  # the travel across the floor's, on top of scale (RetargetOptions')
 
 
 def _fit(rigs: _Rigs, clip: _Clip, o: RetargetOptions) -> _Fit:
@@ -522,7 +523,7 @@ def _fit(rigs: _Rigs, clip: _Clip, o: RetargetOptions) -> _Fit:
                                           target_clearance))
     return _Fit(placed.space, placed.up, placed.source_up, (source_floor, target_floor),
                 (source_clearance, target_clearance), (source_height, target_height), standing[1] / standing[0],
-                src.scale / tgt.scale, tgt.scale)
+                src.scale / tgt.scale, tgt.scale, o.scale_horizontal)
 
 
 # The target's own clip is read at no more frames than this (its floor needs where its feet come down, not
@@ -573,6 +574,7 @@ def _native_options(native, rigs: _Rigs, fit: _Fit, root, ground, chains):
     options = native.RetargetOptions()
     options.root_motion, options.scale, options.unit_scale = root, fit.scale, fit.unit_scale
     options.vertical_offset = fit.heights[1] - fit.unit_scale * fit.heights[0]
+    options.scale_horizontal = fit.scale_horizontal
     options.space, options.up = fit.space, fit.up
     options.source_floor, options.target_floor = fit.floors
     options.ground_bones = list(range(len(rigs.tgt))) if ground else []
@@ -639,7 +641,7 @@ def _place_roots(rigs: _Rigs, clip: _Clip, fit: _Fit, rotations, root_locations,
             root_motion.move_floor_root(rigs.tgt, rigs.target_pose, rotations, locations, target_floor_bone,
                                         target_root, root_motion.FloorRootMotion(
                                             mode, source_motion, fit.space, fit.scale, o.root,
-                                            o.root_smoothing * clip.fps, height, fit.up))
+                                            o.root_smoothing * clip.fps, height, fit.up, fit.scale_horizontal))
             located.append(target_floor_bone)
     return locations, located, mode
 
@@ -856,8 +858,8 @@ def retarget_clip(source, target, bone_map=None, frame_range=None, options: Reta
     source frames (default: the action's), one key per frame on the same
     frames.
     options: a RetargetOptions (core/retarget_options.py says what each field
-    does), its fields replaced by keywords of the same names: root (ROOT_MOTIONS),
-    source_match, match_frame and target_match (the poses in which the two rigs
+    does), its fields replaced by keywords of the same names: root (ROOT_MOTIONS)
+    and scale_horizontal (the travel across the floor times this besides), source_match, match_frame and target_match (the poses in which the two rigs
     stand alike), chain_modes (per chain, keep the target's posture or take the
     source's direction; by default the trunk keeps, a limb whose rest line lies
     farther than 15 degrees from the source's matches, the others keep, and

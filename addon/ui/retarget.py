@@ -163,6 +163,10 @@ class MOTIONKIT_PG_retarget(bpy.types.PropertyGroup):
     target_match: EnumProperty(name="Target Pose", items=retargeting.TARGET_MATCHES, default='REST',
                                description="The target's pose that matches the source's")
     root_motion: EnumProperty(name="Root Motion", items=retargeting.ROOT_MOTIONS, default="scaled")
+    scale_horizontal: FloatProperty(name="Stride", default=1.0, min=0.0, soft_max=2.0,
+                                    description="Scale Horizontal: the travel across the floor, times this on top "
+                                                "of the rigs' ratio (a character that strides wider or shorter "
+                                                "than its proportions say); the height is not touched")
     root_motion_onto: EnumProperty(name="Onto", items=retargeting.ROOT_MOTION_ONTO, default="auto",
                                    description="Where the target's travel goes: its hips, its root bone or its object")
     floor_root: EnumProperty(name="Floor Root", items=retargeting.FLOOR_ROOTS, default="auto",
@@ -236,7 +240,8 @@ class MOTIONKIT_PG_retarget(bpy.types.PropertyGroup):
         to set (each rig's rest soles) and plants feet where both rigs have them, or never. named=False
         leaves the channel map out (what the reference pose reads does not depend on it)."""
         return RetargetOptions(
-            root=self.root_motion, source_match=self.source_match, match_frame=self.match_frame,
+            root=self.root_motion, scale_horizontal=self.scale_horizontal, source_match=self.source_match,
+            match_frame=self.match_frame,
             target_match=self.target_match, ground=self.ground, align_facing=self.align_facing,
             floor_root=self.floor_root if self.root_motion_onto == "auto" else "auto",
             root_motion_onto=self.root_motion_onto, root_smoothing=self.root_smoothing,
@@ -757,6 +762,8 @@ class MOTIONKIT_PT_retarget_options(RetargetSubPanel, bpy.types.Panel):
         col.prop(settings, "target_match", text="Target")
         col = layout.column()
         col.prop(settings, "root_motion")
+        if settings.root_motion in ("scaled", "offset"):
+            col.prop(settings, "scale_horizontal")
         col.prop(settings, "root_motion_onto")
         if settings.root_motion_onto == "auto":
             col.prop(settings, "floor_root")

@@ -90,6 +90,8 @@ void BindRetargetOptions(py::module_& m) {
       .def_readwrite("scale", &RetargetOptions::scale, "target leg length / source leg length")
       .def_readwrite("unit_scale", &RetargetOptions::unit_scale, "target armature units per source one")
       .def_readwrite("vertical_offset", &RetargetOptions::vertical_offset, "offset: added to the root's height")
+      .def_readwrite("scale_horizontal", &RetargetOptions::scale_horizontal,
+                     "scaled, offset: the motion across the floor, times this on top of scale")
       // Plain arrays both ways: g++ 14 takes an Eigen temporary made in a lambda for uninitialized.
       .def_property(
           "space",

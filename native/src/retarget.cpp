@@ -435,14 +435,14 @@ class TargetPoser {
     double wanted_height = wanted.dot(up);
     switch (options.root_motion) {
       case RootMotion::kScaled:
-        wanted += options.scale * across;
+        wanted += options.scale * options.scale_horizontal * across;
         wanted_height = options.target_floor + options.scale * height;
         break;
       case RootMotion::kInPlace:
         wanted_height = options.target_floor + options.scale * height;
         break;
       case RootMotion::kOffset:
-        wanted += options.scale * across;
+        wanted += options.scale * options.scale_horizontal * across;
         wanted_height = options.target_floor + options.unit_scale * height + options.vertical_offset;
         break;
       case RootMotion::kNone:
@@ -509,8 +509,10 @@ Status RetargetJob::Validate() const {
     return Status::Fail("retarget: the bone map needs one entry per target bone");
   }
   if (!(std::isfinite(options.scale) && options.scale > 0 && std::isfinite(options.unit_scale) &&
-        options.unit_scale > 0 && std::isfinite(options.vertical_offset))) {
-    return Status::Fail("retarget: scale and unit_scale must be positive, vertical_offset finite");
+        options.unit_scale > 0 && std::isfinite(options.vertical_offset) && std::isfinite(options.scale_horizontal) &&
+        options.scale_horizontal >= 0)) {
+    return Status::Fail(
+        "retarget: scale and unit_scale must be positive, scale_horizontal not negative, vertical_offset finite");
   }
   if (!options.up.allFinite() || std::abs(options.up.norm() - 1.0) > 1e-6) {
     return Status::Fail("retarget: up must be a unit vector");

@@ -375,8 +375,8 @@ def test_root_motion_modes_and_feet_on_the_floor(mk, retargeting, walk60):
     pairs = retargeting.auto_map(source, target)
     hips = characters.UNREAL_A.canonical["hips"]
 
-    def hips_path(root, ground=False):
-        retargeting.apply(retargeting.plan(source, target, pairs, root=root, ground=ground, plant_feet=False))
+    def hips_path(root, **options):
+        retargeting.apply(retargeting.plan(source, target, pairs, root=root, plant_feet=False, **options))
         out = []
         for frame in (1, 60, 120, 182):
             bpy.context.scene.frame_set(frame)
@@ -390,6 +390,11 @@ def test_root_motion_modes_and_feet_on_the_floor(mk, retargeting, walk60):
     np.testing.assert_allclose(in_place[:, 2], scaled[:, 2], atol=1e-6)
     np.testing.assert_allclose(offset[:, :2], scaled[:, :2], atol=1e-6)
     np.testing.assert_allclose(none, np.tile(rest, (4, 1)), atol=1e-6)
+    # Scale Horizontal: the stride 1.4 times the scaled one from the rest's place, the height untouched.
+    for root, path in (("scaled", scaled), ("offset", offset)):
+        wider = hips_path(root, scale_horizontal=1.4)
+        np.testing.assert_allclose(wider[:, :2] - rest[:2], 1.4 * (path[:, :2] - rest[:2]), atol=1e-5)
+        np.testing.assert_allclose(wider[:, 2], path[:, 2], atol=1e-6)
     retargeting.apply(retargeting.plan(source, target, pairs, ground=True, plant_feet=False))
     bpy.context.scene.frame_set(1)
     lowest = min(min(target.matrix_world @ pb.head, target.matrix_world @ pb.tail, key=lambda v: v.z).z
@@ -583,6 +588,9 @@ def test_floor_root_modes_keep_the_world_pose(mk, retargeting, walk60, bandai, s
         assert moved == pytest.approx(plan.leg_ratio * np.linalg.norm(src_root[-1, 0, :2] - src_root[0, 0, :2]),
                                       rel=1e-6)
         assert np.abs(heads[:, root, 2]).max() < 1e-6
+        retargeting.apply(retargeting.plan(source, target, floor_root=mode, scale_horizontal=1.4))
+        wider, _ = world_tracks(target, ["root"], frames)
+        assert np.linalg.norm(wider[-1, 0, :2] - wider[0, 0, :2]) == pytest.approx(1.4 * moved, rel=1e-6)
     else:  # extract: on the floor, under the hips on average, turning with them
         assert np.abs(heads[:, root, 2]).max() < 1e-6
         gap = np.linalg.norm(heads[:, root, :2] - heads[:, hips, :2], axis=1)

@@ -215,9 +215,19 @@ def _timed(run):
     return result, time.perf_counter() - started
 
 
-def _blender_methods(mk, source, template, pairs, hips, names, frames, last, methods, own=None):
+# "MotionKit, Mixamo's stride": MotionKit with Scale Horizontal set so that the travel across the floor scales as
+# Mixamo's does between the two characters (the stride: target's / source's, given by the caller, MIXAMO_STRIDE):
+# what is left once the one factor no skeleton measure gives is known.
+STRIDE = "MotionKit, Mixamo's stride"
+# Mixamo's travel across the floor per character relative to Aj's: its hips' horizontal path on Catwalk Walk's
+# excerpt (tests/data/mixamo_excerpts) against Aj's on the same frames (numpy on the files, docs/benchmarks.md).
+MIXAMO_STRIDE = {"Aj": 1.0, "Kaya": 0.881, "BigVegas": 1.232, "Goblin_m": 1.337, "Mousey_m": 0.548,
+                 "SportyGranny": 1.078}
+
+
+def _blender_methods(mk, source, template, pairs, hips, names, frames, last, methods, own=None, stride=None):
     """Each Blender-side method on a fresh rest copy of template: {method: (joints, seconds)}. own: an action
-    of the target's own that MotionKit's copies play when the retarget starts."""
+    of the target's own that MotionKit's copies play when the retarget starts; stride: STRIDE's."""
     out = {}
     for method in methods:
         if method == "plain copy":
@@ -229,6 +239,9 @@ def _blender_methods(mk, source, template, pairs, hips, names, frames, last, met
             _, seconds = _timed(lambda: mk.retarget(source, target))
         elif method == "MotionKit, given map":
             _, seconds = _timed(lambda: mk.retarget(source, target, bone_map=pairs))
+        elif method == STRIDE:  # on top of MotionKit's own ratio of the rigs, which a plan tells
+            wider = stride / mk.retargeting.plan(source, target).leg_ratio
+            _, seconds = _timed(lambda: mk.retarget(source, target, scale_horizontal=wider))
         else:
             variant = method.split("(")[1].rstrip(")")
             _, seconds = _timed(lambda: constraint_way(source, target, pairs, hips, variant, last))
@@ -251,7 +264,7 @@ def measure_san(mk, shared, source: str, target: str, clip: str, every: int = 1,
     return _measure_bvh(mk, paths, (whole, own), target, 0, every, methods)
 
 
-def _measure_bvh(mk, paths, clips, name: str, start: int, every: int, methods) -> dict:
+def _measure_bvh(mk, paths, clips, name: str, start: int, every: int, methods, stride=None) -> dict:
     """The source's clip retargeted onto the rest of the target's armature, measured on every every-th frame
     of the target's own clip (Mixamo's answer), whose frames are the source's from start (0-based) on:
     measure_san's figures, and "start". paths: (source, target) BVH files; clips: the same read, joints by
@@ -281,7 +294,7 @@ def _measure_bvh(mk, paths, clips, name: str, start: int, every: int, methods) -
         joints["plain copy"] = bvh_to_blender(plain[rows][:, body])
     pairs = [(b.name, b.name) for b in template.data.bones if b.name in source_obj.data.bones]
     for method, (found, secs) in _blender_methods(mk, source_obj, template, pairs, (sp.HIPS, sp.HIPS), names,
-                                                  frames, start + count, methods).items():
+                                                  frames, start + count, methods, stride=stride).items():
         joints[method], seconds[method] = found, secs
     remove(source_obj, template)
     return {"frames": len(rows), "start": start, "height": height, "sanity": sanity, "pose_sanity": pose_sanity,
@@ -329,10 +342,13 @@ def excerpt_start(whole: sp.Bvh, excerpt: sp.Bvh) -> int:
 def measure_excerpt(mk, source_path: str, target: str, part: str,
                     methods=("plain copy", "MotionKit"), clip: str = "Jumping") -> dict:
     """source_path's whole clip retargeted onto the rest of target's excerpt of clip (Blender's BVH importer),
-    its body joints on the excerpt's frames against the excerpt's own (Mixamo's answer), as measure_san."""
+    its body joints on the excerpt's frames against the excerpt's own (Mixamo's answer), as measure_san. With
+    STRIDE among the methods, the stride is MIXAMO_STRIDE's between the source (named by its folder) and target."""
     paths = source_path, excerpt_path(target, part, clip)
     clips = tuple(_base_names(sp.read_bvh(path)) for path in paths)
-    return _measure_bvh(mk, paths, clips, target, excerpt_start(*clips), 1, methods)
+    source = os.path.basename(os.path.dirname(source_path))
+    stride = MIXAMO_STRIDE[target] / MIXAMO_STRIDE[source] if STRIDE in methods else None
+    return _measure_bvh(mk, paths, clips, target, excerpt_start(*clips), 1, methods, stride)
 
 
 def fbx_body(character: str) -> dict:

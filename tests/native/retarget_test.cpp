@@ -406,8 +406,13 @@ TEST(Retarget, RootMotionScalesAndGroundsAsAsked) {
   RetargetOptions o;
   o.scale = 0.5;
   EXPECT_NEAR((root_at(o, 4) - 0.5 * moved).norm(), 0, 1e-12);
+  // The stride scaled on its own: across the floor 1.3 times more, the height as before.
+  o.scale_horizontal = 1.3;
+  EXPECT_NEAR((root_at(o, 4) - Eigen::Vector3d(0.65 * moved.x(), 0.65 * moved.y(), 0.5 * moved.z())).norm(), 0,
+              1e-12);
   o.root_motion = RootMotion::kInPlace;
   EXPECT_NEAR((root_at(o, 4) - Eigen::Vector3d(0, 0, 0.5 * moved.z())).norm(), 0, 1e-12);
+  o.scale_horizontal = 1.0;
   // Unscaled height (in twice the units) plus the offset that makes standing heights agree.
   o.root_motion = RootMotion::kOffset;
   o.unit_scale = 2.0;

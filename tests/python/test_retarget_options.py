@@ -15,11 +15,11 @@ from core.foot_contacts import ContactSettings
 from core.retarget_options import RetargetOptions, check_frame_range, from_keywords
 
 DOCUMENTED_DEFAULTS = dict(
-    root="scaled", source_match="REST", match_frame=None, target_match="REST", ground=False, align_facing=True,
-    floor_root="auto", root_smoothing=0.25, root_motion_onto="auto", plant_feet=None, contact_settings=None,
-    source_floor=None, target_floor=None, floor_fit="legs", chain_modes=None, parts="whole", bones=None, into="new",
-    blend="replace", influence=1.0, channels=("scale", "properties", "shape_keys"), channel_map=None,
-    two_hands=True, prop_space="bone")
+    root="scaled", scale_horizontal=1.0, source_match="REST", match_frame=None, target_match="REST", ground=False,
+    align_facing=True, floor_root="auto", root_smoothing=0.25, root_motion_onto="auto", plant_feet=None,
+    contact_settings=None, source_floor=None, target_floor=None, floor_fit="legs", chain_modes=None, parts="whole",
+    bones=None, into="new", blend="replace", influence=1.0, channels=("scale", "properties", "shape_keys"),
+    channel_map=None, two_hands=True, prop_space="bone")
 
 
 def test_defaults_are_the_documented_ones_and_valid():
@@ -42,6 +42,7 @@ GOOD = [
     dict(root_motion_onto="root", floor_root="extract"), dict(root_motion_onto="object", floor_root="still"),
     dict(root_motion_onto="hips", floor_root="still"), dict(root_motion_onto="auto", floor_root="copy"),
     dict(source_match="FRAME", match_frame=0), dict(source_match="FRAME", match_frame=np.float64(12.5)),
+    dict(scale_horizontal=0), dict(scale_horizontal=np.float32(1.3)), dict(scale_horizontal=2),
     dict(target_match="CURRENT"), dict(root_smoothing=0), dict(root_smoothing=np.float32(2.0)),
     dict(plant_feet=True), dict(plant_feet=np.bool_(False)), dict(ground=np.bool_(True)), dict(align_facing=False),
     dict(source_floor=-0.02, target_floor=np.int64(1)), dict(contact_settings=ContactSettings(min_gap=0.0)),
@@ -71,6 +72,10 @@ BAD = [  # (field values, what the message must say: the option and the value)
     (dict(root_motion_onto="object", floor_root="extract"), r"floor_root must be 'auto' or 'still', not 'extract'"),
     (dict(root_motion_onto="hips", floor_root="copy"), r"floor_root must be 'auto' or 'still', not 'copy'"),
     (dict(root_smoothing=-1.0), r"root_smoothing must be a non-negative number of seconds, not -1\.0"),
+    (dict(scale_horizontal=-0.5), r"scale_horizontal must be a non-negative number, not -0\.5"),
+    (dict(scale_horizontal=float("inf")), r"scale_horizontal must be .*, not inf"),
+    (dict(scale_horizontal=True), r"scale_horizontal must be .*, not True"),
+    (dict(scale_horizontal="wide"), r"scale_horizontal must be .*, not 'wide'"),
     (dict(root_smoothing=float("nan")), r"root_smoothing must be .*, not nan"),
     (dict(root_smoothing=True), r"root_smoothing must be .*, not True"),
     (dict(root_smoothing="soft"), r"root_smoothing must be .*, not 'soft'"),

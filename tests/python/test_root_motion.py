@@ -106,6 +106,25 @@ def test_extracted_root_follows_the_hips_on_the_floor():
     np.testing.assert_allclose(rm.heading(root_q), yaw, atol=1e-12)
 
 
+def test_a_copied_floor_root_scales_its_stride_apart_from_its_height():
+    """copy_track: the source's floor root moved from its match pose, turned into the target's space and
+    scaled; across the floor times horizontal besides (Unreal's Scale Horizontal), 0 keeping the match pose's
+    place; its height only scaled, or kept when vertical is False."""
+    n = 40
+    t = np.arange(n)
+    source_q = rm.about_z(np.radians(0.7) * t)
+    source_h = np.stack([0.03 * t, -0.01 * t, 0.05 * np.sin(t)], axis=1) + [0.2, 0.1, 0.0]
+    match_q, match_h = np.array([1.0, 0, 0, 0]), np.array([0.2, 0.1, 0.0])
+    space = wxyz(Rotation.from_euler("z", 90, degrees=True))  # the target faces a quarter turn round
+    root_h = np.array([0.0, 0.0, 0.01])
+    moved = 0.5 * Rotation.from_euler("z", 90, degrees=True).apply(source_h - match_h)
+    for horizontal, vertical in ((1.0, True), (1.3, True), (0.0, True), (1.3, False)):
+        _, heads = rm.copy_track(source_q, source_h, match_q, match_h, space, match_q, root_h, 0.5, horizontal,
+                                 vertical)
+        np.testing.assert_allclose(heads[:, :2], root_h[:2] + horizontal * moved[:, :2], atol=1e-12)
+        np.testing.assert_allclose(heads[:, 2], root_h[2] + (moved[:, 2] if vertical else 0.0), atol=1e-12)
+
+
 def test_carry_keeps_the_hips_where_they_were_under_a_moving_root():
     """Blender's pose: pose = parent_pose @ parent_rest^-1 @ rest @ basis; re-expressed channels must
     put the hips back exactly, whatever the root does."""

@@ -45,6 +45,9 @@
 //             source armature units to target ones) plus `vertical_offset`
 //             (the caller passes the difference in hip heights);
 //   kNone     the root stays at the match pose.
+// `scale_horizontal` multiplies the motion across the floor (kScaled, kOffset)
+// on top of `scale`: a character whose stride the rigs' proportions do not
+// give (Unreal's "Scale Horizontal").
 // With ground_bones, the root is moved along up on every frame so that the
 // lowest of those bones' heads and tails touches the target's floor on the
 // first frame.
@@ -71,6 +74,7 @@ struct RetargetOptions {
   double scale = 1.0;       // target leg length / source leg length
   double unit_scale = 1.0;  // target armature units per source armature unit
   double vertical_offset = 0.0;  // kOffset: added to the root's unscaled height
+  double scale_horizontal = 1.0;  // kScaled, kOffset: the motion across up, times this on top of scale
   Eigen::Quaterniond space = Eigen::Quaterniond::Identity();  // source armature -> target armature
   Eigen::Vector3d up = Eigen::Vector3d::UnitZ();  // the target armature's up (unit)
   double source_floor = 0.0;  // the source floor's height along up, source units carried by space
