@@ -494,7 +494,7 @@ class _Fit:
     scale: float         # the root path's: target standing height / source's (floor_fit.standing_height)
     unit_scale: float    # source object scale / target object scale
     target_scale: float  # the target object's scale
-    scale_horizontal: float = 1.0  # the travel across the floor's, on top of scale (RetargetOptions')
+    scale_horizontal: float = 1.0  # the travel across the floor: times this on top of scale (the option's)
 
 
 def _fit(rigs: _Rigs, clip: _Clip, o: RetargetOptions) -> _Fit:
@@ -859,7 +859,8 @@ def retarget_clip(source, target, bone_map=None, frame_range=None, options: Reta
     frames.
     options: a RetargetOptions (core/retarget_options.py says what each field
     does), its fields replaced by keywords of the same names: root (ROOT_MOTIONS)
-    and scale_horizontal (the travel across the floor times this besides), source_match, match_frame and target_match (the poses in which the two rigs
+    and scale_horizontal (the travel across the floor times this besides),
+    source_match, match_frame and target_match (the poses in which the two rigs
     stand alike), chain_modes (per chain, keep the target's posture or take the
     source's direction; by default the trunk keeps, a limb whose rest line lies
     farther than 15 degrees from the source's matches, the others keep, and
