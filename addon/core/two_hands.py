@@ -52,6 +52,14 @@ def _smooth(ratio) -> np.ndarray:
     return t * t * (3.0 - 2.0 * t)
 
 
+def one_hold(weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A hand holds one prop at a time: on each frame the one it holds most (the first of equals). weights
+    (props, frames) as weights() gives them; returns that hold's weight (frames,) and which prop it is
+    (frames,), an index into weights' rows."""
+    which = np.argmax(weights, axis=0)
+    return weights[which, np.arange(weights.shape[1])], which
+
+
 def wanted_wrists(source: RigData, target: RigData, grip: Grip, source_pose, target_pose, space, scale):
     """(frames, 3) where the target's other wrist is to be: the source's wrist in the source prop's axes,
     carried into the target prop's axes (through the two rests and the turn between the armatures) and

@@ -5,6 +5,8 @@ mapped props moved as the source's move in the space the user picks (core.props)
 the retarget's _Rigs, _Clip, _Fit and Plan; written: the target bones it writes (indices; None: all)."""
 from __future__ import annotations
 
+import numpy as np
+
 from . import retarget_keys
 from ..core import bone_mapping, channel_carry, follow, native_state, props, two_hands
 from ..core.rig_data import RigData
@@ -91,18 +93,32 @@ def _grips(rigs, written) -> list:
 
 
 def two_hands_hold(rigs, clip, fit, plan_, written) -> None:
-    """A prop held in both hands: the target's other hand put where the source's holds it (core.two_hands)."""
-    grips = _grips(rigs, written)
-    if not grips:
+    """A prop held in both hands: the target's other hand put where the source's holds it (core.two_hands),
+    one prop at a time (core.two_hands.one_hold), each arm from the pose the other arm's hold leaves; only
+    the frames where the source's hand holds are posed and solved."""
+    arms = {}
+    for grip in _grips(rigs, written):
+        weight = two_hands.weights(rigs.src, grip, (clip.rotations, clip.heads))
+        if weight.any():
+            arms.setdefault((grip.upper, grip.forearm, grip.hand), []).append((grip, weight))
+    if not arms:
         return
     plan_.resolve()
     rotations, locations = plan_.pose
-    source_pose = (clip.rotations, clip.heads)
-    for grip in grips:
-        weight = two_hands.weights(rigs.src, grip, source_pose)
-        if not weight.any():
-            continue
-        posed = native_state.native().armature_pose(rigs.tgt.native, rotations, locations)
-        wanted = two_hands.wanted_wrists(rigs.src, rigs.tgt, grip, source_pose, posed, fit.space, fit.scale)
-        two_hands.reach(rigs.tgt, grip, rotations, posed, wanted, weight, fit.up)
-        retarget_keys.rekey(rigs, plan_, {grip.upper, grip.forearm})
+    for held in arms.values():
+        weight, which = two_hands.one_hold(np.stack([w for _, w in held]))
+        rows = np.flatnonzero(weight > 0.0)
+        part = np.ascontiguousarray(rotations[rows])
+        posed = native_state.native().armature_pose(rigs.tgt.native, part, np.ascontiguousarray(locations[rows]))
+        wrists = np.empty((rows.size, 3))
+        for i, (grip, _) in enumerate(held):
+            mine = which[rows] == i
+            if not mine.any():
+                continue
+            source = (clip.rotations[rows[mine]], clip.heads[rows[mine]])
+            wrists[mine] = two_hands.wanted_wrists(rigs.src, rigs.tgt, grip, source, (posed[0][mine], posed[1][mine]),
+                                                   fit.space, fit.scale)
+        arm = held[0][0]
+        two_hands.reach(rigs.tgt, arm, part, posed, wrists, weight[rows], fit.up)
+        rotations[rows] = part
+    retarget_keys.rekey(rigs, plan_, {b for upper, forearm, _ in arms for b in (upper, forearm)})

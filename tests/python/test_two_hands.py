@@ -38,3 +38,13 @@ def test_a_straight_arm_bends_its_elbow_down_to_reach_a_nearer_goal(core_native)
 def test_the_hold_eases_with_the_wrist_s_distance_from_the_prop():
     ratios = np.array([0.0, two_hands.HOLD / 2, 0.75 * two_hands.HOLD, two_hands.HOLD, 2.0])
     assert np.allclose(two_hands._smooth(ratios), [1.0, 1.0, 0.5, 0.0, 0.0])
+
+
+def test_a_hand_holds_the_prop_it_holds_most_one_at_a_time():
+    """Two props under one hand (a rifle and its magazine): on each frame the hold the other wrist is
+    nearest, with its weight; equal holds take the first."""
+    weights = np.array([[1.0, 0.2, 0.0, 0.5],
+                        [0.0, 0.7, 0.0, 0.5]])
+    weight, which = two_hands.one_hold(weights)
+    np.testing.assert_array_equal(weight, [1.0, 0.7, 0.0, 0.5])
+    np.testing.assert_array_equal(which, [0, 1, 0, 0])
