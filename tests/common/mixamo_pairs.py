@@ -220,7 +220,8 @@ def _timed(run):
 # what is left once the one factor no skeleton measure gives is known.
 STRIDE = "MotionKit, Mixamo's stride"
 # Mixamo's travel across the floor per character relative to Aj's: its hips' horizontal path on Catwalk Walk's
-# excerpt (tests/data/mixamo_excerpts) against Aj's on the same frames (numpy on the files, docs/benchmarks.md).
+# excerpt (tests/data/mixamo_excerpts; Kaya's whole clip in ../shared) against Aj's on the same frames (numpy on
+# the files, docs/benchmarks.md).
 MIXAMO_STRIDE = {"Aj": 1.0, "Kaya": 0.881, "BigVegas": 1.232, "Goblin_m": 1.337, "Mousey_m": 0.548,
                  "SportyGranny": 1.078}
 
