@@ -108,8 +108,8 @@ def two_hands_hold(rigs, clip, fit, plan_, written) -> None:
     for held in arms.values():
         weight, which = two_hands.one_hold(np.stack([w for _, w in held]))
         rows = np.flatnonzero(weight > 0.0)
-        part = np.ascontiguousarray(rotations[rows])
-        posed = native_state.native().armature_pose(rigs.tgt.native, part, np.ascontiguousarray(locations[rows]))
+        part = rotations[rows]  # a row index copies, C-contiguous, as the native call takes it
+        posed = native_state.native().armature_pose(rigs.tgt.native, part, locations[rows])
         wrists = np.empty((rows.size, 3))
         for i, (grip, _) in enumerate(held):
             mine = which[rows] == i
