@@ -64,6 +64,20 @@ def continuing_children(heads, parents) -> np.ndarray:
     return out
 
 
+def without_direction(heads, parents) -> np.ndarray:
+    """(bones,) bool: the bones that have children but none standing off their own head (a Mixamo `*_split`
+    joint or a twist bone at its parent's head makes that parent such a bone). Such a bone points nowhere
+    of its own: the importer gives it an axis of its choosing (Blender's BVH import, a millimetre along Z),
+    so that no angle between it and another rig's bone says the two stand in different poses. A leaf keeps
+    its direction (its tail is its end: a head top, a toe). heads (bones, 3), parents (bones,), parents
+    before children."""
+    heads = np.asarray(heads, dtype=np.float64)
+    parents = np.asarray(parents, dtype=np.int64)
+    has_children = np.zeros(len(heads), dtype=bool)
+    has_children[parents[parents >= 0]] = True
+    return has_children & (continuing_children(heads, parents) < 0)
+
+
 def aims(heads, tails, parents, rest, continuing=None) -> tuple[np.ndarray, np.ndarray] | None:
     """(bones, 3) where each bone points in its own rest frame, and (bones,) how far its aimed point lies
     from its head (the child's head; a bone left along Y or a leaf: its length), or None where every bone's

@@ -258,9 +258,9 @@ def plan(source, target, bone_map=None, frame_range=None, options: RetargetOptio
     wants_feet = plant_feet or (floor_fit != "off" and root != "none")
     feet = (_feet(rigs.src), _feet(rigs.tgt)) if wants_feet else (None, None)
     # The source's contacts count only where both rigs have feet.
-    rotations, root_locations, found = _retarget_clip(rigs, clip, fit, (root, ground, chains),
-                                                      None if None in feet else feet[0], contact_settings)
-    found, holds = found if found is not None else (None, None)  # the source's stances, and those held
+    rotations, root_locations, stances = _retarget_clip(rigs, clip, fit, (root, ground, chains),
+                                                       None if None in feet else feet[0], contact_settings)
+    found = stances.contacts if stances is not None else None  # the source's stances (contacts.Stances)
     twist.share_twist(rigs.tgt, rigs.tgt.body, rotations, {b for _, b in rigs.pairs_idx})
     locations, located, mode = _place_roots(rigs, clip, fit, rotations, root_locations, o)
     feet_lift = None
@@ -273,9 +273,10 @@ def plan(source, target, bone_map=None, frame_range=None, options: RetargetOptio
     # the leg, so that a retarget between alike legs keeps every bone's direction exactly.
     legs_solve = found is not None and lower_body and (plant_feet or (
         feet_lift is not None and np.abs(feet_lift).max(initial=0.0) > 5e-4 * fit.target_scale * fit.heights[1]))
-    planted = _plant_feet(rigs.tgt, feet[1], (found, holds) if plant_feet else (np.zeros_like(found),) * 2,
-                          clip.frames, rotations, locations, rigs.roots[1], contact_settings, clip.fps,
-                          beside=defer_solve, heights=feet_lift, hips_move=plant_feet) if legs_solve else None
+    planted = _plant_feet(rigs.tgt, feet[1], stances if plant_feet else _unplanted(stances), clip.frames, rotations,
+                          locations, rigs.roots[1], contact_settings, clip.fps, beside=defer_solve, heights=feet_lift,
+                          hips_move=plant_feet, paths=_source_paths(rigs, fit, stances) if plant_feet else None) \
+        if legs_solve else None
     # Root motion on the object is read from the hips' final path: after the feet's solve.
     onto_object = o.root_motion_onto == "object"
     plan_ = _plan_keys(rigs, clip, pairs, fit.scale, (rotations, locations), located, mode, planted, plant_feet,
@@ -561,6 +562,20 @@ def _posture_bones(rigs: _Rigs, chains, by_user: bool) -> list[int]:
     return reference_pose.kept_bones(rigs.tgt.names, list(rigs.tgt.parents), rigs.tgt.body, chains, by_user)
 
 
+def _posture_lists(rigs: _Rigs, chains) -> tuple[list[int], list[int]]:
+    """(posture_bones, posture_always) for the native retarget: Auto's kept bones, kept where their parents
+    carry them within 45 degrees of the source's, and the user's whatever the angle. A kept bone without a
+    direction of its own on either rig (bone_axes.without_direction) is kept whatever the angle too: an
+    angle to an axis the importer chose says nothing of a pose, and turning the bone would turn all it
+    carries (a spine under a `*_split` joint at its head)."""
+    src, tgt = rigs.src, rigs.tgt
+    aimless = bone_axes.without_direction(tgt.heads, list(tgt.parents))
+    source_aimless = bone_axes.without_direction(src.heads, list(src.parents))
+    aimless |= (rigs.bone_map >= 0) & source_aimless[np.maximum(rigs.bone_map, 0)]
+    auto, user = _posture_bones(rigs, chains, False), _posture_bones(rigs, chains, True)
+    return [b for b in auto if not aimless[b]], sorted(user + [b for b in auto if aimless[b]])
+
+
 def kept_bones(source, target, bone_map=None, options: RetargetOptions | None = None, **keywords) -> list[str]:
     """The target bones that keep their own posture in the reference pose (the others point where the
     source's do), as plan() decides them: the native retarget's kept_posture on the clip's first frame.
@@ -578,8 +593,7 @@ def _native_options(native, rigs: _Rigs, fit: _Fit, root, ground, chains):
     options.space, options.up = fit.space, fit.up
     options.source_floor, options.target_floor = fit.floors
     options.ground_bones = list(range(len(rigs.tgt))) if ground else []
-    options.posture_bones = _posture_bones(rigs, chains, False)
-    options.posture_always = _posture_bones(rigs, chains, True)
+    options.posture_bones, options.posture_always = _posture_lists(rigs, chains)
     options.helper_bones = bone_axes.helpers_between(rigs.tgt, [int(v) >= 0 for v in rigs.bone_map])
     return options
 
@@ -701,20 +715,37 @@ def _feet(rig: RigData) -> list | None:
         return None
 
 
+def _unplanted(stances):
+    """The source's stances with no contact to keep (not planting: the legs' solve only puts the feet on the
+    floor)."""
+    none = np.zeros_like(stances.contacts)
+    return contacts.Stances(none, none, stances.points)
+
+
+def _source_paths(rigs: _Rigs, fit: _Fit, stances) -> np.ndarray:
+    """(F, 4, 3) the source's foot points (contacts.Stances) carried into the target's world and scaled as the
+    root's path is: along them the contacts not held still slide, as the source's do. Only their changes
+    count (no translation is carried)."""
+    across = stances.points @ np.linalg.inv(rigs.src.world)[:3, :3].T
+    across = rotation_channels.rotate(fit.space, across.reshape(-1, 3)).reshape(across.shape)
+    return fit.scale * fit.scale_horizontal * across @ rigs.tgt.world[:3, :3].T
+
+
 def _plant_feet(tgt: RigData, tgt_feet, found, frames, rotations, locations, target_root, settings, fps,
-                beside: bool = False, heights=None, hips_move: bool = True):
-    """The source's contacts (found: its stances, and those held still as read on the source's motion, a pivot
+                beside: bool = False, heights=None, hips_move: bool = True, paths=None):
+    """The source's contacts (found: contacts.Stances, those held still read on the source's motion, a pivot
     being the source's whatever the target's feet) to be held by the target's feet (contacts.staged_cleanup,
     which writes the solved legs into rotations and locations): (prepare, finish, target feet, contacts).
     heights: (frames, legs) world lifts of the standing feet (the floor's), or None to hold the plants' own
-    heights; hips_move: the hips' translation is solved for too (planting), else only the legs move."""
+    heights; hips_move: the hips' translation is solved for too (planting), else only the legs move; paths:
+    _source_paths, along which the contacts not held slide (None: they follow the pose)."""
     # Beside the rest of the retarget (beside=True), which keeps one core busy, the solve takes the others.
-    stances, holds = found
-    prepare, finish = contacts.staged_cleanup(tgt, frames, rotations, locations, tgt_feet, stances, settings,
+    prepare, finish = contacts.staged_cleanup(tgt, frames, rotations, locations, tgt_feet, found.contacts, settings,
                                               hips=tgt.names[target_root], fps=fps, in_place=True,
                                               threads=max(1, (os.cpu_count() or 1) - 1) if beside else 0,
-                                              follow_heights=heights, hips_move=hips_move, holds=holds)
-    return prepare, finish, tgt_feet, stances
+                                              follow_heights=heights, hips_move=hips_move, holds=found.holds,
+                                              paths=paths)
+    return prepare, finish, tgt_feet, found.contacts
 
 
 def apply(plan_: Plan, *, action_name: str | None = None, overwrite: bool = False) -> bpy.types.Action:

@@ -214,6 +214,14 @@ class Plan {
       top = t.parent(top);
     }
     if (top < 0 || chain.size() < 2) return;
+    // In a chain kept in the target's posture each mapped bone carries its source bone's turn and the
+    // joints between stay as the target's rest carries them, as a rotation copy between characters standing
+    // alike leaves them (Mixamo's own retargets leave its `*_split` joints unturned): sharing the turn
+    // along them would bend the chain where the target's joints lie, not where the source's do.
+    if (std::all_of(chain.begin() + 1, chain.end(), [this](int c) { return kept_[static_cast<std::size_t>(c)]; })) {
+      for (std::size_t j = 1; j < chain.size(); ++j) spanned_[static_cast<std::size_t>(chain[j])] = true;
+      return;
+    }
     // The top bone aims past helper joints at b (a clavicle past a `*_split` joint at its arm,
     // core/bone_axes): it spans the chain itself, as the source's one bone does, and the joints between are
     // carried. Other joints between (a two-bone neck's, a spine's) are segments: they share the turn.

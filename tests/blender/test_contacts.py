@@ -435,3 +435,26 @@ def test_plant_refuses_a_nan_key_away_from_the_legs_naming_bone_and_frame(mk, co
     with pytest.raises(ValueError, match=rf"bone '{bone}'.*frame 21"):
         contacts.plant(obj)
     assert _state(obj) == before
+
+
+def test_planted_feet_hold_on_a_rig_with_longer_legs(mk, walk60, tmp_path):
+    """walk60 onto a copy of its own skeleton whose legs are 30 % longer (knee, ankle and toe offsets, made
+    from the file by tests/common/made_characters.py): no stance slides more than the source's own, scaled by
+    the legs' ratio, plus test_feet_metarig.SLIDE_SLACK."""
+    import made_characters as made
+    import san_protocol as sp
+    from test_feet_metarig import SLIDE_SLACK, stance_slides
+    longer = sp.read_bvh(walk60)
+    for j, name in enumerate(longer.names):
+        if any(part in name for part in ("Knee", "Ankle", "Toe")):
+            longer.offsets[j] = 1.3 * longer.offsets[j]
+    path = str(tmp_path / "walk60_long.bvh")
+    made.write_bvh(longer, path)
+    source, _ = load(mk, walk60, "source")
+    target, _ = load(mk, path, "longer legs")
+    target.animation_data.action = None  # its rest alone: the retarget's target
+    plan = mk.retargeting.plan(source, target)
+    mk.retargeting.apply(plan)
+    slides = stance_slides(mk, source, target, plan)
+    print("\nslides (mm, target / source scaled) " + " ".join(f"{1000 * t:.1f}/{1000 * s:.1f}" for t, s in slides))
+    assert len(slides) >= 5 and all(t <= s + SLIDE_SLACK for t, s in slides), slides

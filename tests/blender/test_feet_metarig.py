@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 from mathutils import Matrix, Quaternion
 
+import stances
 from test_bone_mapping_metarig import metarig  # noqa: F401  (the fixture)
 from test_production_files import _feet, _lowest, _rest_floor, _stance, _world_leg, fbx_dir, import_fbx  # noqa: F401
 
@@ -111,3 +112,41 @@ def test_the_feet_are_held_by_their_ankles_and_balls(mk, metarig):  # noqa: F811
     print(f"\nmetarig foot points (ankle, ball; L, R) off Blender's: {off} m")
     assert [f.toe for f in feet] == ["toe.L", "toe.R"]
     assert off.max() < POINT_M
+
+
+# A stance's slide on the target (the tests' own rule: stances.stance on the source, runs of at least 0.08 s,
+# each ankle's stray across the floor as Blender evaluates it) against the source's own, scaled by the legs'
+# ratio: 2 mm beyond it is what a planted foot may add (a tenth of the millimetre a held contact keeps, plus
+# the eased blends at a slide's ends).
+SLIDE_SLACK = 2e-3
+
+
+def stance_slides(mk, source, target, plan):
+    """[(target's slide, the source's scaled)] per stance of the source, world metres."""
+    frames = plan.frames
+    src_feet, tgt_feet = _feet(mk, source), _feet(mk, target)
+    src_low, src_ankles = _lowest(source, src_feet, frames)
+    _, tgt_ankles = _lowest(target, tgt_feet, frames)
+    fps = mk.animdata.frame_rate(source.animation_data.action)
+    src_leg = _world_leg(source, src_feet)
+    stance = stances.stance(src_low, src_ankles, src_leg, fps)
+    shortest = int(np.ceil(0.08 * fps))
+    ratio = _world_leg(target, tgt_feet) / src_leg
+    return [(t[3], ratio * s[3]) for s, t in zip(stances.slides(src_ankles, stance, shortest),
+                                                 stances.slides(tgt_ankles, stance, shortest))]
+
+
+@pytest.mark.parametrize("clip", ["walk60", "ybot@kick.fbx"])
+def test_a_planted_foot_slides_no_more_than_the_source_s(mk, walk60, fbx_dir, metarig, clip):  # noqa: F811
+    """The metarig's legs and feet are proportioned apart from either source's: a stance the source holds
+    still stays held, and one the source lets slide or swivel (the kick's standing foot) slides as the
+    source's does, scaled, not as the metarig's own proportions would swing it (a foot left to them slides
+    79 mm where the source's slides 13 mm)."""
+    source = mk.bvh.load(walk60)[0] if clip == "walk60" else import_fbx(os.path.join(fbx_dir, clip))
+    plan = mk.retargeting.plan(source, metarig)
+    mk.retargeting.apply(plan)
+    slides = stance_slides(mk, source, metarig, plan)
+    print(f"\n{clip} onto the metarig: slides (mm, target / source scaled) "
+          + " ".join(f"{1000 * t:.1f}/{1000 * s:.1f}" for t, s in slides))
+    assert len(slides) >= 5
+    assert all(t <= s + SLIDE_SLACK for t, s in slides), slides

@@ -12,6 +12,7 @@ import os
 import bpy
 import numpy as np
 
+import made_characters as made
 import san_protocol as sp
 
 SAN_CHARACTERS = ("Aj", "Kaya")
@@ -398,3 +399,18 @@ def measure_fbx(mk, shared, source: str, target: str, clip: str, every: int = 1,
     hips_column = measured.index(sp.HIPS)
     return {"frames": len(frames), "height": height, "sanity": None, "seconds": seconds, "joints": len(names),
             "errors": {m: sp.errors(joints[m], reference, height, hips_column) for m in methods}}
+
+
+def measure_made(mk, whole_path: str, made_path: str, made_is_source: bool, scratch: str) -> dict:
+    """A character made from an excerpt (made_characters: its own clip still Mixamo's answer for it) as the
+    target of whole_path's clip, or, made_is_source, as the source onto the rest of whole_path's character,
+    measured on the excerpt's frames against whole_path's own clip cut to them (written into scratch)."""
+    whole, excerpt = (_base_names(sp.read_bvh(path)) for path in (whole_path, made_path))
+    start = excerpt_start(whole, excerpt)
+    if not made_is_source:
+        return _measure_bvh(mk, (whole_path, made_path), (whole, excerpt), "made", start, 1,
+                            ("plain copy", "MotionKit"))
+    answer = os.path.join(scratch, "answer.bvh")
+    made.write_bvh(made.frames(sp.read_bvh(whole_path), start, len(excerpt.values)), answer)
+    return _measure_bvh(mk, (made_path, answer), (excerpt, _base_names(sp.read_bvh(answer))), "answer", 0, 1,
+                        ("plain copy", "MotionKit"))

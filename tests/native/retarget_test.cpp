@@ -340,6 +340,40 @@ TEST(Retarget, ASecondNeckBoneSharesTheNecksTurnAndAPelvisIsCarried) {
   }
 }
 
+// The same rigs with the trunk kept in the target's posture (posture_bones): each mapped bone turns as its
+// source bone from its own rest, and the second neck bone, unmapped, stays as its neck carries it, as a
+// rotation copy between characters standing alike leaves it.
+TEST(Retarget, InAKeptChainTheJointsBetweenMappedBonesAreCarried) {
+  const std::vector<BoneSpec> one{{"hips", -1, {0, 0, 1.0}, {0, 0, 1.1}, 0.0},
+                                  {"chest", 0, {0, 0, 1.1}, {0, 0, 1.5}, 0.0},
+                                  {"neck", 1, {0, 0, 1.5}, {0, 0.02, 1.62}, 0.0},
+                                  {"head", 2, {0, 0.02, 1.62}, {0, 0.02, 1.8}, 0.0}};
+  const std::vector<BoneSpec> two{{"hips", -1, {0, 0, 1.0}, {0, 0, 1.1}, 0.0},
+                                  {"chest", 0, {0, 0, 1.1}, {0, 0.03, 1.5}, 0.0},
+                                  {"neck", 1, {0, 0.03, 1.5}, {0, 0.05, 1.56}, 0.0},
+                                  {"neck.001", 2, {0, 0.05, 1.56}, {0, 0.02, 1.62}, 0.0},
+                                  {"head", 3, {0, 0.02, 1.62}, {0, 0.02, 1.8}, 0.0}};
+  const RigModel source = MakeRig(one), target = MakeRig(two);
+  const Posed posed = Pose(source, RandomPoses(source.size(), 10, 9), RowMatrixXd::Zero(10, 3 * source.size()));
+  RetargetOptions options;
+  for (int b = 0; b < target.size(); ++b) options.posture_bones.push_back(b);
+  RowMatrixXd rotations;
+  const std::vector<int> kept = KeptPosture(source, target, posed, options, &rotations);
+  EXPECT_EQ(kept.size(), static_cast<std::size_t>(target.size()));
+  const Posed result = Pose(target, rotations, RowMatrixXd::Zero(10, 3 * target.size()));
+  const int neck = target.Find("neck"), between = target.Find("neck.001");
+  for (int f = 0; f < 10; ++f) {
+    for (const char* name : {"hips", "chest", "neck", "head"}) {
+      const int b = target.Find(name), a = source.Find(name);
+      const Eigen::Quaterniond ours = QuatAt(result.rotations, f, b) * target.rest(b).conjugate();
+      const Eigen::Quaterniond theirs = QuatAt(posed.rotations, f, a) * source.rest(a).conjugate();
+      EXPECT_LT(ours.angularDistance(theirs), 1e-9) << name << " frame " << f;
+    }
+    const Eigen::Quaterniond carried = QuatAt(result.rotations, f, neck) * target.relative(between);
+    EXPECT_LT(QuatAt(result.rotations, f, between).angularDistance(carried), 1e-9) << "frame " << f;
+  }
+}
+
 // Mixamo's `*_split` joints: the target's clavicle runs to a helper joint 63 degrees up before its arm, the
 // source's straight to its arm. Aimed past the helper at the arm (target_aims) with the helper among
 // helper_bones, the clavicle turns as the source's and the helper is carried; without helper_bones the

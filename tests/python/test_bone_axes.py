@@ -149,3 +149,15 @@ def test_a_middle_joint_on_the_line_is_a_segment_not_a_helper():
     _, target_aims = bone_axes.paired_aims(source, target, [0, 1, -1, 2])
     assert _aimed_at(target, target_aims, 1, 3) == pytest.approx(1.0, abs=1e-12)
     assert bone_axes.helpers_between(target, [True, True, False, True]) == [2]
+
+
+def test_a_bone_whose_children_all_start_at_its_head_has_no_direction():
+    # 0 -> 1 -> 2 (on 1's head, a `*_split` joint) -> 3, and a leaf 4 off 3: only 1 points nowhere of its own.
+    heads = np.array([[0, 0, 0], [0, 0, 1], [0, 0, 1], [0, 0.1, 2], [0, 0.1, 3]], dtype=float)
+    parents = [-1, 0, 1, 2, 3]
+    np.testing.assert_array_equal(bone_axes.without_direction(heads, parents), [False, True, False, False, False])
+
+
+def test_a_bone_with_one_child_apart_among_children_on_its_head_keeps_its_direction():
+    heads = np.array([[0, 0, 0], [0, 0, 0], [0, 0, 1]], dtype=float)  # a twist bone on its head, a child apart
+    np.testing.assert_array_equal(bone_axes.without_direction(heads, [-1, 0, 0]), [False, False, False])

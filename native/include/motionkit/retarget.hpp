@@ -30,7 +30,10 @@
 // between two mapped bones (b0 above b) take, at the fraction of the chain's
 // length where their tails lie, the rotation interpolated (slerp) along the
 // source chain between a0 and a, so the chain bends as the source's does and
-// ends as a. Other unmapped bones keep the match pose's local rotation.
+// ends as a; where they are all posture bones (a chain kept in the target's
+// posture) they keep the match pose's local rotation instead, as a rotation
+// copy between characters standing alike leaves them. Other unmapped bones
+// keep the match pose's local rotation.
 //
 // Root motion: the target root's head moves across `up` (the target
 // armature's up direction) as the source root moved from its match pose, and
