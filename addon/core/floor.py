@@ -16,8 +16,10 @@ from __future__ import annotations
 import numpy as np
 
 
-# A rest pose whose soles lie farther than this (in leg lengths) from where the clip's feet come down does
-# not stand on the clip's floor.
+# A rest pose whose feet lie farther than this (in leg lengths) from where the clip's feet come down does not
+# stand on the clip's floor: a standing clip's feet come down to within a few hundredths of a leg of the rest's
+# (a crouch lifts the heels, a tiptoe the ankles, by a tenth at most), a rest hanging from its origin lies a
+# whole leg below.
 _HANGING_REST = 0.25
 # The clip's floor: the lowest foot point's low percentile over the clip (a few stray frames aside).
 _FLOOR_PERCENTILE = 2.0
@@ -51,19 +53,21 @@ def clearance(soles: float, floor: float, leg_length: float) -> float:
     return above if 0.0 <= above <= _JOINT_ABOVE_SOLE * leg_length else 0.0
 
 
-def clip_floor(rest_floor: float, lowest, leg_length: float) -> float:
-    """The floor a source clip walks on: its rest pose's soles when the clip's feet come down to them;
-    otherwise (a rest pose hanging below the ground, or a zero pose) the armature origin's level when the
-    feet come down to that (a capture's floor), else the lowest the feet reach.
+def clip_floor(rest_floor: float, lowest, leg_length: float, rest_lowest: float) -> float:
+    """The floor a source clip walks on: its rest pose's when the clip's feet come down to where the rest pose
+    has them; otherwise (a rest pose hanging below the ground, or a zero pose) the armature origin's level
+    when the feet come down to that (a capture's floor), else the lowest the feet reach.
 
-    lowest: (frames,) the lowest foot point's height on each frame.
+    lowest: (frames,) the lowest foot joint's height on each frame; rest_lowest: the same joints' lowest at
+    rest. Joints are held against joints, never against the soles: an ankle rides above the sole by a share
+    of the leg that differs from body to body (a child's by over a quarter of its leg, an adult's by a tenth).
     """
     lowest = np.asarray(lowest, dtype=np.float64)
     if not len(lowest):
         return rest_floor
     reached = clip_low(lowest)
     near = _HANGING_REST * leg_length
-    if abs(reached - rest_floor) <= near:
+    if abs(reached - rest_lowest) <= near:
         return rest_floor
     return 0.0 if abs(reached) <= near else reached
 
@@ -74,13 +78,13 @@ def clip_low(lowest) -> float:
     return float(np.percentile(np.asarray(lowest, dtype=np.float64), _FLOOR_PERCENTILE))
 
 
-def own_clip_floor(rest_floor: float, lowest, leg_length: float) -> float:
+def own_clip_floor(rest_floor: float, lowest, leg_length: float, rest_lowest: float) -> float:
     """The floor a target stands on, from its rest floor and a clip of its own (the action it plays): the
     armature origin's level where its rest hangs off that level and the clip's feet come down to it
     (clip_floor's capture case: girl1 of ../shared/data/pairs, her rest's hips at her origin and her clips
     walking on it), else its rest floor. Only that case: a target's action may be any clip (a jump, a
     climb), so the lowest its feet reach sets no floor on its own."""
-    return 0.0 if clip_floor(rest_floor, lowest, leg_length) == 0.0 else rest_floor
+    return 0.0 if clip_floor(rest_floor, lowest, leg_length, rest_lowest) == 0.0 else rest_floor
 
 
 def _through_stance(values, stance) -> np.ndarray:

@@ -147,7 +147,8 @@ def _floor_of(rig: RigData, found, up, given, heads_over_clip, soles, lengths, o
     if heads_over_clip is None or not feet:
         return rest
     lowest = _lowest_feet(feet, up, heads_over_clip)
-    return (own_clip_floor if own else clip_floor)(rest, lowest, float(np.mean(lengths)))
+    rest_lowest = float(np.min(rig.heads[feet] @ up))
+    return (own_clip_floor if own else clip_floor)(rest, lowest, float(np.mean(lengths)), rest_lowest)
 
 
 def pose_legs(rig: RigData, body, rotations, locations, hips: int):

@@ -84,3 +84,17 @@ def test_a_leg_that_cannot_reach_still_brings_the_hips_further_down():
     drops[:, 1] = -0.08
     lift = floor.hips_lift(drops, stance, SLOPE, floats=np.full((FRAMES, 2), -0.05))
     np.testing.assert_allclose(lift[10:30], -0.08, rtol=0, atol=1e-15)
+
+
+def test_a_clip_whose_feet_come_down_where_the_rest_has_them_walks_on_the_rest_floor():
+    # A child (its ankles 13 cm above its soles on a 50 cm leg, 26 %) and an adult (9 cm on 90 cm): the clip's
+    # ankles held against the rest's ankles, each stands on its rest's floor (here the origin's level).
+    for ankles, leg in ((13.28, 50.0), (9.0, 90.0)):
+        lowest = ankles + np.array([0.0, 0.4, 3.0, 12.0])
+        assert floor.clip_floor(0.0, lowest, leg, rest_lowest=ankles) == 0.0
+
+
+def test_a_rest_hanging_below_its_origin_walks_on_the_origin_s_level_or_where_the_feet_come_down():
+    lowest = np.full(10, 8.0)  # ankles 8 cm above the origin on every frame
+    assert floor.clip_floor(-90.0, lowest, 90.0, rest_lowest=-82.0) == 0.0
+    assert floor.clip_floor(-190.0, lowest + 60.0, 90.0, rest_lowest=-182.0) == pytest.approx(68.0)
