@@ -241,12 +241,12 @@ class MOTIONKIT_PG_retarget(bpy.types.PropertyGroup):
         leaves the channel map out (what the reference pose reads does not depend on it)."""
         return RetargetOptions(
             root=self.root_motion, scale_horizontal=self.scale_horizontal, source_match=self.source_match,
-            match_frame=self.match_frame,
+            match_frame=self.match_frame if self.source_match == 'FRAME' else None,
             target_match=self.target_match, ground=self.ground, align_facing=self.align_facing,
             floor_root=self.floor_root if self.root_motion_onto == "auto" else "auto",
             root_motion_onto=self.root_motion_onto, root_smoothing=self.root_smoothing,
             plant_feet=None if self.plant_feet else False, contact_settings=contact_ui.settings(self.contacts),
-            floor_fit=self.floor_fit, chain_modes=self.reference_pose.chain_modes(),
+            floor_fit=self.floor_fit, chain_modes=self.reference_pose.chain_modes() or None,
             channels=tuple(c for c in channel_carry.IDS if c in self.channels),
             channel_map=self.channel_map() if named else None, prop_space=self.prop_space, two_hands=self.two_hands,
             **self._written())

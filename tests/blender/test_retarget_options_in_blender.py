@@ -6,6 +6,8 @@ between two runs of the same code, measured on Blender 3.4 over 404,586 values),
 about ten times that: far below what any option changes (in place against scaled moves the hips by
 metres).
 """
+import dataclasses
+
 import bpy
 import numpy as np
 import pytest
@@ -124,3 +126,35 @@ def test_the_panel_fills_the_options_from_its_settings(mk):
     finally:
         for n, v in before.items():
             setattr(settings, n, v)
+
+
+def _same(ours, theirs) -> bool:
+    """Equal, floats to float32's precision (a float property holds float32: 0.06 reads 0.0599999986)."""
+    if isinstance(theirs, tuple) and isinstance(ours, tuple) and len(ours) == len(theirs):
+        return all(_same(a, b) for a, b in zip(ours, theirs))
+    if isinstance(theirs, float):
+        return ours == pytest.approx(theirs, rel=1e-7)
+    return ours == theirs
+
+
+def test_a_fresh_panel_gives_the_defaults_of_retarget_options(mk):
+    """The panel's property group and RetargetOptions are two writings of the same defaults: a fresh scene's
+    panel fills every field of RetargetOptions as RetargetOptions() has it (contact_settings as the detection's
+    defaults, which None stands for), so that the button and motionkit.retarget() do the same thing."""
+    from motionkit.core.foot_contacts import ContactSettings
+    from motionkit.core import retarget_options
+    from motionkit.core.retarget_options import RetargetOptions
+    scene = bpy.data.scenes.new("fresh panel")
+    try:
+        panel, defaults = scene.motionkit_retarget.retarget_options(), RetargetOptions()
+        drifted = {}
+        for name in retarget_options.NAMES:
+            ours, theirs = getattr(panel, name), getattr(defaults, name)
+            if name == "contact_settings":
+                ours, theirs = dataclasses.astuple(ours or ContactSettings()), dataclasses.astuple(
+                    theirs or ContactSettings())
+            if not _same(ours, theirs):
+                drifted[name] = (ours, theirs)
+        assert not drifted, f"the panel's defaults (left) against RetargetOptions' (right): {drifted}"
+    finally:
+        bpy.data.scenes.remove(scene)
