@@ -9,6 +9,7 @@ checks the latter's form; whether it holds frames of the action is for the calle
 from __future__ import annotations
 
 import dataclasses
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -26,6 +27,9 @@ FLOOR_FITS = (
     ("hips", "Hips",
      "Only the hips' height: the legs point exactly as the source's, a foot may stand a little off the floor"),
     ("off", "Off", "The hips at the source's height above its floor, scaled; nothing else"),
+    ("first_frame", "First Frame",
+     "The whole clip moved once so that the target's lowest point touches its floor on the first frame: the "
+     "clip's own heights kept, no frame's feet fitted apart"),
 )
 ROOT_MOTIONS = (
     ("scaled", "Scaled", "Translation scaled by the ratio of how high the rigs' hips stand"),
@@ -78,9 +82,6 @@ class RetargetOptions:
     source_match: str = 'REST'
     match_frame: float | None = None
     target_match: str = 'REST'
-    # Move the root so that the target's lowest point touches its floor (armature Z = 0) on the first
-    # frame, the clip's heights kept (no floor_fit).
-    ground: bool = False
     # Turn the motion so that each rig walks the way it faces.
     align_facing: bool = True
     # What a target's bone on the floor above the hips (Unreal's root) does (FLOOR_ROOTS): "auto",
@@ -100,7 +101,9 @@ class RetargetOptions:
     source_floor: float | None = None
     target_floor: float | None = None
     # How the feet are put on the target's floor where the source's stand on its own (FLOOR_FITS):
-    # "legs" (hips and legs), "hips" (the legs keep the source's directions exactly) or "off".
+    # "legs" (hips and legs), "hips" (the legs keep the source's directions exactly), "off", or
+    # "first_frame" (the whole clip moved once so that the target's lowest point touches its floor on the
+    # first frame, the clip's heights kept: what the keyword ground=True asked for).
     floor_fit: str = "legs"
     # {chain: "KEEP" | "MATCH"} (reference_pose.CHAINS): whether the target keeps its own posture (its
     # spine's curve, its knees' bend) or takes the source's direction; None or a chain left out: Auto.
@@ -156,8 +159,7 @@ class RetargetOptions:
             raise ValueError("a source match pose on a frame needs match_frame")
         if not isinstance(self.plant_feet, (bool, np.bool_, type(None))):
             raise ValueError(f"plant_feet must be True, False or None, not {self.plant_feet!r}")
-        for name, value in (("align_facing", self.align_facing), ("ground", self.ground),
-                            ("two_hands", self.two_hands)):
+        for name, value in (("align_facing", self.align_facing), ("two_hands", self.two_hands)):
             if not isinstance(value, (bool, np.bool_)):
                 raise ValueError(f"{name} must be True or False, not {value!r}")
         for name, value in (("source_floor", self.source_floor), ("target_floor", self.target_floor)):
@@ -199,10 +201,29 @@ def from_keywords(options: RetargetOptions | None = None, **keywords) -> Retarge
         options, keywords = None, {"root": options, **keywords}
     if options is not None and not isinstance(options, RetargetOptions):
         raise TypeError(f"options must be a RetargetOptions, not {options!r}")
+    if "ground" in keywords:
+        keywords = _without_ground(keywords)
     unknown = sorted(set(keywords) - set(NAMES))
     if unknown:
         raise TypeError(f"unknown retarget option {unknown[0]!r}; expected one of {list(NAMES)}")
     return dataclasses.replace(options or RetargetOptions(), **keywords)
+
+
+def _without_ground(keywords: dict) -> dict:
+    """keywords with the old ground= said as floor_fit (ground=True is floor_fit="first_frame"), and a
+    DeprecationWarning that says so; a ValueError where it is no bool or floor_fit says otherwise."""
+    keywords = dict(keywords)
+    ground = keywords.pop("ground")
+    if not isinstance(ground, (bool, np.bool_)):
+        raise ValueError(f"ground must be True or False, not {ground!r}")
+    warnings.warn("retarget option ground= is floor_fit= now: ground=True is floor_fit='first_frame', "
+                  "ground=False the floor_fit given (default 'legs')", DeprecationWarning, stacklevel=3)
+    if ground:
+        if keywords.get("floor_fit", "first_frame") != "first_frame":
+            raise ValueError(f"ground=True and floor_fit={keywords['floor_fit']!r} say different things: "
+                             "ground=True is floor_fit='first_frame'; give floor_fit alone")
+        keywords["floor_fit"] = "first_frame"
+    return keywords
 
 
 def check_frame_range(frame_range) -> None:

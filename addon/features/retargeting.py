@@ -245,15 +245,15 @@ def plan(source, target, bone_map=None, frame_range=None, options: RetargetOptio
     (a control rig's deform skeleton, control_rigs.deform_rig)."""
     o = from_keywords(options, **keywords)
     pairs, clip, rigs, fit, chains = _prepare(source, target, bone_map, frame_range, o, target_rig)
-    root, ground, contact_settings = o.root, o.ground, o.contact_settings
+    root, ground, contact_settings = o.root, o.floor_fit == "first_frame", o.contact_settings
     written = _written_bones(rigs.tgt, o)
     _check_onto(rigs, o, written)
     # The feet's solve moves the hips and the legs: it runs only where both are written.
     lower_body = written is None or {rigs.roots[1], *_leg_bones(rigs.tgt)} <= written
     plant_feet = _planting(o.plant_feet if lower_body else False, rigs.src, rigs.tgt)
     # The source's contacts, needed to plant feet or to put them on the floor, need only the source's pose.
-    # ground keeps the motion's own heights, the whole clip moved once so that its first frame touches the
-    # floor: no frame's feet are fitted apart.
+    # "first_frame" keeps the motion's own heights, the whole clip moved once so that its first frame touches
+    # the floor: no frame's feet are fitted apart.
     floor_fit = "off" if ground else o.floor_fit
     wants_feet = plant_feet or (floor_fit != "off" and root != "none")
     feet = (_feet(rigs.src), _feet(rigs.tgt)) if wants_feet else (None, None)
@@ -895,7 +895,7 @@ def retarget_clip(source, target, bone_map=None, frame_range=None, options: Reta
     stand alike), chain_modes (per chain, keep the target's posture or take the
     source's direction; by default the trunk keeps, a limb whose rest line lies
     farther than 15 degrees from the source's matches, the others keep, and
-    fingers match: Plan.chains), ground, align_facing, source_floor and
+    fingers match: Plan.chains), align_facing, source_floor and
     target_floor, floor_fit (FLOOR_FITS), floor_root and root_smoothing
     (FLOOR_ROOTS), plant_feet and contact_settings (planted feet are stored on
     the new action as 0/1 contact curves), channels and channel_map (bone
@@ -957,7 +957,7 @@ def check_options(**options) -> None:
     read."""
     parameters = {n: p for n, p in inspect.signature(retarget).parameters.items()
                   if n not in ("source", "target") and p.kind is not inspect.Parameter.VAR_KEYWORD}
-    known = [*parameters, *retarget_options.NAMES]
+    known = [*parameters, *retarget_options.NAMES, "ground"]  # ground=: floor_fit's old name, still taken
     unknown = sorted(set(options) - set(known))
     if unknown:
         raise ValueError(f"unknown retarget option {unknown[0]!r}; expected one of {known}")

@@ -178,9 +178,6 @@ class MOTIONKIT_PG_retarget(bpy.types.PropertyGroup):
                                          "(contacts detected on the source, held with full-body IK, and keyed on "
                                          "the new action as 0/1 curves)")
     contacts: PointerProperty(type=contact_ui.MOTIONKIT_PG_contacts)
-    ground: BoolProperty(name="On the Floor",
-                         description="Move the root so that the target's lowest point touches the floor "
-                                     "on the first frame")
     floor_fit: EnumProperty(name="Stand", items=retargeting.FLOOR_FITS, default="legs",
                             description="How the target's feet are put on its own floor (its rest soles) where "
                                         "the source's stand on theirs")
@@ -242,7 +239,7 @@ class MOTIONKIT_PG_retarget(bpy.types.PropertyGroup):
         return RetargetOptions(
             root=self.root_motion, scale_horizontal=self.scale_horizontal, source_match=self.source_match,
             match_frame=self.match_frame if self.source_match == 'FRAME' else None,
-            target_match=self.target_match, ground=self.ground, align_facing=self.align_facing,
+            target_match=self.target_match, align_facing=self.align_facing,
             floor_root=self.floor_root if self.root_motion_onto == "auto" else "auto",
             root_motion_onto=self.root_motion_onto, root_smoothing=self.root_smoothing,
             plant_feet=None if self.plant_feet else False, contact_settings=contact_ui.settings(self.contacts),
@@ -769,7 +766,7 @@ class MOTIONKIT_PT_retarget_options(RetargetSubPanel, bpy.types.Panel):
             col.prop(settings, "floor_root")
         if settings.floor_root == "extract" or settings.root_motion_onto in ("root", "object"):
             col.prop(settings, "root_smoothing")
-        common.draw_groups(layout, settings, (("Feet", ("ground", "floor_fit")), ("Motion", ("align_facing",))))
+        common.draw_groups(layout, settings, (("Feet", ("floor_fit",)), ("Motion", ("align_facing",))))
         common.draw_frame_range(layout, settings, "use_frame_range", "Source")
         common.draw_groups(layout, settings, (("Scene", ("scene_from_clip",)),))
         col = layout.column()

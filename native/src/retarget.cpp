@@ -214,18 +214,14 @@ class Plan {
       top = t.parent(top);
     }
     if (top < 0 || chain.size() < 2) return;
-    // In a chain kept in the target's posture each mapped bone carries its source bone's turn and the
-    // joints between stay as the target's rest carries them, as a rotation copy between characters standing
-    // alike leaves them (Mixamo's own retargets leave its `*_split` joints unturned): sharing the turn
-    // along them would bend the chain where the target's joints lie, not where the source's do.
-    if (std::all_of(chain.begin() + 1, chain.end(), [this](int c) { return kept_[static_cast<std::size_t>(c)]; })) {
-      for (std::size_t j = 1; j < chain.size(); ++j) spanned_[static_cast<std::size_t>(chain[j])] = true;
-      return;
-    }
-    // The top bone aims past helper joints at b (a clavicle past a `*_split` joint at its arm,
-    // core/bone_axes): it spans the chain itself, as the source's one bone does, and the joints between are
-    // carried. Other joints between (a two-bone neck's, a spine's) are segments: they share the turn.
-    if (SpansHelpers(top, chain)) {
+    // Helper joints between (Mixamo's `*_split` joints, options.helper_bones) are carried, unturned, as
+    // Mixamo's own retargets leave them: in a chain kept in the target's posture always (each mapped bone
+    // carries its source bone's turn, whatever the top bone's axis points at: a bone whose children all
+    // start at its head points nowhere), in a matched one where the top bone aims past them at b (a
+    // clavicle past a `*_split` joint at its arm, core/bone_axes) and so spans the chain itself, as the
+    // source's one bone does. Other joints between (a two-bone neck's, a spine's) are segments: they share
+    // the turn.
+    if (AllHelpers(chain) && (AllKept(chain) || SpansHelpers(top, chain))) {
       for (std::size_t j = 1; j < chain.size(); ++j) spanned_[static_cast<std::size_t>(chain[j])] = true;
       return;
     }
@@ -269,18 +265,20 @@ class Plan {
     }
   }
 
-  // Whether `top` points at the chain's mapped end (chain[0]) and every joint between is a helper
-  // (options.helper_bones).
+  // Whether `top` points at the chain's mapped end (chain[0]).
   bool SpansHelpers(int top, const std::vector<int>& chain) const {
     const Eigen::Vector3d to_end =
         target_heads_[static_cast<std::size_t>(chain[0])] - target_heads_[static_cast<std::size_t>(top)];
-    if (to_end.norm() < 1e-12 || (match(top) * Aim(job_.target_aims, top)).dot(to_end.normalized()) <= kSpans) {
-      return false;
-    }
-    for (std::size_t j = 1; j < chain.size(); ++j) {
-      if (!helper_[static_cast<std::size_t>(chain[j])]) return false;
-    }
-    return true;
+    return to_end.norm() >= 1e-12 && (match(top) * Aim(job_.target_aims, top)).dot(to_end.normalized()) > kSpans;
+  }
+
+  // Whether every joint between the chain's mapped end (chain[0]) and its top is a helper (options.helper_bones),
+  // and whether every one keeps its posture (options.posture_bones).
+  bool AllHelpers(const std::vector<int>& chain) const {
+    return std::all_of(chain.begin() + 1, chain.end(), [this](int c) { return helper_[static_cast<std::size_t>(c)]; });
+  }
+  bool AllKept(const std::vector<int>& chain) const {
+    return std::all_of(chain.begin() + 1, chain.end(), [this](int c) { return kept_[static_cast<std::size_t>(c)]; });
   }
 
   // Where each bone of `first` then `bones` (a chain, top first) ends along it, from first's head: 0, then

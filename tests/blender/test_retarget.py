@@ -395,7 +395,7 @@ def test_root_motion_modes_and_feet_on_the_floor(mk, retargeting, walk60):
         wider = hips_path(root, scale_horizontal=1.4)
         np.testing.assert_allclose(wider[:, :2] - rest[:2], 1.4 * (path[:, :2] - rest[:2]), atol=1e-5)
         np.testing.assert_allclose(wider[:, 2], path[:, 2], atol=1e-6)
-    retargeting.apply(retargeting.plan(source, target, pairs, ground=True, plant_feet=False))
+    retargeting.apply(retargeting.plan(source, target, pairs, floor_fit="first_frame", plant_feet=False))
     bpy.context.scene.frame_set(1)
     lowest = min(min(target.matrix_world @ pb.head, target.matrix_world @ pb.tail, key=lambda v: v.z).z
                  for pb in target.pose.bones)

@@ -74,7 +74,8 @@ def test_kept_bones_read_only_the_reference_pose_options(mk, rigs):
     RetargetOptions = mk.retargeting.RetargetOptions
     base = mk.retargeting.kept_bones(source, target, options=RetargetOptions(chain_modes={"trunk": "MATCH"}))
     moved = mk.retargeting.kept_bones(source, target, options=RetargetOptions(
-        chain_modes={"trunk": "MATCH"}, root="none", ground=True, plant_feet=False, target_floor=0.3))
+        chain_modes={"trunk": "MATCH"}, root="none", floor_fit="first_frame", plant_feet=False,
+        target_floor=0.3))
     assert moved == base
     kept_trunk = mk.retargeting.kept_bones(source, target, chain_modes={"trunk": "KEEP"})
     assert kept_trunk != base  # the trunk's own mode does change them
@@ -101,12 +102,12 @@ def test_check_options_refuses_a_bad_retarget_options_naming_the_option(mk):
 
 def test_the_panel_fills_the_options_from_its_settings(mk):
     settings = bpy.context.scene.motionkit_retarget
-    names = ("root_motion", "source_match", "match_frame", "target_match", "ground", "align_facing", "floor_root",
+    names = ("root_motion", "source_match", "match_frame", "target_match", "align_facing", "floor_root",
              "root_smoothing", "plant_feet", "floor_fit", "channels", "scale_horizontal")
     before = {n: getattr(settings, n) for n in names}
     try:
         settings.root_motion, settings.source_match, settings.match_frame = "in_place", 'FRAME', 7
-        settings.target_match, settings.ground, settings.align_facing = 'CURRENT', True, False
+        settings.target_match, settings.align_facing = 'CURRENT', False
         settings.floor_root, settings.root_smoothing, settings.floor_fit = "extract", 0.5, "hips"
         settings.plant_feet, settings.scale_horizontal = False, 1.25
         assert settings.retarget_options().channels == ("scale", "properties", "shape_keys")  # the default
@@ -115,8 +116,7 @@ def test_the_panel_fills_the_options_from_its_settings(mk):
         assert options.channels == ("scale", "shape_keys")
         assert (options.root, options.source_match, options.match_frame, options.target_match) == \
                ("in_place", 'FRAME', 7, 'CURRENT')
-        assert (options.ground, options.align_facing, options.floor_root, options.floor_fit) == \
-               (True, False, "extract", "hips")
+        assert (options.align_facing, options.floor_root, options.floor_fit) == (False, "extract", "hips")
         assert options.root_smoothing == pytest.approx(0.5, abs=1e-7)  # a float property holds float32
         assert options.scale_horizontal == 1.25  # exact in float32
         assert options.plant_feet is False and options.source_floor is None and options.target_floor is None

@@ -128,7 +128,7 @@ SIDEBAR_LABELS = (
     "Shape Keys", "Props", "Two Hands", "Channel Map", "Source Name", "Target Name",
     "Reference Pose", "Trunk", "Left Arm", "Right Arm", "Left Leg", "Right Leg", "Left Fingers",
     "Right Fingers", "Options", "Match Poses", "Rest pose", "Root Motion", "Scaled", "Floor Root",
-    "On the Floor", "Align Facing", "Frame Range", "From Clip", "Overwrite", "Plant Feet", "Height In",
+    "Align Facing", "Frame Range", "From Clip", "Overwrite", "Plant Feet", "Height In",
     "Height Out", "Speed In", "Speed Out", "Shortest", "Blend", "Slides and Pivots",
     # Library
     "Library", "Clips", "Names", "Output", "Keep Actions", "Folder", "Panel's Bone Map", "Retarget panel's options",

@@ -340,10 +340,11 @@ TEST(Retarget, ASecondNeckBoneSharesTheNecksTurnAndAPelvisIsCarried) {
   }
 }
 
-// The same rigs with the trunk kept in the target's posture (posture_bones): each mapped bone turns as its
-// source bone from its own rest, and the second neck bone, unmapped, stays as its neck carries it, as a
-// rotation copy between characters standing alike leaves it.
-TEST(Retarget, InAKeptChainTheJointsBetweenMappedBonesAreCarried) {
+// A trunk kept in the target's posture (posture_bones) with an unmapped helper joint (helper_bones) between
+// the neck and the head, standing off the line, where the neck's axis points nowhere near the head (as a
+// bone whose only child starts at its own head): each mapped bone turns as its source bone from its own rest
+// and the helper stays as its neck carries it, as Mixamo's retargets leave their `*_split` joints.
+TEST(Retarget, InAKeptChainAHelperBetweenMappedBonesIsCarried) {
   const std::vector<BoneSpec> one{{"hips", -1, {0, 0, 1.0}, {0, 0, 1.1}, 0.0},
                                   {"chest", 0, {0, 0, 1.1}, {0, 0, 1.5}, 0.0},
                                   {"neck", 1, {0, 0, 1.5}, {0, 0.02, 1.62}, 0.0},
@@ -357,6 +358,7 @@ TEST(Retarget, InAKeptChainTheJointsBetweenMappedBonesAreCarried) {
   const Posed posed = Pose(source, RandomPoses(source.size(), 10, 9), RowMatrixXd::Zero(10, 3 * source.size()));
   RetargetOptions options;
   for (int b = 0; b < target.size(); ++b) options.posture_bones.push_back(b);
+  options.helper_bones.push_back(target.Find("neck.001"));
   RowMatrixXd rotations;
   const std::vector<int> kept = KeptPosture(source, target, posed, options, &rotations);
   EXPECT_EQ(kept.size(), static_cast<std::size_t>(target.size()));

@@ -15,7 +15,7 @@ from core.foot_contacts import ContactSettings
 from core.retarget_options import RetargetOptions, check_frame_range, from_keywords
 
 DOCUMENTED_DEFAULTS = dict(
-    root="scaled", scale_horizontal=1.0, source_match="REST", match_frame=None, target_match="REST", ground=False,
+    root="scaled", scale_horizontal=1.0, source_match="REST", match_frame=None, target_match="REST",
     align_facing=True, floor_root="auto", root_smoothing=0.25, root_motion_onto="auto", plant_feet=None,
     contact_settings=None, source_floor=None, target_floor=None, floor_fit="legs", chain_modes=None, parts="whole",
     bones=None, into="new", blend="replace", influence=1.0, channels=("scale", "properties", "shape_keys"),
@@ -36,7 +36,7 @@ def test_every_field_is_an_option_and_the_data_are_not():
 
 GOOD = [
     dict(root=r) for r in ("scaled", "in_place", "offset", "none")] + [
-    dict(floor_fit=f) for f in ("legs", "hips", "off")] + [
+    dict(floor_fit=f) for f in ("legs", "hips", "off", "first_frame")] + [
     dict(floor_root=f) for f in ("auto", "still", "copy", "extract")] + [
     dict(root_motion_onto=w) for w in ("auto", "hips", "root", "object")] + [
     dict(root_motion_onto="root", floor_root="extract"), dict(root_motion_onto="object", floor_root="still"),
@@ -44,7 +44,7 @@ GOOD = [
     dict(source_match="FRAME", match_frame=0), dict(source_match="FRAME", match_frame=np.float64(12.5)),
     dict(scale_horizontal=0), dict(scale_horizontal=np.float32(1.3)), dict(scale_horizontal=2),
     dict(target_match="CURRENT"), dict(root_smoothing=0), dict(root_smoothing=np.float32(2.0)),
-    dict(plant_feet=True), dict(plant_feet=np.bool_(False)), dict(ground=np.bool_(True)), dict(align_facing=False),
+    dict(plant_feet=True), dict(plant_feet=np.bool_(False)), dict(align_facing=False),
     dict(source_floor=-0.02, target_floor=np.int64(1)), dict(contact_settings=ContactSettings(min_gap=0.0)),
     dict(chain_modes={"trunk": "MATCH", "leg.L": "KEEP"}), dict(chain_modes={}),
     dict(parts="arms"), dict(parts=("arm.L", "hand.L")), dict(bones=("mixamorig:LeftArm",)),
@@ -87,8 +87,6 @@ BAD = [  # (field values, what the message must say: the option and the value)
     (dict(plant_feet="yes"), r"plant_feet must be True, False or None, not 'yes'"),
     (dict(plant_feet=1), r"plant_feet must be True, False or None, not 1"),
     (dict(align_facing="no"), r"align_facing must be True or False, not 'no'"),
-    (dict(ground=1.5), r"ground must be True or False, not 1\.5"),
-    (dict(ground=None), r"ground must be True or False, not None"),
     (dict(source_floor="floor"), r"source_floor must be a height in metres or None, not 'floor'"),
     (dict(target_floor=float("inf")), r"target_floor must be a height in metres or None, not inf"),
     (dict(contact_settings="loose"), r"contact_settings must be a ContactSettings, not 'loose'"),
@@ -116,7 +114,7 @@ BAD = [  # (field values, what the message must say: the option and the value)
 
 
 def test_every_option_has_a_bad_value_here():
-    """A field added without a check of its own shows here (ground, align_facing... every one)."""
+    """A field added without a check of its own shows here (align_facing, two_hands... every one)."""
     covered = {name for values, _ in BAD for name in values}
     assert covered == set(retarget_options.NAMES)
 
@@ -141,7 +139,8 @@ def test_chain_modes_are_checked_by_the_reference_pose_stage():
 
 KEYWORDS = [dict(), dict(root="none"), dict(floor_fit="hips", plant_feet=False),
             dict(source_match="FRAME", match_frame=3, target_match="CURRENT", align_facing=False),
-            dict(contact_settings=ContactSettings(blend=0.2), chain_modes={"arm.R": "MATCH"}, ground=True),
+            dict(contact_settings=ContactSettings(blend=0.2), chain_modes={"arm.R": "MATCH"},
+                 floor_fit="first_frame"),
             dict(DOCUMENTED_DEFAULTS, root="offset", root_smoothing=1.0, source_floor=0.1, target_floor=-0.1)]
 
 
@@ -174,7 +173,7 @@ def test_an_unknown_keyword_or_options_is_a_type_error_naming_it():
 
 def test_reference_keeps_only_what_the_reference_pose_depends_on():
     options = RetargetOptions(root="none", source_match="FRAME", match_frame=4, target_match="CURRENT",
-                              ground=True, align_facing=False, floor_root="still", root_smoothing=1.0,
+                              align_facing=False, floor_root="still", root_smoothing=1.0,
                               plant_feet=False, contact_settings=ContactSettings(), source_floor=0.5,
                               target_floor=0.25, floor_fit="off", chain_modes={"trunk": "MATCH"})
     assert options.reference() == RetargetOptions(source_match="FRAME", match_frame=4, target_match="CURRENT",
@@ -190,3 +189,15 @@ def test_a_frame_range_of_two_numbers_passes(frame_range):
 def test_a_bad_frame_range_is_refused_naming_it(frame_range):
     with pytest.raises(ValueError, match=r"frame_range must be \(first, last\) frames, not "):
         check_frame_range(frame_range)
+
+
+def test_the_old_ground_keyword_is_floor_fit_first_frame_and_says_so():
+    with pytest.warns(DeprecationWarning, match=r"ground=True is floor_fit='first_frame'"):
+        assert from_keywords(ground=True) == RetargetOptions(floor_fit="first_frame")
+    with pytest.warns(DeprecationWarning):
+        assert from_keywords(ground=np.bool_(False), floor_fit="hips") == RetargetOptions(floor_fit="hips")
+    with pytest.warns(DeprecationWarning), pytest.raises(ValueError, match=r"say different things"):
+        from_keywords(ground=True, floor_fit="legs")
+    for bad in (1.5, None):
+        with pytest.raises(ValueError, match=rf"ground must be True or False, not {bad}"):
+            from_keywords(ground=bad)

@@ -30,9 +30,10 @@
 // between two mapped bones (b0 above b) take, at the fraction of the chain's
 // length where their tails lie, the rotation interpolated (slerp) along the
 // source chain between a0 and a, so the chain bends as the source's does and
-// ends as a; where they are all posture bones (a chain kept in the target's
-// posture) they keep the match pose's local rotation instead, as a rotation
-// copy between characters standing alike leaves them. Other unmapped bones
+// ends as a. Where they are all helpers (helper_bones) they keep the match
+// pose's local rotation instead, as Mixamo's retargets leave its `*_split`
+// joints: always where they are posture bones too (a chain kept in the
+// target's posture), else where b0 aims past them at b. Other unmapped bones
 // keep the match pose's local rotation.
 //
 // Root motion: the target root's head moves across `up` (the target
@@ -85,8 +86,9 @@ struct RetargetOptions {
   std::vector<int> ground_bones;  // target bones that touch the floor on the first frame
   std::vector<int> posture_bones;  // target bones that keep their own posture in the match pose (S_b = 1)
   std::vector<int> posture_always;  // ... and do so even where their parents carry them 45 degrees across
-  // Unmapped target bones that are helpers (Mixamo's `*_split` joints): where the mapped bone above aims past
-  // them at the mapped one below (target_aims), they are carried, not turned along the chain.
+  // Unmapped target bones that are helpers (Mixamo's `*_split` joints): carried, not turned along the chain,
+  // where they keep their posture or the mapped bone above aims past them at the mapped one below
+  // (target_aims).
   std::vector<int> helper_bones;
 };
 
