@@ -1,4 +1,4 @@
-"""Benchmark: the retarget's live preview of a 1,000-frame clip (issue 38: within 0.3 s of a change), and
+"""Benchmark: the retarget's live preview of a 1,000-frame clip (asked: within 0.3 s of a change), and
 the Blender-native way of seeing a retarget over the clip, in the same run.
 
     tools/with_blender.sh 5.2 -b --factory-startup --python bench/preview.py -- \\

@@ -2,7 +2,7 @@
 
 Two UnrealA characters walk in place of each other; each reaches with the left hand for a ball ahead of
 it and above its head, further than the arm can go, both feet pinned where the walk puts them. On the
-left, the solver as it was before issue 16 (pins weighted like targets, every joint free and alike); on
+left, the solver as it was at first (pins weighted like targets, every joint free and alike); on
 the right, the default (strict priorities, distal joints first, human ranges, balance). Seen from the
 side, at one frame.
 """

@@ -53,6 +53,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from . import chain_modes
+
 SIDES = ("L", "R")
 ARM_KEYS = ("shoulder", "upper_arm", "forearm", "hand")
 LEG_KEYS = ("thigh", "shin", "foot", "toe")
@@ -1144,12 +1146,11 @@ def _check_pairs(pairs, where: str) -> list[tuple[str, str]]:
 
 def save_map(path, pairs, chains=None) -> None:
     """Writes pairs as a motionkit-bone-map JSON file, with the reference pose's chain modes where given
-    ({chain: "KEEP" | "MATCH"}, core/reference_pose; version 2, version 1 without them)."""
+    ({chain: "KEEP" | "MATCH"}, core/chain_modes; version 2, version 1 without them)."""
     checked = _check_pairs(list(pairs), os.fspath(path))
     data = {"format": MAP_FORMAT, "version": 1, "pairs": [list(p) for p in checked]}
     if chains:
-        from . import reference_pose  # it labels chains with this module's bodies
-        data.update(version=2, chains=reference_pose.check_modes(chains))
+        data.update(version=2, chains=chain_modes.check_modes(chains))
     with open(path, "w", encoding="utf-8") as f:
         json.dump(data, f, indent=1)
         f.write("\n")
@@ -1176,9 +1177,8 @@ def load_map(path) -> list[tuple[str, str]]:
 def load_chains(path) -> dict:
     """The reference pose's chain modes saved with a map ({} for a version 1 file); ValueError naming the file
     for a bad one."""
-    from . import reference_pose
     chains = _map_file(path).get("chains", {})
     try:
-        return reference_pose.check_modes(chains if isinstance(chains, dict) else [chains])
+        return chain_modes.check_modes(chains if isinstance(chains, dict) else [chains])
     except (ValueError, TypeError) as error:
         raise ValueError(f"{os.fspath(path)}: {error}") from None

@@ -253,28 +253,3 @@ def plant_targets(native, points, contacts, blend_frames: int, rigid_pairs=()) -
                                            int(blend_frames), [tuple(pair) for pair in rigid_pairs])
     return targets.reshape(frames, count, 3), weights
 
-
-def follow_paths(targets, points, contacts, holds, paths, blend_frames: int, rigid_pairs=()) -> None:
-    """A slide (a contact not held still, on frames where its foot's other point is not held either) moves
-    across the floor as the source's does, not as this rig's proportions make of its motion (longer legs
-    swing the same turn farther): from where the point stands on the slide's first frame its target goes as
-    paths go (the source's points carried into this rig's world and scaled) where the point's own pose would
-    have gone, on top of whatever else moves its target there (a neighbouring plant's blend), then eases off
-    over blend_frames frames (smoothstep). A pivot (the foot's other point held) is left to turn the
-    foot about the held point. targets, points, paths (F, P, 3) world; contacts, holds (F, P) bool;
-    rigid_pairs: each foot's two points. Heights are left as targets has them; targets changed in place."""
-    frames, count = contacts.shape
-    partner = {a: b for a, b in rigid_pairs} | {b: a for a, b in rigid_pairs}
-    ease = np.arange(1, blend_frames + 1) / (blend_frames + 1)
-    ease = 1.0 - ease * ease * (3.0 - 2.0 * ease)
-    for p in range(count):
-        free = contacts[:, p] & ~holds[:, p]
-        if p in partner:
-            free &= ~holds[:, partner[p]]
-        for start, end in intervals(free):
-            offset = np.zeros((frames, 2))
-            offset[start:end] = points[start, p, :2] + paths[start:end, p, :2] - paths[start, p, :2] \
-                - points[start:end, p, :2]
-            after = np.arange(end, min(end + blend_frames, frames))
-            offset[after] = offset[end - 1] * ease[:len(after), None]
-            targets[:, p, :2] += offset

@@ -1,5 +1,5 @@
 """The reference pose: per chain, whether the target keeps its own posture or takes the source's direction
-(numpy, no bpy; BRIEF section 8).
+(numpy, no bpy).
 
 Two rigs' rest poses differ in two ways. Where they stand in different poses
 (one in a T, the other in an A; a capture with its legs spread), a limb of the
@@ -33,9 +33,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import bone_mapping
+from .chain_modes import CHAINS, MODES, check_modes  # noqa: F401  (the chains, named here too)
 
-CHAINS = ("trunk", "arm.L", "arm.R", "leg.L", "leg.R", "fingers.L", "fingers.R")
-MODES = ("KEEP", "MATCH")
 # T against A arms lie 30-50 degrees apart and a capture's spread legs 20-45; the limbs of characters that all
 # stand in a T differ by under 10 (a slightly lowered arm, a wide stance). Halfway between.
 LIMB_POSE_ANGLE = 15.0
@@ -62,17 +61,6 @@ class Limbs:
     body: bone_mapping.Body
     heads: dict
     zero_pose: bool = False  # every joint straight on from its parent's: no body's posture
-
-
-def check_modes(modes) -> dict:
-    """The user's chain modes ({chain: "KEEP" | "MATCH"}), checked; None for none."""
-    modes = dict(modes or {})
-    for chain, mode in modes.items():
-        if chain not in CHAINS:
-            raise ValueError(f"chain_modes: unknown chain {chain!r}; expected one of {', '.join(CHAINS)}")
-        if mode not in MODES:
-            raise ValueError(f"chain_modes[{chain!r}]: unknown mode {mode!r}; expected KEEP or MATCH")
-    return modes
 
 
 def _line(limbs: Limbs, kind: str, side: str) -> np.ndarray | None:

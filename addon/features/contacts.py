@@ -32,8 +32,7 @@ from ..blender import animdata, pose_channels
 from ..core import bone_mapping, native_state, rotation_channels
 from ..core.rig_data import RigData
 from ..core.rotation_channels import conjugate as _conj, multiply as _mul, rotate_each as _rotate
-from ..core.foot_contacts import (ContactSettings, all_intervals, detect as detect_contacts, follow_paths,
-                                  plant_targets, plantable)
+from ..core.foot_contacts import ContactSettings, all_intervals, detect as detect_contacts, plant_targets, plantable
 
 SIDES = ("L", "R")
 POINTS = ("L ankle", "L ball", "R ankle", "R ball")
@@ -342,11 +341,10 @@ def foot_points(rig: RigData, rotations, locations, feet, posed=None) -> tuple[n
 
 @dataclass
 class Stances:
-    """A motion's feet as a retarget reads them on its source: its contacts (F, 4) bool, POINTS order; those
-    a cleanup holds still (no slides, pivots or turns), the same shape; and the foot points (F, 4, 3), world."""
+    """A motion's feet as a retarget reads them on its source: its contacts (F, 4) bool, POINTS order, and
+    those a cleanup holds still (no slides, pivots or turns), the same shape."""
     contacts: np.ndarray
     holds: np.ndarray
-    points: np.ndarray
 
 
 def find_contacts(rig: RigData, rotations, locations, feet, settings: ContactSettings | None = None,
@@ -354,12 +352,12 @@ def find_contacts(rig: RigData, rotations, locations, feet, settings: ContactSet
     """Contacts (F, 4) bool (POINTS order) of a pose sequence (for example the retarget's source, whose
     contacts the target then keeps); fps default the scene's; posed: its armature pose, if at hand; floor:
     the floor's world Z. holds: also which of them a cleanup holds still, read on this motion
-    (foot_contacts.plantable), and the points: a Stances."""
+    (foot_contacts.plantable): a Stances."""
     if fps is None:
         fps = animdata.frame_rate(None)  # the scene's
     points, leg_length = foot_points(rig, rotations, locations, feet, posed)
     found = detect_contacts(points, fps, leg_length, floor, settings)
-    return Stances(found, plantable(points, found, leg_length, settings, _RIGID), points) if holds else found
+    return Stances(found, plantable(points, found, leg_length, settings, _RIGID)) if holds else found
 
 
 def _blender_frame(frames, f) -> str:
@@ -379,7 +377,7 @@ def cleanup(rig: RigData, frames, rotations, locations, feet, contacts=None,
 def staged_cleanup(rig: RigData, frames, rotations, locations, feet, contacts=None,
                    settings: ContactSettings | None = None, *, hips: str | None = None, fps: float | None = None,
                    in_place: bool = False, threads: int = 0, follow_heights=None,
-                   hips_move: bool = True, holds=None, paths=None):
+                   hips_move: bool = True, holds=None):
     """cleanup in stages, so that its native solve and what follows can run beside other work: everything
     that reads Blender data (and the checks of the arguments) happens here, and the result is
     (prepare, finish). prepare() computes the targets and limits (numpy) and returns solve; solve() calls
@@ -390,7 +388,7 @@ def staged_cleanup(rig: RigData, frames, rotations, locations, feet, contacts=No
     """
     steps = _cleanup_steps(rig, frames, rotations, locations, feet, contacts, settings, hips=hips,
                            fps=fps, in_place=in_place, threads=threads, follow_heights=follow_heights,
-                           hips_move=hips_move, holds=holds, paths=paths)
+                           hips_move=hips_move, holds=holds)
     next(steps)  # Blender's data read, the arguments checked
 
     def prepare():
@@ -429,7 +427,7 @@ def _keep_feet_rigid(targets, points, rise) -> None:
 def _cleanup_steps(rig: RigData, frames, rotations, locations, feet, contacts=None,
                    settings: ContactSettings | None = None, *, hips: str | None = None, fps: float | None = None,
                    in_place: bool = False, threads: int = 0, follow_heights=None,
-                   hips_move: bool = True, holds=None, paths=None):
+                   hips_move: bool = True, holds=None):
     """The cleanup as a generator: yields its solve, is sent the solve's result, returns cleanup's result.
 
     rig: the armature at rest (core.rig_data.RigData, pose_channels.read_rig; its world matrix places the
@@ -443,9 +441,7 @@ def _cleanup_steps(rig: RigData, frames, rotations, locations, feet, contacts=No
     point holds only across the floor (where sliding shows) and on every frame its height follows the
     pose's own raised by its leg's follow_heights (the retarget's floor: heels and toes lift where the
     source's do, no foot sinks below the floor). Only the thighs', shins' and feet's rotations and the
-    hips' location change (hips_move=False: the hips stay). paths: (F, 4, 3) world, the source's foot points
-    carried into this rig's world and scaled (a retarget's), along which the contacts not held still slide
-    (foot_contacts.follow_paths); None: they follow the pose. in_place: write them into
+    hips' location change (hips_move=False: the hips stay). in_place: write them into
     rotations and locations themselves (float64, C-contiguous) and return those, rather than copies.
     Raises ValueError naming the foot, bone and Blender frame.
     """
@@ -469,8 +465,7 @@ def _cleanup_steps(rig: RigData, frames, rotations, locations, feet, contacts=No
 
     _check_finite_pose(part, feet, frames, rotations, locations)
     pose, points, targets, contacts, source, holds = _plant_targets(part.leg_rig, frames, rotations, locations,
-                                                                    contacts, settings, fps, follow_heights, holds,
-                                                                    paths)
+                                                                    contacts, settings, fps, follow_heights, holds)
     report = Report(frames, contacts, source=source, held=holds)
     report.bones = [part.bone_names[part.hip]] + [part.bone_names[b] for b in part.changed]
     solve_input = _LegSolve.prepare(part, feet, pose, points, report)
@@ -568,7 +563,7 @@ def _check_finite_pose(part: _SolvePart, feet, frames, rotations, locations) -> 
 
 
 def _plant_targets(leg_rig: _LegRig, frames, rotations, locations, contacts, settings, fps, follow_heights,
-                   holds=None, paths=None):
+                   holds=None):
     """(pose, foot points (F, 4, 3) armature space, IK targets (F, 4, 3) armature space, contacts, their
     source, the contacts held): the plain pose's foot points held at their plants where contacts (detected
     when None) say, but for slides and pivots (holds: those held, as a retarget read them on its source;
@@ -583,8 +578,6 @@ def _plant_targets(leg_rig: _LegRig, frames, rotations, locations, contacts, set
     with native_state.blender_frames(frames):
         targets_world, _ = plant_targets(native_state.native(), world_points, holds, settings.blend_frames(fps),
                                          _RIGID)
-    if paths is not None:
-        follow_paths(targets_world, world_points, contacts, holds, paths, settings.blend_frames(fps), _RIGID)
     if follow_heights is not None:
         lift = np.asarray(follow_heights, dtype=np.float64)[:, [0, 0, 1, 1]]  # per point, POINTS order
         held = targets_world[..., 2].copy()

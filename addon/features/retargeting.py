@@ -161,7 +161,7 @@ class Plan:
     pairs: list
     still_channels: list  # bones that keep the match pose: one key on the first frame
     still_values: np.ndarray  # (still_channels, 1)
-    leg_ratio: float = 1.0  # the root path's scale: how high the target's hips stand / the source's (_Fit.scale)
+    path_scale: float = 1.0  # the root path's scale: how high the target's hips stand / the source's (_Fit.scale)
     hips: tuple = (None, None)  # (source, target) bones that carry the body's translation
     floor_roots: tuple = (None, None)  # (source, target) floor roots above the hips, or None
     floor_root: str = "still"  # what the target's floor root did (FLOOR_ROOTS, "auto" resolved)
@@ -181,6 +181,11 @@ class Plan:
     carried: retarget_channels.Carried | None = None
     channels_left_out: list = field(default_factory=list)
     object_base: object_channels.ObjectBase | None = None  # where root motion onto the object moves it from
+
+    @property
+    def leg_ratio(self) -> float:
+        """path_scale's old name (it was never the legs' ratio, but how high each rig's hips stand)."""
+        return self.path_scale
 
     def resolve(self) -> None:
         """Runs a pending feet's IK solve here and now: values, contact_report and all are then final."""
@@ -272,11 +277,10 @@ def plan(source, target, bone_map=None, frame_range=None, options: RetargetOptio
     # keep off the floor); without planting it runs only where that is more than a twentieth of a percent of
     # the leg, so that a retarget between alike legs keeps every bone's direction exactly.
     legs_solve = found is not None and lower_body and (plant_feet or (
-        feet_lift is not None and np.abs(feet_lift).max(initial=0.0) > 5e-4 * fit.target_scale * fit.heights[1]))
+        feet_lift is not None and np.abs(feet_lift).max(initial=0.0) > 5e-4 * fit.target_scale * fit.legs[1]))
     planted = _plant_feet(rigs.tgt, feet[1], stances if plant_feet else _unplanted(stances), clip.frames, rotations,
                           locations, rigs.roots[1], contact_settings, clip.fps, beside=defer_solve, heights=feet_lift,
-                          hips_move=plant_feet, paths=_source_paths(rigs, fit, stances) if plant_feet else None) \
-        if legs_solve else None
+                          hips_move=plant_feet) if legs_solve else None
     # Root motion on the object is read from the hips' final path: after the feet's solve.
     onto_object = o.root_motion_onto == "object"
     plan_ = _plan_keys(rigs, clip, pairs, fit.scale, (rotations, locations), located, mode, planted, plant_feet,
@@ -357,9 +361,9 @@ def _stand_on_floor(rigs, clip, fit, rotations, locations, found, root) -> np.nd
     place), and how far each foot is still to rise, in world units."""
     height_scale = fit.unit_scale if root == "offset" else fit.scale
     lifts = floor_fit.stand_on_floor(
-        floor_fit.Ground(rigs.src, rigs.src.body, fit.source_up, fit.floors[0] + fit.clearances[0], fit.heights[0]),
+        floor_fit.Ground(rigs.src, rigs.src.body, fit.source_up, fit.floors[0] + fit.clearances[0], fit.legs[0]),
         (clip.rotations, clip.heads),
-        floor_fit.Ground(rigs.tgt, rigs.tgt.body, fit.up, fit.floors[1] + fit.clearances[1], fit.heights[1]),
+        floor_fit.Ground(rigs.tgt, rigs.tgt.body, fit.up, fit.floors[1] + fit.clearances[1], fit.legs[1]),
         rotations, locations, rigs.roots[1], found, height_scale, clip.fps)
     return fit.target_scale * lifts
 
@@ -491,7 +495,7 @@ class _Fit:
     source_up: np.ndarray
     floors: tuple        # (source, target) heights along up
     clearances: tuple    # (source, target) how high each one's lowest foot joint rides above its floor
-    heights: tuple       # (source, target) leg lengths
+    legs: tuple          # (source, target) leg lengths (floor_fit.leg_length), each in its own armature's units
     scale: float         # the root path's: target standing height / source's (floor_fit.standing_height)
     unit_scale: float    # source object scale / target object scale
     target_scale: float  # the target object's scale
@@ -588,7 +592,7 @@ def _native_options(native, rigs: _Rigs, fit: _Fit, root, ground, chains):
     """The native retarget's options (_native.RetargetOptions) for this fit."""
     options = native.RetargetOptions()
     options.root_motion, options.scale, options.unit_scale = root, fit.scale, fit.unit_scale
-    options.vertical_offset = fit.heights[1] - fit.unit_scale * fit.heights[0]
+    options.vertical_offset = fit.legs[1] - fit.unit_scale * fit.legs[0]
     options.scale_horizontal = fit.scale_horizontal
     options.space, options.up = fit.space, fit.up
     options.source_floor, options.target_floor = fit.floors
@@ -680,7 +684,7 @@ def _plan_keys(rigs: _Rigs, clip: _Clip, pairs, scale, pose, located, mode, plan
     moving, still = retarget_keys.target_channels(rigs, rotations, located, locations, only=written, keyed=keyed,
                                      placeholders=True)
     floor_bones = tuple(rig.names[b] if b is not None else None for rig, b in zip((rigs.src, tgt), rigs.floor_bones))
-    plan_ = Plan(rigs.target, clip.frames, *moving, rigs.source.name, pairs, *still, leg_ratio=scale,
+    plan_ = Plan(rigs.target, clip.frames, *moving, rigs.source.name, pairs, *still, path_scale=scale,
                  hips=(rigs.src.names[source_root], tgt.names[target_root]), floor_roots=floor_bones,
                  floor_root=mode, feet=planted[2] if planted and plant_feet else None,
                  contacts=planted[3] if planted and plant_feet else None, frame_rate=clip.fps)
@@ -719,32 +723,21 @@ def _unplanted(stances):
     """The source's stances with no contact to keep (not planting: the legs' solve only puts the feet on the
     floor)."""
     none = np.zeros_like(stances.contacts)
-    return contacts.Stances(none, none, stances.points)
-
-
-def _source_paths(rigs: _Rigs, fit: _Fit, stances) -> np.ndarray:
-    """(F, 4, 3) the source's foot points (contacts.Stances) carried into the target's world and scaled as the
-    root's path is: along them the contacts not held still slide, as the source's do. Only their changes
-    count (no translation is carried)."""
-    across = stances.points @ np.linalg.inv(rigs.src.world)[:3, :3].T
-    across = rotation_channels.rotate(fit.space, across.reshape(-1, 3)).reshape(across.shape)
-    return fit.scale * fit.scale_horizontal * across @ rigs.tgt.world[:3, :3].T
+    return contacts.Stances(none, none)
 
 
 def _plant_feet(tgt: RigData, tgt_feet, found, frames, rotations, locations, target_root, settings, fps,
-                beside: bool = False, heights=None, hips_move: bool = True, paths=None):
+                beside: bool = False, heights=None, hips_move: bool = True):
     """The source's contacts (found: contacts.Stances, those held still read on the source's motion, a pivot
     being the source's whatever the target's feet) to be held by the target's feet (contacts.staged_cleanup,
     which writes the solved legs into rotations and locations): (prepare, finish, target feet, contacts).
     heights: (frames, legs) world lifts of the standing feet (the floor's), or None to hold the plants' own
-    heights; hips_move: the hips' translation is solved for too (planting), else only the legs move; paths:
-    _source_paths, along which the contacts not held slide (None: they follow the pose)."""
+    heights; hips_move: the hips' translation is solved for too (planting), else only the legs move."""
     # Beside the rest of the retarget (beside=True), which keeps one core busy, the solve takes the others.
     prepare, finish = contacts.staged_cleanup(tgt, frames, rotations, locations, tgt_feet, found.contacts, settings,
                                               hips=tgt.names[target_root], fps=fps, in_place=True,
                                               threads=max(1, (os.cpu_count() or 1) - 1) if beside else 0,
-                                              follow_heights=heights, hips_move=hips_move, holds=found.holds,
-                                              paths=paths)
+                                              follow_heights=heights, hips_move=hips_move, holds=found.holds)
     return prepare, finish, tgt_feet, found.contacts
 
 

@@ -148,22 +148,6 @@ class MOTIONKIT_OT_retarget_preview_cancel(bpy.types.Operator):
         return {'FINISHED'}
 
 
-class MOTIONKIT_OT_retarget_preview_apply(bpy.types.Operator):
-    """Key the previewed retarget, as Retarget does (MotionKit)"""
-    bl_idname = "motionkit.retarget_preview_apply"
-    bl_label = "Apply"
-    bl_options = {'REGISTER', 'UNDO'}
-
-    @classmethod
-    def poll(cls, context):
-        return context.scene.motionkit_retarget.preview.on
-
-    def execute(self, context):
-        from . import retarget  # the Retarget button's own work (retarget imports this module)
-        stop(context.scene.motionkit_retarget)
-        return retarget.run_retarget(self, context)
-
-
 @bpy.app.handlers.persistent
 def _stop_on_load(_):
     """A file saved while previewing opens as it was before the preview."""
@@ -183,4 +167,4 @@ def unregister():
         bpy.app.timers.unregister(_tick)
 
 
-classes = (MOTIONKIT_OT_retarget_preview, MOTIONKIT_OT_retarget_preview_cancel, MOTIONKIT_OT_retarget_preview_apply)
+classes = (MOTIONKIT_OT_retarget_preview, MOTIONKIT_OT_retarget_preview_cancel)

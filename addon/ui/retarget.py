@@ -9,6 +9,7 @@ from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProp
 from bpy_extras.io_utils import ExportHelper, ImportHelper
 
 from . import common, contacts as contact_ui
+from . import preview
 from .preview import MOTIONKIT_PG_retarget_preview
 from ..blender import pose_channels
 from ..core import bone_mapping, channel_carry, display_names, props, reference_pose, retarget_parts
@@ -387,6 +388,21 @@ def run_retarget(self, context) -> set:
             f". {decided}" if decided else "")
 
     return common.run(self, context, work, done)
+
+
+class MOTIONKIT_OT_retarget_preview_apply(bpy.types.Operator):
+    """Key the previewed retarget, as Retarget does (MotionKit)"""
+    bl_idname = "motionkit.retarget_preview_apply"
+    bl_label = "Apply"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    @classmethod
+    def poll(cls, context):
+        return context.scene.motionkit_retarget.preview.on
+
+    def execute(self, context):
+        preview.stop(context.scene.motionkit_retarget)
+        return run_retarget(self, context)
 
 
 class MOTIONKIT_OT_bone_map_auto(bpy.types.Operator):
@@ -836,8 +852,8 @@ BONE_MAP = common.editable_list(common.EditableList(
     "bone_map", "pair", lambda context: context.scene.motionkit_retarget, "pairs", "active_pair", "No scene"))
 
 classes = (MOTIONKIT_PG_bone_pair, MOTIONKIT_PG_channel_pair, MOTIONKIT_PG_reference_pose,
-           MOTIONKIT_PG_retarget_preview, MOTIONKIT_PG_retarget, MOTIONKIT_OT_retarget, MOTIONKIT_OT_bone_map_auto,
-           MOTIONKIT_OT_reference_pose, MOTIONKIT_OT_bone_map_scheme, MOTIONKIT_OT_bone_map_save,
+           MOTIONKIT_PG_retarget_preview, MOTIONKIT_PG_retarget, MOTIONKIT_OT_retarget,
+           MOTIONKIT_OT_retarget_preview_apply, MOTIONKIT_OT_bone_map_auto, MOTIONKIT_OT_reference_pose, MOTIONKIT_OT_bone_map_scheme, MOTIONKIT_OT_bone_map_save,
            MOTIONKIT_OT_bone_map_load, MOTIONKIT_UL_bone_map, MOTIONKIT_UL_channel_map, MOTIONKIT_OT_channel_map_add,
            MOTIONKIT_OT_channel_map_remove, MOTIONKIT_PT_retarget, MOTIONKIT_PT_retarget_map,
            MOTIONKIT_PT_retarget_controls, MOTIONKIT_PT_retarget_options, MOTIONKIT_PT_retarget_feet,

@@ -87,7 +87,7 @@ void BindRetargetOptions(py::module_& m) {
             if (!motion) throw Error("unknown root motion '" + text + "'; expected scaled, in_place, offset or none");
             o.root_motion = *motion;
           })
-      .def_readwrite("scale", &RetargetOptions::scale, "target leg length / source leg length")
+      .def_readwrite("scale", &RetargetOptions::scale, "the root path's scale: how high the target's hips stand / the source's")
       .def_readwrite("unit_scale", &RetargetOptions::unit_scale, "target armature units per source one")
       .def_readwrite("vertical_offset", &RetargetOptions::vertical_offset, "offset: added to the root's height")
       .def_readwrite("scale_horizontal", &RetargetOptions::scale_horizontal,

@@ -1,4 +1,4 @@
-"""A game rig's IK bones keyed to follow the hands and feet (issue 38, part 2): Unreal's mannequin layout
+"""A game rig's IK bones keyed to follow the hands and feet: Unreal's mannequin layout
 (ik_foot_root with ik_foot_l/r, ik_hand_root with ik_hand_gun and ik_hand_l/r under it) added to the
 Unreal-named sample, a capture retargeted onto it, judged by Blender's evaluation: each IK bone moves
 rigidly with the bone it stands for (its pose times its rest's inverse equals that bone's) on every frame."""

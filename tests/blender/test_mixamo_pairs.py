@@ -28,7 +28,7 @@ IDS = [f"{clip}-{a}-to-{b}" for clip, a, b in CASES]
 # measured at most 6.2e-6 of the height on these clips (Blender 3.4, 4.3 and 5.2; 1.4e-5 on the 909-frame
 # Catwalk Walk in the bench), bounded at about 10x that.
 SANITY = 5e-5
-# The issue's targets (issue 37, "Done means"), means over the clips.
+# What a retarget is asked to come within of Mixamo's own here, means over the clips (% of the height).
 TARGET_ALL, TARGET_POSE = 3.0, 1.0
 # MotionKit's defaults over these cases, measured on Blender 3.4, 4.3 and 5.2 (means, % of the height):
 # what a change may not make worse by more than REGRESSION (about a millimetre on these 1.5 m characters;
@@ -133,7 +133,7 @@ EXCERPT_SANITY, EXCERPT_POSE_SANITY = 1e-3, 2e-4
 EXCERPT_TIE, EXCERPT_POSE_TIE = 100 * EXCERPT_SANITY, 100 * EXCERPT_POSE_SANITY
 # MotionKit's defaults over these 40 retargets on Blender 3.4 (means, % of the height; the plain copy 11.01 and
 # 0.92): what a change may not make worse by more than REGRESSION; closer than the copy on average. The known
-# gap (issue 37, the xfail below): how far Mixamo carries each character across the floor (its path's scale is
+# gap (the xfail below): how far Mixamo carries each character across the floor (its path's scale is
 # none of the skeleton's measures: docs/benchmarks.md), and the legs of some of them.
 EXCERPT_MEASURED_ALL, EXCERPT_MEASURED_POSE = 10.47, 0.90
 # The same for the hips' height alone (mean distance along up from Mixamo's, % of the height; the copy 3.46,
@@ -228,7 +228,7 @@ def test_given_mixamo_s_stride_the_walk_lands_on_mixamo_s(mk, pairs):
     assert float(np.mean(given)) <= STRIDE_MEASURED_ALL + REGRESSION, given
 
 
-@pytest.mark.xfail(strict=True, reason="issue 37, open: over all joints MotionKit trails the copy on 11 of the 40 "
+@pytest.mark.xfail(strict=True, reason="what is left: over all joints MotionKit trails the copy on 11 of the 40 "
                                        "(10 from Kaya: Mixamo's path across the floor scales apart from any skeleton "
                                        "measure; Granny's Getting Up from Aj by 0.12 %), and the pose alone on 5 "
                                        "(legs: Goblin's Getting Up from both and Catwalk from Aj, Mousey's Getting "

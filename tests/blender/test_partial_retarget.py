@@ -1,4 +1,4 @@
-"""A part of the body retargeted over a character's own animation (issue 38, part 1), judged by Blender's
+"""A part of the body retargeted over a character's own animation, judged by Blender's
 evaluation: Mixamo's Y Bot punching (its FBX, Blender's importer) onto a Mixamo character walking her own
 walk (girl1's Right Strafe Walk, her FBX). The bones not retargeted keep every key to the bit and pose as
 before; the bones retargeted pose as a whole-body retarget poses them, relative to their parents."""

@@ -1,4 +1,4 @@
-"""The retarget's live preview (issue 38, part 5): the target plays the retarget from an action of the
+"""The retarget's live preview: the target plays the retarget from an action of the
 preview's own, remade as the panel's settings change, the user's actions untouched; Cancel leaves the scene
 as it was, Apply keys the retarget as the Retarget button does. Judged by Blender's evaluation."""
 import importlib

@@ -326,7 +326,7 @@ def check_feet_on_the_floor(mk, walk60, variant, plant):
     # floor as at rest (the sample's ball joints ride 2.5 cm above the floor it was built on).
     src_floor, tgt_floor = 0.0, _rest_floor(target, tgt_feet)
     leg = _world_leg(target, tgt_feet)
-    ratio = plan.leg_ratio * target.matrix_world.to_scale()[0] / source.matrix_world.to_scale()[0]
+    ratio = plan.path_scale * target.matrix_world.to_scale()[0] / source.matrix_world.to_scale()[0]
     wanted = tgt_floor + ratio * (src_low - src_floor)
     stance = _stance(src_low, src_ankles, _world_leg(source, src_feet), 60.0)
     error = np.abs(tgt_low - wanted)[stance] / leg
@@ -365,7 +365,7 @@ def test_fbx_clip_onto_an_fbx_character_whose_origin_is_at_its_hips(mk, fbx_dir,
     src_floor, tgt_floor = _rest_floor(source, src_feet), _rest_floor(target, tgt_feet)
     leg = _world_leg(target, tgt_feet)
     # The leg ratio as docs/retargeting.md defines it (along the legs), in world units.
-    ratio = mk.retargeting.plan(source, target, plant_feet=False).leg_ratio * \
+    ratio = mk.retargeting.plan(source, target, plant_feet=False).path_scale * \
         target.matrix_world.to_scale()[0] / source.matrix_world.to_scale()[0]
     assert stance.sum() > 10
     above = (tgt_low - tgt_floor)[stance] / leg

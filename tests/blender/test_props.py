@@ -1,5 +1,5 @@
-"""A prop that the source moves in its hand, followed on the target in the space the user picks (issue 38,
-part 2), made in the test: a gun under the right hand of the Mixamo-named sample, keyed to turn and slide
+"""A prop that the source moves in its hand, followed on the target in the space the user picks, made in the
+test: a gun under the right hand of the Mixamo-named sample, keyed to turn and slide
 in the hand while the arm moves, retargeted onto the same character with arms a quarter longer. Judged by
 Blender's evaluation: the gun's move from its rest relative to the hand ("hand"), to the hips ("root") or
 in the armature ("world") is the source's."""

@@ -178,14 +178,14 @@ def test_a_pose_with_spread_legs_keeps_every_world_joint_both_ways(mk, retargeti
 
     plan = retargeting.plan(source, a_rig, same_names(a_rig), plant_feet=False)
     # The same legs, measured along them: 1 to Blender's float32 bone storage (the hip height gave 0.724).
-    assert plan.leg_ratio == pytest.approx(1.0, abs=1e-6)
+    assert plan.path_scale == pytest.approx(1.0, abs=1e-6)
     retargeting.apply(plan)
     expected = joints(source, frames)
     assert np.abs(joints(a_rig, frames) - expected).max() < tolerance
 
     back, _ = load(mk, walk60, "walkT2")
     plan = retargeting.plan(a_rig, back, same_names(back), plant_feet=False)
-    assert plan.leg_ratio == pytest.approx(1.0, abs=1e-6)
+    assert plan.path_scale == pytest.approx(1.0, abs=1e-6)
     retargeting.apply(plan)
     assert np.abs(joints(back, frames) - expected).max() < tolerance
 
@@ -250,7 +250,7 @@ def test_walk60_onto_each_sample_character(mk, retargeting, walk60, spec):
     # Legs measured along thigh, shin and the ankle's height above the sole, the samples' known proportions;
     # where the feet stand: test_feet_stand_on_the_floor.
     p = spec.proportions
-    assert plan.leg_ratio * 0.85 < p.hip_height < plan.leg_ratio * 1.15  # walk60's legs are about 0.9 m
+    assert plan.path_scale * 0.85 < p.hip_height < plan.path_scale * 1.15  # walk60's legs are about 0.9 m
 
 
 def rest_y_axes(obj, names):
@@ -261,7 +261,7 @@ def rest_y_axes(obj, names):
 
 @pytest.mark.parametrize("spec", characters.CHARACTERS, ids=lambda s: s.name)
 def test_walk60_keeps_each_characters_posture(mk, retargeting, walk60, spec):
-    """By default the target keeps its own posture where the two rigs stand alike (BRIEF section 8): its trunk
+    """By default the target keeps its own posture where the two rigs stand alike (a reference pose is a pose, not a body shape): its trunk
     (a character's spine curve and head carriage) moves from its own rest as the capture's moves from its
     rest, so each trunk bone stays at its rest angle from the capture's bone on every frame, and each limb
     is either matched (at 0) or kept (at its rest angle): a constant angle, never a drift. Every bone turns
@@ -552,8 +552,8 @@ def test_bandai_dash_onto_each_sample_character_points_every_mapped_bone_alike(m
     src_hips, _ = world_tracks(source, ["Hips"], frames[[0, -1]])
     tgt_hips, _ = world_tracks(target, [spec.canonical["hips"]], frames[[0, -1]])
     travelled = np.linalg.norm(np.diff(src_hips[:, 0, :2], axis=0))
-    assert np.linalg.norm(np.diff(tgt_hips[:, 0, :2], axis=0)) == pytest.approx(plan.leg_ratio * travelled, rel=1e-6)
-    assert 0.005 < plan.leg_ratio < 0.02
+    assert np.linalg.norm(np.diff(tgt_hips[:, 0, :2], axis=0)) == pytest.approx(plan.path_scale * travelled, rel=1e-6)
+    assert 0.005 < plan.path_scale < 0.02
 
 
 @pytest.mark.parametrize("mode", ["still", "copy", "extract", "auto"])
@@ -585,7 +585,7 @@ def test_floor_root_modes_keep_the_world_pose(mk, retargeting, walk60, bandai, s
     elif expected == "copy":  # the dash's joint_Root runs forward; the root follows it, scaled
         src_root, _ = world_tracks(source, ["joint_Root"], frames)
         moved = np.linalg.norm(heads[-1, root, :2] - heads[0, root, :2])
-        assert moved == pytest.approx(plan.leg_ratio * np.linalg.norm(src_root[-1, 0, :2] - src_root[0, 0, :2]),
+        assert moved == pytest.approx(plan.path_scale * np.linalg.norm(src_root[-1, 0, :2] - src_root[0, 0, :2]),
                                       rel=1e-6)
         assert np.abs(heads[:, root, 2]).max() < 1e-6
         retargeting.apply(retargeting.plan(source, target, floor_root=mode, scale_horizontal=1.4))
@@ -615,7 +615,7 @@ def test_walk60_onto_the_bandai_skeleton(mk, retargeting, walk60, bandai, mode):
     pairs = [(s, t) for s, t in plan.pairs if t != "joint_Root"]
     src_dirs, tgt_dirs = pointing_pairs(source, target, pairs, frames)
     assert angles_deg(src_dirs, tgt_dirs).max() < 0.1
-    assert 50 < plan.leg_ratio < 150  # metres onto centimetres
+    assert 50 < plan.path_scale < 150  # metres onto centimetres
     heads, _ = world_tracks(target, body, frames)
     assert np.abs(heads - still_heads).max() < 1e-3  # centimetres: float32 pose matrices 100 units from 0
     if mode == "extract":
@@ -699,7 +699,7 @@ def check_held(case, name):
     low and slow) there: the target's point strays across the floor no further than the source's own point
     there, scaled by the leg ratio, and HELD_M; a contact it did not hold (a slide, a pivot) no further than
     that or the plain retarget's point."""
-    ratio, source = case["planted"].leg_ratio, case["source_points"]
+    ratio, source = case["planted"].path_scale, case["source_points"]
     held = case["planted"].contact_report.held
     worst = 0.0
     for kind, mask in (("held", held), ("stance", case["stand"] & held), ("not held", case["planted"].contacts & ~held)):

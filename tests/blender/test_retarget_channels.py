@@ -1,4 +1,4 @@
-"""Every channel (issue 38, part 3): bone scale (squash and stretch), custom properties and ARKit-named
+"""Every channel: bone scale (squash and stretch), custom properties and ARKit-named
 shape keys carried by name, with a map for names that differ, judged by Blender's evaluation of the source
 and of the target on every frame of the clip. No real file has them all: the source is the sample Mixamo
 character walking (blend_samples), given Bezier keys every few frames on its spine's and arm's scale, a

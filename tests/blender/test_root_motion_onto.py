@@ -1,4 +1,4 @@
-"""Root motion where the engine wants it (issue 38, part 4), judged by Blender's evaluation (frame_set, pose
+"""Root motion where the engine wants it, judged by Blender's evaluation (frame_set, pose
 bones' heads in world space): a source whose armature object (or its parent) carries the travel retargets as
 the same clip carried by its root bone; the target's travel onto its hips, its root bone (Unreal's: unrotated
 about X and Y, on the floor) or its object, the world pose the same each way.

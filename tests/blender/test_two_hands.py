@@ -1,4 +1,4 @@
-"""Two hands on one prop (issue 38, part 2), made in the test: a bar held in both hands (it hangs from the
+"""Two hands on one prop, made in the test: a bar held in both hands (it hangs from the
 right hand, the left wrist at its far end) on the Mixamo-named sample, the body turning and bending under
 still arms; retargeted onto the same character with arms a quarter longer holding the same bar. Judged by
 Blender's evaluation: the target's left wrist where the source's is in the bar's own axes."""

@@ -242,7 +242,7 @@ def _blender_methods(mk, source, template, pairs, hips, names, frames, last, met
         elif method == "MotionKit, given map":
             _, seconds = _timed(lambda: mk.retarget(source, target, bone_map=pairs))
         elif method == STRIDE:  # on top of MotionKit's own ratio of the rigs, which a plan tells
-            wider = stride / mk.retargeting.plan(source, target).leg_ratio
+            wider = stride / mk.retargeting.plan(source, target).path_scale
             _, seconds = _timed(lambda: mk.retarget(source, target, scale_horizontal=wider))
         else:
             variant = method.split("(")[1].rstrip(")")
@@ -313,7 +313,7 @@ EXCERPTS = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__
 EXCERPT_CHARACTERS = ("BigVegas", "Goblin_m", "Mousey_m", "SportyGranny")
 EXCERPT_RUNS = (("Jumping", "head"), ("Jumping", "mid"), ("Running", "mid"), ("Catwalk Walk", "mid"),
                 ("Getting Up", "mid"))
-# The upper body's local rotations, which Mixamo keeps the same on every character (BRIEF section 8): where an
+# The upper body's local rotations, which Mixamo keeps the same on every character (../shared/docs/BRIEF.md, section 8): where an
 # excerpt's agree with a whole clip's, it starts there.
 _UPPER = ("LeftArm", "RightArm", "LeftForeArm", "RightForeArm")
 

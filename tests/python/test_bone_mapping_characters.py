@@ -84,7 +84,7 @@ def test_the_set_has_what_the_names_promise(san):
 
 @pytest.mark.parametrize("presets", [True, False], ids=["presets", "names-and-shape"])
 def test_the_issue_cases(san, presets):
-    """RightUpLeg onto the facial joint, LeftShoulder onto LeftShoulder_split: the two maps issue 37 saw."""
+    """RightUpLeg onto the facial joint, LeftShoulder onto LeftShoulder_split: two maps once made so."""
     aj_kaya = dict((t, s) for s, t in pairs_of(san["Aj"], san["Kaya"], presets))
     assert aj_kaya["RightUpLeg"] == "RightUpLeg" and aj_kaya["LeftUpLeg"] == "LeftUpLeg"
     assert "OccupyGuyFacialAnim_Joint" not in aj_kaya and "BoyFacialAnim_Joint" not in aj_kaya.values()

@@ -222,34 +222,3 @@ def test_errors():
     with pytest.raises(ValueError, match="leave"):
         fc.detect(np.zeros((5, 1, 3)), 60, 1, settings=fc.ContactSettings(speed_leave=0.1))
 
-
-def test_a_slide_follows_the_source_s_path_and_eases_off_after_it():
-    frames, blend = 20, 4
-    points = np.zeros((frames, 2, 3))
-    points[:, 0, 0] = 0.5 * np.arange(frames)  # this rig's own pose slides its ankle 0.5 a frame
-    points[:, 1] = points[:, 0] + [0.2, 0.0, 0.0]
-    paths = np.zeros((frames, 2, 3))
-    paths[:, :, 0] = 0.1 * np.arange(frames)[:, None]  # the source's slides 0.1 a frame (scaled)
-    contacts = np.zeros((frames, 2), dtype=bool)
-    contacts[5:10] = True
-    holds = np.zeros_like(contacts)
-    targets = points.copy()
-    fc.follow_paths(targets, points, contacts, holds, paths, blend, rigid_pairs=[(0, 1)])
-    np.testing.assert_allclose(targets[5:10, 0, 0], 2.5 + 0.1 * np.arange(5))  # from where it stood, as the source
-    np.testing.assert_array_equal(targets[:5], points[:5])
-    np.testing.assert_array_equal(targets[10 + blend:], points[10 + blend:])
-    gap = np.abs(targets[9:10 + blend, 0, 0] - points[9:10 + blend, 0, 0])
-    assert np.all(np.diff(gap) < 0)  # eased off after the slide
-    np.testing.assert_array_equal(targets[..., 2], points[..., 2])  # heights untouched
-
-
-def test_a_pivot_about_a_held_point_is_left_to_the_pose():
-    frames = 12
-    points = np.random.default_rng(3).normal(size=(frames, 2, 3))
-    paths = np.random.default_rng(4).normal(size=(frames, 2, 3))
-    contacts = np.ones((frames, 2), dtype=bool)
-    holds = np.zeros_like(contacts)
-    holds[:, 1] = True  # the ball held: the ankle turns the foot about it
-    targets = points.copy()
-    fc.follow_paths(targets, points, contacts, holds, paths, 3, rigid_pairs=[(0, 1)])
-    np.testing.assert_array_equal(targets, points)

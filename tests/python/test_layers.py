@@ -88,3 +88,45 @@ def test_only_blender_reads_or_writes_blender_data_in_bulk(layer):
         tree = ast.parse(open(path, encoding="utf-8").read(), path)
         bulk = {node.attr for node in ast.walk(tree) if isinstance(node, ast.Attribute)} & {"foreach_get", "foreach_set"}
         assert not bulk, f"{os.path.relpath(path, ADDON)} calls {sorted(bulk)}"
+
+
+def _siblings(path):
+    """The modules of path's own layer that it imports (from . import x, from .x import y), anywhere in it."""
+    out = set()
+    for node in ast.walk(ast.parse(open(path, encoding="utf-8").read(), path)):
+        if isinstance(node, ast.ImportFrom) and node.level == 1:
+            out.update([node.module.split(".")[0]] if node.module else [alias.name for alias in node.names])
+    return out
+
+
+@pytest.mark.parametrize("layer", LAYERS)
+def test_no_two_modules_of_a_layer_import_each_other_round_a_cycle(layer):
+    """Across layers imports go one way (above); within one, neither may a module reach itself through others
+    (a function-level import included): each module can be read, and changed, before the ones it uses."""
+    graph = {os.path.basename(p)[:-3]: _siblings(p) for p in _modules(layer)}
+    state = {}
+
+    def visit(module, trail):
+        if state.get(module) == "done" or module not in graph:
+            return
+        assert state.get(module) != "open", f"{layer}: {' -> '.join(trail + [module])}"
+        state[module] = "open"
+        for used in sorted(graph[module]):
+            visit(used, trail + [module])
+        state[module] = "done"
+
+    for module in sorted(graph):
+        visit(module, [])
+
+
+def test_the_architecture_names_every_module():
+    """docs/architecture.md, the map of the add-on, names each module of every layer (as `name`, `name.thing`
+    or `layer/name.py`)."""
+    text = open(os.path.join(os.path.dirname(ADDON), "docs", "architecture.md"), encoding="utf-8").read()
+
+    def named(layer, name):
+        return any(form in text for form in (f"`{name}`", f"`{name}.", f"{layer}/{name}.py"))
+
+    unnamed = [os.path.relpath(p, ADDON) for layer in LAYERS for p in _modules(layer)
+               if not p.endswith("__init__.py") and not named(layer, os.path.basename(p)[:-3])]
+    assert not unnamed, unnamed

@@ -17,8 +17,8 @@
 // Each character's posture: a target bone in `posture_bones` keeps the
 // orientation its parent carries it to in the match pose (S_b = 1), so it
 // moves from its own rest as a moves from the source's, and a hunched spine
-// or a bent knee stays the character's own (BRIEF section 8: the reference
-// poses are poses, not body shapes). The caller decides per chain which rest
+// or a bent knee stays the character's own (a reference pose is a pose, not
+// a body shape). The caller decides per chain which rest
 // differences are poses (T against A arms: turned, S_b) and which are the
 // body's (kept). A posture bone that its parents carry to point more than 45
 // degrees from the source's is turned all the same: so far apart, the rigs
@@ -39,8 +39,8 @@
 // Root motion: the target root's head moves across `up` (the target
 // armature's up direction) as the source root moved from its match pose, and
 // stands at the source root's height above the source's floor, both carried
-// by R and scaled by `scale`, the ratio of the rigs' leg lengths (in their own
-// armature units). Each rig's floor is its own (its rest soles, or where the
+// by R and scaled by `scale`, the ratio of how high the rigs' hips stand (in
+// their own armature units). Each rig's floor is its own (its rest soles, or where the
 // caller says): heights are measured along up from `source_floor` (source
 // units, after R) and put above `target_floor`:
 //   kScaled   horizontal and height scaled;
@@ -75,7 +75,7 @@ std::optional<RootMotion> ParseRootMotion(std::string_view text);
 
 struct RetargetOptions {
   RootMotion root_motion = RootMotion::kScaled;
-  double scale = 1.0;       // target leg length / source leg length
+  double scale = 1.0;       // the root path's: how high the target's hips stand / the source's
   double unit_scale = 1.0;  // target armature units per source armature unit
   double vertical_offset = 0.0;  // kOffset: added to the root's unscaled height
   double scale_horizontal = 1.0;  // kScaled, kOffset: the motion across up, times this on top of scale
