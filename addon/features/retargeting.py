@@ -37,10 +37,13 @@ _IDENTITY = np.array([1.0, 0.0, 0.0, 0.0])
 
 @dataclass(frozen=True)
 class Retargeted:
-    """What retarget_clip() made: the action keyed, and the channels (channel_carry.LeftOut) it did not carry
-    because the target has no bone, property or shape key to take them (empty when it carried everything)."""
+    """What retarget_clip() made: the action keyed, the channels (channel_carry.LeftOut) it did not carry
+    because the target has no bone, property or shape key to take them (empty when it carried everything),
+    and how each chain stood in the reference pose (reference_pose.ChainPose: kept or matched), as decided
+    on the way, so that nothing reads the rigs again to show it."""
     action: bpy.types.Action
     channels_left_out: tuple = ()
+    chains: tuple = ()
 
 
 def _check_editable(obj) -> None:
@@ -994,7 +997,7 @@ def _retarget_bones(source, target, keys, reduce, action_name, overwrite, call):
     action = apply(plan_, action_name=action_name, overwrite=overwrite)
     if reduce:
         resampling.reduce_keys(target)
-    return Retargeted(action, tuple(plan_.channels_left_out))
+    return Retargeted(action, tuple(plan_.channels_left_out), tuple(plan_.chains))
 
 
 def _retarget_controls(source, target, controls, limbs, control_map, keys, reduce, action_name, overwrite,
@@ -1017,4 +1020,4 @@ def _retarget_controls(source, target, controls, limbs, control_map, keys, reduc
     apply_shapes(planned[-1], action_name, overwrite)
     if reduce:
         resampling.reduce_keys(target, bones=result.keyed)
-    return Retargeted(action, tuple(planned[-1].channels_left_out))
+    return Retargeted(action, tuple(planned[-1].channels_left_out), tuple(planned[-1].chains))

@@ -370,7 +370,7 @@ def run_retarget(self, context) -> set:
         action = made.action
         timing = scene_timing.from_clip(context.scene, action) if settings.scene_from_clip else None
         not_carried = channel_carry.summary(made.channels_left_out)
-        _decide_chains(settings, settings.bone_map() or None)
+        settings.reference_pose.record_chains(made.chains)  # as the retarget decided them
         left_out = "" if settings.bone_map() or settings.source_kind != 'ARMATURE' else \
             bone_mapping.auto_map_report(_source_rig(settings), pose_channels.armature_mapping_rig(
                 settings.target, upright=True)).message()
