@@ -262,8 +262,8 @@ def plan(source, target, bone_map=None, frame_range=None, options: RetargetOptio
     # The source's contacts, needed to plant feet or to put them on the floor, need only the source's pose.
     # "first_frame" keeps the motion's own heights, the whole clip moved once so that its first frame touches
     # the floor: no frame's feet are fitted apart.
-    floor_fit = "off" if ground else o.floor_fit
-    wants_feet = plant_feet or (floor_fit != "off" and root != "none")
+    feet_fit = "off" if ground else o.floor_fit
+    wants_feet = plant_feet or (feet_fit != "off" and root != "none")
     feet = (_feet(rigs.src), _feet(rigs.tgt)) if wants_feet else (None, None)
     # The source's contacts count only where both rigs have feet.
     rotations, root_locations, stances = _retarget_clip(rigs, clip, fit, (root, ground, chains),
@@ -272,15 +272,13 @@ def plan(source, target, bone_map=None, frame_range=None, options: RetargetOptio
     twist.share_twist(rigs.tgt, rigs.tgt.body, rotations, {b for _, b in rigs.pairs_idx})
     locations, located, mode = _place_roots(rigs, clip, fit, rotations, root_locations, o)
     feet_lift = None
-    if found is not None and root != "none" and floor_fit != "off" and (written is None or rigs.roots[1] in written):
+    if found is not None and root != "none" and feet_fit != "off" and (written is None or rigs.roots[1] in written):
         # The hips come down where a leg cannot reach; "legs" also has the legs' solve put the feet down.
         feet_lift = _stand_on_floor(rigs, clip, fit, rotations, locations, found, root)
-        feet_lift = feet_lift if floor_fit == "legs" else None
-    # The legs' solve plants the feet, and puts right what the hips' lift leaves (feet the legs' proportions
-    # keep off the floor); without planting it runs only where that is more than a twentieth of a percent of
-    # the leg, so that a retarget between alike legs keeps every bone's direction exactly.
+        feet_lift = feet_lift if feet_fit == "legs" else None
+    # The legs' solve plants the feet, and puts right what the hips' lift leaves (floor_fit.feet_left_off).
     legs_solve = found is not None and lower_body and (plant_feet or (
-        feet_lift is not None and np.abs(feet_lift).max(initial=0.0) > 5e-4 * fit.target_scale * fit.legs[1]))
+        feet_lift is not None and floor_fit.feet_left_off(feet_lift, fit.target_scale * fit.legs[1])))
     planted = _plant_feet(rigs.tgt, feet[1], stances if plant_feet else _unplanted(stances), clip.frames, rotations,
                           locations, rigs.roots[1], contact_settings, clip.fps, beside=defer_solve, heights=feet_lift,
                           hips_move=plant_feet) if legs_solve else None

@@ -198,3 +198,10 @@ def test_a_crouching_target_whose_feet_float_settles_its_hips_unless_the_source_
         # Doubles, a few operations on lengths of about a metre.
         np.testing.assert_allclose(drop, 0.0 if kneels else floating / 2, rtol=0, atol=1e-14)
         np.testing.assert_allclose(lifts, -floating / 2 if kneels else 0.0, rtol=0, atol=1e-14)
+
+
+def test_feet_left_off_the_floor_by_more_than_half_a_millimetre_a_metre_ask_for_the_legs():
+    assert not floor_fit.feet_left_off(np.zeros((5, 2)), 1.0)
+    assert not floor_fit.feet_left_off(np.full((5, 2), 4.9e-4), 1.0)
+    assert floor_fit.feet_left_off(np.array([[0.0, -6e-4]]), 1.0)
+    assert not floor_fit.feet_left_off(np.array([[0.0, -6e-4]]), 2.0)  # a longer leg: a smaller share
