@@ -252,4 +252,3 @@ def plant_targets(native, points, contacts, blend_frames: int, rigid_pairs=()) -
     targets, weights = native.foot_targets(np.ascontiguousarray(points.reshape(frames, 3 * count)), contacts,
                                            int(blend_frames), [tuple(pair) for pair in rigid_pairs])
     return targets.reshape(frames, count, 3), weights
-

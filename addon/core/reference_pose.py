@@ -33,7 +33,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import bone_mapping
-from .chain_modes import CHAINS, MODES, check_modes  # noqa: F401  (the chains, named here too)
+from .chain_modes import CHAINS, check_modes
 
 # T against A arms lie 30-50 degrees apart and a capture's spread legs 20-45; the limbs of characters that all
 # stand in a T differ by under 10 (a slightly lowered arm, a wide stance). Halfway between.

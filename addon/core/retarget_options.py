@@ -14,7 +14,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import channel_carry, reference_pose, retarget_parts
+from . import channel_carry, retarget_parts
+from .chain_modes import check_modes
 from .props import SPACES
 from .foot_contacts import ContactSettings
 from .root_motion import FLOOR_ROOTS
@@ -105,7 +106,7 @@ class RetargetOptions:
     # "first_frame" (the whole clip moved once so that the target's lowest point touches its floor on the
     # first frame, the clip's heights kept: what the keyword ground=True asked for).
     floor_fit: str = "legs"
-    # {chain: "KEEP" | "MATCH"} (reference_pose.CHAINS): whether the target keeps its own posture (its
+    # {chain: "KEEP" | "MATCH"} (core/chain_modes.CHAINS): whether the target keeps its own posture (its
     # spine's curve, its knees' bend) or takes the source's direction; None or a chain left out: Auto.
     chain_modes: dict | None = None
     # Which parts of the target are written (retarget_parts: a preset such as "arms", or a list of PARTS),
@@ -167,7 +168,7 @@ class RetargetOptions:
                 raise ValueError(f"{name} must be a height in metres or None, not {value!r}")
         if self.contact_settings is not None and not isinstance(self.contact_settings, ContactSettings):
             raise ValueError(f"contact_settings must be a ContactSettings, not {self.contact_settings!r}")
-        reference_pose.check_modes(self.chain_modes)
+        check_modes(self.chain_modes)
         self._validate_output()
         return self
 

@@ -8,11 +8,11 @@ from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProp
                        PointerProperty, StringProperty)
 from bpy_extras.io_utils import ExportHelper, ImportHelper
 
-from . import common, contacts as contact_ui
-from . import preview
+from . import common, contacts as contact_ui, preview
 from .preview import MOTIONKIT_PG_retarget_preview
 from ..blender import pose_channels
-from ..core import bone_mapping, channel_carry, display_names, props, reference_pose, retarget_parts
+from ..core import bone_mapping, channel_carry, display_names, props, retarget_parts
+from ..core.chain_modes import CHAINS
 from ..core.retarget_options import RetargetOptions
 from ..features import bvh, control_rigs, retarget_sources, retargeting, scene_timing
 
@@ -56,7 +56,7 @@ def _chain_properties() -> dict:
     return {_chain_prop(c): EnumProperty(name=_CHAIN_LABELS[c], items=_chain_items(c), default=0,
                                          description=f"How the target's {_CHAIN_LABELS[c].lower()} stands in the "
                                                      f"reference pose")
-            for c in reference_pose.CHAINS}
+            for c in CHAINS}
 
 
 # Set while a preset ticks the rows: their updates must not turn the preset into "custom".
@@ -112,17 +112,17 @@ def _tick_parts(settings) -> None:
 
 
 class MOTIONKIT_PG_reference_pose(bpy.types.PropertyGroup):
-    """Per chain (reference_pose.CHAINS) the user's mode (chain_trunk, chain_arm_l, ...), and what Auto
+    """Per chain (CHAINS) the user's mode (chain_trunk, chain_arm_l, ...), and what Auto
     decided last (chains_decided: chain:MODE:angle, comma-separated)."""
     __annotations__ = {**_chain_properties(), "chains_decided": StringProperty(name="Decided")}
 
     def chain_modes(self) -> dict:
         """The user's chain modes ({chain: KEEP | MATCH}), the Auto ones left out."""
-        return {c: getattr(self, _chain_prop(c)) for c in reference_pose.CHAINS
+        return {c: getattr(self, _chain_prop(c)) for c in CHAINS
                 if getattr(self, _chain_prop(c)) != "AUTO"}
 
     def set_chain_modes(self, modes: dict) -> None:
-        for c in reference_pose.CHAINS:
+        for c in CHAINS:
             setattr(self, _chain_prop(c), modes.get(c, "AUTO"))
 
     def decided(self) -> dict:
@@ -733,7 +733,7 @@ def _draw_reference_pose(box, settings) -> None:
     row = box.row()
     row.label(text="Reference Pose")
     row.operator("motionkit.reference_pose", text="", icon='FILE_REFRESH')
-    for chain in reference_pose.CHAINS:
+    for chain in CHAINS:
         split = box.split(factor=0.5)  # "Right Fingers" whole at the default sidebar width
         split.label(text=_CHAIN_LABELS[chain].title())
         split.prop(settings.reference_pose, _chain_prop(chain), text="")
@@ -853,7 +853,8 @@ BONE_MAP = common.editable_list(common.EditableList(
 
 classes = (MOTIONKIT_PG_bone_pair, MOTIONKIT_PG_channel_pair, MOTIONKIT_PG_reference_pose,
            MOTIONKIT_PG_retarget_preview, MOTIONKIT_PG_retarget, MOTIONKIT_OT_retarget,
-           MOTIONKIT_OT_retarget_preview_apply, MOTIONKIT_OT_bone_map_auto, MOTIONKIT_OT_reference_pose, MOTIONKIT_OT_bone_map_scheme, MOTIONKIT_OT_bone_map_save,
+           MOTIONKIT_OT_retarget_preview_apply, MOTIONKIT_OT_bone_map_auto, MOTIONKIT_OT_reference_pose,
+           MOTIONKIT_OT_bone_map_scheme, MOTIONKIT_OT_bone_map_save,
            MOTIONKIT_OT_bone_map_load, MOTIONKIT_UL_bone_map, MOTIONKIT_UL_channel_map, MOTIONKIT_OT_channel_map_add,
            MOTIONKIT_OT_channel_map_remove, MOTIONKIT_PT_retarget, MOTIONKIT_PT_retarget_map,
            MOTIONKIT_PT_retarget_controls, MOTIONKIT_PT_retarget_options, MOTIONKIT_PT_retarget_feet,

@@ -11,6 +11,8 @@ import pytest
 
 import characters
 import generate
+import made_characters as made
+import san_protocol as sp
 import stances
 from rotations import quaternion_angles
 
@@ -441,9 +443,7 @@ def test_planted_feet_hold_on_a_rig_with_longer_legs(mk, walk60, tmp_path):
     """walk60 onto a copy of its own skeleton whose legs are 30 % longer (knee, ankle and toe offsets, made
     from the file by tests/common/made_characters.py): no stance slides more than the source's own, scaled by
     the legs' ratio, plus test_feet_metarig.SLIDE_SLACK."""
-    import made_characters as made
-    import san_protocol as sp
-    from test_feet_metarig import SLIDE_SLACK, stance_slides
+    from test_feet_metarig import SLIDE_SLACK, stance_slides  # that module's fixtures stay out of this one
     longer = sp.read_bvh(walk60)
     for j, name in enumerate(longer.names):
         if any(part in name for part in ("Knee", "Ankle", "Toe")):

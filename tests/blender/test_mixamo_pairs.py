@@ -274,7 +274,7 @@ def test_a_target_playing_its_own_clip_stands_on_the_floor_that_clip_walks_on(mk
 # Mixamo does, ties the copy on every one, both ways.
 def _made(bvh, variant):
     joint = "LeftShoulder_split" if variant.startswith("shoulder") else "Spine1_split"
-    (child,) = [j for j, p in enumerate(bvh.parents) if p == bvh.index(joint)]
+    (child,) = made.children(bvh, bvh.index(joint))
     whole = bvh.offsets[bvh.index(joint)] + bvh.offsets[child]
     if variant.endswith("on its parent"):
         return made.with_joint_moved(bvh, joint, np.zeros(3))

@@ -14,7 +14,8 @@ import san_protocol as sp
 UNTURNED_DEG = 1e-3
 
 
-def _children(bvh: sp.Bvh, joint: int) -> list[int]:
+def children(bvh: sp.Bvh, joint: int) -> list[int]:
+    """The joints that hang from joint (indices)."""
     return [j for j, p in enumerate(bvh.parents) if p == joint]
 
 
@@ -30,7 +31,7 @@ def with_joint_moved(bvh: sp.Bvh, name: str, offset) -> sp.Bvh:
     the child stays where it stood on every frame)."""
     joint = bvh.index(name)
     _unturned(bvh, joint)
-    (child,) = _children(bvh, joint)
+    (child,) = children(bvh, joint)
     offsets = bvh.offsets.copy()
     offsets[child] += offsets[joint] - np.asarray(offset, dtype=np.float64)
     offsets[joint] = offset
@@ -72,10 +73,10 @@ def write_bvh(bvh: sp.Bvh, path: str) -> None:
         lines.append(pad + "{")
         lines.append(f"{pad}\tOFFSET " + " ".join(f"{v:.6f}" for v in bvh.offsets[j]))
         lines.append(f"{pad}\tCHANNELS {len(bvh.channels[j])} " + " ".join(bvh.channels[j]))
-        children = _children(bvh, j)
-        for child in children:
+        below = children(bvh, j)
+        for child in below:
             joint(child, depth + 1)
-        if not children:
+        if not below:
             lines.extend([f"{pad}\tEnd Site", f"{pad}\t{{", f"{pad}\t\tOFFSET 0.000000 0.000000 0.000000",
                           f"{pad}\t}}"])
         lines.append(pad + "}")
