@@ -314,6 +314,15 @@ def main() -> None:
         profile.disable()
         text = io.StringIO()
         pstats.Stats(profile, stream=text).sort_stats("tottime").print_stats(25)
+        bpy.data.actions.remove(action)
+        profile = cProfile.Profile()
+        profile.enable()
+        result = retargeting.plan(source, target, pairs, plant_feet=PLANT_FEET, floor_fit=FLOOR_FIT,
+                                  chain_modes=MATCH_EVERY_CHAIN)
+        profile.disable()
+        action = retargeting.apply(result)
+        text.write("plan() alone, by cumulative time:\n")
+        pstats.Stats(profile, stream=text).sort_stats("cumulative").print_stats(45)
         print(text.getvalue())
 
     # MotionKit points every mapped bone where the source's points.

@@ -9,8 +9,9 @@ import numpy as np
 
 from . import animdata, pose_channels
 from ..core import native_state, object_motion, rotation_channels
+from ..core.retarget_inputs import ObjectRotation
 
-GROUP = "Object Transforms"  # the group Blender keys an object's transform in
+GROUP = object_motion.GROUP
 # On an action whose keys move its object by root motion (root_motion_onto="object"): where the object stood
 # before (ObjectBase.values), so that the next clip put onto it starts from there too, not from wherever the
 # last one's keys left the object's channels.
@@ -121,12 +122,13 @@ class ObjectMotion:
 def transform_keys(obj, locations, rotations) -> tuple[list, np.ndarray]:
     """Channels and values (channels, n) keying obj's location and rotation (quaternions (n, 4)), the rotation
     in obj's own mode, continuous from its current value."""
-    mode = obj.rotation_mode
-    prop, size = rotation_channels.channel_property(mode)
-    values = rotation_channels.from_quaternions(native_state.native(), mode, rotations,
-                                                np.array(getattr(obj, prop), dtype=np.float64))
-    channels = [("location", k, GROUP) for k in range(3)] + [(prop, k, GROUP) for k in range(size)]
-    return channels, np.vstack([np.asarray(locations, dtype=np.float64).T, values.T])
+    return rotation_of(obj).keys(locations, rotations)
+
+
+def rotation_of(obj) -> ObjectRotation:
+    """The object's rotation channels as they stand (core.retarget_inputs.ObjectRotation)."""
+    prop, _ = rotation_channels.channel_property(obj.rotation_mode)
+    return ObjectRotation(obj.rotation_mode, np.array(getattr(obj, prop), dtype=np.float64))
 
 
 def placed_at(rig, world):

@@ -12,7 +12,8 @@ import numpy as np
 
 from . import animdata
 from ..core import bone_axes, bone_mapping, native_state, rotation_channels
-from ..core.rig_data import FLOOR_PROPERTY, RigData
+from ..core.rotation_keys import Keyer, bone_path  # noqa: F401  (bone_path: pose_channels' too)
+from ..core.rig_data import FLOOR_PROPERTY, PoseChannels, RigData
 
 
 def depth_first(armature) -> list:
@@ -89,7 +90,8 @@ def armature_mapping_rig(obj, upright: bool = False):
 
 def read_rig(obj, bones=None) -> RigData:
     """An armature object at rest as plain data (core.rig_data), read once: its bones parents first (or
-    bones, a depth-first list of some of them), the object's placement and an importer's recorded floor."""
+    bones, a depth-first list of some of them), the object's placement, an importer's recorded floor and the
+    pose channels as they stand (PoseChannels)."""
     bones = depth_first(obj.data) if bones is None else list(bones)
     _, rotation, scale = obj.matrix_world.decompose()
     recorded = obj.data.get(FLOOR_PROPERTY)
@@ -98,12 +100,27 @@ def read_rig(obj, bones=None) -> RigData:
                    np.array([b.matrix_local.to_quaternion() for b in bones], dtype=np.float64).reshape(-1, 4),
                    heads(bones), tails(bones), np.array([b.length for b in bones], dtype=np.float64),
                    tuple(b.use_connect for b in bones), np.array(obj.matrix_world, dtype=np.float64),
-                   np.array(rotation, dtype=np.float64), np.array(scale, dtype=np.float64), floor)
+                   np.array(rotation, dtype=np.float64), np.array(scale, dtype=np.float64), floor,
+                   _pose_channels(obj, bones) if isinstance(obj, bpy.types.Object) and obj.pose else None)
 
 
-def bone_path(name: str) -> str:
-    """The data path of a pose bone, for F-curves."""
-    return f'pose.bones["{bpy.utils.escape_identifier(name)}"]'
+def _pose_channels(obj, bones) -> PoseChannels:
+    """The pose channels of bones as they stand, read in bulk (core.rig_data.PoseChannels)."""
+    pose_bones = obj.pose.bones
+    count = len(pose_bones)
+    arrays = {}
+    for prop, size in (("rotation_quaternion", 4), ("rotation_euler", 3), ("rotation_axis_angle", 4),
+                       ("location", 3)):
+        arrays[prop] = np.empty(count * size)
+        pose_bones.foreach_get(prop, arrays[prop])
+        arrays[prop] = arrays[prop].reshape(count, size)
+    order = [pose_bones.find(b.name) for b in bones]
+    # foreach_get gives an enum's storage, not its values: the modes one by one.
+    modes = tuple(pose_bones[i].rotation_mode for i in order)
+    values = tuple(arrays[rotation_channels.channel_property(mode)[0]][i].copy() for mode, i in zip(modes, order))
+    moved = arrays["location"][order]
+    moved[[b.use_connect for b in bones]] = 0.0
+    return PoseChannels(obj.name, modes, values, moved)
 
 
 def frames_between(start, end) -> np.ndarray:
@@ -129,35 +146,14 @@ def rotation_keys(obj, names, q, *, placeholder: bool = False) -> tuple[list, np
     return rotation_keyer(obj, names)(q, placeholder=placeholder)
 
 
-def rotation_keyer(obj, names):
-    """rotation_keys of some bones as a function of q alone: their rotation modes and current values are
-    read here, so that the function touches no Blender data (it may run on a worker thread)."""
-    names = list(names)
+def rotation_keyer(obj, names) -> Keyer:
+    """rotation_keys of some bones as a function of q alone (core.rotation_keys.Keyer): their rotation modes
+    and current values are read here, so that the function touches no Blender data."""
     bones = [obj.pose.bones[name] for name in names]
-    modes = [bone.rotation_mode for bone in bones]
-    properties = [rotation_channels.channel_property(mode) for mode in modes]
-    previous = [np.array(tuple(getattr(bone, prop)), dtype=np.float64) for bone, (prop, _) in zip(bones, properties)]
-    channels = [(f"{bone_path(name)}.{prop}", k, name) for name, (prop, size) in zip(names, properties)
-                for k in range(size)]
-    rows = np.cumsum([0] + [size for _, size in properties])  # each bone's first row in the values
-    by_mode = {}
-    for j, mode in enumerate(modes):
-        by_mode.setdefault(mode, []).append(j)
-
-    def keys(q, *, placeholder: bool = False) -> tuple[list, np.ndarray]:
-        q = np.asarray(q, dtype=np.float64)
-        values = np.zeros((rows[-1], len(q)))
-        if placeholder:
-            return list(channels), values
-        per_bone = q.reshape(len(q), len(names), 4)
-        for mode, group in by_mode.items():
-            converted = rotation_channels.from_quaternions(native_state.native(), mode, per_bone[:, group],
-                                                           previous=np.array([previous[j] for j in group]))
-            for column, j in enumerate(group):
-                values[rows[j]:rows[j + 1]] = converted[:, column].T
-        return list(channels), values
-
-    return keys
+    modes = tuple(bone.rotation_mode for bone in bones)
+    previous = tuple(np.array(tuple(getattr(bone, rotation_channels.channel_property(mode)[0])), dtype=np.float64)
+                     for bone, mode in zip(bones, modes))
+    return Keyer(tuple(names), modes, previous)
 
 
 def continuing_children(bones) -> np.ndarray:
@@ -269,29 +265,8 @@ def current_pose(obj, bones) -> tuple[np.ndarray, np.ndarray]:
     """The pose as it stands, read in bulk: rotations as quaternions (bones, 4), whatever each bone's
     rotation mode, and locations (bones, 3) as Blender poses them (zero for a connected bone, as
     locations()), in the order of bones (names or bones)."""
-    native = native_state.native()
-    pose_bones = obj.pose.bones
-    count = len(pose_bones)
-    arrays = {}
-    for prop, size in (("rotation_quaternion", 4), ("rotation_euler", 3), ("rotation_axis_angle", 4),
-                       ("location", 3)):
-        arrays[prop] = np.empty(count * size)
-        pose_bones.foreach_get(prop, arrays[prop])
-        arrays[prop] = arrays[prop].reshape(count, size)
-    # foreach_get gives an enum's storage, not its values: the modes one by one.
-    modes = np.array([pose_bone.rotation_mode for pose_bone in pose_bones])
-    quaternions = np.empty((count, 4))
-    for mode in np.unique(modes):
-        rows = modes == mode
-        prop, _ = rotation_channels.channel_property(mode)
-        quaternions[rows] = rotation_channels.to_quaternions(native, mode, arrays[prop][rows],
-                                                             f"'{obj.name}' pose rotation")
-    names = _names(bones)
-    order = [pose_bones.find(name) for name in names]
-    moved = arrays["location"][order]
-    moved[_connected(obj, names)] = 0.0
-    return quaternions[order], moved
-
+    channels = _pose_channels(obj, [obj.data.bones[name] for name in _names(bones)])
+    return channels.basis, channels.locations
 
 _CHANNELS = (("location", 3), ("rotation_quaternion", 4), ("rotation_euler", 3), ("rotation_axis_angle", 4),
              ("scale", 3))
@@ -343,7 +318,6 @@ def pose_matrices(obj) -> dict:
     obj.pose.bones.foreach_get("matrix", flat)
     mats = flat.reshape(-1, 4, 4).transpose(0, 2, 1).astype(np.float64)  # Blender's matrices are column-major
     return {pb.name: mats[i] for i, pb in enumerate(obj.pose.bones)}
-
 
 # Blender 5.0 moved bone selection from the armature's bones to the pose bones.
 BONE_SELECTION_ON_POSE = "select" not in bpy.types.Bone.bl_rna.properties

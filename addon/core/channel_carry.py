@@ -6,7 +6,10 @@ written, and the names that say what was left out and why (LeftOut).
 from __future__ import annotations
 
 import re
+from dataclasses import dataclass, field
 from typing import NamedTuple
+
+import numpy as np
 
 # Blender EnumProperty items (id, name, description): the panel shows these, RetargetOptions.channels holds the ids.
 CHANNELS = (
@@ -65,13 +68,19 @@ def target_name(name: str, channel_map: dict | None) -> str:
     return channel_map.get(name, name) if channel_map else name
 
 
+# What bpy.utils.escape_identifier (Blender's BLI_str_escape) writes for each character it escapes.
+_ESCAPES = {"\\": "\\", '"': '"', "\t": "t", "\n": "n", "\r": "r", "\a": "a", "\b": "b", "\f": "f",
+            "\v": "v"}
+_UNESCAPES = {code: char for char, code in _ESCAPES.items()}
+
+
 def escape(name: str) -> str:
     """name quoted into a data path as bpy.utils.escape_identifier quotes it."""
-    return name.replace("\\", "\\\\").replace('"', '\\"')
+    return "".join("\\" + _ESCAPES[c] if c in _ESCAPES else c for c in name)
 
 
 def _unescape(quoted: str) -> str:
-    return re.sub(r'\\(.)', r'\1', quoted)
+    return re.sub(r'\\(.)', lambda found: _UNESCAPES.get(found[1], found[1]), quoted)
 
 
 _QUOTED = r'"((?:[^"\\]|\\.)*)"'
@@ -122,3 +131,32 @@ def summary(left_out: list, limit: int = 6) -> str:
     shown = "; ".join(str(item) for item in left_out[:limit])
     more = f"; and {len(left_out) - limit} more" if len(left_out) > limit else ""
     return f"{len(left_out)} channel{'s' if len(left_out) != 1 else ''} not carried: {shown}{more}"
+
+
+@dataclass
+class Carried:
+    """What a plan carries beside the bones' rotations and the root's path, sampled on its frames."""
+    channels: list = field(default_factory=list)  # animdata.Channel of the target object (scale, properties)
+    values: np.ndarray | None = None               # (channels, frames)
+    shapes: list = field(default_factory=list)    # (target Key, its channels, (channels, frames) values): the Key
+    #                                                is where they are written, never read from
+    left_out: list = field(default_factory=list)  # channel_carry.LeftOut, in the order found
+
+
+def on_controls(carried: Carried) -> Carried:
+    """carried where the target is a control rig: the object's own properties and the meshes' shape keys go
+    as onto any armature (no control stands for them); a bone's scale or property is left out (the controls
+    are keyed, and nothing maps a deform bone's channel onto a control yet)."""
+    reason = "the target is a control rig: its controls are keyed, and none takes a deform bone's channel yet"
+    on_bones = [c.data_path.startswith("pose.bones") for c in carried.channels]
+    left = list(carried.left_out)
+    left += [LeftOut("scale" if c.data_path.endswith(".scale") else "property", str(c), reason)
+             for c, bone in zip(carried.channels, on_bones) if bone]
+    kept = [row for row, bone in enumerate(on_bones) if not bone]
+    return Carried(channels=[carried.channels[row] for row in kept], values=carried.values[kept],
+                   shapes=carried.shapes, left_out=left)
+
+
+def finite(carried: Carried) -> bool:
+    arrays = [carried.values] + [values for _, _, values in carried.shapes]
+    return all(np.all(np.isfinite(a)) for a in arrays if a is not None)

@@ -19,6 +19,8 @@ from .rotation_channels import conjugate, multiply, rotate_each
 # bone's rotation and location can carry.
 _SCALE_TOLERANCE = 1e-5
 
+GROUP = "Object Transforms"  # the group Blender keys an object's transform in
+
 
 def rotation_matrices(q) -> np.ndarray:
     """(n, 3, 3) rotation matrices of quaternions (n, 4) (normalised here)."""

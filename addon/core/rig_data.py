@@ -19,12 +19,38 @@ from . import bone_axes, bone_mapping, native_state, rotation_channels
 FLOOR_PROPERTY = "motionkit_floor"
 
 
+@dataclass(frozen=True, eq=False)
+class PoseChannels:
+    """An armature's pose channels as they stand, read with its rest: per bone its rotation mode (modes),
+    that mode's property values (rotation_values: 3 or 4 each, what keys continue from) and the location
+    channels (locations (B, 3), zero for a bone connected to its parent, which Blender does not move). name:
+    the rig's, for messages."""
+    name: str
+    modes: tuple
+    rotation_values: tuple
+    locations: np.ndarray
+
+    @cached_property
+    def basis(self) -> np.ndarray:
+        """(B, 4) the rotations as unit quaternions w x y z, whatever each bone's mode; a ValueError for one
+        that is no rotation (a zero quaternion), naming the rig, only when a pose as it stands is asked for."""
+        native = native_state.native()
+        out = np.empty((len(self.modes), 4))
+        modes = np.array(self.modes)
+        for mode in np.unique(modes):
+            rows = np.flatnonzero(modes == mode)
+            out[rows] = rotation_channels.to_quaternions(native, str(mode), [self.rotation_values[i] for i in rows],
+                                                         f"'{self.name}' pose rotation")
+        return out
+
+
 @dataclass(eq=False)
 class RigData:
     """An armature at rest. rest: (B, 4) orientations w x y z as Blender stores them (float32 matrices:
     unit to about 1e-7; unit_rest normalises them); heads, tails (B, 3); lengths (B,); connected: each
     bone's head held on its parent's tail; world (4, 4), world_rotation (4,) and world_scale (3,): the
-    object's placement; floor: an importer's recorded floor, or None."""
+    object's placement; floor: an importer's recorded floor, or None; channels: the pose channels as they
+    stand (PoseChannels), or None for a rig not read from an armature's pose."""
     name: str
     names: tuple
     parents: tuple
@@ -37,6 +63,7 @@ class RigData:
     world_rotation: np.ndarray = field(default_factory=lambda: np.array([1.0, 0.0, 0.0, 0.0]))
     world_scale: np.ndarray = field(default_factory=lambda: np.ones(3))
     floor: float | None = None
+    channels: PoseChannels | None = None
 
     def __post_init__(self):
         count = len(self.names)
@@ -50,6 +77,8 @@ class RigData:
             raise ValueError(f"rig '{self.name}': one parent and one connection per bone")
         if any(not -1 <= p < i for i, p in enumerate(self.parents)):
             raise ValueError(f"rig '{self.name}': bones must come parents first")
+        if self.channels is not None and len(self.channels.modes) != count:
+            raise ValueError(f"rig '{self.name}': one rotation mode per bone")
         self._index = {n: i for i, n in enumerate(self.names)}
 
     def __len__(self) -> int:

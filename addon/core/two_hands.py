@@ -38,12 +38,16 @@ def weights(source: RigData, grip: Grip, pose) -> np.ndarray:
     (frames, 4B), heads (frames, 3B))."""
     rot, heads = pose
     head = heads[:, 3 * grip.source_prop:3 * grip.source_prop + 3]
-    axis = source.lengths[grip.source_prop] * y_axes(rot[:, 4 * grip.source_prop:4 * grip.source_prop + 4])
     wrist = heads[:, 3 * grip.source_hand:3 * grip.source_hand + 3]
+    forearm = np.linalg.norm(source.heads[grip.source_hand] - source.heads[grip.source_forearm])
+    # No point of the prop's bone lies nearer the wrist than its head less its length: a wrist that far on
+    # every frame never holds it (most bones under a hand, on most clips), and nothing more is computed.
+    if np.min(np.sum((wrist - head) ** 2, axis=1)) > (HOLD * forearm + float(source.lengths[grip.source_prop])) ** 2:
+        return np.zeros(len(head))
+    axis = source.lengths[grip.source_prop] * y_axes(rot[:, 4 * grip.source_prop:4 * grip.source_prop + 4])
     along = np.clip(np.sum((wrist - head) * axis, axis=1) / max(float(source.lengths[grip.source_prop]) ** 2,
                                                                   1e-24), 0.0, 1.0)
     distance = np.linalg.norm(wrist - head - along[:, None] * axis, axis=1)
-    forearm = np.linalg.norm(source.heads[grip.source_hand] - source.heads[grip.source_forearm])
     return _smooth(distance / max(forearm, 1e-12))
 
 

@@ -66,11 +66,10 @@ def _retarget_take(path, stem, take, action, count, source, target, out_dir, exp
     try:
         animdata.assign(source, action)
         fields, rest = retargeting.split_options(options)
-        pairs = retargeting.auto_map(source, target) if rest.get("bone_map") is None else rest["bone_map"]
-        # Decided on the target as the retarget finds it: after it, root motion onto the object has moved it.
-        kept = retargeting.kept_bones(source, target, pairs, fields)
-        retargeted = retargeting.retarget_clip(source, target, options=fields, **{**rest, "bone_map": pairs},
-                                               action_name=name)
+        retargeted = retargeting.retarget_clip(source, target, options=fields, **rest, action_name=name)
+        # The pairs and kept bones as the retarget decided them, on the target as it found it (after it, root
+        # motion onto the object has moved it).
+        pairs, kept = list(retargeted.pairs), list(retargeted.kept_bones)
         made = retargeted.action
         made.use_fake_user = True
         # The scale, properties and shape keys the target had no place for (RetargetOptions.channels).

@@ -107,7 +107,7 @@ def deform_rig(obj, rig_map: ControlRigMap) -> RigData:
     connected = [p >= 0 and np.linalg.norm(whole.heads[i] - tail_points[p]) < 1e-6 * max(lengths[p], 1e-3)
                  for i, p in enumerate(parent)]
     return RigData(obj.name, tuple(order), tuple(parent), whole.rest, whole.heads, tail_points, lengths,
-                   tuple(connected), whole.world, whole.world_rotation, whole.world_scale, whole.floor)
+                   tuple(connected), whole.world, whole.world_rotation, whole.world_scale, whole.floor, whole.channels)
 
 
 # ---------------------------------------------------------------------------

@@ -14,8 +14,8 @@ from dataclasses import dataclass, field
 
 import bpy
 
-from . import retarget_channels, retargeting
-from ..blender import animdata, pose_channels
+from . import retargeting
+from ..blender import animdata, carried_reads, pose_channels
 
 PREVIEW_NAME = "MotionKit Preview"
 # ID properties of a Key's preview action: its tag, and the action the Key played before (a user of it).
@@ -47,7 +47,7 @@ def start(target) -> Held:
 
 
 def _target_keys(target) -> list:
-    return list(dict.fromkeys(m.data.shape_keys for m in retarget_channels.deformed_meshes(target)))
+    return list(dict.fromkeys(m.data.shape_keys for m in carried_reads.deformed_meshes(target)))
 
 
 def show(source, target, bone_map, frame_range, options, held: Held, shown=None) -> Shown:

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..blender import pose_channels
+from ..core.rotation_keys import Keyer, bone_path
 
 
 def target_channels(rigs, rotations, located, locations, only=None, keyed=frozenset(),
@@ -13,8 +13,8 @@ def target_channels(rigs, rotations, located, locations, only=None, keyed=frozen
     """The F-curves to key, in each bone's own rotation mode: (channels, values) for the bones the retarget
     moves (and those in keyed) and the root's location, one key per frame; (channels, values) for the bones
     that keep the match pose, one key. only: the bone indices to give (default all). placeholders: the
-    keyed bones' values left at zero (the feet's solve fills them in). keyer: pose_channels.rotation_keyer
-    of the moving bones in only, in bone order, so that this reads no Blender data (for a worker thread)."""
+    keyed bones' values left at zero (the feet's solve fills them in). keyer: core.rotation_keys.Keyer
+    of the moving bones in only, in bone order."""
     tgt, target_basis, bone_map_idx = rigs.tgt, rigs.target_basis, rigs.bone_map
     frames = rotations.shape[0]
     scope = [b for b in range(len(tgt)) if only is None or b in only]
@@ -24,20 +24,17 @@ def target_channels(rigs, rotations, located, locations, only=None, keyed=frozen
     later = [b for b in moving if placeholders and b in keyed]  # zeros until the feet's solve
     now = [b for b in moving if b not in later]
     columns = lambda bones: (4 * np.array(bones, dtype=np.int64)[:, None] + np.arange(4)).ravel()  # noqa: E731
-    names = lambda bones: [tgt.names[b] for b in bones]  # noqa: E731
-    channels = [(f"{pose_channels.bone_path(tgt.names[b])}.location", k, tgt.names[b]) for b in moving
+    channels = [(f"{bone_path(tgt.names[b])}.location", k, tgt.names[b]) for b in moving
                 if b in located for k in range(3)]
     rows = [locations[:, 3 * b:3 * b + 3].T for b in moving if b in located]
     for bones, placeholder in ((now, False), (later, True)):
         if bones:
-            keys = keyer if keyer is not None and not placeholder else pose_channels.rotation_keyer(rigs.target,
-                                                                                                   names(bones))
+            keys = keyer if keyer is not None and not placeholder else Keyer.of(tgt, bones)
             more, values = keys(rotations[:, columns(bones)], placeholder=placeholder)
             channels += more
             rows.append(values)
-    still_channels, still_values = pose_channels.rotation_keys(rigs.target, names(still),
-                                                               rotations[:1, columns(still)]) \
-        if still else ([], np.empty((0, 1)))
+    still_channels, still_values = Keyer.of(tgt, still)(rotations[:1, columns(still)]) if still else \
+        ([], np.empty((0, 1)))
     return (channels, np.vstack(rows) if rows else np.empty((0, frames))), (still_channels, still_values)
 
 

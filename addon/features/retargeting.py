@@ -18,10 +18,12 @@ import numpy as np
 
 from . import (contacts, control_rigs, resampling, retarget_channels, retarget_keys, retarget_props,
                retarget_sources)
-from ..blender import animdata, object_channels, pose_channels
-from ..core import (bone_axes, bone_mapping, facing, floor_fit, native_state, reference_pose, retarget_options,
-                    retarget_parts, root_motion, rotation_channels, twist, worker_thread)
+from ..blender import animdata, object_channels, pose_channels, retarget_reads
+from ..core import (bone_axes, bone_mapping, channel_carry, facing, floor_fit, native_state, reference_pose,
+                    retarget_options, root_motion, rotation_channels, twist, worker_thread)
+from ..core.retarget_inputs import SourceClip, TargetRig
 from ..core.rig_data import Pose, RigData
+from ..core.rotation_keys import Keyer, bone_path
 from ..core.retarget_options import (FLOOR_FITS, ROOT_MOTION_ONTO, ROOT_MOTIONS, SOURCE_MATCHES,  # noqa: F401
                                      TARGET_MATCHES, RetargetOptions, check_frame_range, from_keywords)
 from ..core.root_motion import FLOOR_ROOTS  # noqa: F401  (the panel's items, beside the other options')
@@ -39,35 +41,19 @@ _IDENTITY = np.array([1.0, 0.0, 0.0, 0.0])
 class Retargeted:
     """What retarget_clip() made: the action keyed, the channels (channel_carry.LeftOut) it did not carry
     because the target has no bone, property or shape key to take them (empty when it carried everything),
-    and how each chain stood in the reference pose (reference_pose.ChainPose: kept or matched), as decided
-    on the way, so that nothing reads the rigs again to show it."""
+    how each chain stood in the reference pose (reference_pose.ChainPose: kept or matched), the bone pairs
+    retargeted and the target bones that kept their own posture (kept_bones() of the same call), as decided
+    on the way, so that nothing reads the rigs again to show or measure it."""
     action: bpy.types.Action
     channels_left_out: tuple = ()
     chains: tuple = ()
-
-
-def _check_editable(obj) -> None:
-    """A target linked from another file without a library override cannot take keys: say so (its pose and
-    action live on the object, so an overridden object whose armature stays linked takes them)."""
-    library = getattr(obj, "library", None)
-    if library is not None:
-        raise ValueError(f"the target '{obj.name}' is linked from the library '{library.filepath}' and cannot be "
-                         f"keyed here; make a library override (Object > Library Override > Make) and "
-                         f"retarget onto that")
-
-
-def _check_armature(obj, role: str) -> None:
-    if obj is None:
-        raise ValueError(f"no {role} armature given")
-    if not isinstance(obj, bpy.types.Object) or obj.type != 'ARMATURE':
-        raise ValueError(f"the {role} '{getattr(obj, 'name', obj)}' is not an armature object")
-    if not len(obj.data.bones):
-        raise ValueError(f"the {role} armature '{obj.name}' has no bones")
+    pairs: tuple = ()
+    kept_bones: tuple = ()
 
 
 def _rig(obj, role: str) -> RigData:
     """The armature object's rig (core.rig_data), read once."""
-    _check_armature(obj, role)
+    retarget_reads.check_armature(obj, role)
     return pose_channels.read_rig(obj)
 
 
@@ -77,31 +63,6 @@ def auto_map(source, target) -> list[tuple[str, str]]:
     rigs = [rig.mapping_rig() if isinstance(rig, RigData) else pose_channels.armature_mapping_rig(rig, upright=True)
             for rig in (source, target)]
     return bone_mapping.auto_map(*rigs)
-
-
-def _pairs(bone_map, source: RigData, target: RigData) -> list[tuple[str, str]]:
-    if bone_map is None:
-        bone_map = bone_mapping.auto_map(source.mapping_rig(), target.mapping_rig())
-    items = list(bone_map.items()) if isinstance(bone_map, dict) else [tuple(p) for p in bone_map]
-    seen = set()
-    pairs = []
-    for pair in items:
-        if len(pair) != 2:
-            raise ValueError(f"bone map entries are (source bone, target bone) pairs, got {pair!r}")
-        src, tgt = pair
-        if not src or not tgt:
-            continue
-        if src not in source:
-            raise ValueError(f"bone map: '{src}' is not a bone of the source '{source.name}'")
-        if tgt not in target:
-            raise ValueError(f"bone map: '{tgt}' is not a bone of the target '{target.name}'")
-        if tgt in seen:
-            raise ValueError(f"bone map: the target bone '{tgt}' is mapped twice")
-        seen.add(tgt)
-        pairs.append((src, tgt))
-    if not pairs:
-        raise ValueError(f"no common bones: nothing maps '{source.name}' onto '{target.name}'")
-    return pairs
 
 
 def pointing(source, target, pairs) -> tuple[dict, dict]:
@@ -176,12 +137,13 @@ class Plan:
     pose: tuple = ()  # (rotations (frames, 4B), locations (frames, 3B)): every target bone's basis, final once
     #                   resolved (the feet's solve writes into them)
     chains: list = field(default_factory=list)  # reference_pose.ChainPose per chain: kept posture or matched
+    kept: list = field(default_factory=list)  # the target bones that kept their posture (names; kept_bones())
     options: RetargetOptions = field(default_factory=RetargetOptions)  # what made it: apply() writes by its into
     written: list = field(default_factory=list)  # the target bones whose keys it writes (names)
     partial: bool = False  # only some of the target's bones are written (RetargetOptions.parts, bones)
     # The bones' scale, custom properties and shape keys carried (RetargetOptions.channels), and those the
     # target has no place for: channel_carry.LeftOut (kind, name, reason), never written.
-    carried: retarget_channels.Carried | None = None
+    carried: channel_carry.Carried | None = None
     channels_left_out: list = field(default_factory=list)
     object_base: object_channels.ObjectBase | None = None  # where root motion onto the object moves it from
 
@@ -196,44 +158,24 @@ class Plan:
             self.pending.complete(self)
 
 
-def _prepare(source, target, bone_map, frame_range, o: RetargetOptions, target_rig: RigData | None = None):
-    """plan()'s reading and fitting: (pairs, clip, rigs, fit, chains), the options checked first."""
-    src = _rig(source, "source")
-    _check_armature(target, "target")
-    # A target whose action moves its object (root motion onto it) is read where it stood before.
-    tgt = object_channels.at_base(target, target_rig if target_rig is not None else pose_channels.read_rig(target))
-    _check_editable(target)
-    if source == target:
-        raise ValueError(f"the source and the target are the same armature '{source.name}' (a cycle)")
+def _prepare(source, target, bone_map, frame_range, o: RetargetOptions, target_rig: RigData | None = None,
+             whole: bool = True):
+    """plan()'s reading and fitting: (inputs, rigs, fit, chains), the options checked first. Both rigs are
+    read here once (blender/retarget_reads.read: core.retarget_inputs.RetargetInputs); everything after
+    computes on what was read."""
     o.validate()
     check_frame_range(frame_range)
-    _check_scale(source, "source")
-    _check_scale(target, "target")
-    action = animdata.assigned_action(source)
-    if action is None:
-        raise ValueError(f"the source '{source.name}' has no action to retarget")
-    _check_frames(action, frame_range)
-    pairs = _pairs(bone_map, src, tgt)
-    # An object whose own transform (or a parent's) is keyed carries its motion in its bones instead, from
-    # its placement on the action's first frame, which is then where its armature space stands.
-    moving = object_channels.ObjectMotion.of_action(source, action)
-    if moving is not None:
-        src = moving.placed(src)
-    clip = _read_clip(source, src, action, pose_channels.action_frames(action, frame_range), moving)
-    rigs = _read_rigs((source, src), (target, tgt), pairs, clip, o)
-    fit = _fit(rigs, clip, o)
-    return pairs, clip, rigs, fit, _chain_poses(rigs, fit, o.chain_modes)
+    inputs = retarget_reads.read(source, target, bone_map, frame_range, o, target_rig, whole)
+    rigs = _read_rigs((source, inputs.clip.rig), (target, inputs.target), inputs.pairs, inputs.clip.posed(), o)
+    fit = _fit(rigs, inputs.clip, o)
+    return inputs, rigs, fit, _chain_poses(rigs, fit, o.chain_modes)
 
 
 def _reference(source, target, bone_map, options, target_rig=None) -> tuple:
     """_prepare() with the options the reference pose depends on, the others the defaults, on the clip's first
     frame alone: the chains are decided from the two match poses (the clip's own facing counts only for a
     zero pose, against which every chain is matched anyway), so a whole clip is read once, by plan()."""
-    _check_armature(source, "source")
-    action = animdata.assigned_action(source)
-    first = int(pose_channels.action_frames(action, None)[0]) if action is not None else None
-    return _prepare(source, target, bone_map, None if first is None else (first, first), options.reference(),
-                    target_rig)
+    return _prepare(source, target, bone_map, None, options.reference(), target_rig, whole=False)
 
 
 def reference_chains(source, target, bone_map=None, options: RetargetOptions | None = None, **keywords) -> list:
@@ -252,9 +194,10 @@ def plan(source, target, bone_map=None, frame_range=None, options: RetargetOptio
     either way. target_rig: the target's bones as a rig of their own where they are not its armature's
     (a control rig's deform skeleton, control_rigs.deform_rig)."""
     o = from_keywords(options, **keywords)
-    pairs, clip, rigs, fit, chains = _prepare(source, target, bone_map, frame_range, o, target_rig)
+    inputs, rigs, fit, chains = _prepare(source, target, bone_map, frame_range, o, target_rig)
+    clip, pairs = inputs.clip, inputs.pairs
     root, ground, contact_settings = o.root, o.floor_fit == "first_frame", o.contact_settings
-    written = _written_bones(rigs.tgt, o)
+    written = inputs.written
     _check_onto(rigs, o, written)
     # The feet's solve moves the hips and the legs: it runs only where both are written.
     lower_body = written is None or {rigs.roots[1], *_leg_bones(rigs.tgt)} <= written
@@ -266,8 +209,9 @@ def plan(source, target, bone_map=None, frame_range=None, options: RetargetOptio
     wants_feet = plant_feet or (feet_fit != "off" and root != "none")
     feet = (_feet(rigs.src), _feet(rigs.tgt)) if wants_feet else (None, None)
     # The source's contacts count only where both rigs have feet.
-    rotations, root_locations, stances = _retarget_clip(rigs, clip, fit, (root, ground, chains),
-                                                       None if None in feet else feet[0], contact_settings)
+    retargeted, stances = _retarget_clip(rigs, clip, fit, (root, ground, chains), None if None in feet else feet[0],
+                                         contact_settings)
+    rotations, root_locations = retargeted.rotations, retargeted.root_locations
     found = stances.contacts if stances is not None else None  # the source's stances (contacts.Stances)
     twist.share_twist(rigs.tgt, rigs.tgt.body, rotations, {b for _, b in rigs.pairs_idx})
     locations, located, mode = _place_roots(rigs, clip, fit, rotations, root_locations, o)
@@ -294,15 +238,15 @@ def plan(source, target, bone_map=None, frame_range=None, options: RetargetOptio
         retarget_props.move_props(rigs, clip, fit, plan_, written, o.prop_space)
     retarget_props.follow_bones(rigs, plan_, written)
     plan_.chains, plan_.options = chains, o
+    plan_.kept = [rigs.tgt.names[b] for b in retargeted.kept_posture]
     plan_.written = [rigs.tgt.names[b] for b in sorted(written)] if written is not None else list(rigs.tgt.names)
     plan_.partial = written is not None
-    plan_.carried = retarget_channels.read(source, target, clip.action, clip.frames, pairs,
-                                           set(plan_.written) if plan_.partial else None, o)
+    plan_.carried = inputs.carried
     if target_rig is not None:  # a control rig's controls are keyed (control_rigs.apply), not its bones
-        plan_.carried = retarget_channels.on_controls(plan_.carried)
+        plan_.carried = channel_carry.on_controls(plan_.carried)
     plan_.channels_left_out = plan_.carried.left_out + retarget_props.props_left_out(rigs, clip)
     if not (np.all(np.isfinite(plan_.values)) and np.all(np.isfinite(plan_.still_values))
-            and retarget_channels.finite(plan_.carried)):
+            and channel_carry.finite(plan_.carried)):
         raise ValueError("the retargeted motion is not finite; check the rigs' rest poses")
     return plan_  # a pending feet's solve is checked when it completes (contacts.cleanup and write_keys)
 
@@ -326,31 +270,19 @@ def _onto_object(plan_: Plan, rigs: _Rigs, sigma_frames: float, up) -> None:
     on the object, and the hips' keys re-expressed so that the world pose stays (root_motion.onto_object)."""
     plan_.resolve()
     rotations, locations = plan_.pose
-    hips, target = rigs.roots[1], rigs.target
+    hips = rigs.roots[1]
     name = rigs.tgt.names[hips]
     track = root_motion.onto_object(rigs.tgt, rigs.target_pose, rotations, locations, hips, sigma_frames, up)
-    channels, values = pose_channels.rotation_keys(target, [name], rotations[:, 4 * hips:4 * hips + 4])
-    channels += [(f"{pose_channels.bone_path(name)}.location", k, name) for k in range(3)]
+    channels, values = Keyer.of(rigs.tgt, [hips])(rotations[:, 4 * hips:4 * hips + 4])
+    channels += [(f"{bone_path(name)}.location", k, name) for k in range(3)]
     values = np.vstack([values, locations[:, 3 * hips:3 * hips + 3].T])
     rows = {(path, index): row for row, (path, index, _) in enumerate(plan_.channels)}
     plan_.values[[rows[(path, index)] for path, index, _ in channels]] = values
-    base = object_channels.ObjectBase.of(target)
-    keys = object_channels.transform_keys(target, *base.keys(track))
+    base = rigs.target_read.object_base
+    keys = rigs.target_read.object_rotation.keys(*base.keys(track))
     plan_.object_base = base
     plan_.channels = plan_.channels + keys[0]
     plan_.values = np.vstack([plan_.values, keys[1]])
-
-
-def _written_bones(rig: RigData, o: RetargetOptions) -> set | None:
-    """The target bones the plan writes (indices; None: every one), from o.bones or o.parts."""
-    if o.bones is not None:
-        missing = [b for b in o.bones if b not in rig]
-        if missing:
-            raise ValueError(f"bones: '{missing[0]}' is not a bone of the target '{rig.name}'")
-        return {rig.index(b) for b in o.bones}
-    if retarget_parts.check_parts(o.parts) == retarget_parts.PARTS:
-        return None
-    return set(retarget_parts.chosen_bones(o.parts, rig.names, rig.parents, rig.body))
 
 
 def _leg_bones(rig: RigData) -> set:
@@ -369,65 +301,15 @@ def _stand_on_floor(rigs, clip, fit, rotations, locations, found, root) -> np.nd
     return fit.target_scale * lifts
 
 
-def _check_frames(action, frame_range) -> None:
-    """A frame range that holds none of the action's frames is a mistake, not an extrapolation."""
-    if frame_range is None:
-        return
-    start, end = action.frame_range
-    first, last = (int(f) for f in frame_range)
-    if first <= last and (last < start or first > end):
-        raise ValueError(f"frame range {first}..{last} is outside the source's action '{action.name}' "
-                         f"({start:g}..{end:g})")
-
-
-def _check_scale(obj, role: str) -> None:
-    """A non-uniform scale (the object's or a parent's) has no single ratio to scale the motion by."""
-    if isinstance(obj, bpy.types.Object):
-        scale = obj.matrix_world.to_scale()
-        if not np.allclose(scale, float(np.mean(scale)), rtol=1e-6):
-            raise ValueError(f"the {role} '{obj.name}' has a non-uniform scale {tuple(round(v, 6) for v in scale)} "
-                             f"(its own or a parent's); apply it first (Object > Apply > Scale)")
-
-
-@dataclass
-class _Clip:
-    """The source's action over the frames retargeted, its channels read once: posed here, and kept for its
-    foot contacts."""
-    action: object
-    frames: np.ndarray
-    fps: float            # its keys' frames per second (animdata.frame_rate)
-    basis: np.ndarray     # (frames, 4B) pose-basis rotations
-    locations: np.ndarray  # (frames, 3B) location channels
-    rotations: np.ndarray  # (frames, 4B) armature-space orientations
-    heads: np.ndarray     # (frames, 3B) armature-space heads
-    moving: object_channels.ObjectMotion | None = None  # the object's own motion, composed into the above
-
-
-def _source_channels(obj, rig: RigData, action, frames, moving) -> tuple[np.ndarray, np.ndarray]:
-    """The source's basis rotations (frames, 4B) and location channels (frames, 3B), its object's motion
-    (moving, or None) composed into its top bones'."""
-    basis = pose_channels.rotations(obj, action, rig.names, frames)
-    locations = pose_channels.locations(obj, action, rig.names, frames)[0]
-    if moving is not None:
-        return moving.composed(rig, frames, basis, locations)
-    return np.ascontiguousarray(basis), np.ascontiguousarray(locations)
-
-
-def _read_clip(obj, rig: RigData, action, frames, moving=None) -> _Clip:
-    basis, locations = _source_channels(obj, rig, action, frames, moving)
-    with native_state.blender_frames(frames):
-        rotations, heads = native_state.native().armature_pose(rig.native, basis, locations)
-    return _Clip(action, frames, animdata.frame_rate(action), basis, locations, rotations, heads, moving)
-
-
 @dataclass
 class _Rigs:
-    """The two rigs as the retarget pairs them: their objects, rig data (with their bodies' labels), match
-    poses and roots."""
+    """The two rigs as the retarget pairs them: their objects (the target's, to write to), rig data (with
+    their bodies' labels), match poses and roots; the target as read (core.retarget_inputs.TargetRig)."""
     source: bpy.types.Object
     target: bpy.types.Object
     src: RigData
     tgt: RigData
+    target_read: TargetRig
     source_pose: Pose
     target_pose: Pose
     target_basis: np.ndarray      # (B, 4) the target's match pose's basis rotations
@@ -438,33 +320,32 @@ class _Rigs:
     floor_bones: tuple            # (source, target) floor roots above the hips, or None
 
 
-def _match_poses(source, target, clip: _Clip, o: RetargetOptions) -> tuple:
+def _match_poses(src: RigData, tgt: RigData, clip: SourceClip, o: RetargetOptions) -> tuple:
     """(source match pose, target match pose, its basis rotations, its location channels): the source at rest
     or on a frame of its clip, the target at rest or as it stands."""
-    (source, src), (target, tgt) = source, target
-    if o.source_match == 'FRAME':  # match_frame given: RetargetOptions.validate
-        frame = np.array([float(o.match_frame)])
-        match_rot, match_heads = pose_channels.pose_basis(src.native, frame, *_source_channels(
-            source, src, clip.action, frame, clip.moving))
+    native = native_state.native()
+    if o.source_match == 'FRAME':  # match_frame given: RetargetOptions.validate; read with the clip
+        with native_state.blender_frames(np.array([float(o.match_frame)])):
+            match_rot, match_heads = native.armature_pose(src.native, *clip.match)
         source_pose = Pose(match_rot.reshape(-1, 4), match_heads.reshape(-1, 3), src.lengths)
     else:
         source_pose = Pose.rest(src)
     if o.target_match == 'CURRENT':
-        target_basis, target_locations = pose_channels.current_pose(target, tgt.names)
+        target_basis, target_locations = tgt.channels.basis, tgt.channels.locations
     else:
         target_basis = np.tile(_IDENTITY, (len(tgt), 1))
         target_locations = np.zeros((len(tgt), 3))
-    match_rotations, match_heads = native_state.native().armature_pose(
+    match_rotations, match_heads = native.armature_pose(
         tgt.native, np.ascontiguousarray(target_basis.reshape(1, -1)),
         np.ascontiguousarray(target_locations.reshape(1, -1)))
     return source_pose, Pose(match_rotations.reshape(-1, 4), match_heads.reshape(-1, 3), tgt.lengths), \
         target_basis, target_locations
 
 
-def _read_rigs(source, target, pairs, clip: _Clip, o: RetargetOptions) -> _Rigs:
-    """source, target: (object, RigData) each."""
-    src, tgt = source[1], target[1]
-    source_pose, target_pose, target_basis, target_locations = _match_poses(source, target, clip, o)
+def _read_rigs(source, target, pairs, clip: SourceClip, o: RetargetOptions) -> _Rigs:
+    """source: (object, RigData), target: (object, TargetRig)."""
+    src, tgt = source[1], target[1].rig
+    source_pose, target_pose, target_basis, target_locations = _match_poses(src, tgt, clip, o)
     bone_map_idx = np.full(len(tgt), -1, dtype=np.int64)
     pairs_idx = [(src.index(a), tgt.index(b)) for a, b in pairs]
     for a, b in pairs_idx:
@@ -483,7 +364,7 @@ def _read_rigs(source, target, pairs, clip: _Clip, o: RetargetOptions) -> _Rigs:
     if target_floor_bone is not None:
         bone_map_idx[target_floor_bone] = -1
     pairs_idx = [(a, b) for a, b in pairs_idx if b != target_floor_bone]
-    return _Rigs(source[0], target[0], src, tgt, source_pose, target_pose, target_basis, target_locations,
+    return _Rigs(source[0], target[0], src, tgt, target[1], source_pose, target_pose, target_basis, target_locations,
                  bone_map_idx, pairs_idx, (source_root, target_root), (source_floor_bone, target_floor_bone))
 
 
@@ -503,7 +384,7 @@ class _Fit:
     scale_horizontal: float = 1.0  # the travel across the floor: times this on top of scale (the option's)
 
 
-def _fit(rigs: _Rigs, clip: _Clip, o: RetargetOptions) -> _Fit:
+def _fit(rigs: _Rigs, clip: SourceClip, o: RetargetOptions) -> _Fit:
     src, tgt = rigs.src, rigs.tgt
     source_root, target_root = rigs.roots
     placed = facing.placement(facing.Standing(src, src.body, rigs.source_pose, clip.rotations, clip.heads),
@@ -511,7 +392,7 @@ def _fit(rigs: _Rigs, clip: _Clip, o: RetargetOptions) -> _Fit:
                               o.align_facing)
     source_floor, source_clearance = floor_fit.floor_height(src, src.body, placed.source_up, o.source_floor,
                                                             clip.heads)
-    own = _own_heads(rigs.target, tgt) if o.target_floor is None and tgt.floor is None else None
+    own = rigs.target_read.own_heads if o.target_floor is None else None
     target_floor, target_clearance = floor_fit.floor_height(tgt, tgt.body, placed.up, o.target_floor, own,
                                                             own=True)
     source_height = floor_fit.leg_length(src, src.body, rigs.source_pose, placed.source_up, source_root, clip.heads,
@@ -530,22 +411,6 @@ def _fit(rigs: _Rigs, clip: _Clip, o: RetargetOptions) -> _Fit:
     return _Fit(placed.space, placed.up, placed.source_up, (source_floor, target_floor),
                 (source_clearance, target_clearance), (source_height, target_height), standing[1] / standing[0],
                 src.scale / tgt.scale, tgt.scale, o.scale_horizontal)
-
-
-# The target's own clip is read at no more frames than this (its floor needs where its feet come down, not
-# every frame of a long take).
-_OWN_FRAMES = 600
-
-
-def _own_heads(target, tgt: RigData) -> np.ndarray | None:
-    """(frames, 3B) the target's heads over the action it plays (its own clip, core.floor.own_clip_floor),
-    or None when it plays none."""
-    action = animdata.assigned_action(target)
-    if action is None:
-        return None
-    start, end = (float(f) for f in action.frame_range)
-    frames = np.linspace(start, end, int(min(end - start + 1, _OWN_FRAMES)))
-    return pose_channels.armature_motion(target, action, frames, tgt.native, tgt.names)[1]
 
 
 def _chain_poses(rigs: _Rigs, fit: _Fit, chain_modes) -> list:
@@ -585,8 +450,8 @@ def kept_bones(source, target, bone_map=None, options: RetargetOptions | None = 
     """The target bones that keep their own posture in the reference pose (the others point where the
     source's do), as plan() decides them: the native retarget's kept_posture on the clip's first frame.
     options, keywords: plan()'s; only the reference pose's (retarget_options.REFERENCE) count."""
-    _, clip, rigs, fit, chains = _reference(source, target, bone_map, from_keywords(options, **keywords))
-    return [rigs.tgt.names[b] for b in _native_retarget(rigs, clip, fit, "none", False, chains).kept_posture]
+    inputs, rigs, fit, chains = _reference(source, target, bone_map, from_keywords(options, **keywords))
+    return [rigs.tgt.names[b] for b in _native_retarget(rigs, inputs.clip, fit, "none", False, chains).kept_posture]
 
 
 def _native_options(native, rigs: _Rigs, fit: _Fit, root, ground, chains):
@@ -603,7 +468,7 @@ def _native_options(native, rigs: _Rigs, fit: _Fit, root, ground, chains):
     return options
 
 
-def _native_retarget(rigs: _Rigs, clip: _Clip, fit: _Fit, root, ground, chains):
+def _native_retarget(rigs: _Rigs, clip: SourceClip, fit: _Fit, root, ground, chains):
     """The native retarget of the clip (a _native.RetargetResult); it releases the GIL."""
     native = native_state.native()
     src, tgt = rigs.src, rigs.tgt
@@ -621,8 +486,8 @@ def _native_retarget(rigs: _Rigs, clip: _Clip, fit: _Fit, root, ground, chains):
             source_aims=source_aims, target_aims=target_aims)
 
 
-def _retarget_clip(rigs: _Rigs, clip: _Clip, fit: _Fit, how, source_feet, contact_settings):
-    """(rotations, root locations, the source's contacts or None): the native retarget of the whole clip,
+def _retarget_clip(rigs: _Rigs, clip: SourceClip, fit: _Fit, how, source_feet, contact_settings):
+    """(the native retarget's RetargetResult, the source's contacts or None): the native retarget of the whole clip,
     on a worker thread (it releases the GIL) while the source's contacts are found here. how: (root motion,
     ground, the chains' reference_pose.ChainPose)."""
     root, ground, chains = how
@@ -635,10 +500,10 @@ def _retarget_clip(rigs: _Rigs, clip: _Clip, fit: _Fit, how, source_feet, contac
 
     result, found = worker_thread.beside(lambda: _native_retarget(rigs, clip, fit, root, ground, chains),
                                          source_contacts)
-    return result.rotations, result.root_locations, found
+    return result, found
 
 
-def _place_roots(rigs: _Rigs, clip: _Clip, fit: _Fit, rotations, root_locations, o: RetargetOptions):
+def _place_roots(rigs: _Rigs, clip: SourceClip, fit: _Fit, rotations, root_locations, o: RetargetOptions):
     """The target's location channels (frames, 3B): the hips' from the retarget, and a floor root's motion
     (o.floor_root: FLOOR_ROOTS); returns them, the located bones and what the floor root did."""
     source_floor_bone, target_floor_bone = rigs.floor_bones
@@ -665,7 +530,7 @@ def _place_roots(rigs: _Rigs, clip: _Clip, fit: _Fit, rotations, root_locations,
     return locations, located, mode
 
 
-def _plan_keys(rigs: _Rigs, clip: _Clip, pairs, scale, pose, located, mode, planted, plant_feet,
+def _plan_keys(rigs: _Rigs, clip: SourceClip, pairs, scale, pose, located, mode, planted, plant_feet,
                defer_solve, written=None) -> Plan:
     """The Plan of the target's keys (of the written bones: indices, None for all); with planted feet, their
     solve pending (started beside, defer_solve) or resolved here. pose: the target's (rotations,
@@ -676,7 +541,7 @@ def _plan_keys(rigs: _Rigs, clip: _Clip, pairs, scale, pose, located, mode, plan
     keyed, pending = set(), None
     if planted is not None:
         keyed = {tgt.index(b) for f in planted[2] for b in (f.thigh, f.shin, f.foot)} | {target_root}
-        keyer = pose_channels.rotation_keyer(rigs.target, [tgt.names[b] for b in sorted(keyed)])
+        keyer = Keyer.of(tgt, sorted(keyed))
         pending = _PlantedFeet(planted[0], planted[1], {tgt.names[b] for b in keyed}, lambda: retarget_keys.target_channels(
             rigs, rotations, located, locations, keyed, keyed, keyer=keyer)[0])
         if defer_solve:
@@ -685,7 +550,7 @@ def _plan_keys(rigs: _Rigs, clip: _Clip, pairs, scale, pose, located, mode, plan
     moving, still = retarget_keys.target_channels(rigs, rotations, located, locations, only=written, keyed=keyed,
                                      placeholders=True)
     floor_bones = tuple(rig.names[b] if b is not None else None for rig, b in zip((rigs.src, tgt), rigs.floor_bones))
-    plan_ = Plan(rigs.target, clip.frames, *moving, rigs.source.name, pairs, *still, path_scale=scale,
+    plan_ = Plan(rigs.target, clip.frames, *moving, rigs.src.name, pairs, *still, path_scale=scale,
                  hips=(rigs.src.names[source_root], tgt.names[target_root]), floor_roots=floor_bones,
                  floor_root=mode, feet=planted[2] if planted and plant_feet else None,
                  contacts=planted[3] if planted and plant_feet else None, frame_rate=clip.fps)
@@ -903,11 +768,11 @@ def retarget_clip(source, target, bone_map=None, frame_range=None, options: Reta
     """
     imported_source = retarget_sources.imported_source_option(imported_source, bvh_source)
     if target is not None and getattr(target, "type", None) == 'ARMATURE':
-        _check_editable(target)
+        retarget_reads.check_editable(target)
     options = from_keywords(options, **keywords)
     # Before a file is imported for nothing: every option's value, and the target's scale.
     _check_values(options, frame_range, keys, controls, reduce)
-    _check_scale(target, "target")
+    retarget_reads.check_scale(target, "target")
     call = (bone_map, frame_range, options)
     imported = retarget_sources.import_source(source, target, bvh_scale) if isinstance(source, (str, os.PathLike)) else None
     try:
@@ -995,7 +860,8 @@ def _retarget_bones(source, target, keys, reduce, action_name, overwrite, call):
     action = apply(plan_, action_name=action_name, overwrite=overwrite)
     if reduce:
         resampling.reduce_keys(target)
-    return Retargeted(action, tuple(plan_.channels_left_out), tuple(plan_.chains))
+    return Retargeted(action, tuple(plan_.channels_left_out), tuple(plan_.chains), tuple(plan_.pairs),
+                      tuple(plan_.kept))
 
 
 def _retarget_controls(source, target, controls, limbs, control_map, keys, reduce, action_name, overwrite,
@@ -1018,4 +884,5 @@ def _retarget_controls(source, target, controls, limbs, control_map, keys, reduc
     apply_shapes(planned[-1], action_name, overwrite)
     if reduce:
         resampling.reduce_keys(target, bones=result.keyed)
-    return Retargeted(action, tuple(planned[-1].channels_left_out), tuple(planned[-1].chains))
+    done = planned[-1]
+    return Retargeted(action, tuple(done.channels_left_out), tuple(done.chains), tuple(done.pairs), tuple(done.kept))

@@ -85,3 +85,32 @@ def test_the_pose_as_it_stands_reads_a_connected_bone_unmoved(mk, pose_channels)
     theirs = np.array([tuple(obj.pose.bones[b.name].head) for b in bones])
     assert np.abs(heads.reshape(-1, 3) - theirs).max() <= SHIFT
     assert all((moved[i] == 0).all() == b.use_connect for i, b in enumerate(bones))
+
+
+def test_a_read_rig_carries_each_bone_s_mode_and_pose_as_it_stands(mk, pose_channels):
+    """RigData.channels, read with the rest: each bone's rotation mode and value as the pose bone holds them,
+    and the pose's quaternions as Blender's own matrix_basis turns them."""
+    obj = generate.build_armature(characters.MIXAMO_T)
+    modes = ("QUATERNION", "XYZ", "ZXY", "AXIS_ANGLE")
+    for i, pose_bone in enumerate(obj.pose.bones):
+        pose_bone.rotation_mode = modes[i % 4]
+        pose_bone.rotation_quaternion = Quaternion((np.cos(i), 1.0, np.sin(i)), 0.4)
+        pose_bone.rotation_euler = (0.1 * i, -0.2, 0.3)
+        pose_bone.rotation_axis_angle = (0.7, 0.0, 1.0, 0.2 * i)
+    rig = pose_channels.read_rig(obj)
+    for i, name in enumerate(rig.names):
+        pose_bone = obj.pose.bones[name]
+        assert rig.channels.modes[i] == pose_bone.rotation_mode
+        theirs = Quaternion(pose_bone.matrix_basis.to_quaternion())
+        ours = Quaternion(rig.channels.basis[i])
+        # matrix_basis is float32: its quaternion agrees to a few 1e-7 of a radian.
+        assert ours.rotation_difference(theirs).angle < 1e-5, name
+
+
+@pytest.mark.parametrize("name", ['arm "L"', "back\\slash", "tab\tand\nline"])
+def test_a_bone_s_path_is_quoted_as_blender_quotes_it(mk, pose_channels, name):
+    obj = generate.build_armature(characters.MIXAMO_T)
+    bpy.context.view_layer.objects.active = obj
+    obj.data.bones[0].name = name
+    assert pose_channels.bone_path(name) == f'pose.bones["{bpy.utils.escape_identifier(name)}"]'
+    assert obj.path_resolve(pose_channels.bone_path(name)).name == name
