@@ -99,6 +99,7 @@ class RetargetOptions:
     posture_bones: list[int]
     posture_always: list[int]
     helper_bones: list[int]
+    threads: int
     def __init__(self) -> None: ...
 
 def retarget(source: Rig, target: Rig, source_rotations: F64, source_root_heads: F64, bone_map: list[int], *,

@@ -38,24 +38,53 @@ class Keyer:
         return cls(tuple(rig.names[b] for b in bones), tuple(channels.modes[b] for b in bones),
                    tuple(channels.rotation_values[b] for b in bones))
 
-    def __call__(self, q, *, placeholder: bool = False) -> tuple[list, np.ndarray]:
+    @property
+    def rows(self) -> int:
+        """How many channels (values' rows) the bones key."""
+        return sum(rotation_channels.channel_property(mode)[1] for mode in self.modes)
+
+    def channels(self) -> list:
+        """The (data path, index, group) of every channel, bone by bone in its mode's property."""
+        return [(f"{bone_path(name)}.{prop}", k, name) for name, mode in zip(self.names, self.modes)
+                for prop, size in [rotation_channels.channel_property(mode)] for k in range(size)]
+
+    def __call__(self, q, *, placeholder: bool = False, out=None) -> tuple[list, np.ndarray]:
         """(channels, values (channels, n)) for quaternions q (n, 4k), bone j in columns 4j..4j+3, one native
-        call per rotation mode; placeholder: zeros, the channels alone counting."""
-        properties = [rotation_channels.channel_property(mode) for mode in self.modes]
-        channels = [(f"{bone_path(name)}.{prop}", k, name) for name, (prop, size) in zip(self.names, properties)
-                    for k in range(size)]
-        rows = np.cumsum([0] + [size for _, size in properties])  # each bone's first row in the values
+        call per rotation mode; placeholder: zeros, the channels alone counting. out: a (channels, n) array
+        to fill and return (a block of a larger one: nothing is copied after)."""
+        sizes = [rotation_channels.channel_property(mode)[1] for mode in self.modes]
+        rows = np.cumsum([0] + sizes)  # each bone's first row in the values
         q = np.asarray(q, dtype=np.float64)
-        values = np.zeros((rows[-1], len(q)))
+        values = np.empty((rows[-1], len(q))) if out is None else out
         if placeholder or not self.names:
-            return channels, values
+            values[:] = 0.0
+            return self.channels(), values
         per_bone = q.reshape(len(q), len(self.names), 4)
         by_mode = {}
         for j, mode in enumerate(self.modes):
             by_mode.setdefault(mode, []).append(j)
         for mode, group in by_mode.items():
-            converted = rotation_channels.from_quaternions(native_state.native(), mode, per_bone[:, group],
-                                                           previous=np.array([self.previous[j] for j in group]))
-            for column, j in enumerate(group):
-                values[rows[j]:rows[j + 1]] = converted[:, column].T
-        return channels, values
+            previous = np.array([self.previous[j] for j in group])
+            destination = np.concatenate([np.arange(rows[j], rows[j + 1]) for j in group])
+            if mode == 'QUATERNION':
+                converted = _hemisphere_continuous(per_bone[:, group], previous)
+            else:
+                converted = rotation_channels.from_quaternions(native_state.native(), mode, per_bone[:, group],
+                                                               previous=previous)
+            by_row = converted.transpose(1, 2, 0)  # (bones, size, n): a view
+            if destination[-1] - destination[0] == len(destination) - 1:  # consecutive rows: written in place
+                values[destination[0]:destination[-1] + 1].reshape(by_row.shape)[...] = by_row
+            else:
+                values[destination] = by_row.reshape(len(destination), len(q))
+        return self.channels(), values
+
+
+def _hemisphere_continuous(q, previous) -> np.ndarray:
+    """q (n, k, 4) (a copy) flipped so that each bone's quaternion keeps the hemisphere of the one before,
+    the first that of previous (k, 4): rotation_channels.sign_continuous with one temporary the size of q."""
+    flips = np.empty(q.shape[:2], dtype=bool)
+    np.less(np.einsum("kj,kj->k", q[0], previous), 0.0, out=flips[0])
+    np.less(np.einsum("ikj,ikj->ik", q[1:], q[:-1]), 0.0, out=flips[1:])
+    np.logical_xor.accumulate(flips, axis=0, out=flips)
+    q[flips] *= -1.0
+    return q

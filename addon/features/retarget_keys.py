@@ -23,19 +23,29 @@ def target_channels(rigs, rotations, located, locations, only=None, keyed=frozen
     still = sorted(set(scope) - set(moving))
     later = [b for b in moving if placeholders and b in keyed]  # zeros until the feet's solve
     now = [b for b in moving if b not in later]
-    columns = lambda bones: (4 * np.array(bones, dtype=np.int64)[:, None] + np.arange(4)).ravel()  # noqa: E731
-    channels = [(f"{bone_path(tgt.names[b])}.location", k, tgt.names[b]) for b in moving
-                if b in located for k in range(3)]
-    rows = [locations[:, 3 * b:3 * b + 3].T for b in moving if b in located]
-    for bones, placeholder in ((now, False), (later, True)):
-        if bones:
-            keys = keyer if keyer is not None and not placeholder else Keyer.of(tgt, bones)
-            more, values = keys(rotations[:, columns(bones)], placeholder=placeholder)
-            channels += more
-            rows.append(values)
-    still_channels, still_values = Keyer.of(tgt, still)(rotations[:1, columns(still)]) if still else \
+    located_bones = [b for b in moving if b in located]
+    channels = [(f"{bone_path(tgt.names[b])}.location", k, tgt.names[b]) for b in located_bones for k in range(3)]
+    keyers = [(keyer if keyer is not None and not placeholder else Keyer.of(tgt, bones), bones, placeholder)
+              for bones, placeholder in ((now, False), (later, True)) if bones]
+    # One array for every channel, each keyer writing its own rows: the clip's values are never copied.
+    values = np.empty((3 * len(located_bones) + sum(k.rows for k, _, _ in keyers), frames))
+    for i, b in enumerate(located_bones):
+        values[3 * i:3 * i + 3] = locations[:, 3 * b:3 * b + 3].T
+    row = 3 * len(located_bones)
+    for keys, bones, placeholder in keyers:
+        more, _ = keys(_columns(rotations, bones), placeholder=placeholder, out=values[row:row + keys.rows])
+        channels += more
+        row += keys.rows
+    still_channels, still_values = Keyer.of(tgt, still)(_columns(rotations[:1], still)) if still else \
         ([], np.empty((0, 1)))
-    return (channels, np.vstack(rows) if rows else np.empty((0, frames))), (still_channels, still_values)
+    return (channels, values), (still_channels, still_values)
+
+
+def _columns(rotations, bones):
+    """rotations' quaternion columns of bones (indices, ascending): a view where they are consecutive."""
+    if bones == list(range(bones[0], bones[0] + len(bones))):
+        return rotations[:, 4 * bones[0]:4 * (bones[-1] + 1)]
+    return rotations[:, (4 * np.array(bones, dtype=np.int64)[:, None] + np.arange(4)).ravel()]
 
 
 def rekey(rigs, plan_, bones: set, located=()) -> None:

@@ -113,7 +113,9 @@ void BindRetargetOptions(py::module_& m) {
                      "keep their own posture unless carried 45 degrees across the source's")
       .def_readwrite("posture_always", &RetargetOptions::posture_always, "keep it whatever the angle")
       .def_readwrite("helper_bones", &RetargetOptions::helper_bones,
-                     "unmapped helpers carried where the mapped bone above aims past them");
+                     "unmapped helpers carried where the mapped bone above aims past them")
+      .def_readwrite("threads", &RetargetOptions::threads,
+                     "frames posed on this many threads (0: one per hardware thread); the same result on any");
 }
 
 void BindRetarget(py::module_& m) {

@@ -2,10 +2,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <exception>
 #include <limits>
 #include <string>
+#include <thread>
 #include <vector>
 
+#include "parallel.hpp"
 #include "so3.hpp"
 
 namespace motionkit {
@@ -370,6 +373,10 @@ class TargetPoser {
     return options.target_floor - lowest;
   }
 
+  // The first frame this poser poses: its rotations are continuous from there on (MakeContinuousAcross
+  // joins them to the frames before).
+  void StartAt(Eigen::Index f) { first_frame_ = f; }
+
   void PoseFrame(Eigen::Index f, double lift) {
     for (int b = 0; b < job_.target.size(); ++b) PoseBoneAt(f, b);
     if (job_.target_root < 0) {
@@ -421,7 +428,7 @@ class TargetPoser {
     globals_[static_cast<std::size_t>(b)] = g;
     Eigen::Quaterniond basis = RestFrame(job_.target, b, parent).conjugate() * g;
     basis.normalize();
-    StoreContinuous(job_.rotations, f, b, basis);
+    StoreContinuous(job_.rotations, f, b, basis, first_frame_);
   }
 
   // The root's head on frame f: horizontally the match pose's, moved as the source root moved; along up
@@ -480,6 +487,7 @@ class TargetPoser {
   std::vector<Eigen::Vector3d> heads_;
   std::vector<int> root_ancestors_;
   Eigen::Vector3d target_match_root_ = Eigen::Vector3d::Zero();
+  Eigen::Index first_frame_ = 0;
 };
 
 }  // namespace
@@ -538,6 +546,7 @@ Status RetargetJob::Validate() const {
   for (int g : options.ground_bones) {
     if (g < 0 || g >= nt) return Status::Fail("retarget: ground bone index out of range");
   }
+  if (options.threads < 0) return Status::Fail("retarget: threads must be 0 (all) or more");
   for (const auto* bones : {&options.posture_bones, &options.posture_always}) {
     for (int k : *bones) {
       if (k < 0 || k >= nt) return Status::Fail("retarget: posture bone index out of range");
@@ -613,9 +622,31 @@ void RetargetJob::Run() {
   for (int b = 0; b < target.size(); ++b) {
     if (plan.kept(b)) kept_posture.push_back(b);
   }
-  TargetPoser poser(*this, plan);
-  const double lift = poser.GroundLift();
-  for (Eigen::Index f = 0; f < source_rotations.rows(); ++f) poser.PoseFrame(f, lift);
+  const double lift = TargetPoser(*this, plan).GroundLift();
+  // No frame depends on another once the lift is known: blocks of frames on threads, a poser (its own
+  // per-frame buffers) for each block, every frame computed as on one thread.
+  const Eigen::Index frames = source_rotations.rows();
+  const Eigen::Index per_block = ArmaturePoseJob::kFramesPerBlock;
+  const int blocks = static_cast<int>((frames + per_block - 1) / per_block);
+  const int workers =
+      options.threads > 0 ? options.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  std::vector<std::exception_ptr> failed(static_cast<std::size_t>(blocks));
+  internal::ParallelFor(blocks, workers, [&](int block) {
+    try {
+      TargetPoser poser(*this, plan);
+      const Eigen::Index first = static_cast<Eigen::Index>(block) * per_block;
+      poser.StartAt(first);
+      for (Eigen::Index f = first; f < std::min(frames, first + per_block); ++f) poser.PoseFrame(f, lift);
+    } catch (...) {  // out of memory for a block's buffers: said on the calling thread
+      failed[static_cast<std::size_t>(block)] = std::current_exception();
+    }
+  });
+  for (const std::exception_ptr& error : failed) {
+    if (error) std::rethrow_exception(error);
+  }
+  for (Eigen::Index first = per_block; first < frames; first += per_block) {
+    MakeContinuousAcross(rotations, first, std::min(frames, first + per_block));
+  }
 }
 
 }  // namespace motionkit

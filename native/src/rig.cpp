@@ -1,10 +1,13 @@
 #include "motionkit/rig.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <string>
+#include <thread>
 #include <unordered_set>
 #include <utility>
 
+#include "parallel.hpp"
 #include "so3.hpp"
 
 namespace motionkit {
@@ -115,30 +118,39 @@ Status ArmaturePoseJob::Validate() const {
 
 void ArmaturePoseJob::Run() {
   Validate().ThrowIfFailed();
+  const Eigen::Index frames = basis_rotations.rows();
+  // No frame depends on another: blocks of frames on threads, each frame computed as on one thread.
+  const int blocks = static_cast<int>((frames + kFramesPerBlock - 1) / kFramesPerBlock);
+  const int workers = threads > 0 ? threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  internal::ParallelFor(blocks, workers, [&](int block) {
+    const Eigen::Index first = static_cast<Eigen::Index>(block) * kFramesPerBlock;
+    for (Eigen::Index f = first; f < std::min(frames, first + kFramesPerBlock); ++f) PoseFrame(f);
+  });
+}
+
+void ArmaturePoseJob::PoseFrame(Eigen::Index f) {
   const int bones = rig.size();
   const bool located = basis_locations.cols() != 0;
-  for (Eigen::Index f = 0; f < basis_rotations.rows(); ++f) {
-    double* rot = rotations.data() + f * rotations.outerStride();
-    double* pos = heads.data() + f * heads.outerStride();
-    for (int b = 0; b < bones; ++b) {
-      const int p = rig.parent(b);
-      const double* pr = rot + 4 * p;
-      const Eigen::Quaterniond parent =
-          p >= 0 ? Eigen::Quaterniond(pr[0], pr[1], pr[2], pr[3]) : Eigen::Quaterniond::Identity();
-      const Eigen::Vector3d parent_head =
-          p >= 0 ? Eigen::Vector3d(Eigen::Map<const Eigen::Vector3d>(pos + 3 * p)) : Eigen::Vector3d::Zero();
-      const Eigen::Vector3d location = located ? Eigen::Vector3d(basis_locations.row(f).segment<3>(3 * b).transpose())
-                                               : Eigen::Vector3d::Zero();
-      const PosedBone posed =
-          PoseBone(rig, b, parent, parent_head, QuatAt(basis_rotations, f, b).normalized(), location);
-      const Eigen::Quaterniond g = posed.global.normalized();
-      const Eigen::Vector3d& head = posed.head;
-      rot[4 * b] = g.w();
-      rot[4 * b + 1] = g.x();
-      rot[4 * b + 2] = g.y();
-      rot[4 * b + 3] = g.z();
-      Eigen::Map<Eigen::Vector3d>(pos + 3 * b) = head;
-    }
+  double* rot = rotations.data() + f * rotations.outerStride();
+  double* pos = heads.data() + f * heads.outerStride();
+  for (int b = 0; b < bones; ++b) {
+    const int p = rig.parent(b);
+    const double* pr = rot + 4 * p;
+    const Eigen::Quaterniond parent =
+        p >= 0 ? Eigen::Quaterniond(pr[0], pr[1], pr[2], pr[3]) : Eigen::Quaterniond::Identity();
+    const Eigen::Vector3d parent_head =
+        p >= 0 ? Eigen::Vector3d(Eigen::Map<const Eigen::Vector3d>(pos + 3 * p)) : Eigen::Vector3d::Zero();
+    const Eigen::Vector3d location = located ? Eigen::Vector3d(basis_locations.row(f).segment<3>(3 * b).transpose())
+                                             : Eigen::Vector3d::Zero();
+    const PosedBone posed =
+        PoseBone(rig, b, parent, parent_head, QuatAt(basis_rotations, f, b).normalized(), location);
+    const Eigen::Quaterniond g = posed.global.normalized();
+    const Eigen::Vector3d& head = posed.head;
+    rot[4 * b] = g.w();
+    rot[4 * b + 1] = g.x();
+    rot[4 * b + 2] = g.y();
+    rot[4 * b + 3] = g.z();
+    Eigen::Map<Eigen::Vector3d>(pos + 3 * b) = head;
   }
 }
 

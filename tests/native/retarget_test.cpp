@@ -464,6 +464,41 @@ TEST(Retarget, RootMotionScalesAndGroundsAsAsked) {
   EXPECT_NEAR((root_at(o, 4) - 0.5 * moved - Eigen::Vector3d(0, 0, -0.01)).norm(), 0, 1e-12);
 }
 
+// Frames are posed in blocks on threads: every frame is computed as on one thread, so any number of threads
+// gives the same bits, over more frames than a block holds.
+TEST(Retarget, ThreadsChangeNothing) {
+  const RigModel source = MakeRig(Humanoid(3, 0.0));
+  const RigModel target = MakeRig(Humanoid(4, 0.6, 0.37, 1.2));
+  const int frames = static_cast<int>(2 * ArmaturePoseJob::kFramesPerBlock + 37);
+  const RowMatrixXd basis = RandomPoses(source.size(), frames, 11);
+  RowMatrixXd locations = RowMatrixXd::Zero(frames, 3 * source.size());
+  for (int f = 0; f < frames; ++f) locations.row(f).head<3>() << 0.001 * f, 0.02 * std::sin(0.1 * f), 0.0;
+  std::vector<Posed> poses;
+  std::vector<Retargeted> runs;
+  std::vector<int> map;
+  for (int b = 0; b < target.size(); ++b) map.push_back(source.Find(target.name(b)));
+  for (const int threads : {1, 2, 5}) {
+    Posed p{RowMatrixXd(frames, 4 * source.size()), RowMatrixXd(frames, 3 * source.size())};
+    ArmaturePoseJob job(source, basis, locations, p.rotations, p.heads);
+    job.threads = threads;
+    job.Run();
+    poses.push_back(p);
+    RetargetOptions o;
+    o.threads = threads;
+    o.ground_bones = {target.Find("foot")};
+    runs.push_back(Retarget(source, target, p, o, map));
+  }
+  for (std::size_t k = 1; k < runs.size(); ++k) {
+    EXPECT_EQ(poses[k].rotations, poses[0].rotations);
+    EXPECT_EQ(poses[k].heads, poses[0].heads);
+    EXPECT_EQ(runs[k].rotations, runs[0].rotations);
+    EXPECT_EQ(runs[k].roots, runs[0].roots);
+  }
+  RetargetOptions bad;
+  bad.threads = -1;
+  EXPECT_THROW(Retarget(source, target, poses[0], bad, map), Error);
+}
+
 TEST(Retarget, BadMapsAreRefusedWithTheirBones) {
   const RigModel rig = MakeRig(Humanoid(3, 0.0));
   const Posed posed = Pose(rig, RandomPoses(rig.size(), 2, 1), RowMatrixXd::Zero(2, 3 * rig.size()));

@@ -81,3 +81,18 @@ def test_a_rotation_that_is_none_is_refused_naming_the_rig(core_native):
 
 def test_a_bone_s_path_quotes_its_name():
     assert bone_path('arm "L"\\') == 'pose.bones["arm \\"L\\"\\\\"]'
+
+
+def test_quaternion_keys_are_rotation_channels_own_continuity(core_native):
+    """The quaternion keys' hemisphere continuity is rotation_channels.from_quaternions', flip for flip, on
+    a clip whose quaternions are flipped at random, into a block of a larger array (out)."""
+    rng = np.random.default_rng(5)
+    q = np.hstack([_smooth(300, seed) for seed in range(3)]).reshape(300, 3, 4)
+    q *= np.where(rng.random((300, 3, 1)) < 0.3, -1.0, 1.0)
+    previous = np.array([[-1.0, 0, 0, 0], [1.0, 0, 0, 0], [0.0, 1.0, 0, 0]])
+    expected = rotation_channels.from_quaternions(core_native, "QUATERNION", q, previous)
+    out = np.full((20, 300), np.nan)
+    _, values = Keyer(("a", "b", "c"), ("QUATERNION",) * 3, tuple(previous))(q.reshape(300, 12), out=out[4:16])
+    assert np.shares_memory(values, out)
+    assert np.array_equal(out[4:16], expected.transpose(1, 2, 0).reshape(12, 300))
+    assert np.isnan(out[:4]).all() and np.isnan(out[16:]).all()

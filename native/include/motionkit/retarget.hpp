@@ -90,6 +90,7 @@ struct RetargetOptions {
   // where they keep their posture or the mapped bone above aims past them at the mapped one below
   // (target_aims).
   std::vector<int> helper_bones;
+  int threads = 0;  // frames posed on this many threads (0: one per hardware thread); the same result on any
 };
 
 // Inputs (caller-owned, read-only):

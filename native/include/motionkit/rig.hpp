@@ -121,11 +121,18 @@ struct ArmaturePoseJob {
   ConstMatrixView basis_locations;
   Eigen::Ref<RowMatrixXd> rotations;
   Eigen::Ref<RowMatrixXd> heads;
+  int threads = 0;  // 0: one per hardware thread; the result is the same on any number
 
   // Shapes agree and every input is finite with non-zero quaternions, else
   // names the bone and frame.
   Status Validate() const;
   void Run();
+
+  // Frames a thread takes at a time: enough that starting a block costs nothing beside it.
+  static constexpr Eigen::Index kFramesPerBlock = 512;
+
+ private:
+  void PoseFrame(Eigen::Index f);
 };
 
 // Quaternion row helpers shared by the rig jobs.
@@ -144,8 +151,12 @@ inline void StoreQuat(Eigen::Ref<RowMatrixXd>& m, Eigen::Index row, Eigen::Index
 
 // Stores q in the hemisphere of row f - 1's quaternion of the same bone (row 0: w >= 0), so that each
 // bone's curves stay continuous from frame to frame.
-inline void StoreContinuous(Eigen::Ref<RowMatrixXd>& m, Eigen::Index f, Eigen::Index bone, Eigen::Quaterniond q) {
-  if (f > 0) {
+// q stored on row f, on the side of row f - 1's quaternion (continuous, as Blender's curves are best keyed),
+// row `first` (default 0) with w >= 0. Rows from `first` on may be written apart from the rows before
+// (MakeContinuousAcross then joins them).
+inline void StoreContinuous(Eigen::Ref<RowMatrixXd>& m, Eigen::Index f, Eigen::Index bone, Eigen::Quaterniond q,
+                            Eigen::Index first = 0) {
+  if (f > first) {
     const double* previous = m.data() + (f - 1) * m.outerStride() + 4 * bone;
     const double dot = previous[0] * q.w() + previous[1] * q.x() + previous[2] * q.y() + previous[3] * q.z();
     if (dot < 0) q.coeffs() = -q.coeffs();
@@ -153,6 +164,19 @@ inline void StoreContinuous(Eigen::Ref<RowMatrixXd>& m, Eigen::Index f, Eigen::I
     q.coeffs() = -q.coeffs();
   }
   StoreQuat(m, f, bone, q);
+}
+
+// Rows [first, end) written continuous among themselves (StoreContinuous from `first`) made continuous with
+// row first - 1 too: each bone's run negated where it starts on the other side, exactly as one pass over
+// every row would have stored it.
+inline void MakeContinuousAcross(Eigen::Ref<RowMatrixXd>& m, Eigen::Index first, Eigen::Index end) {
+  if (first <= 0 || first >= end) return;
+  for (Eigen::Index bone = 0; 4 * bone < m.cols(); ++bone) {
+    const double* previous = m.data() + (first - 1) * m.outerStride() + 4 * bone;
+    const double* q = m.data() + first * m.outerStride() + 4 * bone;
+    if (previous[0] * q[0] + previous[1] * q[1] + previous[2] * q[2] + previous[3] * q[3] >= 0) continue;
+    for (Eigen::Index f = first; f < end; ++f) m.row(f).segment<4>(4 * bone) *= -1.0;
+  }
 }
 
 }  // namespace motionkit
