@@ -63,28 +63,15 @@ class Keyer:
         by_mode = {}
         for j, mode in enumerate(self.modes):
             by_mode.setdefault(mode, []).append(j)
+        native = native_state.native()
         for mode, group in by_mode.items():
             previous = np.array([self.previous[j] for j in group])
             destination = np.concatenate([np.arange(rows[j], rows[j + 1]) for j in group])
-            if mode == 'QUATERNION':
-                converted = _hemisphere_continuous(per_bone[:, group], previous)
-            else:
-                converted = rotation_channels.from_quaternions(native_state.native(), mode, per_bone[:, group],
-                                                               previous=previous)
-            by_row = converted.transpose(1, 2, 0)  # (bones, size, n): a view
-            if destination[-1] - destination[0] == len(destination) - 1:  # consecutive rows: written in place
-                values[destination[0]:destination[-1] + 1].reshape(by_row.shape)[...] = by_row
-            else:
-                values[destination] = by_row.reshape(len(destination), len(q))
+            if mode == 'QUATERNION':  # straight into the curves' rows, continuous, in one native pass
+                columns = q if len(group) == len(self.names) else \
+                    q[:, (4 * np.array(group)[:, None] + np.arange(4)).ravel()]
+                values[destination] = native.quaternion_channels(np.ascontiguousarray(columns), previous.ravel())
+                continue
+            converted = rotation_channels.from_quaternions(native, mode, per_bone[:, group], previous=previous)
+            values[destination] = converted.transpose(1, 2, 0).reshape(len(destination), len(q))
         return self.channels(), values
-
-
-def _hemisphere_continuous(q, previous) -> np.ndarray:
-    """q (n, k, 4) (a copy) flipped so that each bone's quaternion keeps the hemisphere of the one before,
-    the first that of previous (k, 4): rotation_channels.sign_continuous with one temporary the size of q."""
-    flips = np.empty(q.shape[:2], dtype=bool)
-    np.less(np.einsum("kj,kj->k", q[0], previous), 0.0, out=flips[0])
-    np.less(np.einsum("ikj,ikj->ik", q[1:], q[:-1]), 0.0, out=flips[1:])
-    np.logical_xor.accumulate(flips, axis=0, out=flips)
-    q[flips] *= -1.0
-    return q

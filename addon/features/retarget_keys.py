@@ -57,5 +57,11 @@ def rekey(rigs, plan_, bones: set, located=()) -> None:
     plan_.still_channels = [plan_.still_channels[i] for i in keep]
     plan_.still_values = plan_.still_values[keep]
     rows = [i for i, c in enumerate(plan_.channels) if c[2] not in names]
+    where = {(c[0], c[1]): i for i, c in enumerate(plan_.channels)}
+    if len(rows) + len(channels) == len(plan_.channels) and all((c[0], c[1]) in where for c in channels):
+        # The bones' channels are the plan's already (keyed on every frame): their rows written in place,
+        # the clip's other values never copied.
+        plan_.values[[where[(c[0], c[1])] for c in channels]] = values
+        return
     plan_.channels = [plan_.channels[i] for i in rows] + channels
     plan_.values = np.vstack([plan_.values[rows], values])

@@ -72,6 +72,25 @@ void BindRotation(py::module_& m) {
         Blender's to_euler(order, compat).
       )pbdoc");
 
+  m.def(
+      "quaternion_channels",
+      [](Eigen::Ref<const RowMatrixXd> quaternions, const Eigen::VectorXd& previous, int threads) {
+        Output<> channels(quaternions.cols(), quaternions.rows());
+        Status status = Status::Ok();
+        {
+          py::gil_scoped_release release;
+          status = QuaternionChannels(quaternions, previous, channels.view, threads);
+        }
+        status.ThrowIfFailed();
+        return channels.array;
+      },
+      "quaternions"_a.noconvert(), "previous"_a = Eigen::VectorXd(), "threads"_a = 0,
+      R"pbdoc(
+        k bones' w x y z quaternions (n, 4k) as F-curve rows (4k, n), row 4j + c
+        bone j's component c, each bone kept on one hemisphere from row to row,
+        the first on the side of previous' quaternion j (4k values; none: w >= 0).
+      )pbdoc");
+
   TestingModule(m).def("blender_euler_mode", [](const std::string& order) { return std::string(BlenderEulerMode(Order(order))); },
         "order"_a, "Blender's rotation_mode for an intrinsic order: the letters reversed.");
 }

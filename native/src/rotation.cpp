@@ -241,4 +241,38 @@ Status QuaternionsToEulers(ConstMatrixView quaternions, EulerOrder order, Eigen:
   return Status::Ok();
 }
 
+Status QuaternionChannels(ConstMatrixView quaternions, const Eigen::VectorXd& previous, Eigen::Ref<RowMatrixXd> out,
+                          int threads) {
+  const Eigen::Index bones = quaternions.cols() / 4, rows = quaternions.rows();
+  if (quaternions.cols() != 4 * bones || out.rows() != 4 * bones || out.cols() != rows) {
+    return Status::Fail("quaternion_channels: quaternions (n, 4k) and out (4k, n)");
+  }
+  if (previous.size() != 0 && previous.size() != 4 * bones) {
+    return Status::Fail("quaternion_channels: previous must hold one quaternion per bone (4k values), or none");
+  }
+  if (!previous.allFinite()) {
+    return Status::Fail("quaternion_channels: previous is not finite");
+  }
+  for (Eigen::Index i = 0; i < rows; ++i) {
+    for (Eigen::Index c = 0; c < bones; ++c) {
+      if (!internal::IsRotationQuaternion(quaternions.row(i).segment<4>(4 * c).transpose())) {
+        return Status::Fail("quaternion_channels: quaternion " + std::to_string(i) + " of bone " +
+                            std::to_string(c) + " is zero or not finite");
+      }
+    }
+  }
+  if (threads <= 0) threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  internal::ParallelFor(static_cast<int>(bones), threads, [&](int c) {
+    Eigen::Vector4d last = previous.size() != 0 ? Eigen::Vector4d(previous.segment<4>(4 * c))
+                                                : Eigen::Vector4d(1.0, 0.0, 0.0, 0.0);
+    for (Eigen::Index i = 0; i < rows; ++i) {
+      Eigen::Vector4d q = quaternions.row(i).segment<4>(4 * c).transpose();
+      if (q.dot(last) < 0.0) q = -q;
+      for (int k = 0; k < 4; ++k) out(4 * c + k, i) = q[k];
+      last = q;
+    }
+  });
+  return Status::Ok();
+}
+
 }  // namespace motionkit

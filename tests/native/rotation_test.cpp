@@ -352,3 +352,47 @@ TEST(MatrixToEulerCompatible, WorkedExamples) {
 
 }  // namespace
 }  // namespace motionkit
+
+namespace motionkit {
+namespace {
+
+// Quaternion channels: each bone's rows the input's components, on one hemisphere from row to row (the
+// first on previous' side), whatever the number of threads; bad quaternions refused, naming them.
+TEST(QuaternionChannels, KeepEachBoneOnOneHemisphereAsCurvesTakeThem) {
+  const int rows = 300, bones = 3;
+  std::mt19937 rng(3);
+  std::normal_distribution<double> step(0.0, 0.3);
+  RowMatrixXd q(rows, 4 * bones);
+  for (int c = 0; c < bones; ++c) {
+    Eigen::Quaterniond at = Eigen::Quaterniond::Identity();
+    for (int i = 0; i < rows; ++i) {
+      at = at * Eigen::Quaterniond(Eigen::AngleAxisd(std::abs(step(rng)), Eigen::Vector3d(step(rng), 1, step(rng)).normalized()));
+      const double sign = (rng() % 3 == 0) ? -1.0 : 1.0;  // flipped at random: the same rotation
+      q.row(i).segment<4>(4 * c) << sign * at.w(), sign * at.x(), sign * at.y(), sign * at.z();
+    }
+  }
+  Eigen::VectorXd previous(4 * bones);
+  previous << -1, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0;
+  RowMatrixXd one(4 * bones, rows), many(4 * bones, rows);
+  ASSERT_TRUE(QuaternionChannels(q, previous, one, 1).ok());
+  ASSERT_TRUE(QuaternionChannels(q, previous, many, 3).ok());
+  EXPECT_EQ(one, many);
+  for (int c = 0; c < bones; ++c) {
+    Eigen::Vector4d last = previous.segment<4>(4 * c);
+    for (int i = 0; i < rows; ++i) {
+      const Eigen::Vector4d in = q.row(i).segment<4>(4 * c).transpose();
+      const Eigen::Vector4d out = one.block<4, 1>(4 * c, i);
+      EXPECT_TRUE(out == in || out == -in) << "bone " << c << " row " << i;
+      EXPECT_GE(out.dot(last), 0.0) << "bone " << c << " row " << i;
+      last = out;
+    }
+  }
+  q(7, 4) = q(7, 5) = q(7, 6) = q(7, 7) = 0.0;
+  const Status bad = QuaternionChannels(q, previous, one);
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(bad.message().find("quaternion 7 of bone 1"), std::string::npos) << bad.message();
+  EXPECT_FALSE(QuaternionChannels(q, Eigen::VectorXd::Zero(8), one).ok());
+}
+
+}  // namespace
+}  // namespace motionkit

@@ -54,4 +54,13 @@ Eigen::Vector3d QuaternionToEulerCompatible(const Eigen::Quaterniond& q, EulerOr
 Status QuaternionsToEulers(ConstMatrixView quaternions, EulerOrder order, Eigen::Ref<RowMatrixXd> out,
                            bool continuous, const Eigen::VectorXd& previous, int threads = 0);
 
+// Quaternion channels as F-curves take them: k bones' w x y z quaternions (n, 4k) as out (4k, n), row 4j + c
+// bone j's component c over the n rows, each bone's quaternions kept on one hemisphere from row to row (the
+// first on the side of previous' quaternion j, previous 4k long, or with w >= 0 when it is empty), as Blender's
+// keying keeps a curve from jumping. Bones spread over `threads` threads (0: every core); the same numbers
+// whatever the count. Fails naming the row and bone of a zero or non-finite quaternion, before anything is
+// written.
+Status QuaternionChannels(ConstMatrixView quaternions, const Eigen::VectorXd& previous, Eigen::Ref<RowMatrixXd> out,
+                          int threads = 0);
+
 }  // namespace motionkit
