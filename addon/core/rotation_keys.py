@@ -70,7 +70,12 @@ class Keyer:
             if mode == 'QUATERNION':  # straight into the curves' rows, continuous, in one native pass
                 columns = q if len(group) == len(self.names) else \
                     q[:, (4 * np.array(group)[:, None] + np.arange(4)).ravel()]
-                values[destination] = native.quaternion_channels(np.ascontiguousarray(columns), previous.ravel())
+                columns = np.ascontiguousarray(columns)
+                first, last = destination[0], destination[-1]
+                if last - first == len(destination) - 1:  # consecutive rows: written in place
+                    native.quaternion_channels(columns, previous.ravel(), out=values[first:last + 1])
+                else:
+                    values[destination] = native.quaternion_channels(columns, previous.ravel())
                 continue
             converted = rotation_channels.from_quaternions(native, mode, per_bone[:, group], previous=previous)
             values[destination] = converted.transpose(1, 2, 0).reshape(len(destination), len(q))

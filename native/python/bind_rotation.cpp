@@ -2,7 +2,9 @@
 #include <pybind11/eigen.h>
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
 
+#include <optional>
 #include <string>
 
 #include "bindings.hpp"
@@ -74,21 +76,35 @@ void BindRotation(py::module_& m) {
 
   m.def(
       "quaternion_channels",
-      [](Eigen::Ref<const RowMatrixXd> quaternions, const Eigen::VectorXd& previous, int threads) {
-        Output<> channels(quaternions.cols(), quaternions.rows());
+      [](Eigen::Ref<const RowMatrixXd> quaternions, const Eigen::VectorXd& previous, int threads,
+         std::optional<py::array_t<double>> out) -> py::array_t<double> {
+        const Eigen::Index rows = quaternions.cols(), cols = quaternions.rows();
+        py::array_t<double> array;
+        if (out) {
+          // The caller's buffer (a block of its curves' rows): written in place, nothing else allocated.
+          if (out->ndim() != 2 || out->shape(0) != rows || out->shape(1) != cols || !out->writeable() ||
+              !(out->flags() & py::array::c_style)) {
+            throw Error("quaternion_channels: out must be a writable C-contiguous float64 array (4k, n)");
+          }
+          array = *out;
+        } else {
+          array = py::array_t<double>({rows, cols});
+        }
+        Eigen::Map<RowMatrixXd> view(array.mutable_data(), rows, cols);
         Status status = Status::Ok();
         {
           py::gil_scoped_release release;
-          status = QuaternionChannels(quaternions, previous, channels.view, threads);
+          status = QuaternionChannels(quaternions, previous, view, threads);
         }
         status.ThrowIfFailed();
-        return channels.array;
+        return array;
       },
-      "quaternions"_a.noconvert(), "previous"_a = Eigen::VectorXd(), "threads"_a = 0,
+      "quaternions"_a.noconvert(), "previous"_a = Eigen::VectorXd(), "threads"_a = 0, "out"_a = py::none(),
       R"pbdoc(
         k bones' w x y z quaternions (n, 4k) as F-curve rows (4k, n), row 4j + c
         bone j's component c, each bone kept on one hemisphere from row to row,
         the first on the side of previous' quaternion j (4k values; none: w >= 0).
+        out: a C-contiguous float64 (4k, n) array to write into and return.
       )pbdoc");
 
   TestingModule(m).def("blender_euler_mode", [](const std::string& order) { return std::string(BlenderEulerMode(Order(order))); },
