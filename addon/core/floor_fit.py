@@ -114,6 +114,27 @@ def floor_height(rig: RigData, body, up, given=None, heads_over_clip=None, own=F
     return floor, clearance(rest, floor, float(np.mean(lengths))) if rest is not None and lengths else 0.0
 
 
+def joint_clearance(rig: RigData, body, up, floor: float, heads_over_clip=None, own=False) -> float:
+    """How high the rig's foot joints that a standing foot is put down by (foot_heights': the ankle and the
+    ball) ride above its floor when it stands: its rest's lowest of them, where that is no more than a sole's
+    thickness above the floor (core.floor.clearance), else 0 (a capture's floor, on which the joints stand).
+    Not the lowest foot point (floor_height's clearance): a heel bone lying on the floor (Blender's metarig,
+    Rigify) or a toe's tip lies lower than any joint, and a foot held by its joints at that point's height
+    sinks into the floor by the ball's height. heads_over_clip, own: a target's own clip, as floor_height
+    reads it (the joints where that clip stands them)."""
+    found = [leg for leg in legs(rig, body) if leg.foot >= 0]
+    if not found:
+        return 0.0
+    pose = Pose.rest(rig)
+    heads = pose.heads.reshape(1, -1)
+    rest = float(foot_heights(rig, body, pose.rotations.reshape(1, -1), heads, up).min())
+    if own and heads_over_clip is not None and floor != floor_height(rig, body, up)[0]:
+        rest += _lifted(legs(rig, body), up, heads_over_clip, rig.heads)
+    lengths = [np.linalg.norm(rig.heads[leg.shin] - rig.heads[leg.thigh])
+               + np.linalg.norm(rig.tails[leg.shin] - rig.heads[leg.shin]) for leg in found]
+    return clearance(rest, floor, float(np.mean(lengths)))
+
+
 def own_lift(rig: RigData, body, up, heads_over_clip) -> float:
     """How far (along up, armature units) a target's own clip stands it above its rest, where its floor is
     read from that clip (floor_height's own=True, core.floor.own_clip_floor); 0 where it is not."""

@@ -294,9 +294,9 @@ def _stand_on_floor(rigs, clip, fit, rotations, locations, found, root) -> np.nd
     place), and how far each foot is still to rise, in world units."""
     height_scale = fit.unit_scale if root == "offset" else fit.scale
     lifts = floor_fit.stand_on_floor(
-        floor_fit.Ground(rigs.src, rigs.src.body, fit.source_up, fit.floors[0] + fit.clearances[0], fit.legs[0]),
+        floor_fit.Ground(rigs.src, rigs.src.body, fit.source_up, fit.floors[0] + fit.joints[0], fit.legs[0]),
         (clip.rotations, clip.heads),
-        floor_fit.Ground(rigs.tgt, rigs.tgt.body, fit.up, fit.floors[1] + fit.clearances[1], fit.legs[1]),
+        floor_fit.Ground(rigs.tgt, rigs.tgt.body, fit.up, fit.floors[1] + fit.joints[1], fit.legs[1]),
         rotations, locations, rigs.roots[1], found, height_scale, clip.fps)
     return fit.target_scale * lifts
 
@@ -376,7 +376,8 @@ class _Fit:
     up: np.ndarray
     source_up: np.ndarray
     floors: tuple        # (source, target) heights along up
-    clearances: tuple    # (source, target) how high each one's lowest foot joint rides above its floor
+    clearances: tuple    # (source, target) how high each one's rest soles (its feet's lowest points) ride above it
+    joints: tuple        # (source, target) how high the foot joints a standing foot is put down by ride above it
     legs: tuple          # (source, target) leg lengths (floor_fit.leg_length), each in its own armature's units
     scale: float         # the root path's: target standing height / source's (floor_fit.standing_height)
     unit_scale: float    # source object scale / target object scale
@@ -408,8 +409,10 @@ def _fit(rigs: _Rigs, clip: SourceClip, o: RetargetOptions) -> _Fit:
                                           source_height, source_clearance),
                 floor_fit.standing_height(tgt, tgt.body, rigs.target_pose, placed.up, target_root, target_height,
                                           target_clearance))
+    joints = (floor_fit.joint_clearance(src, src.body, placed.source_up, source_floor),
+              floor_fit.joint_clearance(tgt, tgt.body, placed.up, target_floor, own, own=True))
     return _Fit(placed.space, placed.up, placed.source_up, (source_floor, target_floor),
-                (source_clearance, target_clearance), (source_height, target_height), standing[1] / standing[0],
+                (source_clearance, target_clearance), joints, (source_height, target_height), standing[1] / standing[0],
                 src.scale / tgt.scale, tgt.scale, o.scale_horizontal)
 
 

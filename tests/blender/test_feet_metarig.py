@@ -6,7 +6,9 @@ scaled by the leg ratio).
 
 The metarig is the rig among the tests' whose feet carry a third bone: a heel (heel.02) across the back of
 each foot, a child of the foot beside the toe, lying on the floor where the ball joint rides 1.7 cm above
-it. Its floor is the lowest of its foot bones at rest (the heel's), as on every rig.
+it. Its floor is the lowest of its foot bones at rest (the heel's), as on every rig; a standing foot's joints
+ride as high above it as at rest (its ball 1.7 cm), so that the foot stands on its heel and sole instead of
+sinking by its ball's height.
 """
 import importlib
 import os
@@ -18,7 +20,8 @@ from mathutils import Matrix, Quaternion
 
 import stances
 from test_bone_mapping_metarig import metarig  # noqa: F401  (the fixture)
-from test_production_files import _feet, _lowest, _rest_floor, _stance, _world_leg, fbx_dir, import_fbx  # noqa: F401
+from test_production_files import (_feet, _lowest, _rest_joints, _stance, _world_leg, fbx_dir,  # noqa: F401
+                                   import_fbx)
 
 # A foot's lowest point on the source's stance frames against where the source's stands, scaled by the leg
 # ratio, in legs. The feet's solve puts the ankle and the ball on their targets to float32 precision, as on
@@ -30,13 +33,14 @@ METARIG_FLOOR_ERROR = 1e-5
 
 def _stance_errors(mk, source, target, plan, src_floor):
     """(errors (frames, 2) signed, in legs; the source's stance frames (frames, 2); lowest point below the
-    floor or the source's scaled height, in legs) by the tests' own rule. src_floor: the source's floor's
-    world Z; the metarig's is its rest soles, its heel bones' floor."""
+    floor or the source's scaled height, in legs) by the tests' own rule: each foot's lowest joint as far
+    above where the target's joints stand at rest as the source's above where its stand, scaled. src_floor:
+    the world Z the source's foot joints stand at (its floor, where they stand on it)."""
     frames = plan.frames
     src_feet, tgt_feet = _feet(mk, source), _feet(mk, target)
     src_low, src_ankles = _lowest(source, src_feet, frames)
     tgt_low, _ = _lowest(target, tgt_feet, frames)
-    tgt_floor = _rest_floor(target, tgt_feet)
+    tgt_floor = _rest_joints(target, tgt_feet)
     leg = _world_leg(target, tgt_feet)
     ratio = plan.path_scale * target.matrix_world.to_scale()[0] / source.matrix_world.to_scale()[0]
     wanted = tgt_floor + ratio * (src_low - src_floor)
@@ -78,7 +82,7 @@ def test_a_mixamo_clip_onto_the_metarig_stands_on_its_floor(mk, fbx_dir, metarig
     """Y Bot's clips through Blender's FBX importer (centimetres, scaled 0.01, turned 90 degrees)."""
     source = import_fbx(os.path.join(fbx_dir, f"ybot@{clip}.fbx"))
     bpy.context.view_layer.update()
-    check_on_the_floor(mk, clip, source, metarig, _rest_floor(source, _feet(mk, source)), plant, steps=10)
+    check_on_the_floor(mk, clip, source, metarig, _rest_joints(source, _feet(mk, source)), plant, steps=10)
 
 
 # Foot points through the native pose against Blender's own (float32 rest matrices, bones about a metre from

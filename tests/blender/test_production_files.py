@@ -237,6 +237,17 @@ def _rest_floor(obj, feet):
     return min(z)
 
 
+def _rest_joints(obj, feet):
+    """The lowest world Z of the feet's ankles (heads) and balls (the toe's head) at rest: the joints a
+    standing foot stands on, which a heel bone or a toe's tip can lie below (_rest_floor's)."""
+    world, z = obj.matrix_world, []
+    for foot in feet:
+        bone = obj.data.bones[foot.foot]
+        ball = obj.data.bones[foot.toe].head_local if foot.toe else bone.tail_local
+        z += [(world @ bone.head_local).z, (world @ ball).z]
+    return min(z)
+
+
 def _lowest(obj, feet, frames):
     """(frames, 2) the lowest world Z of each foot's ankle (head) and ball (the toe's head), and (frames, 2,
     3) the ankles, by the depsgraph."""

@@ -7,8 +7,8 @@ from scipy.spatial.transform import Rotation
 import characters
 import rig_fk
 from core import floor_fit
-from core.rig_data import Pose
-from plain_rigs import from_spec, placed
+from core.rig_data import Pose, RigData
+from plain_rigs import bone_rest, from_spec, placed
 
 UP = np.array([0.0, 0.0, 1.0])
 
@@ -205,3 +205,39 @@ def test_feet_left_off_the_floor_by_more_than_half_a_millimetre_a_metre_ask_for_
     assert not floor_fit.feet_left_off(np.full((5, 2), 4.9e-4), 1.0)
     assert floor_fit.feet_left_off(np.array([[0.0, -6e-4]]), 1.0)
     assert not floor_fit.feet_left_off(np.array([[0.0, -6e-4]]), 2.0)  # a longer leg: a smaller share
+
+
+def _with_heels(spec):
+    """The sample character with a heel bone under each foot lying on the floor (Blender's metarig has
+    heel.02 so), the ball 2.5 cm above it."""
+    rig = from_spec(spec)
+    names, parents, rest = list(rig.names), list(rig.parents), list(rig.rest)
+    heads, tails, connected = list(rig.heads), list(rig.tails), list(rig.connected)
+    for side in "LR":
+        foot = rig.index(rig.body.limbs[f"foot.{side}"])
+        x = rig.heads[foot][0]
+        head, tail = np.array([x + 0.04, 0.02, 0.0]), np.array([x - 0.04, 0.02, 0.0])
+        names.append(f"heel.02.{side}")
+        parents.append(foot)
+        rest.append(bone_rest(head, tail, 0.0))
+        heads.append(head)
+        tails.append(tail)
+        connected.append(False)
+    heads, tails = np.array(heads), np.array(tails)
+    return RigData(rig.name, tuple(names), tuple(parents), np.array(rest), heads, tails,
+                   np.linalg.norm(tails - heads, axis=1), tuple(connected))
+
+
+def test_a_standing_foot_s_joints_ride_at_their_own_height_above_a_heel_on_the_floor():
+    """A heel bone on the floor sets the floor and the soles (floor_height's clearance 0), but the joints a
+    standing foot is put down by, the ankle and the ball, still ride 2.5 cm above it (joint_clearance): the
+    height the feet's solve holds them at, so that a foot does not sink by its ball's height."""
+    rig = _with_heels(characters.RIGIFY_A)
+    floor, clearance = floor_fit.floor_height(rig, rig.body, UP)
+    assert floor == 0.0 and clearance == pytest.approx(0.0, abs=1e-15)
+    assert floor_fit.joint_clearance(rig, rig.body, UP, floor) == pytest.approx(0.025, abs=1e-12)
+    plain = from_spec(characters.RIGIFY_A)
+    assert floor_fit.joint_clearance(plain, plain.body, UP, 0.0) == pytest.approx(
+        floor_fit.floor_height(plain, plain.body, UP)[1], abs=1e-12)
+    # A floor a leg below (a capture's, on which the joints themselves stand): nothing to ride.
+    assert floor_fit.joint_clearance(rig, rig.body, UP, -0.8) == 0.0
