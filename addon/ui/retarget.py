@@ -141,19 +141,19 @@ class MOTIONKIT_PG_reference_pose(bpy.types.PropertyGroup):
 class MOTIONKIT_PG_retarget(bpy.types.PropertyGroup):
     source_kind: EnumProperty(name="Source", items=[
         ('ARMATURE', "Armature", "An animated armature in this file"),
-        ('BVH', "File", "A BVH, FBX, GLB or glTF file, imported as the source armature when retargeting (FBX and "
+        ('FILE', "File", "A BVH, FBX, GLB or glTF file, imported as the source armature when retargeting (FBX and "
                         "glTF through Blender's own importers)")], default='ARMATURE')
     source: PointerProperty(name="Source", type=bpy.types.Object, poll=_is_armature,
                             description="The animated armature whose motion is retargeted")
-    bvh_path: StringProperty(name="File", subtype='FILE_PATH',
-                             description="The BVH, FBX, GLB or glTF file to retarget")
+    source_path: StringProperty(name="File", subtype='FILE_PATH',
+                                description="The BVH, FBX, GLB or glTF file to retarget")
     bvh_auto_scale: BoolProperty(name="Auto Scale", default=True,
                                  description="Stand the imported armature as tall as the target (a centimetre "
                                              "file would otherwise stand 100 times too tall)")
     bvh_scale: FloatProperty(name="Scale", default=1.0, min=1e-6, max=1e6,
                              description="Multiply the file's distances by this")
-    bvh_source: EnumProperty(name="Imported", items=retarget_sources.IMPORTED_SOURCES, default="hide",
-                             description="What the imported armature becomes once the target is keyed")
+    imported_source: EnumProperty(name="Imported", items=retarget_sources.IMPORTED_SOURCES, default="hide",
+                                  description="What the imported armature becomes once the target is keyed")
     target: PointerProperty(name="Target", type=bpy.types.Object, poll=_is_armature,
                             description="The armature that receives the motion as a new action")
     pairs: CollectionProperty(type=MOTIONKIT_PG_bone_pair)
@@ -301,15 +301,15 @@ def _settings(context):
 
 def _source_ready(settings) -> str:
     """Why the source cannot be used yet, or ''."""
-    if settings.source_kind == 'BVH':
-        path = bpy.path.abspath(settings.bvh_path)
+    if settings.source_kind == 'FILE':
+        path = bpy.path.abspath(settings.source_path)
         return "" if path and os.path.isfile(path) else "Pick a BVH file"
     return "" if settings.source is not None else "Pick a source armature"
 
 
 def _source_rig(settings):
-    if settings.source_kind == 'BVH':
-        return bvh.file_mapping_rig(bpy.path.abspath(settings.bvh_path))
+    if settings.source_kind == 'FILE':
+        return bvh.file_mapping_rig(bpy.path.abspath(settings.source_path))
     return pose_channels.armature_mapping_rig(settings.source, upright=True)
 
 
@@ -354,11 +354,11 @@ class MOTIONKIT_OT_retarget(bpy.types.Operator):
 def run_retarget(self, context) -> set:
     """The Retarget button's work for an operator (self): the panel's settings retargeted and keyed."""
     settings = _settings(context)
-    source = bpy.path.abspath(settings.bvh_path) if settings.source_kind == 'BVH' else settings.source
+    source = bpy.path.abspath(settings.source_path) if settings.source_kind == 'FILE' else settings.source
     frame_range = (settings.frame_start, settings.frame_end) if settings.use_frame_range else None
 
     bvh_options = ({"bvh_scale": "auto" if settings.bvh_auto_scale else settings.bvh_scale,
-                    "imported_source": settings.bvh_source} if settings.source_kind == 'BVH' else {})
+                    "imported_source": settings.imported_source} if settings.source_kind == 'FILE' else {})
 
     controls = settings.control_keywords()
 
@@ -656,17 +656,17 @@ class MOTIONKIT_PT_retarget(common.SidebarPanel, bpy.types.Panel):
         layout.row().prop(settings, "source_kind", expand=True)
         # Names of rigs and files get the room a split's 40 % label column would take.
         col = layout.column(align=True)
-        if settings.source_kind == 'BVH':
-            _labelled(col, "File").prop(settings, "bvh_path", text="")
+        if settings.source_kind == 'FILE':
+            _labelled(col, "File").prop(settings, "source_path", text="")
         else:
             _labelled(col, "Source").prop(settings, "source", text="")
         _labelled(col, "Target").prop(settings, "target", text="")
-        if settings.source_kind == 'BVH':
+        if settings.source_kind == 'FILE':
             col = common.split_layout(layout.column())
             col.prop(settings, "bvh_auto_scale")
             if not settings.bvh_auto_scale:
                 col.prop(settings, "bvh_scale")
-            col.prop(settings, "bvh_source")
+            col.prop(settings, "imported_source")
         layout.operator("motionkit.retarget", icon='ARMATURE_DATA')
         _draw_preview(layout, settings.preview)
 

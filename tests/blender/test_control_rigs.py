@@ -251,7 +251,7 @@ def test_operator_keys_rigify_controls_and_refuses_a_metarig(mk, rig, rigify_fil
     """The Retarget button on a Rigify rig: its Controls sub-panel's choices (arms in IK here) reach the
     retarget; a metarig target is refused, nothing changes."""
     settings = bpy.context.scene.motionkit_retarget
-    settings.source_kind, settings.bvh_path = 'BVH', _clip(shared_dir, "bvh/walk60.bvh")
+    settings.source_kind, settings.source_path = 'FILE', _clip(shared_dir, "bvh/walk60.bvh")
     settings.target = rig
     settings.arms, settings.legs = "ik", "ik"
     assert bpy.ops.motionkit.retarget() == {'FINISHED'}

@@ -429,18 +429,18 @@ def test_target_match_pose_sets_the_twist(mk, walk60):
 def test_operator_retargets_a_bvh_file_and_errors_cancel(mk, walk60, tmp_path):
     target = generate.build_armature(characters.MIXAMO_T)
     settings = bpy.context.scene.motionkit_retarget
-    settings.source_kind = 'BVH'
+    settings.source_kind = 'FILE'
     settings.target = target
-    settings.bvh_path = str(tmp_path / "missing.bvh")
+    settings.source_path = str(tmp_path / "missing.bvh")
     objects = set(bpy.data.objects)
     assert not bpy.ops.motionkit.retarget.poll()
     broken = tmp_path / "broken.bvh"
     broken.write_text("HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0 zero\n")
-    settings.bvh_path = str(broken)
+    settings.source_path = str(broken)
     with pytest.raises(RuntimeError, match="broken.bvh"):
         bpy.ops.motionkit.retarget()
     assert set(bpy.data.objects) == objects
-    settings.bvh_path = walk60
+    settings.source_path = walk60
     assert bpy.ops.motionkit.bone_map_auto() == {'FINISHED'}
     assert len(settings.pairs) >= 16
     assert settings.plant_feet and settings.floor_root == "auto"  # the defaults: feet planted
