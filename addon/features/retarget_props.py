@@ -2,7 +2,7 @@
 IK and prop bones no map drives keyed to stand where the hands and feet they stand for stand (core.follow),
 mapped props moved as the source's move in the space the user picks (core.props), two hands on one prop
 (core.two_hands), and the source's moving props the target has no bone for, said. rigs, clip, fit, plan_:
-the retarget's _Rigs, _Clip, _Fit and Plan; written: the target bones it writes (indices; None: all)."""
+the retarget's _Rigs, its core.retarget_inputs.SourceClip, _Fit and Plan; written: the target bones it writes (indices; None: all)."""
 from __future__ import annotations
 
 import numpy as np
