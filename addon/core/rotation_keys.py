@@ -11,6 +11,15 @@ from . import native_state, rotation_channels
 from .channel_carry import escape
 
 
+def columns(rotations, bones):
+    """The quaternion columns (n, 4k) of bones (indices, ascending) in rotations (n, 4B): a view where they
+    are consecutive, else a copy."""
+    bones = list(bones)
+    if bones == list(range(bones[0], bones[0] + len(bones))):
+        return rotations[:, 4 * bones[0]:4 * (bones[-1] + 1)]
+    return rotations[:, (4 * np.array(bones, dtype=np.int64)[:, None] + np.arange(4)).ravel()]
+
+
 def bone_path(name: str) -> str:
     """The data path of a pose bone, for F-curves."""
     return f'pose.bones["{escape(name)}"]'
@@ -68,14 +77,12 @@ class Keyer:
             previous = np.array([self.previous[j] for j in group])
             destination = np.concatenate([np.arange(rows[j], rows[j + 1]) for j in group])
             if mode == 'QUATERNION':  # straight into the curves' rows, continuous, in one native pass
-                columns = q if len(group) == len(self.names) else \
-                    q[:, (4 * np.array(group)[:, None] + np.arange(4)).ravel()]
-                columns = np.ascontiguousarray(columns)
+                block = np.ascontiguousarray(columns(q, group))
                 first, last = destination[0], destination[-1]
                 if last - first == len(destination) - 1:  # consecutive rows: written in place
-                    native.quaternion_channels(columns, previous.ravel(), out=values[first:last + 1])
+                    native.quaternion_channels(block, previous.ravel(), out=values[first:last + 1])
                 else:
-                    values[destination] = native.quaternion_channels(columns, previous.ravel())
+                    values[destination] = native.quaternion_channels(block, previous.ravel())
                 continue
             converted = rotation_channels.from_quaternions(native, mode, per_bone[:, group], previous=previous)
             values[destination] = converted.transpose(1, 2, 0).reshape(len(destination), len(q))

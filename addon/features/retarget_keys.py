@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..core.rotation_keys import Keyer, bone_path
+from ..core.rotation_keys import Keyer, bone_path, columns
 
 
 def target_channels(rigs, rotations, located, locations, only=None, keyed=frozenset(),
@@ -33,19 +33,12 @@ def target_channels(rigs, rotations, located, locations, only=None, keyed=frozen
         values[3 * i:3 * i + 3] = locations[:, 3 * b:3 * b + 3].T
     row = 3 * len(located_bones)
     for keys, bones, placeholder in keyers:
-        more, _ = keys(_columns(rotations, bones), placeholder=placeholder, out=values[row:row + keys.rows])
+        more, _ = keys(columns(rotations, bones), placeholder=placeholder, out=values[row:row + keys.rows])
         channels += more
         row += keys.rows
-    still_channels, still_values = Keyer.of(tgt, still)(_columns(rotations[:1], still)) if still else \
+    still_channels, still_values = Keyer.of(tgt, still)(columns(rotations[:1], still)) if still else \
         ([], np.empty((0, 1)))
     return (channels, values), (still_channels, still_values)
-
-
-def _columns(rotations, bones):
-    """rotations' quaternion columns of bones (indices, ascending): a view where they are consecutive."""
-    if bones == list(range(bones[0], bones[0] + len(bones))):
-        return rotations[:, 4 * bones[0]:4 * (bones[-1] + 1)]
-    return rotations[:, (4 * np.array(bones, dtype=np.int64)[:, None] + np.arange(4)).ravel()]
 
 
 def rekey(rigs, plan_, bones: set, located=()) -> None:
