@@ -7,6 +7,7 @@ import bpy
 import numpy as np
 
 from . import animdata, carried_reads, object_channels, pose_channels
+from ..core import bone_mapping
 from ..core.retarget_inputs import RetargetInputs, SourceClip, TargetRig, bone_pairs, written_bones
 from ..core.retarget_options import RetargetOptions
 from ..core.rig_data import RigData
@@ -131,10 +132,13 @@ def read(source, target, bone_map, frame_range, o: RetargetOptions, target_rig: 
     read_ = read_target(target, target_rig, own_clip=o.target_floor is None)
     if source == target:
         raise ValueError(f"the source and the target are the same armature '{source.name}' (a cycle)")
-    pairs = bone_pairs(bone_map, clip.rig, read_.rig)
+    # No map given: the automatic one, with what it leaves out, from the rigs as read here.
+    report = bone_mapping.auto_map_report(clip.rig.mapping_rig(), read_.rig.mapping_rig()) if bone_map is None \
+        else None
+    pairs = bone_pairs(report.pairs if report is not None else bone_map, clip.rig, read_.rig)
     written = written_bones(read_.rig, o)
     names = {read_.rig.names[b] for b in written} if written is not None else None
     channels = carried_reads.read(source, target, animdata.assigned_action(source), clip.frames, pairs, names, o) \
         if whole else None
-    return RetargetInputs(clip, read_, pairs, written, channels)
+    return RetargetInputs(clip, read_, pairs, written, channels, report)
 

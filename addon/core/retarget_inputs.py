@@ -66,13 +66,15 @@ class TargetRig:
 @dataclass(eq=False)
 class RetargetInputs:
     """Everything a retarget reads of Blender, read once (blender/retarget_reads.read): the source's clip, the
-    target as read, the bone pairs, the target bones written (indices; None: all) and the channels carried
-    beside the bones (core.channel_carry.Carried; None when not read)."""
+    target as read, the bone pairs, the target bones written (indices; None: all), the channels carried
+    beside the bones (core.channel_carry.Carried; None when not read) and, where the pairs are the automatic
+    map's, what that map leaves out (bone_mapping.MapReport: to show, never to act on)."""
     clip: SourceClip
     target: TargetRig
     pairs: list
     written: set | None
     carried: object = None
+    map_report: bone_mapping.MapReport | None = None
 
 
 def bone_pairs(bone_map, source: RigData, target: RigData) -> list[tuple[str, str]]:

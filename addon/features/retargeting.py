@@ -42,13 +42,15 @@ class Retargeted:
     """What retarget_clip() made: the action keyed, the channels (channel_carry.LeftOut) it did not carry
     because the target has no bone, property or shape key to take them (empty when it carried everything),
     how each chain stood in the reference pose (reference_pose.ChainPose: kept or matched), the bone pairs
-    retargeted and the target bones that kept their own posture (kept_bones() of the same call), as decided
-    on the way, so that nothing reads the rigs again to show or measure it."""
+    retargeted, the target bones that kept their own posture (kept_bones() of the same call) and, where no
+    map was given, what the automatic one left out (bone_mapping.MapReport), as decided on the way, so that
+    nothing reads the rigs again to show or measure it."""
     action: bpy.types.Action
     channels_left_out: tuple = ()
     chains: tuple = ()
     pairs: tuple = ()
     kept_bones: tuple = ()
+    map_report: bone_mapping.MapReport | None = None
 
 
 def _rig(obj, role: str) -> RigData:
@@ -138,6 +140,7 @@ class Plan:
     #                   resolved (the feet's solve writes into them)
     chains: list = field(default_factory=list)  # reference_pose.ChainPose per chain: kept posture or matched
     kept: list = field(default_factory=list)  # the target bones that kept their posture (names; kept_bones())
+    map_report: bone_mapping.MapReport | None = None  # what the automatic map left out, where it made the pairs
     options: RetargetOptions = field(default_factory=RetargetOptions)  # what made it: apply() writes by its into
     written: list = field(default_factory=list)  # the target bones whose keys it writes (names)
     partial: bool = False  # only some of the target's bones are written (RetargetOptions.parts, bones)
@@ -239,6 +242,7 @@ def plan(source, target, bone_map=None, frame_range=None, options: RetargetOptio
     retarget_props.follow_bones(rigs, plan_, written)
     plan_.chains, plan_.options = chains, o
     plan_.kept = [rigs.tgt.names[b] for b in retargeted.kept_posture]
+    plan_.map_report = inputs.map_report
     plan_.written = [rigs.tgt.names[b] for b in sorted(written)] if written is not None else list(rigs.tgt.names)
     plan_.partial = written is not None
     plan_.carried = inputs.carried
@@ -864,7 +868,7 @@ def _retarget_bones(source, target, keys, reduce, action_name, overwrite, call):
     if reduce:
         resampling.reduce_keys(target)
     return Retargeted(action, tuple(plan_.channels_left_out), tuple(plan_.chains), tuple(plan_.pairs),
-                      tuple(plan_.kept))
+                      tuple(plan_.kept), plan_.map_report)
 
 
 def _retarget_controls(source, target, controls, limbs, control_map, keys, reduce, action_name, overwrite,
@@ -888,4 +892,5 @@ def _retarget_controls(source, target, controls, limbs, control_map, keys, reduc
     if reduce:
         resampling.reduce_keys(target, bones=result.keyed)
     done = planned[-1]
-    return Retargeted(action, tuple(done.channels_left_out), tuple(done.chains), tuple(done.pairs), tuple(done.kept))
+    return Retargeted(action, tuple(done.channels_left_out), tuple(done.chains), tuple(done.pairs), tuple(done.kept),
+                      done.map_report)

@@ -371,9 +371,9 @@ def run_retarget(self, context) -> set:
         timing = scene_timing.from_clip(context.scene, action) if settings.scene_from_clip else None
         not_carried = channel_carry.summary(made.channels_left_out)
         settings.reference_pose.record_chains(made.chains)  # as the retarget decided them
-        left_out = "" if settings.bone_map() or settings.source_kind != 'ARMATURE' else \
-            bone_mapping.auto_map_report(_source_rig(settings), pose_channels.armature_mapping_rig(
-                settings.target, upright=True)).message()
+        # What the automatic map left out, as the retarget made it (no rig read again to say so).
+        left_out = made.map_report.message() if made.map_report is not None and settings.source_kind == 'ARMATURE' \
+            else ""
         return action, timing, left_out, not_carried
 
     def done(result):

@@ -524,6 +524,22 @@ def test_auto_map_pairs_floor_roots_with_each_other_and_hips_with_hips(mk, retar
     assert pairs["UpperLeg_L"] == "thigh_l" and pairs["Toes_R"] == "ball_r"
 
 
+def test_a_retarget_says_what_its_automatic_map_left_out_without_reading_the_rigs_again(mk, retargeting, bandai):
+    """The automatic map's report (what the Retarget button warns of) comes with the retarget, as
+    bone_mapping.auto_map_report reads the two armatures afresh; none where a map was given."""
+    bone_mapping = importlib.import_module(mk.__name__ + ".core.bone_mapping")
+    pose_channels = importlib.import_module(mk.__name__ + ".blender.pose_channels")
+    source, _ = load(mk, bandai, "dash")
+    target = generate.build_armature(characters.UNREAL_A)
+    expected = bone_mapping.auto_map_report(pose_channels.armature_mapping_rig(source, upright=True),
+                                            pose_channels.armature_mapping_rig(target, upright=True))
+    made = retargeting.retarget_clip(source, target, plant_feet=False)
+    assert made.map_report is not None
+    assert made.map_report.message() == expected.message()
+    assert sorted(made.pairs) == sorted(expected.pairs)
+    assert retargeting.retarget_clip(source, target, list(made.pairs), plant_feet=False).map_report is None
+
+
 def world_tracks(obj, names, frames):
     """World heads and Y axes of the named bones, (frames, bones, 3) each, as the depsgraph poses them."""
     heads, axes = [], []
