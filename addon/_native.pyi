@@ -95,7 +95,6 @@ class RetargetOptions:
     up: npt.ArrayLike
     source_floor: float
     target_floor: float
-    ground_bones: list[int]
     posture_bones: list[int]
     posture_always: list[int]
     helper_bones: list[int]

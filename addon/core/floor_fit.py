@@ -227,15 +227,40 @@ def stand_on_floor(source: Ground, source_pose, target: Ground, rotations, locat
         lift = hips_lift(drops, stance, slope=0.5 * leg / fps, floats=floats)
     else:
         lift = np.zeros(len(heights))
-    # The location channel moves the head in the bone's posed frame less its own rotation.
     orient = posed_rotations[:, 4 * column(hips):4 * column(hips) + 4]
-    basis = rotations[:, 4 * hips:4 * hips + 4]
-    frame = rotation_channels.multiply(orient, rotation_channels.conjugate(
-        basis / np.linalg.norm(basis, axis=1, keepdims=True)))
-    locations[:, 3 * hips:3 * hips + 3] += rotation_channels.rotate_each(rotation_channels.conjugate(frame),
-                                                                           lift[:, None] * up)
+    locations[:, 3 * hips:3 * hips + 3] += _location_step(orient, rotations[:, 4 * hips:4 * hips + 4],
+                                                            lift[:, None] * up)
     return feet_lifts(wanted, heights + lift[:, None], stance, target.standing, blend_frames=0.1 * fps,
                       slope=0.5 * leg / fps)
+
+
+def _location_step(orient, basis, world) -> np.ndarray:
+    """(frames, 3) the location channel's change that moves a bone's head by world (frames, 3): the location
+    moves the head in the bone's posed frame less its own rotation. orient: the bone's posed orientations,
+    basis: its rotation channel (frames, 4 each)."""
+    frame = rotation_channels.multiply(orient, rotation_channels.conjugate(
+        basis / np.linalg.norm(basis, axis=1, keepdims=True)))
+    return rotation_channels.rotate_each(rotation_channels.conjugate(frame), world)
+
+
+def first_frame_lift(rig: RigData, up, floor: float, rotations, locations, hips: int) -> np.ndarray:
+    """floor_fit="first_frame": the whole clip moved along up once, so that on its first frame the lowest of
+    the rig's bones' heads and tails touches floor; the motion's own heights are kept, no frame fitted apart.
+    Returns the hips' location channels' change (frames, 3) that does it: the same world move on every frame,
+    through each frame's posed frame above the hips. rotations, locations: (frames, 4B), (frames, 3B)."""
+    native = native_state.native()
+    first = native.armature_pose(rig.native, np.ascontiguousarray(rotations[:1]),
+                                 np.ascontiguousarray(locations[:1]))
+    pose = Pose(first[0].reshape(-1, 4), first[1].reshape(-1, 3), rig.lengths)
+    lowest = min(float(np.min(pose.heads @ up)), float(np.min(pose.tails @ up)))
+    line = sorted({hips, *rig.ancestors(hips)})
+    columns4 = (4 * np.array(line)[:, None] + np.arange(4)).ravel()
+    columns3 = (3 * np.array(line)[:, None] + np.arange(3)).ravel()
+    orient = native.armature_pose(rig.native_rig(line), np.ascontiguousarray(rotations[:, columns4]),
+                                  np.ascontiguousarray(locations[:, columns3]))[0]
+    at = 4 * line.index(hips)
+    world = np.tile((floor - lowest) * np.asarray(up, dtype=np.float64), (len(rotations), 1))
+    return _location_step(orient[:, at:at + 4], rotations[:, 4 * hips:4 * hips + 4], world)
 
 
 # Feet the hips' lift leaves off the floor by no more than this (in the target's legs) are left where the legs

@@ -212,9 +212,11 @@ def plan(source, target, bone_map=None, frame_range=None, options: RetargetOptio
     wants_feet = plant_feet or (feet_fit != "off" and root != "none")
     feet = (_feet(rigs.src), _feet(rigs.tgt)) if wants_feet else (None, None)
     # The source's contacts count only where both rigs have feet.
-    retargeted, stances = _retarget_clip(rigs, clip, fit, (root, ground, chains), None if None in feet else feet[0],
+    retargeted, stances = _retarget_clip(rigs, clip, fit, (root, chains), None if None in feet else feet[0],
                                          contact_settings)
     rotations, root_locations = retargeted.rotations, retargeted.root_locations
+    if ground and rigs.roots[1] >= 0:
+        root_locations += _first_frame_lift(rigs, fit, rotations, root_locations)
     found = stances.contacts if stances is not None else None  # the source's stances (contacts.Stances)
     twist.share_twist(rigs.tgt, rigs.tgt.body, rotations, {b for _, b in rigs.pairs_idx})
     locations, located, mode = _place_roots(rigs, clip, fit, rotations, root_locations, o)
@@ -291,6 +293,14 @@ def _onto_object(plan_: Plan, rigs: _Rigs, sigma_frames: float, up) -> None:
 
 def _leg_bones(rig: RigData) -> set:
     return {b for leg in floor_fit.legs(rig, rig.body) for b in (leg.thigh, leg.shin, leg.foot) if b >= 0}
+
+
+def _first_frame_lift(rigs: _Rigs, fit: _Fit, rotations, root_locations) -> np.ndarray:
+    """core.floor_fit.first_frame_lift for the native retarget's hips channel: the change to it (frames, 3)."""
+    hips = rigs.roots[1]
+    locations = np.zeros((len(rotations), 3 * len(rigs.tgt)))
+    locations[:, 3 * hips:3 * hips + 3] = root_locations
+    return floor_fit.first_frame_lift(rigs.tgt, fit.up, fit.floors[1], rotations, locations, hips)
 
 
 def _stand_on_floor(rigs, clip, fit, rotations, locations, found, root) -> np.ndarray:
@@ -458,10 +468,10 @@ def kept_bones(source, target, bone_map=None, options: RetargetOptions | None = 
     source's do), as plan() decides them: the native retarget's kept_posture on the clip's first frame.
     options, keywords: plan()'s; only the reference pose's (retarget_options.REFERENCE) count."""
     inputs, rigs, fit, chains = _reference(source, target, bone_map, from_keywords(options, **keywords))
-    return [rigs.tgt.names[b] for b in _native_retarget(rigs, inputs.clip, fit, "none", False, chains).kept_posture]
+    return [rigs.tgt.names[b] for b in _native_retarget(rigs, inputs.clip, fit, "none", chains).kept_posture]
 
 
-def _native_options(native, rigs: _Rigs, fit: _Fit, root, ground, chains):
+def _native_options(native, rigs: _Rigs, fit: _Fit, root, chains):
     """The native retarget's options (_native.RetargetOptions) for this fit."""
     options = native.RetargetOptions()
     options.root_motion, options.scale, options.unit_scale = root, fit.scale, fit.unit_scale
@@ -469,13 +479,12 @@ def _native_options(native, rigs: _Rigs, fit: _Fit, root, ground, chains):
     options.scale_horizontal = fit.scale_horizontal
     options.space, options.up = fit.space, fit.up
     options.source_floor, options.target_floor = fit.floors
-    options.ground_bones = list(range(len(rigs.tgt))) if ground else []
     options.posture_bones, options.posture_always = _posture_lists(rigs, chains)
     options.helper_bones = bone_axes.helpers_between(rigs.tgt, [int(v) >= 0 for v in rigs.bone_map])
     return options
 
 
-def _native_retarget(rigs: _Rigs, clip: SourceClip, fit: _Fit, root, ground, chains):
+def _native_retarget(rigs: _Rigs, clip: SourceClip, fit: _Fit, root, chains):
     """The native retarget of the clip (a _native.RetargetResult); it releases the GIL."""
     native = native_state.native()
     src, tgt = rigs.src, rigs.tgt
@@ -489,15 +498,15 @@ def _native_retarget(rigs: _Rigs, clip: SourceClip, fit: _Fit, root, ground, cha
             source_match_root=rigs.source_pose.heads[source_root],
             target_match_basis=np.ascontiguousarray(rigs.target_basis),
             target_match_location=rigs.target_locations[target_root], source_root=source_root,
-            target_root=target_root, options=_native_options(native, rigs, fit, root, ground, chains),
+            target_root=target_root, options=_native_options(native, rigs, fit, root, chains),
             source_aims=source_aims, target_aims=target_aims)
 
 
 def _retarget_clip(rigs: _Rigs, clip: SourceClip, fit: _Fit, how, source_feet, contact_settings):
     """(the native retarget's RetargetResult, the source's contacts or None): the native retarget of the whole clip,
     on a worker thread (it releases the GIL) while the source's contacts are found here. how: (root motion,
-    ground, the chains' reference_pose.ChainPose)."""
-    root, ground, chains = how
+    the chains' reference_pose.ChainPose)."""
+    root, chains = how
     src = rigs.src
 
     def source_contacts():
@@ -505,7 +514,7 @@ def _retarget_clip(rigs: _Rigs, clip: SourceClip, fit: _Fit, how, source_feet, c
             src, clip.basis, clip.locations, source_feet, contact_settings, fps=clip.fps,
             posed=(clip.rotations, clip.heads), floor=src.armature_height_to_world(fit.floors[0]), holds=True)
 
-    result, found = worker_thread.beside(lambda: _native_retarget(rigs, clip, fit, root, ground, chains),
+    result, found = worker_thread.beside(lambda: _native_retarget(rigs, clip, fit, root, chains),
                                          source_contacts)
     return result, found
 

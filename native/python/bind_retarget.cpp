@@ -108,7 +108,6 @@ void BindRetargetOptions(py::module_& m) {
           "the target armature's up (unit)")
       .def_readwrite("source_floor", &RetargetOptions::source_floor, "source units, after space")
       .def_readwrite("target_floor", &RetargetOptions::target_floor, "target armature units")
-      .def_readwrite("ground_bones", &RetargetOptions::ground_bones, "touch the floor on the first frame")
       .def_readwrite("posture_bones", &RetargetOptions::posture_bones,
                      "keep their own posture unless carried 45 degrees across the source's")
       .def_readwrite("posture_always", &RetargetOptions::posture_always, "keep it whatever the angle")
@@ -143,7 +142,7 @@ void BindRetarget(py::module_& m) {
         (b, 4) the target's match pose as pose rotations (identity rows for
         the rest pose), target_match_location the target root's location
         there. options: a RetargetOptions (root motion, scale, unit scale,
-        vertical offset, space, up, floors, ground and posture bones; each
+        vertical offset, space, up, floors and posture bones; each
         field says what it is). source_aims (a, 3), target_aims (b, 3): where
         each bone points in its own frame, for rigs whose bone axes do not run
         along their limbs (default: every bone's Y axis).

@@ -356,34 +356,17 @@ class TargetPoser {
     std::reverse(root_ancestors_.begin(), root_ancestors_.end());
   }
 
-  // How far along up the root is moved on every frame so that the lowest of the ground bones' heads and
-  // tails touches the target's floor on the first frame; 0 without ground bones.
-  double GroundLift() {
-    const RetargetOptions& options = job_.options;
-    if (options.ground_bones.empty() || job_.source_rotations.rows() == 0) return 0.0;
-    PoseFrame(0, 0.0);
-    PoseHeads(globals_, job_.root_locations.row(0).transpose());
-    double lowest = std::numeric_limits<double>::infinity();
-    for (int g : options.ground_bones) {
-      const Eigen::Vector3d head = heads_[static_cast<std::size_t>(g)];
-      const Eigen::Vector3d tail =
-          head + globals_[static_cast<std::size_t>(g)] * (job_.target.length(g) * kBoneAxis);
-      lowest = std::min({lowest, head.dot(options.up), tail.dot(options.up)});
-    }
-    return options.target_floor - lowest;
-  }
-
   // The first frame this poser poses: its rotations are continuous from there on (MakeContinuousAcross
   // joins them to the frames before).
   void StartAt(Eigen::Index f) { first_frame_ = f; }
 
-  void PoseFrame(Eigen::Index f, double lift) {
+  void PoseFrame(Eigen::Index f) {
     for (int b = 0; b < job_.target.size(); ++b) PoseBoneAt(f, b);
     if (job_.target_root < 0) {
       job_.root_locations.row(f).setZero();
       return;
     }
-    job_.root_locations.row(f) = RootLocation(WantedRootHead(f, lift)).transpose();
+    job_.root_locations.row(f) = RootLocation(WantedRootHead(f)).transpose();
   }
 
  private:
@@ -432,8 +415,8 @@ class TargetPoser {
   }
 
   // The root's head on frame f: horizontally the match pose's, moved as the source root moved; along up
-  // at the source root's height above its floor (as the root motion option says), plus lift.
-  Eigen::Vector3d WantedRootHead(Eigen::Index f, double lift) const {
+  // at the source root's height above its floor (as the root motion option says).
+  Eigen::Vector3d WantedRootHead(Eigen::Index f) const {
     const RetargetOptions& options = job_.options;
     const Eigen::Vector3d& up = options.up;
     Eigen::Vector3d moved = Eigen::Vector3d::Zero();
@@ -461,7 +444,7 @@ class TargetPoser {
       case RootMotion::kNone:
         break;
     }
-    wanted += (wanted_height + lift - wanted.dot(up)) * up;
+    wanted += (wanted_height - wanted.dot(up)) * up;
     return wanted;
   }
 
@@ -543,9 +526,6 @@ Status RetargetJob::Validate() const {
   if (source_root < -1 || source_root >= ns || target_root < -1 || target_root >= nt) {
     return Status::Fail("retarget: root bone index out of range");
   }
-  for (int g : options.ground_bones) {
-    if (g < 0 || g >= nt) return Status::Fail("retarget: ground bone index out of range");
-  }
   if (options.threads < 0) return Status::Fail("retarget: threads must be 0 (all) or more");
   for (const auto* bones : {&options.posture_bones, &options.posture_always}) {
     for (int k : *bones) {
@@ -622,8 +602,7 @@ void RetargetJob::Run() {
   for (int b = 0; b < target.size(); ++b) {
     if (plan.kept(b)) kept_posture.push_back(b);
   }
-  const double lift = TargetPoser(*this, plan).GroundLift();
-  // No frame depends on another once the lift is known: blocks of frames on threads, a poser (its own
+  // No frame depends on another: blocks of frames on threads, a poser (its own
   // per-frame buffers) for each block, every frame computed as on one thread.
   const Eigen::Index frames = source_rotations.rows();
   const Eigen::Index per_block = ArmaturePoseJob::kFramesPerBlock;
@@ -636,7 +615,7 @@ void RetargetJob::Run() {
       TargetPoser poser(*this, plan);
       const Eigen::Index first = static_cast<Eigen::Index>(block) * per_block;
       poser.StartAt(first);
-      for (Eigen::Index f = first; f < std::min(frames, first + per_block); ++f) poser.PoseFrame(f, lift);
+      for (Eigen::Index f = first; f < std::min(frames, first + per_block); ++f) poser.PoseFrame(f);
     } catch (...) {  // out of memory for a block's buffers: said on the calling thread
       failed[static_cast<std::size_t>(block)] = std::current_exception();
     }

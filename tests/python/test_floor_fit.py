@@ -241,3 +241,30 @@ def test_a_standing_foot_s_joints_ride_at_their_own_height_above_a_heel_on_the_f
         floor_fit.floor_height(plain, plain.body, UP)[1], abs=1e-12)
     # A floor a leg below (a capture's, on which the joints themselves stand): nothing to ride.
     assert floor_fit.joint_clearance(rig, rig.body, UP, -0.8) == 0.0
+
+
+def test_first_frame_lift_puts_the_first_frame_s_lowest_point_on_the_floor_and_moves_every_frame_alike(core_native):
+    """floor_fit="first_frame": the hips' channel changed so that, posed independently (rig_fk), the lowest
+    head or tail on the first frame is on the floor and every frame's body moved by the same world lift;
+    the hips turned (their channel is in their own posed frame) and the clip bent so its frames differ."""
+    rig = from_spec(characters.MIXAMO_T)
+    hips = rig.index(rig.body.hips)
+    assert rig.parents[hips] < 0  # rig_fk places the root's location only
+    frames, rng = 5, np.random.default_rng(3)
+    turns = Rotation.from_rotvec(0.4 * rng.standard_normal((frames * len(rig), 3)))
+    rotations = np.roll(turns.as_quat(), 1, axis=1).reshape(frames, 4 * len(rig))
+    locations = np.zeros((frames, 3 * len(rig)))
+    locations[:, 3 * hips:3 * hips + 3] = 0.1 * rng.standard_normal((frames, 3))
+    floor = -0.3
+    change = floor_fit.first_frame_lift(rig, UP, floor, rotations, locations, hips)
+    pose = lambda loc: rig_fk.pose(rig.parents, rig.unit_rest, rig.heads, rig.lengths, rotations,  # noqa: E731
+                                   loc[:, 3 * hips:3 * hips + 3])
+    _, heads, tails = pose(locations)
+    lifted = locations.copy()
+    lifted[:, 3 * hips:3 * hips + 3] += change
+    _, new_heads, new_tails = pose(lifted)
+    # Doubles through a few dozen rotations of metre-long bones: 1e-12 is a hundred times their rounding.
+    assert min((new_heads[0] @ UP).min(), (new_tails[0] @ UP).min()) == pytest.approx(floor, abs=1e-12)
+    lift = floor - min((heads[0] @ UP).min(), (tails[0] @ UP).min())
+    assert abs(lift) > 0.05
+    np.testing.assert_allclose(new_heads - heads, np.broadcast_to(lift * UP, heads.shape), atol=1e-12)

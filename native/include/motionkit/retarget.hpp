@@ -52,9 +52,6 @@
 // `scale_horizontal` multiplies the motion across the floor (kScaled, kOffset)
 // on top of `scale`: a character whose stride the rigs' proportions do not
 // give (Unreal's "Scale Horizontal").
-// With ground_bones, the root is moved along up on every frame so that the
-// lowest of those bones' heads and tails touches the target's floor on the
-// first frame.
 #pragma once
 
 #include <optional>
@@ -83,7 +80,6 @@ struct RetargetOptions {
   Eigen::Vector3d up = Eigen::Vector3d::UnitZ();  // the target armature's up (unit)
   double source_floor = 0.0;  // the source floor's height along up, source units carried by space
   double target_floor = 0.0;  // the target floor's height along up, target armature units
-  std::vector<int> ground_bones;  // target bones that touch the floor on the first frame
   std::vector<int> posture_bones;  // target bones that keep their own posture in the match pose (S_b = 1)
   std::vector<int> posture_always;  // ... and do so even where their parents carry them 45 degrees across
   // Unmapped target bones that are helpers (Mixamo's `*_split` joints): carried, not turned along the chain,
@@ -141,7 +137,7 @@ struct RetargetJob {
 
   // Shapes, finiteness (naming bone and frame), the map (indices in range, at
   // least one bone, and no crossing: if target b0 is above b, source a0 must
-  // not be below a), roots and ground bones in range.
+  // not be below a), and roots in range.
   Status Validate() const;
   // Throws Error when Validate() fails, having written nothing.
   void Run();
