@@ -110,6 +110,10 @@ def retarget(source: Rig, target: Rig, source_rotations: F64, source_root_heads:
 def mirror(source: Rig, target: Rig, basis_rotations: F64, basis_locations: F64, partners: list[int],
     kept: list[int], *, normal: npt.ArrayLike = ..., point: npt.ArrayLike = ...) -> tuple[F64, F64]: ...
 
+# The body's signed-distance field (native/python/bind_body.cpp).
+def body_field(vertices: F64, triangles: I32, vertex_bone: list[int], *,
+    origin: npt.ArrayLike, spacing: float, dims: list[int]) -> tuple[F64, I32]: ...
+
 # Full-body inverse kinematics (native/python/bind_ik.cpp).
 class IkEffector:
     """One effector of ik_solve: its bone's tail reaches a target, or with pin holds where the input has it."""

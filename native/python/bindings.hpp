@@ -62,6 +62,7 @@ void RunWithoutGil(Job& job) {
 // The _testing submodule module.cpp made, for the functions only the tests use.
 inline pybind11::module_ TestingModule(pybind11::module_& m) { return m.attr("_testing").cast<pybind11::module_>(); }
 
+void BindBody(pybind11::module_& m);
 void BindBvh(pybind11::module_& m);
 void BindRotation(pybind11::module_& m);
 void BindFCurve(pybind11::module_& m);

@@ -91,6 +91,7 @@ PYBIND11_MODULE(_native, m) {
         Raises MotionKitError naming the curve and key on NaN or infinity.
       )pbdoc");
 
+  motionkit::python::BindBody(m);
   motionkit::python::BindBvh(m);
   motionkit::python::BindRotation(m);
   motionkit::python::BindFCurve(m);

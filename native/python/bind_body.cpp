@@ -1,0 +1,54 @@
+// The body's signed-distance field (native/include/motionkit/body_field.hpp).
+#include <pybind11/eigen.h>
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <vector>
+
+#include "bindings.hpp"
+#include "motionkit/body_field.hpp"
+#include "motionkit/types.hpp"
+
+namespace py = pybind11;
+using namespace pybind11::literals;
+
+namespace motionkit::python {
+namespace {
+
+py::tuple BodyField(const ConstMatrixView& vertices, const ConstTriangleView& triangles,
+                    const std::vector<int>& vertex_bone, const PointArg& origin, double spacing,
+                    const std::vector<int>& dims) {
+  if (dims.size() != 3) throw py::value_error("body_field: dims must be three cell counts");
+  const Eigen::Index cells = static_cast<Eigen::Index>(dims[0]) * dims[1] * dims[2];
+  OutputVector<double> distance(std::max<Eigen::Index>(cells, 0));
+  OutputVector<int> bone(std::max<Eigen::Index>(cells, 0));
+  BodyFieldJob job(vertices, triangles, vertex_bone, origin, spacing, Eigen::Vector3i(dims[0], dims[1], dims[2]),
+                   distance.view, bone.view);
+  RunWithoutGil(job);
+  return py::make_tuple(distance.array, bone.array);
+}
+
+}  // namespace
+
+void BindBody(py::module_& m) {
+  m.def("body_field", &BodyField, "vertices"_a.noconvert(), "triangles"_a.noconvert(), "vertex_bone"_a,
+        py::kw_only(), "origin"_a, "spacing"_a, "dims"_a,
+        R"pbdoc(
+        A closed mesh's signed-distance field on a regular grid.
+
+        vertices: float64 (V, 3) rest positions; triangles: int32 (T, 3);
+        vertex_bone: per vertex the bone carrying it most (-1 for none).
+        origin: the first cell's centre; spacing: the cells' size; dims: the
+        cells along x, y, z. Cell (i, j, k) is at origin + spacing (i, j, k).
+
+        Returns (distance (nx*ny*nz,) to the surface, negative inside, the sign
+        voted by rays along the three axes, each counting crossings by
+        their winding (inside any shell is inside); bone (nx*ny*nz,) int32, the
+        bone of the nearest surface point's nearest vertex), cell (i, j, k) at
+        (i*ny + j)*nz + k. Errors name the triangle or vertex. The GIL is
+        released while it runs.
+      )pbdoc");
+}
+
+}  // namespace motionkit::python
