@@ -9,10 +9,6 @@ import os
 
 import numpy as np
 
-from core.rig_data import RigData
-from core.skinned_mesh import SkinnedMesh
-from plain_rigs import bone_rest
-
 CHARACTERS = ("AJ", "Kaya", "Big_Vegas", "Mousey", "Sporty_Granny")
 # Mixamo's 22 body joints, each with its parent (the files' joint_names order).
 PARENTS = {"Hips": None, "Spine": "Hips", "Spine1": "Spine", "Spine2": "Spine1", "Neck": "Spine2",
@@ -29,9 +25,13 @@ def mesh_path(shared: str, character: str) -> str:
     return os.path.join(shared, "data", "bodies", "meshes", f"{character}.npz")
 
 
-def load(shared: str, character: str, prefix: str = "mixamorig:") -> tuple[RigData, SkinnedMesh]:
-    """The character's skeleton (its 22 joints as bones: each to its child, the ends along their parent
-    bone) and its skin, in metres, Z up, its hips where the file puts them."""
+def load(shared: str, character: str, prefix: str = "mixamorig:"):
+    """(RigData, SkinnedMesh): the character's skeleton (its 22 joints as bones: each to its child, the
+    ends along their parent bone) and its skin, in metres, Z up, its hips where the file puts them. For
+    the tests outside Blender (the add-on's core on the path as `core`)."""
+    from core.rig_data import RigData
+    from core.skinned_mesh import SkinnedMesh
+    from plain_rigs import bone_rest
     data = np.load(mesh_path(shared, character))
     names = [str(n) for n in data["joint_names"]]
     offsets = np.asarray(data["skeleton"], dtype=np.float64)
