@@ -6,7 +6,7 @@ from __future__ import annotations
 import bpy
 import numpy as np
 
-from . import animdata, carried_reads, object_channels, pose_channels
+from . import animdata, body_reads, carried_reads, object_channels, pose_channels
 from ..core import bone_mapping
 from ..core.retarget_inputs import RetargetInputs, SourceClip, TargetRig, bone_pairs, written_bones
 from ..core.retarget_options import RetargetOptions
@@ -140,5 +140,7 @@ def read(source, target, bone_map, frame_range, o: RetargetOptions, target_rig: 
     names = {read_.rig.names[b] for b in written} if written is not None else None
     channels = carried_reads.read(source, target, animdata.assigned_action(source), clip.frames, pairs, names, o) \
         if whole else None
+    if whole and o.body != "off":  # the body stage's: each rig's skin, read once with the rest
+        clip.mesh, read_.mesh = body_reads.read(source, clip.rig), body_reads.read(target, read_.rig)
     return RetargetInputs(clip, read_, pairs, written, channels, report)
 

@@ -10,11 +10,11 @@ point between them is outside both; where they bend together, inside either). Wh
 number of the five Mixamo meshes of ../shared/data/bodies (points within about 3 cm of the skin), one
 capsule per bone put 56-70 % of them on the right side on Big Vegas (a belly is no cylinder), convex pieces
 56-79 %, the field 92-99 %, and all but 0-2 % beyond one cell of the skin (docs/body.md); a read costs one
-trilinear lookup per body bone, the field about a second to build for a whole character at 128 cells a
-height.
+trilinear lookup per body bone, the field 0.2-0.45 s to build for these characters at 128 cells a height.
 """
 from __future__ import annotations
 
+import hashlib
 from dataclasses import dataclass
 
 import numpy as np
@@ -26,7 +26,7 @@ from .skinned_mesh import SkinnedMesh
 BODY_PARTS = ("trunk", "head", "thigh")  # the closed body a hand is kept out of
 ARM_PARTS = ("forearm", "hand")          # what is kept out of it
 # Cells per height of the body: a cell of 1.4 cm on a 1.8 m character, finer than the decimated meshes'
-# 1.4-4 cm edges, and about a second to build natively.
+# 1.4-4 cm edges, and 0.2-0.45 s to build natively for a decimated Mixamo character.
 CELLS_PER_HEIGHT = 128
 # The grid reaches this far (in the body's heights) beyond the body's skin: room for the clearance a hand
 # keeps (a few cm) and for a distance's gradient there; farther, a point is simply outside.
@@ -93,9 +93,27 @@ class Body:
         carriers = np.array([b for b in np.unique(owner) if b >= 0 and labels[b] in BODY_PARTS], dtype=np.int64)
         return cls(rig, mesh, labels, low, spacing, distance.reshape(dims), owner, carriers, height)
 
+    @classmethod
+    def cached(cls, rig: RigData, mesh: SkinnedMesh) -> "Body":
+        """Body.of, kept for the same rig rest and mesh (the last few): a batch retargeting a library onto one
+        character builds its field once."""
+        key = _fingerprint(rig, mesh)
+        found = _CACHE.pop(key, None)
+        if found is None:
+            found = cls.of(rig, mesh)
+        _CACHE[key] = found
+        while len(_CACHE) > _CACHE_SIZE:
+            _CACHE.pop(next(iter(_CACHE)))
+        return found
+
     def at_rest(self, points) -> tuple[np.ndarray, np.ndarray]:
         """(distance, owner) at points (..., 3) of the rest space: the field's trilinear distance and the
         nearest cell's bone; +inf and -1 off the grid."""
+        distance, owner, _ = self._read(points, gradient=False)
+        return distance, owner
+
+    def _read(self, points, gradient: bool):
+        """at_rest's (distance, owner) and, with gradient, the trilinear distance's gradient (..., 3)."""
         points = np.asarray(points, dtype=np.float64)
         x = (points - self.origin) / self.spacing
         dims = np.array(self.distance.shape)
@@ -104,14 +122,20 @@ class Body:
         i0 = np.floor(x).astype(np.int64)
         f = x - i0
         out = np.zeros(points.shape[:-1])
+        slope = np.zeros(points.shape) if gradient else None
         for corner in range(8):
             o = np.array([(corner >> 2) & 1, (corner >> 1) & 1, corner & 1])
-            w = np.prod(np.where(o, f, 1.0 - f), axis=-1)
+            factors = np.where(o, f, 1.0 - f)
             idx = np.minimum(i0 + o, dims - 1)
-            out += w * self.distance[idx[..., 0], idx[..., 1], idx[..., 2]]
+            value = self.distance[idx[..., 0], idx[..., 1], idx[..., 2]]
+            out += np.prod(factors, axis=-1) * value
+            if gradient:
+                for a in range(3):
+                    others = np.prod(np.delete(factors, a, axis=-1), axis=-1)
+                    slope[..., a] += (1.0 if o[a] else -1.0) * others * value / self.spacing
         near = np.rint(x).astype(np.int64)
         owner = self.owner[near[..., 0], near[..., 1], near[..., 2]]
-        return np.where(inside, out, np.inf), np.where(inside, owner, -1)
+        return np.where(inside, out, np.inf), np.where(inside, owner, -1), slope
 
     def posed(self, points, orientations, heads) -> np.ndarray:
         """(frames, N) the body's signed distance at points (frames, N, 3) of the armature's space, the rig
@@ -119,14 +143,39 @@ class Body:
         back to rest through every carrier's motion and read where that carrier carries the cell; the
         nearest of those, +inf where none does. A carrier reads its own cells only: read through a bone
         it does not carry, a turned head's place at rest would stand on the neck as a head not turned."""
+        return self.posed_with_gradient(points, orientations, heads, gradient=False)[0]
+
+    def posed_with_gradient(self, points, orientations, heads, gradient: bool = True):
+        """posed()'s distance and, with gradient, its gradient (frames, N, 3) in the armature's space (zero
+        where no carrier reads a point)."""
         points = np.asarray(points, dtype=np.float64)
         rig, best = self.rig, np.full(points.shape[:-1], np.inf)
+        slope = np.zeros(points.shape) if gradient else None
         for b in self.carriers:
             g = orientations[:, 4 * b:4 * b + 4]
             h = heads[:, 3 * b:3 * b + 3]
             to_rest = rotation_channels.multiply(np.broadcast_to(rig.unit_rest[b], g.shape),
                                                  rotation_channels.conjugate(g))
             rest = rotation_channels.rotate_each(to_rest[:, None, :], points - h[:, None, :]) + rig.heads[b]
-            distance, owner = self.at_rest(rest)
-            best = np.minimum(best, np.where(owner == b, distance, np.inf))
-        return best
+            distance, owner, rest_slope = self._read(rest, gradient)
+            distance = np.where(owner == b, distance, np.inf)
+            nearer = distance < best
+            best = np.where(nearer, distance, best)
+            if gradient:
+                posed_slope = rotation_channels.rotate_each(rotation_channels.conjugate(to_rest)[:, None, :],
+                                                            rest_slope)
+                slope = np.where(nearer[..., None], posed_slope, slope)
+        return best, slope
+
+
+_CACHE: dict = {}
+_CACHE_SIZE = 4
+
+
+def _fingerprint(rig: RigData, mesh: SkinnedMesh) -> str:
+    """What a body is built from, hashed: the rig's names and rest, the mesh's vertices, triangles and bones."""
+    digest = hashlib.blake2b(digest_size=16)
+    digest.update("\0".join(rig.names).encode())
+    for array in (rig.rest, rig.heads, mesh.vertices, mesh.triangles, mesh.bone):
+        digest.update(np.ascontiguousarray(array).tobytes())
+    return digest.hexdigest()

@@ -9,6 +9,7 @@ import numpy as np
 from . import bone_mapping, native_state, object_motion, retarget_parts, rotation_channels
 from .retarget_options import RetargetOptions
 from .rig_data import RigData
+from .skinned_mesh import SkinnedMesh
 
 
 @dataclass(eq=False)
@@ -26,6 +27,7 @@ class SourceClip:
     moving: bool = False   # the object's own motion is composed into its top bones' channels
     rotations: np.ndarray | None = None  # (frames, 4B) armature-space orientations, once posed
     heads: np.ndarray | None = None      # (frames, 3B) armature-space heads, once posed
+    mesh: SkinnedMesh | None = None      # the meshes its armature deforms, where the body stage reads them
 
     def posed(self) -> "SourceClip":
         """The clip with its bones posed natively (rotations, heads)."""
@@ -56,11 +58,13 @@ class ObjectRotation:
 class TargetRig:
     """The target as read: its rig (where it stood before the root motion its action keys, channels as
     they stand), the heads of the clip it plays (frames, 3B) for its own floor, or None, and where its
-    object stands (blender/object_channels.ObjectBase and its rotation's mode) for root motion onto it."""
+    object stands (blender/object_channels.ObjectBase and its rotation's mode) for root motion onto it; the
+    meshes its armature deforms, where the body stage reads them (None: none, or not read)."""
     rig: RigData
     own_heads: np.ndarray | None
     object_base: object
     object_rotation: ObjectRotation
+    mesh: SkinnedMesh | None = None
 
 
 @dataclass(eq=False)

@@ -57,6 +57,13 @@ ROOT_MOTION_ONTO = (
 )
 # What root_motion_onto leaves the floor root (FLOOR_ROOTS) free to be: "auto" any, the others their own.
 _ONTO_FLOOR_ROOT = {"hips": "still", "root": "extract", "object": "still"}
+# Whether the target's forearms and hands are kept out of its own body (RetargetOptions.body; docs/body.md).
+BODY_MODES = (
+    ("auto", "Auto",
+     "Where the target has a skinned mesh, a forearm or hand that would go into its own body (the trunk, head "
+     "or thighs) is swung out at the shoulder and elbow, the hand's direction kept"),
+    ("off", "Off", "The bones only, whatever the mesh"),
+)
 TARGET_MATCHES = (
     ('REST', "Rest pose", "The target's rest pose is its reference pose"),
     ('CURRENT', "Current pose", "The target's current pose, set to stand like the source's reference pose"),
@@ -118,6 +125,10 @@ class RetargetOptions:
     # How a mapped bone that is no body part (a prop) moves (core.props.SPACES): "bone" as any mapped bone,
     # or as the source's moves in its "hand", about its "root" (the hips) or in the "world" (its armature).
     prop_space: str = "bone"
+    # A forearm or hand that goes into the target's own body brought back out (BODY_MODES): "auto" where
+    # the target has a skinned mesh, "off"; body_strength the share of that correction applied (0..1).
+    body: str = "auto"
+    body_strength: float = 1.0
     bones: tuple | None = None
     # Where the keys go (retarget_parts.INTO): a "new" action, the target's "current" action over the clip's
     # frames, or an "nla" track above it, its blend ("replace" or "add") and influence (0..1).
@@ -137,7 +148,8 @@ class RetargetOptions:
         for name, value, known in (("floor_fit", self.floor_fit, FLOOR_FITS),
                                    ("root motion", self.root, ROOT_MOTIONS),
                                    ("floor root motion", self.floor_root, FLOOR_ROOTS),
-                                   ("root_motion_onto", self.root_motion_onto, ROOT_MOTION_ONTO)):
+                                   ("root_motion_onto", self.root_motion_onto, ROOT_MOTION_ONTO),
+                                   ("body", self.body, BODY_MODES)):
             if value not in [k[0] for k in known]:
                 raise ValueError(f"unknown {name} {value!r}; expected one of {[k[0] for k in known]}")
         implied = _ONTO_FLOOR_ROOT.get(self.root_motion_onto)
@@ -181,8 +193,10 @@ class RetargetOptions:
                                    ("blend", self.blend, retarget_parts.BLENDS)):
             if value not in [k[0] for k in known]:
                 raise ValueError(f"unknown {name} {value!r}; expected one of {[k[0] for k in known]}")
-        if not (is_number(self.influence) and 0.0 <= self.influence <= 1.0):
-            raise ValueError(f"influence must be a number from 0 to 1, not {self.influence!r}")
+        for name in ("influence", "body_strength"):
+            value = getattr(self, name)
+            if not (is_number(value) and 0.0 <= value <= 1.0):
+                raise ValueError(f"{name} must be a number from 0 to 1, not {value!r}")
         channel_carry.check_channels(self.channels)
         channel_carry.check_channel_map(self.channel_map)
 

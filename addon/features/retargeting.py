@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 import bpy
 import numpy as np
 
-from . import (contacts, control_rigs, resampling, retarget_channels, retarget_keys, retarget_props,
+from . import (contacts, control_rigs, resampling, retarget_body, retarget_channels, retarget_keys, retarget_props,
                retarget_sources)
 from ..blender import animdata, object_channels, pose_channels, retarget_reads
 from ..core import (bone_axes, bone_mapping, channel_carry, facing, floor_fit, native_state, reference_pose,
@@ -141,6 +141,7 @@ class Plan:
     chains: list = field(default_factory=list)  # reference_pose.ChainPose per chain: kept posture or matched
     kept: list = field(default_factory=list)  # the target bones that kept their posture (names; kept_bones())
     map_report: bone_mapping.MapReport | None = None  # what the automatic map left out, where it made the pairs
+    body: object = None  # core.body_clearance.Report: whether the arms were kept out of the body, and where
     options: RetargetOptions = field(default_factory=RetargetOptions)  # what made it: apply() writes by its into
     written: list = field(default_factory=list)  # the target bones whose keys it writes (names)
     partial: bool = False  # only some of the target's bones are written (RetargetOptions.parts, bones)
@@ -225,6 +226,9 @@ def plan(source, target, bone_map=None, frame_range=None, options: RetargetOptio
         # The hips come down where a leg cannot reach; "legs" also has the legs' solve put the feet down.
         feet_lift = _stand_on_floor(rigs, clip, fit, rotations, locations, found, root)
         feet_lift = feet_lift if feet_fit == "legs" else None
+    # The arms out of the body, on the upper body as it is final (the feet's solve after it moves only the hips
+    # and the legs, on a thread of its own when deferred: it must not run beside this).
+    body_report = retarget_body.keep_out(rigs, clip, fit, rotations, locations, o, written)
     # The legs' solve plants the feet, and puts right what the hips' lift leaves (floor_fit.feet_left_off).
     legs_solve = found is not None and lower_body and (plant_feet or (
         feet_lift is not None and floor_fit.feet_left_off(feet_lift, fit.target_scale * fit.legs[1])))
@@ -245,6 +249,7 @@ def plan(source, target, bone_map=None, frame_range=None, options: RetargetOptio
     plan_.chains, plan_.options = chains, o
     plan_.kept = [rigs.tgt.names[b] for b in retargeted.kept_posture]
     plan_.map_report = inputs.map_report
+    plan_.body = body_report
     plan_.written = [rigs.tgt.names[b] for b in sorted(written)] if written is not None else list(rigs.tgt.names)
     plan_.partial = written is not None
     plan_.carried = inputs.carried

@@ -11,7 +11,7 @@ from bpy_extras.io_utils import ExportHelper, ImportHelper
 from . import common, contacts as contact_ui, preview
 from .preview import MOTIONKIT_PG_retarget_preview
 from ..blender import pose_channels
-from ..core import bone_mapping, channel_carry, display_names, props, retarget_parts
+from ..core import bone_mapping, channel_carry, display_names, props, retarget_options, retarget_parts
 from ..core.chain_modes import CHAINS
 from ..core.retarget_options import RetargetOptions
 from ..features import bvh, control_rigs, retarget_sources, retargeting, scene_timing
@@ -228,6 +228,11 @@ class MOTIONKIT_PG_retarget(bpy.types.PropertyGroup):
                             description="A prop under one hand that the source's other hand holds (a rifle): the "
                                         "target's other hand stays where the source's holds it, relative to the "
                                         "prop and scaled, whatever the arms' lengths")
+    body: EnumProperty(name="Body", items=retarget_options.BODY_MODES, default="auto",
+                       description="Keep the target's forearms and hands out of its own body where it has a skinned "
+                                   "mesh")
+    body_strength: FloatProperty(name="Strength", default=1.0, min=0.0, max=1.0, subtype='FACTOR',
+                                 description="How much of the way out of the body each arm is moved")
     preview: PointerProperty(type=MOTIONKIT_PG_retarget_preview)
 
     def bone_map(self) -> list[tuple[str, str]]:
@@ -247,7 +252,7 @@ class MOTIONKIT_PG_retarget(bpy.types.PropertyGroup):
             floor_fit=self.floor_fit, chain_modes=self.reference_pose.chain_modes() or None,
             channels=tuple(c for c in channel_carry.IDS if c in self.channels),
             channel_map=self.channel_map() if named else None, prop_space=self.prop_space, two_hands=self.two_hands,
-            **self._written())
+            body=self.body, body_strength=self.body_strength, **self._written())
 
     def control_keywords(self) -> dict:
         """The panel's control rig choices (controls, limbs, control_map, keys, reduce) as retarget_clip and
@@ -795,6 +800,10 @@ class MOTIONKIT_PT_retarget_options(RetargetSubPanel, bpy.types.Panel):
         col = layout.column()
         col.prop(settings, "prop_space")
         col.prop(settings, "two_hands")
+        col.prop(settings, "body", text="Arms Out of Body")
+        row = col.row()
+        row.active = settings.body != "off"
+        row.prop(settings, "body_strength")
         _draw_carry(self.layout, settings)
 
 

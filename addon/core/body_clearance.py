@@ -1,0 +1,262 @@
+"""The retarget's body stage: where a forearm or a hand of the target goes into its own body (core.body),
+the arm swung at the shoulder and the elbow the least that brings it back out to the clearance wanted, the
+hand's direction kept, continuous over the clip (numpy and native posing, no bpy). docs/body.md.
+
+Per frame that goes in, the turn of the upper arm about the shoulder and of the forearm about the elbow
+(two rotation vectors) is solved by Gauss-Newton on the arm's skin points that are nearer the body than
+wanted: each point moves by the turns' cross products with its lever arms, the body's distance along its
+gradient; a small equal weight on both turns takes the least turn and shares it between the joints. The
+turns of the frames that go in are then spread over the frames around them (a Gaussian-weighted mean of the
+nearby frames' turns, eased in and out), so that the arm leaves and meets the body without a pop, and the
+frames still in after that are solved once more from there.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from . import bone_mapping, native_state, rotation_channels
+from .body import ARM_PARTS, Body
+
+SAMPLES = 64          # skin points per arm, spread over its forearm and hand (farthest-point order)
+ITERATIONS = 6        # Gauss-Newton steps per frame
+# Below this of the turn (radians) both joints are alike to the solve: the least turn is the one it takes.
+# A tenth of a radian's weight against a lever of half a metre: a centimetre of reach costs 0.01 rad.
+TURN_WEIGHT = 0.05
+SPREAD = 0.1          # seconds: the Gaussian over which nearby frames' turns are averaged
+EASE = 0.25           # seconds over which a turn eases in before and out after the frames that go in, at least
+# ... and at least as many frames as keep the easing under this many degrees a frame: an animator sees a
+# jump of a few degrees from one frame to the next as a pop (a smoothstep's steepest is 1.5 times its mean).
+EASE_RATE = 1.5
+
+
+@dataclass(frozen=True)
+class Arm:
+    """One arm's joints (upper arm, forearm, hand: bone indices) and its skin points: the bone each rides on
+    (S,), its offset in that bone's rest frame (S, 3), and whether it is on the hand (S,)."""
+    side: str
+    upper_arm: int
+    forearm: int
+    hand: int
+    bones: np.ndarray
+    local: np.ndarray
+    on_hand: np.ndarray
+
+
+def arms(body: Body) -> list[Arm]:
+    """The arms whose upper arm, forearm and hand are labelled and whose forearm or hand the mesh skins."""
+    rig, labels, mesh = body.rig, rig_body(body), body.mesh
+    out = []
+    for side in bone_mapping.SIDES:
+        names = [labels.limbs.get(f"{key}.{side}") for key in ("upper_arm", "forearm", "hand")]
+        if any(n is None or n not in rig for n in names):
+            continue
+        upper, fore, hand = (rig.index(n) for n in names)
+        riding = np.array([b >= 0 and body.part[b] in ARM_PARTS and rig.is_below(int(b), upper)
+                           for b in mesh.bone], dtype=bool)
+        if not riding.any():
+            continue
+        chosen = _spread(mesh.vertices[riding], SAMPLES)
+        vertices = mesh.vertices[riding][chosen]
+        bones = mesh.bone[riding][chosen]
+        local = rotation_channels.rotate_each(rotation_channels.conjugate(rig.unit_rest[bones]),
+                                              vertices - rig.heads[bones])
+        on_hand = np.array([rig.is_below(int(b), hand) for b in bones], dtype=bool)
+        out.append(Arm(side, upper, fore, hand, bones, local, on_hand))
+    return out
+
+
+def rig_body(body: Body) -> bone_mapping.Body:
+    return body.rig.body
+
+
+def _spread(points, count: int) -> np.ndarray:
+    """Indices of up to count points, each the farthest from those chosen before (the first: the farthest
+    from their centre), so that the whole forearm and hand are covered, the same on every run."""
+    if len(points) <= count:
+        return np.arange(len(points))
+    chosen = [int(np.argmax(np.linalg.norm(points - points.mean(axis=0), axis=1)))]
+    nearest = np.linalg.norm(points - points[chosen[0]], axis=1)
+    for _ in range(count - 1):
+        chosen.append(int(np.argmax(nearest)))
+        nearest = np.minimum(nearest, np.linalg.norm(points - points[chosen[-1]], axis=1))
+    return np.array(chosen)
+
+
+@dataclass
+class Cleared:
+    """What the stage did: per arm (side) the frames that went in (frames,) and the turns applied
+    (frames, 6: the shoulder's and the elbow's rotation vectors, armature space)."""
+    went_in: dict
+    turns: dict
+
+
+@dataclass
+class Report:
+    """What the body stage did, to say: "off" (asked so), "no mesh" (the target deforms none) or "on", the
+    meshes read, and per arm (side) how many frames went into the body and were brought out."""
+    state: str
+    meshes: str = ""
+    frames_in: dict = field(default_factory=dict)
+
+    def message(self) -> str:
+        if self.state == "off":
+            return "Arms not kept out of the body (off)"
+        if self.state == "no mesh":
+            return "The target deforms no mesh: its arms were not kept out of its body"
+        went = sum(self.frames_in.values())
+        return (f"Arms kept out of the body of {self.meshes}: " +
+                (", ".join(f"{side} on {n} frames" for side, n in self.frames_in.items() if n) if went
+                 else "none went in"))
+
+
+def clearances(body: Body, orientations, heads) -> dict:
+    """Per arm (side), (frames,) how far its skin stays from the body on each frame of a pose (an armature
+    pose: orientations (frames, 4B), heads (frames, 3B)), 0 where it goes in: a hand that sinks into its own
+    body touches it, its depth is no clearance to copy."""
+    return {arm.side: np.maximum(body.posed(_points(arm, orientations, heads), orientations, heads).min(axis=1),
+                                 0.0) for arm in arms(body)}
+
+
+def clear(body: Body, rotations, locations, fps: float, clearance: dict | None = None, strength: float = 1.0,
+          sides=bone_mapping.SIDES) -> Cleared:
+    """Brings every arm of sides that goes into the body back out, changing the upper arms', forearms' and
+    hands' rotation channels in rotations (frames, 4B; locations (frames, 3B) place the root) in place.
+    clearance: per side, (frames,) the distance (armature units) the arm is to keep where it goes in (the
+    source's own, scaled), default none; strength: the share of each turn applied (1: out, 0: as it was).
+    Half a cell of the field is kept beyond it: the field's own precision (docs/body.md)."""
+    rig = body.rig
+    native = native_state.native()
+    orientations, heads = native.armature_pose(rig.native, np.ascontiguousarray(rotations),
+                                               np.ascontiguousarray(locations))
+    went_in, turns = {}, {}
+    for arm in (a for a in arms(body) if a.side in sides):
+        kept = (clearance or {}).get(arm.side)
+        wanted = 0.5 * body.spacing + (np.zeros(len(rotations)) if kept is None else
+                                       np.maximum(np.asarray(kept, dtype=np.float64), 0.0))
+        joints = _joints(arm, heads)
+        points = _points(arm, orientations, heads)
+        distance = body.posed(points, orientations, heads).min(axis=1)
+        inside = distance < 0.0
+        went_in[arm.side], turns[arm.side] = inside, np.zeros((len(rotations), 6))
+        if not inside.any():
+            continue
+        frames = np.flatnonzero(inside)
+        solved = _solve(body, arm, orientations[frames], heads[frames], points[frames], joints[frames],
+                        wanted[frames], np.zeros((len(frames), 6)))
+        spread = _spread_turns(frames, solved, len(rotations), fps)
+        still = np.flatnonzero(_distance_after(body, arm, orientations, heads, points, joints, spread) < 0.0)
+        if len(still):
+            spread[still] = _solve(body, arm, orientations[still], heads[still], points[still], joints[still],
+                                   wanted[still], spread[still])
+        turns[arm.side] = strength * spread
+        _apply(rotations, orientations, arm, turns[arm.side])
+    return Cleared(went_in, turns)
+
+
+def _joints(arm: Arm, heads) -> np.ndarray:
+    """(frames, 3, 3): the shoulder's, elbow's and wrist's posed heads."""
+    return np.stack([heads[:, 3 * b:3 * b + 3] for b in (arm.upper_arm, arm.forearm, arm.hand)], axis=1)
+
+
+def _points(arm: Arm, orientations, heads) -> np.ndarray:
+    """(frames, S, 3): the arm's skin points where its bones are posed."""
+    g = np.stack([orientations[:, 4 * b:4 * b + 4] for b in arm.bones], axis=1)
+    h = np.stack([heads[:, 3 * b:3 * b + 3] for b in arm.bones], axis=1)
+    return rotation_channels.rotate_each(g, arm.local) + h
+
+
+def _moved(arm: Arm, points, joints, turns) -> np.ndarray:
+    """The skin points after the shoulder's turn (about the shoulder) and the elbow's (about the elbow,
+    itself carried by the shoulder's); the hand keeps its orientation, carried along by the wrist."""
+    shoulder, elbow, wrist = joints[:, 0], joints[:, 1], joints[:, 2]
+    qs, qe = _quaternions(turns[:, :3]), _quaternions(turns[:, 3:])
+    turn = lambda q, v: rotation_channels.rotate_each(q[:, None, :], v)  # noqa: E731
+    new_elbow = turn(qs, (elbow - shoulder)[:, None, :])[:, 0] + shoulder
+    both = rotation_channels.multiply(qs, qe)
+    fore = turn(both, points - elbow[:, None, :]) + new_elbow[:, None, :]
+    new_wrist = turn(both, (wrist - elbow)[:, None, :])[:, 0] + new_elbow
+    hand = points - wrist[:, None, :] + new_wrist[:, None, :]
+    return np.where(arm.on_hand[None, :, None], hand, fore)
+
+
+def _quaternions(rotvecs) -> np.ndarray:
+    angle = np.linalg.norm(rotvecs, axis=1, keepdims=True)
+    axis = np.divide(rotvecs, angle, out=np.zeros_like(rotvecs), where=angle > 1e-15)
+    return np.hstack([np.cos(0.5 * angle), np.sin(0.5 * angle) * axis])
+
+
+def _solve(body: Body, arm: Arm, orientations, heads, points, joints, wanted, turns) -> np.ndarray:
+    """(frames, 6) turns from turns on that bring every skin point to wanted (frames,) from the body."""
+    turns = turns.copy()
+    lever_hand = (joints[:, 2] - joints[:, 1])[:, None, :]
+    for _ in range(ITERATIONS):
+        moved = _moved(arm, points, joints, turns)
+        distance, slope = body.posed_with_gradient(moved, orientations, heads)
+        short = np.where(np.isfinite(distance), wanted[:, None] - distance, 0.0)
+        active = short > 0.0
+        if not active.any():
+            break
+        # How each point's distance changes with each turn (a point moves by the turn x its lever arm).
+        shoulder_rows = np.cross(moved - joints[:, None, 0], slope)
+        elbow_lever = np.where(arm.on_hand[None, :, None], lever_hand, moved - joints[:, None, 1])
+        jacobian = np.concatenate([shoulder_rows, np.cross(elbow_lever, slope)], axis=2) * active[..., None]
+        residual = short * active
+        normal = np.einsum("fsi,fsj->fij", jacobian, jacobian) + TURN_WEIGHT ** 2 * np.eye(6)
+        step = np.linalg.solve(normal, np.einsum("fsi,fs->fi", jacobian, residual)[..., None])[..., 0]
+        turns += step
+    return turns
+
+
+def _spread_turns(frames, solved, count: int, fps: float) -> np.ndarray:
+    """(count, 6): the solved frames' turns averaged over the frames around each (Gaussian, SPREAD), eased
+    from nothing EASE (or as EASE_RATE asks of the largest turn) before the first and after the last of a run
+    of frames that go in."""
+    sigma = max(SPREAD * fps, 1e-9)
+    reach = int(np.ceil(4.0 * sigma))
+    kernel = np.exp(-0.5 * (np.arange(-reach, reach + 1) / sigma) ** 2)
+    full, present = np.zeros((count, 6)), np.zeros(count)
+    full[frames], present[frames] = solved, 1.0
+    centred = lambda v: np.convolve(v, kernel)[reach:reach + count]  # noqa: E731
+    total = centred(present)
+    summed = np.stack([centred(full[:, k]) for k in range(6)], axis=1)
+    gaps, nearest = _nearest(frames, count)
+    # Beyond the Gaussian's reach the nearest frame's turn, eased from there.
+    mean = np.where(total[:, None] > 1e-9, summed / np.maximum(total, 1e-300)[:, None], solved[nearest])
+    peak = np.degrees(max(np.linalg.norm(solved[:, :3], axis=1).max(), np.linalg.norm(solved[:, 3:], axis=1).max()))
+    ease_frames = max(EASE * fps, 1.5 * peak / EASE_RATE, 1e-9)
+    ease = np.clip(1.0 - gaps / ease_frames, 0.0, 1.0)
+    ease = ease * ease * (3.0 - 2.0 * ease)  # smoothstep: no kink where it starts or ends
+    return mean * ease[:, None]
+
+
+def _nearest(frames, count: int) -> tuple[np.ndarray, np.ndarray]:
+    """(count,) each frame's distance in frames to the nearest of frames (sorted indices), and which of them
+    (an index into frames)."""
+    every = np.arange(count)
+    after = np.searchsorted(frames, every)
+    before = np.maximum(after - 1, 0)
+    later = np.minimum(after, len(frames) - 1)
+    left = np.where(after > 0, every - frames[before], np.inf)
+    right = np.where(after < len(frames), frames[later] - every, np.inf)
+    return np.minimum(left, right), np.where(left <= right, before, later)
+
+
+def _distance_after(body: Body, arm: Arm, orientations, heads, points, joints, turns) -> np.ndarray:
+    return body.posed(_moved(arm, points, joints, turns), orientations, heads).min(axis=1)
+
+
+def _apply(rotations, orientations, arm: Arm, turns) -> None:
+    """The turns written into the rotation channels: the upper arm turned by the shoulder's, the forearm by
+    the elbow's, the hand back to its orientation (each basis' change from its orientation's,
+    basis' = basis G^-1 R G)."""
+    turned = np.flatnonzero(np.any(turns != 0.0, axis=1))  # the frames left alone stay to the bit
+    qs, qe = _quaternions(turns[turned, :3]), _quaternions(turns[turned, 3:])
+    both = rotation_channels.multiply(qs, qe)
+    for bone, world in ((arm.upper_arm, qs), (arm.forearm, qe),
+                        (arm.hand, rotation_channels.conjugate(both))):
+        g = orientations[turned, 4 * bone:4 * bone + 4]
+        change = rotation_channels.multiply(rotation_channels.conjugate(g), rotation_channels.multiply(world, g))
+        basis = rotations[turned, 4 * bone:4 * bone + 4]
+        rotations[turned, 4 * bone:4 * bone + 4] = rotation_channels.multiply(basis, change)

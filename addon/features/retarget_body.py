@@ -1,0 +1,28 @@
+"""The retarget's body stage on the rigs and the clip as read (core.body_clearance): where the target deforms
+a mesh, its forearms and hands kept out of its own body, as far as the source keeps its own from its body
+where the source has a mesh too (scaled). rigs, clip, fit: features/retargeting's."""
+from __future__ import annotations
+
+from ..core import body, body_clearance
+from ..core.retarget_options import RetargetOptions
+
+
+def keep_out(rigs, clip, fit, rotations, locations, o: RetargetOptions, written) -> body_clearance.Report:
+    """Changes the arms' rotation channels in rotations (frames, 4B) in place where they go into the body;
+    written: the target bones written (indices; None: all): an arm is kept out only where all of its upper
+    arm, forearm and hand are."""
+    mesh = rigs.target_read.mesh
+    if o.body == "off":
+        return body_clearance.Report("off")
+    if mesh is None:
+        return body_clearance.Report("no mesh")
+    target_body = body.Body.cached(rigs.tgt, mesh)
+    sides = [a.side for a in body_clearance.arms(target_body)
+             if written is None or {a.upper_arm, a.forearm, a.hand} <= written]
+    clearance = None
+    if clip.mesh is not None:
+        source_body = body.Body.cached(rigs.src, clip.mesh)
+        clearance = {side: fit.scale * kept for side, kept in
+                     body_clearance.clearances(source_body, clip.rotations, clip.heads).items()}
+    cleared = body_clearance.clear(target_body, rotations, locations, clip.fps, clearance, o.body_strength, sides)
+    return body_clearance.Report("on", mesh.source, {side: int(n.sum()) for side, n in cleared.went_in.items()})
