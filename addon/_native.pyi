@@ -113,6 +113,9 @@ def mirror(source: Rig, target: Rig, basis_rotations: F64, basis_locations: F64,
 # The body's signed-distance field (native/python/bind_body.cpp).
 def body_field(vertices: F64, triangles: I32, vertex_bone: list[int], *,
     origin: npt.ArrayLike, spacing: float, dims: list[int]) -> tuple[F64, I32]: ...
+def body_sample(distance: F64, owner: I32, *, dims: list[int], origin: npt.ArrayLike, spacing: float,
+    carriers: list[int], carrier_rest: F64, carrier_heads: F64, orientations: F64, heads: F64, points: F64,
+    gradient: bool = False) -> tuple[F64, F64 | None]: ...
 
 # Full-body inverse kinematics (native/python/bind_ik.cpp).
 class IkEffector:

@@ -13,7 +13,8 @@ onto another that has the same clip of Mixamo's own):
 - source: the source's clip on its own mesh;
 - Mixamo: Mixamo's own retarget, the target's clip on the target's mesh;
 - plain copy: the target's hierarchy playing the source's local rotations (a BVH Blender's importer reads);
-- MotionKit: motionkit.retarget(source, target) with the defaults.
+- MotionKit, bones only: motionkit.retarget(source, target, body="off"), the defaults but the body stage;
+- MotionKit: motionkit.retarget(source, target) with the defaults (the body stage on: the target has a mesh).
 Retargets: san/Aj <-> san/Kaya (the four SAN clips, both ways; meshes AJ, Kaya) and Mousey <-> Sporty
 Granny (bodies/clips: Macarena Dance, Hip Hop Dancing; both ways).
 """
@@ -38,7 +39,7 @@ import made_characters as made  # noqa: E402
 import mixamo_pairs as mp  # noqa: E402
 import san_protocol as sp  # noqa: E402
 
-METHODS = ("source", "Mixamo", "plain copy", "MotionKit")
+METHODS = ("source", "Mixamo", "plain copy", "MotionKit, bones only", "MotionKit")
 SAN = {"Aj": "AJ", "Kaya": "Kaya"}  # the pairs' characters -> their meshes
 DANCERS = {"Mousey": "Mousey", "Sporty_Granny": "Sporty_Granny"}
 DANCES = ("Macarena Dance", "Hip Hop Dancing")
@@ -75,12 +76,13 @@ def measure(motionkit, case, every: int, scratch: str) -> dict:
     made.write_bvh(bm.plain_copy(source_bvh, target_bvh), copy_path)
     copy = mp.import_bvh(copy_path)
     measured["plain copy"] = bm.measure(bm.Skinned.of(copy, harness.SHARED, target_mesh), frames)
-    target = mp.rest_copy(own, "target")
-    skinned = bm.Skinned.of(target, harness.SHARED, target_mesh)
-    start = time.perf_counter()
-    motionkit.retarget(source, target)
-    seconds["MotionKit"] = time.perf_counter() - start
-    measured["MotionKit"] = bm.measure(skinned, frames)
+    for method, body in (("MotionKit, bones only", "off"), ("MotionKit", "auto")):
+        target = mp.rest_copy(own, method)
+        skinned = bm.Skinned.of(target, harness.SHARED, target_mesh)
+        start = time.perf_counter()
+        motionkit.retarget(source, target, body=body)
+        seconds[method] = time.perf_counter() - start
+        measured[method] = bm.measure(skinned, frames)
     contacts = bm.contact_frames(measured["source"])
     source_height = mp.BVH_SCALE * sp.height([n.split(":")[-1] for n in source_bvh.names], source_bvh.parents,
                                              source_bvh.offsets)
@@ -113,19 +115,47 @@ def print_table(results) -> None:
     sys.stdout.flush()
 
 
+def timing(motionkit) -> None:
+    """The stage's cost: Aj's Catwalk Walk (its first 1,000 frames) onto Mousey with its mesh subdivided once
+    (24,400 vertices), the retarget with the stage (its field built, then cached as a batch finds it) against
+    the same without it, in the same run."""
+    import body_scene
+    clips = os.path.join(harness.SHARED, "data", "bodies", "clips")
+    source = mp.import_bvh(mp.san_path(harness.SHARED, "Aj", "Catwalk Walk"))
+    own = mp.import_bvh(os.path.join(clips, "Mousey", "Macarena Dance.bvh"))
+    target = mp.rest_copy(own, "timed")
+    mesh = body_scene.skin(target, harness.SHARED, "Mousey", subdivisions=1)
+    print(f"\nThe stage's cost: 1,000 frames onto Mousey, {len(mesh.data.vertices):,} vertices\n")
+    rows = []
+    for label, body in (("without the stage", "off"), ("with it, the field built", "auto"),
+                        ("with it, the field cached", "auto"), ("without the stage", "off")):
+        start = time.perf_counter()
+        motionkit.retarget(source, target, frame_range=(1, 1000), body=body)
+        rows.append((label, time.perf_counter() - start))
+    print("| retarget | seconds |")
+    print("|---|---:|")
+    for label, seconds in rows:
+        print(f"| {label} | {seconds:.3f} |")
+    sys.stdout.flush()
+
+
 def main() -> None:
     def arguments(parser):
         parser.add_argument("--every", type=int, default=4, help="measure every N-th frame")
         parser.add_argument("--cases", nargs="*", help="only the retargets whose label contains one of these")
+        parser.add_argument("--timing", action="store_true", help="only the stage's cost (timing())")
 
     args, motionkit = harness.start("body.py", __doc__, arguments, repeat=1)
+    if args.timing:
+        timing(motionkit)
+        return
     chosen = [c for c in cases() if not args.cases or any(k in c[0] for k in args.cases)]
     results = []
     with tempfile.TemporaryDirectory() as scratch:
         for case in chosen:
             result = measure(motionkit, case, args.every, scratch)
-            print(f"{result['label']}: {result['frames']} frames, MotionKit {result['seconds']['MotionKit']:.2f} s",
-                  flush=True)
+            print(f"{result['label']}: {result['frames']} frames, MotionKit {result['seconds']['MotionKit']:.2f} s "
+                  f"(bones only {result['seconds']['MotionKit, bones only']:.2f} s)", flush=True)
             results.append(result)
     print_table(results)
 

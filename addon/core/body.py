@@ -16,10 +16,11 @@ from __future__ import annotations
 
 import hashlib
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
-from . import bone_mapping, native_state, rotation_channels
+from . import bone_mapping, native_state
 from .rig_data import RigData
 from .skinned_mesh import SkinnedMesh
 
@@ -77,7 +78,7 @@ class Body:
         """The field of mesh's skin over the body bones' vertices; a ValueError naming the mesh where no
         vertex is carried by a body bone."""
         labels = parts(rig, rig.body if body is None else body)
-        on_body = np.array([b >= 0 and labels[b] in BODY_PARTS for b in mesh.bone], dtype=bool)
+        on_body = _on_body(labels, mesh)
         if not on_body.any():
             raise ValueError(f"mesh '{mesh.source}': no vertex is weighted to the trunk, head or thighs of "
                              f"'{rig.name}'")
@@ -147,25 +148,37 @@ class Body:
 
     def posed_with_gradient(self, points, orientations, heads, gradient: bool = True):
         """posed()'s distance and, with gradient, its gradient (frames, N, 3) in the armature's space (zero
-        where no carrier reads a point)."""
+        where no carrier reads a point); natively (_native.body_sample)."""
         points = np.asarray(points, dtype=np.float64)
-        rig, best = self.rig, np.full(points.shape[:-1], np.inf)
-        slope = np.zeros(points.shape) if gradient else None
-        for b in self.carriers:
-            g = orientations[:, 4 * b:4 * b + 4]
-            h = heads[:, 3 * b:3 * b + 3]
-            to_rest = rotation_channels.multiply(np.broadcast_to(rig.unit_rest[b], g.shape),
-                                                 rotation_channels.conjugate(g))
-            rest = rotation_channels.rotate_each(to_rest[:, None, :], points - h[:, None, :]) + rig.heads[b]
-            distance, owner, rest_slope = self._read(rest, gradient)
-            distance = np.where(owner == b, distance, np.inf)
-            nearer = distance < best
-            best = np.where(nearer, distance, best)
-            if gradient:
-                posed_slope = rotation_channels.rotate_each(rotation_channels.conjugate(to_rest)[:, None, :],
-                                                            rest_slope)
-                slope = np.where(nearer[..., None], posed_slope, slope)
-        return best, slope
+        frames, count = points.shape[0], points.shape[1]
+        rig = self.rig
+        read, slope = native_state.native().body_sample(
+            self._flat_distance, self._flat_owner, dims=[int(d) for d in self.distance.shape], origin=self.origin,
+            spacing=self.spacing, carriers=[int(b) for b in self.carriers],
+            carrier_rest=np.ascontiguousarray(rig.unit_rest[self.carriers]),
+            carrier_heads=np.ascontiguousarray(rig.heads[self.carriers]),
+            orientations=np.ascontiguousarray(orientations, dtype=np.float64),
+            heads=np.ascontiguousarray(heads, dtype=np.float64),
+            points=np.ascontiguousarray(points.reshape(frames, 3 * count)), gradient=gradient)
+        return read, (slope.reshape(frames, count, 3) if gradient else None)
+
+    @cached_property
+    def _flat_distance(self) -> np.ndarray:
+        return np.ascontiguousarray(self.distance.ravel(), dtype=np.float64)
+
+    @cached_property
+    def _flat_owner(self) -> np.ndarray:
+        return np.ascontiguousarray(self.owner.ravel(), dtype=np.int32)
+
+
+def skins_body(rig: RigData, mesh: SkinnedMesh) -> bool:
+    """Whether any of mesh's vertices is weighted most to the rig's trunk, head or thighs (a face or a prop
+    alone is no body)."""
+    return bool(_on_body(parts(rig, rig.body), mesh).any())
+
+
+def _on_body(labels, mesh: SkinnedMesh) -> np.ndarray:
+    return np.array([b >= 0 and labels[b] in BODY_PARTS for b in mesh.bone], dtype=bool)
 
 
 _CACHE: dict = {}

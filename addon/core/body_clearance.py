@@ -7,8 +7,8 @@ Per frame that goes in, the turn of the upper arm about the shoulder and of the 
 wanted: each point moves by the turns' cross products with its lever arms, the body's distance along its
 gradient; a small equal weight on both turns takes the least turn and shares it between the joints. The
 turns of the frames that go in are then spread over the frames around them (a Gaussian-weighted mean of the
-nearby frames' turns, eased in and out), so that the arm leaves and meets the body without a pop, and the
-frames still in after that are solved once more from there.
+nearby frames' turns, eased in and out), so that the arm leaves and meets the body without a pop; the frames
+still in after that are solved again from there, and what that adds spread in turn (ROUNDS).
 """
 from __future__ import annotations
 
@@ -24,6 +24,8 @@ ITERATIONS = 6        # Gauss-Newton steps per frame
 # Below this of the turn (radians) both joints are alike to the solve: the least turn is the one it takes.
 # A tenth of a radian's weight against a lever of half a metre: a centimetre of reach costs 0.01 rad.
 TURN_WEIGHT = 0.05
+ROUNDS = 4            # solve-and-spread rounds at most
+MAX_STEP = 0.25      # radians a joint turns in one Gauss-Newton step at most
 SPREAD = 0.1          # seconds: the Gaussian over which nearby frames' turns are averaged
 EASE = 0.25           # seconds over which a turn eases in before and out after the frames that go in, at least
 # ... and at least as many frames as keep the easing under this many degrees a frame: an animator sees a
@@ -94,8 +96,9 @@ class Cleared:
 
 @dataclass
 class Report:
-    """What the body stage did, to say: "off" (asked so), "no mesh" (the target deforms none) or "on", the
-    meshes read, and per arm (side) how many frames went into the body and were brought out."""
+    """What the body stage did, to say: "off" (asked so), "no mesh" (the target deforms none, or none that
+    skins its trunk, head or thighs) or "on", the meshes read, and per arm (side) how many frames went into
+    the body and were brought out."""
     state: str
     meshes: str = ""
     frames_in: dict = field(default_factory=dict)
@@ -104,7 +107,8 @@ class Report:
         if self.state == "off":
             return "Arms not kept out of the body (off)"
         if self.state == "no mesh":
-            return "The target deforms no mesh: its arms were not kept out of its body"
+            return (f"The target's meshes ({self.meshes}) skin no trunk, head or thighs" if self.meshes else
+                    "The target deforms no mesh") + ": its arms were not kept out of its body"
         went = sum(self.frames_in.values())
         return (f"Arms kept out of the body of {self.meshes}: " +
                 (", ".join(f"{side} on {n} frames" for side, n in self.frames_in.items() if n) if went
@@ -143,13 +147,19 @@ def clear(body: Body, rotations, locations, fps: float, clearance: dict | None =
         if not inside.any():
             continue
         frames = np.flatnonzero(inside)
-        solved = _solve(body, arm, orientations[frames], heads[frames], points[frames], joints[frames],
-                        wanted[frames], np.zeros((len(frames), 6)))
-        spread = _spread_turns(frames, solved, len(rotations), fps)
-        still = np.flatnonzero(_distance_after(body, arm, orientations, heads, points, joints, spread) < 0.0)
-        if len(still):
-            spread[still] = _solve(body, arm, orientations[still], heads[still], points[still], joints[still],
-                                   wanted[still], spread[still])
+        spread = np.zeros((len(rotations), 6))
+        # Each round solves the frames still in from where the last left them, and spreads what it adds
+        # (smooth in turn): a frame's neighbours that needed less pull its average down, the next round
+        # makes that up.
+        for _ in range(ROUNDS):
+            solved = _solve(body, arm, orientations[frames], heads[frames], points[frames], joints[frames],
+                            wanted[frames], spread[frames])
+            spread += _spread_turns(frames, solved - spread[frames], len(rotations), fps)
+            frames = np.flatnonzero(_distance_after(body, arm, orientations, heads, points, joints, spread) < 0.0)
+            if not len(frames):
+                break
+        # A frame whose solve found no finite turn (never seen) is left as it was, never made not finite.
+        spread[~np.all(np.isfinite(spread), axis=1)] = 0.0
         turns[arm.side] = strength * spread
         _apply(rotations, orientations, arm, turns[arm.side])
     return Cleared(went_in, turns)
@@ -205,6 +215,10 @@ def _solve(body: Body, arm: Arm, orientations, heads, points, joints, wanted, tu
         residual = short * active
         normal = np.einsum("fsi,fsj->fij", jacobian, jacobian) + TURN_WEIGHT ** 2 * np.eye(6)
         step = np.linalg.solve(normal, np.einsum("fsi,fs->fi", jacobian, residual)[..., None])[..., 0]
+        # A step of at most MAX_STEP radians a joint: the distance is linear in a turn only near it.
+        for joint in (slice(0, 3), slice(3, 6)):
+            size = np.linalg.norm(step[:, joint], axis=1, keepdims=True)
+            step[:, joint] *= np.minimum(1.0, MAX_STEP / np.maximum(size, 1e-300))
         turns += step
     return turns
 

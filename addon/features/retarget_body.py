@@ -14,13 +14,13 @@ def keep_out(rigs, clip, fit, rotations, locations, o: RetargetOptions, written)
     mesh = rigs.target_read.mesh
     if o.body == "off":
         return body_clearance.Report("off")
-    if mesh is None:
-        return body_clearance.Report("no mesh")
+    if mesh is None or not body.skins_body(rigs.tgt, mesh):
+        return body_clearance.Report("no mesh", mesh.source if mesh is not None else "")
     target_body = body.Body.cached(rigs.tgt, mesh)
     sides = [a.side for a in body_clearance.arms(target_body)
              if written is None or {a.upper_arm, a.forearm, a.hand} <= written]
     clearance = None
-    if clip.mesh is not None:
+    if clip.mesh is not None and body.skins_body(rigs.src, clip.mesh):
         source_body = body.Body.cached(rigs.src, clip.mesh)
         clearance = {side: fit.scale * kept for side, kept in
                      body_clearance.clearances(source_body, clip.rotations, clip.heads).items()}

@@ -51,6 +51,7 @@ class Retargeted:
     pairs: tuple = ()
     kept_bones: tuple = ()
     map_report: bone_mapping.MapReport | None = None
+    body: object = None  # core.body_clearance.Report: the arms kept out of the body, or why not
 
 
 def _rig(obj, role: str) -> RigData:
@@ -780,7 +781,10 @@ def retarget_clip(source, target, bone_map=None, frame_range=None, options: Reta
     (FLOOR_ROOTS), plant_feet and contact_settings (planted feet are stored on
     the new action as 0/1 contact curves), channels and channel_map (bone
     scale, custom properties and shape keys carried by name; what the target
-    has no place for is left out: Retargeted.channels_left_out). The hips are the body's root on both
+    has no place for is left out: Retargeted.channels_left_out), body and
+    body_strength (BODY_MODES: where the target deforms a mesh, a forearm or
+    hand that would go into its own body swung out; Retargeted.body says what
+    was done, docs/body.md). The hips are the body's root on both
     sides and the translation is scaled by the ratio of how high each rig's
     hips stand (core.floor_fit.standing_height). The new action is assigned to the target (its previous
     action keeps a fake user rather than being lost); with overwrite the keys
@@ -882,7 +886,7 @@ def _retarget_bones(source, target, keys, reduce, action_name, overwrite, call):
     if reduce:
         resampling.reduce_keys(target)
     return Retargeted(action, tuple(plan_.channels_left_out), tuple(plan_.chains), tuple(plan_.pairs),
-                      tuple(plan_.kept), plan_.map_report)
+                      tuple(plan_.kept), plan_.map_report, plan_.body)
 
 
 def _retarget_controls(source, target, controls, limbs, control_map, keys, reduce, action_name, overwrite,
@@ -907,4 +911,4 @@ def _retarget_controls(source, target, controls, limbs, control_map, keys, reduc
         resampling.reduce_keys(target, bones=result.keyed)
     done = planned[-1]
     return Retargeted(action, tuple(done.channels_left_out), tuple(done.chains), tuple(done.pairs), tuple(done.kept),
-                      done.map_report)
+                      done.map_report, done.body)

@@ -379,10 +379,13 @@ def run_retarget(self, context) -> set:
         # What the automatic map left out, as the retarget made it (no rig read again to say so).
         left_out = made.map_report.message() if made.map_report is not None and settings.source_kind == 'ARMATURE' \
             else ""
-        return action, timing, left_out, not_carried
+        body = made.body.message() if made.body is not None and made.body.state != "off" else ""
+        return action, timing, left_out, not_carried, body
 
     def done(result):
-        action, timing, left_out, not_carried = result
+        action, timing, left_out, not_carried, body = result
+        if body:
+            self.report({'INFO'}, body)
         if left_out:
             self.report({'WARNING'}, f"Auto-mapped; {left_out}")
         if not_carried:  # the target has no bone, property or shape key for them
@@ -800,7 +803,7 @@ class MOTIONKIT_PT_retarget_options(RetargetSubPanel, bpy.types.Panel):
         col = layout.column()
         col.prop(settings, "prop_space")
         col.prop(settings, "two_hands")
-        col.prop(settings, "body", text="Arms Out of Body")
+        col.prop(settings, "body", text="Body Mesh")
         row = col.row()
         row.active = settings.body != "off"
         row.prop(settings, "body_strength")

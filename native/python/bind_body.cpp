@@ -8,6 +8,7 @@
 
 #include "bindings.hpp"
 #include "motionkit/body_field.hpp"
+#include "motionkit/body_sample.hpp"
 #include "motionkit/types.hpp"
 
 namespace py = pybind11;
@@ -29,6 +30,20 @@ py::tuple BodyField(const ConstMatrixView& vertices, const ConstTriangleView& tr
   return py::make_tuple(distance.array, bone.array);
 }
 
+py::object BodySample(const ConstVectorView& distance, const Eigen::Ref<const Eigen::VectorXi>& owner,
+                      const std::vector<int>& dims, const PointArg& origin, double spacing,
+                      const std::vector<int>& carriers, const ConstMatrixView& carrier_rest,
+                      const ConstMatrixView& carrier_heads, const ConstMatrixView& orientations,
+                      const ConstMatrixView& heads, const ConstMatrixView& points, bool gradient) {
+  if (dims.size() != 3) throw py::value_error("body_sample: dims must be three cell counts");
+  const Eigen::Index frames = points.rows(), count = points.cols() / 3;
+  Output<> read(frames, count), slope(frames, gradient ? 3 * count : 0);
+  BodySampleJob job(distance, owner, Eigen::Vector3i(dims[0], dims[1], dims[2]), origin, spacing, carriers,
+                    carrier_rest, carrier_heads, orientations, heads, points, read.view, slope.view);
+  RunWithoutGil(job);
+  return py::make_tuple(read.array, gradient ? py::object(slope.array) : py::object(py::none()));
+}
+
 }  // namespace
 
 void BindBody(py::module_& m) {
@@ -48,6 +63,23 @@ void BindBody(py::module_& m) {
         bone of the nearest surface point's nearest vertex), cell (i, j, k) at
         (i*ny + j)*nz + k. Errors name the triangle or vertex. The GIL is
         released while it runs.
+      )pbdoc");
+  m.def("body_sample", &BodySample, "distance"_a.noconvert(), "owner"_a.noconvert(), py::kw_only(), "dims"_a,
+        "origin"_a, "spacing"_a, "carriers"_a, "carrier_rest"_a.noconvert(), "carrier_heads"_a.noconvert(),
+        "orientations"_a.noconvert(), "heads"_a.noconvert(), "points"_a.noconvert(), "gradient"_a = false,
+        R"pbdoc(
+        Read a body_field where the rig's bones have moved it.
+
+        distance (cells,) float64 and owner (cells,) int32: body_field's; dims,
+        origin, spacing: its grid. carriers: the bones that read it, with
+        carrier_rest (K, 4) their rest orientations (w x y z) and
+        carrier_heads (K, 3) their rest heads. orientations (frames, 4B), heads
+        (frames, 3B): an armature pose; points (frames, 3N).
+
+        Returns (read (frames, N): each point taken back to rest through every
+        carrier's motion and read where that carrier owns the cell, the nearest
+        of those, +inf where none does; its gradient (frames, 3N) in the
+        armature's space when gradient, else None). The GIL is released.
       )pbdoc");
 }
 

@@ -60,6 +60,22 @@ def load(shared: str, character: str, prefix: str = "mixamorig:"):
     return rig, mesh
 
 
+def subdivided(vertices, faces, weights):
+    """Each triangle split in four at its edges' midpoints, a new vertex's weights its edge's ends' mean: the
+    same surface with about four times the vertices (a heavier character for timing)."""
+    faces = np.asarray(faces, dtype=np.int64)
+    edges = np.sort(np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]]), axis=1)
+    unique, inverse = np.unique(edges, axis=0, return_inverse=True)
+    inverse = inverse.reshape(-1)
+    middle = len(vertices) + inverse.reshape(3, -1).T  # per face, its edges' new vertices (01, 12, 20)
+    vertices = np.vstack([vertices, 0.5 * (vertices[unique[:, 0]] + vertices[unique[:, 1]])])
+    weights = np.vstack([weights, 0.5 * (weights[unique[:, 0]] + weights[unique[:, 1]])])
+    a, b, c = faces.T
+    ab, bc, ca = middle.T
+    return vertices, np.concatenate([np.stack(t, axis=1) for t in (
+        (a, ab, ca), (ab, b, bc), (ca, bc, c), (ab, bc, ca))]), weights
+
+
 def winding_numbers(points, vertices, triangles, chunk: int = 256) -> np.ndarray:
     """(N,) the generalised winding number of the triangles about each point: 1 inside a closed,
     outward-wound surface, 0 outside (van Oosterom and Strackee's solid angle of each triangle)."""
@@ -75,9 +91,3 @@ def winding_numbers(points, vertices, triangles, chunk: int = 256) -> np.ndarray
         den = la * lb * lc + dots(pa, pb) * lc + dots(pb, pc) * la + dots(pc, pa) * lb
         out[start:start + chunk] = np.arctan2(det, den).sum(axis=1) / (2.0 * np.pi)
     return out
-
-
-def body_triangles(mesh: SkinnedMesh, body_bones) -> np.ndarray:
-    """The triangles whose three vertices the body bones carry most."""
-    on = np.isin(mesh.bone, list(body_bones))
-    return mesh.triangles[on[mesh.triangles].all(axis=1)]

@@ -18,20 +18,23 @@ def bone_of(armature: bpy.types.Object, joint: str) -> str | None:
     return None
 
 
-def skin(armature: bpy.types.Object, shared: str, character: str) -> bpy.types.Object:
-    """The character's mesh, its hips on the armature's hips at rest, deformed by the armature."""
+def skin(armature: bpy.types.Object, shared: str, character: str, subdivisions: int = 0) -> bpy.types.Object:
+    """The character's mesh, its hips on the armature's hips at rest, deformed by the armature; subdivisions:
+    times each triangle is split in four (bodies.subdivided)."""
     data = np.load(bodies.mesh_path(shared, character))
     names = [str(n) for n in data["joint_names"]]
     hips = armature.data.bones[bone_of(armature, "Hips")]
     origin = np.array(armature.matrix_world @ hips.head_local)
     vertices = np.asarray(data["rest_vertices"], dtype=np.float64) @ bodies.TO_BLENDER.T + origin
     faces = np.asarray(data["rest_faces"], dtype=np.int64)
+    weights = np.asarray(data["skinning_weights"], dtype=np.float64)
+    for _ in range(subdivisions):
+        vertices, faces, weights = bodies.subdivided(vertices, faces, weights)
     mesh = bpy.data.meshes.new(f"{character}_body")
     mesh.from_pydata(vertices.tolist(), [], faces.tolist())
     mesh.update()
     obj = bpy.data.objects.new(f"{character}_body", mesh)
     bpy.context.scene.collection.objects.link(obj)
-    weights = np.asarray(data["skinning_weights"], dtype=np.float64)
     for k, joint in enumerate(names):
         name = bone_of(armature, joint)
         if name is None:

@@ -50,3 +50,14 @@ def core_native(native, monkeypatch):
     from core import native_state
     monkeypatch.setattr(native_state, "status", types.SimpleNamespace(ok=True, module=native, message=""))
     return native
+
+
+@pytest.fixture(scope="session")
+def shared_bodies():
+    """../shared, where its data/bodies (the Mixamo characters' skinned meshes) is."""
+    shared = os.path.join(os.path.dirname(ROOT), "shared")
+    if not os.path.isdir(os.path.join(shared, "data", "bodies")):
+        if os.environ.get("CI") == "true":
+            pytest.fail(f"{shared}/data/bodies is missing, and CI=true requires it")
+        pytest.skip("../shared/data/bodies is absent: the body checks need ../shared")
+    return shared

@@ -1,8 +1,6 @@
 """core/body: which bones carry the body, and the body's signed distance from the real Mixamo meshes
 (../shared/data/bodies), judged by the generalised winding number written apart in tests/common/bodies.py
 and by posing the rig natively."""
-import os
-
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
@@ -12,16 +10,9 @@ from core import body as body_module
 from core.rig_data import RigData
 from core.skinned_mesh import SkinnedMesh
 
-SHARED = os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))), "..", "shared")
-
-
 @pytest.fixture(scope="module")
-def shared():
-    if not os.path.isdir(os.path.join(SHARED, "data", "bodies")):
-        if os.environ.get("CI") == "true":
-            pytest.fail(f"{SHARED}/data/bodies is missing, and CI=true requires it")
-        pytest.skip("../shared/data/bodies is absent")
-    return SHARED
+def shared(shared_bodies):
+    return shared_bodies
 
 
 def test_each_bone_carries_the_part_of_the_nearest_labelled_bone_at_or_above_it(shared):

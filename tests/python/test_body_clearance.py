@@ -1,8 +1,6 @@
 """core/body_clearance: an arm driven into Big Vegas' belly brought back out, judged by the winding number
 of the mesh skinned independently (linear blend skinning on rig_fk's posing, tests/common), not by the
 field the stage reads; what else it must leave alone, to the doubles' rounding."""
-import os
-
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
@@ -12,18 +10,13 @@ import rig_fk
 from core import body as body_module
 from core import body_clearance
 
-SHARED = os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))), "..", "shared")
 FPS = 30.0
 FRAMES = 60
 
 
 @pytest.fixture(scope="module")
-def vegas():
-    if not os.path.isdir(os.path.join(SHARED, "data", "bodies")):
-        if os.environ.get("CI") == "true":
-            pytest.fail(f"{SHARED}/data/bodies is missing, and CI=true requires it")
-        pytest.skip("../shared/data/bodies is absent")
-    return bodies.load(SHARED, "Big_Vegas")
+def vegas(shared_bodies):
+    return bodies.load(shared_bodies, "Big_Vegas")
 
 
 def _quaternions(rotvecs):

@@ -19,7 +19,7 @@ DOCUMENTED_DEFAULTS = dict(
     align_facing=True, floor_root="auto", root_smoothing=0.25, root_motion_onto="auto", plant_feet=None,
     contact_settings=None, source_floor=None, target_floor=None, floor_fit="legs", chain_modes=None, parts="whole",
     bones=None, into="new", blend="replace", influence=1.0, channels=("scale", "properties", "shape_keys"),
-    channel_map=None, two_hands=True, prop_space="bone")
+    channel_map=None, two_hands=True, prop_space="bone", body="auto", body_strength=1.0)
 
 
 def test_defaults_are_the_documented_ones_and_valid():
@@ -51,6 +51,7 @@ GOOD = [
     dict(into="current"), dict(into="nla", blend="add", influence=0.25), dict(influence=np.float32(0.0)),
     dict(channels=()), dict(channels=["shape_keys"]), dict(channels=("scale", "properties")),
     dict(channel_map={}), dict(channel_map={"mouthSmile_L": "smile.L", "squash": "stretch"}),
+    dict(body="off"), dict(body_strength=0), dict(body_strength=np.float32(0.5)),
 ]
 
 
@@ -101,6 +102,8 @@ BAD = [  # (field values, what the message must say: the option and the value)
     (dict(into="old"), r"unknown into 'old'"),
     (dict(two_hands="yes"), r"two_hands must be True or False, not 'yes'"),
     (dict(prop_space="pocket"), r"unknown prop_space 'pocket'"),
+    (dict(body="on"), r"unknown body 'on'; expected one of \['auto', 'off'\]"),
+    (dict(body_strength=2), r"body_strength must be a number from 0 to 1, not 2"),
     (dict(blend="multiply"), r"unknown blend 'multiply'"),
     (dict(influence=1.5), r"influence must be a number from 0 to 1, not 1\.5"),
     (dict(influence=True), r"influence must be a number from 0 to 1, not True"),

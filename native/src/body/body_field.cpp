@@ -138,7 +138,8 @@ void VoteAlong(const BodyFieldJob& job, const Grid& grid, int a, std::vector<std
   const int u = (a + 1) % 3, v = (a + 2) % 3;
   const Eigen::Vector3i& n = grid.dims();
   const double du = 1.234567e-6 * job.spacing, dv = 3.456789e-6 * job.spacing;
-  std::vector<std::vector<std::pair<double, int>>> hits(static_cast<std::size_t>(n[u]) * static_cast<std::size_t>(n[v]));
+  const std::size_t columns = static_cast<std::size_t>(n[u]) * static_cast<std::size_t>(n[v]);
+  std::vector<std::vector<std::pair<double, int>>> hits(columns);
   for (Eigen::Index t = 0; t < job.triangles.rows(); ++t) {
     const std::array<Vec3, 3> p{Vertex(job, t, 0), Vertex(job, t, 1), Vertex(job, t, 2)};
     const double area = (p[1][u] - p[0][u]) * (p[2][v] - p[0][v]) - (p[2][u] - p[0][u]) * (p[1][v] - p[0][v]);
