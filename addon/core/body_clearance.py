@@ -24,6 +24,8 @@ ITERATIONS = 6        # Gauss-Newton steps per frame
 # Below this of the turn (radians) both joints are alike to the solve: the least turn is the one it takes.
 # A tenth of a radian's weight against a lever of half a metre: a centimetre of reach costs 0.01 rad.
 TURN_WEIGHT = 0.05
+# A hand this near its body (in the body's heights) touches it: the protocol's 2 cm on a 1.75 m character.
+TOUCH = 0.02 / 1.75
 ROUNDS = 4            # solve-and-spread rounds at most
 MAX_STEP = 0.25      # radians a joint turns in one Gauss-Newton step at most
 SPREAD = 0.1          # seconds: the Gaussian over which nearby frames' turns are averaged
@@ -88,8 +90,8 @@ def _spread(points, count: int) -> np.ndarray:
 
 @dataclass
 class Cleared:
-    """What the stage did: per arm (side) the frames that went in (frames,) and the turns applied
-    (frames, 6: the shoulder's and the elbow's rotation vectors, armature space)."""
+    """What the stage did: per arm (side) the frames that went in or were to touch and did not (frames,),
+    and the turns applied (frames, 6: the shoulder's and the elbow's rotation vectors, armature space)."""
     went_in: dict
     turns: dict
 
@@ -97,8 +99,8 @@ class Cleared:
 @dataclass
 class Report:
     """What the body stage did, to say: "off" (asked so), "no mesh" (the target deforms none, or none that
-    skins its trunk, head or thighs) or "on", the meshes read, and per arm (side) how many frames went into
-    the body and were brought out."""
+    skins its trunk, head or thighs) or "on", the meshes read, and per arm (side) how many frames it changed:
+    the arm brought out of the body, or the hand onto it where the source's touches its own."""
     state: str
     meshes: str = ""
     frames_in: dict = field(default_factory=dict)
@@ -110,9 +112,22 @@ class Report:
             return (f"The target's meshes ({self.meshes}) skin no trunk, head or thighs" if self.meshes else
                     "The target deforms no mesh") + ": its arms were not kept out of its body"
         went = sum(self.frames_in.values())
-        return (f"Arms kept out of the body of {self.meshes}: " +
+        return (f"Arms kept out of the body of {self.meshes} and hands on it where the source's touch: " +
                 (", ".join(f"{side} on {n} frames" for side, n in self.frames_in.items() if n) if went
-                 else "none went in"))
+                 else "nothing to change"))
+
+
+def hand_distances(body: Body, orientations, heads) -> dict:
+    """Per arm (side), (frames,) how far its hand is from the body on each frame of a pose (negative
+    inside)."""
+    return {arm.side: body.posed(_points(arm, orientations, heads)[:, arm.on_hand], orientations, heads).min(axis=1)
+            for arm in arms(body) if arm.on_hand.any()}
+
+
+def touching(body: Body, orientations, heads) -> dict:
+    """Per arm (side), (frames,) whether its hand touches the body on each frame of a pose: within TOUCH
+    (of the body's height) of it, or in it."""
+    return {side: d <= TOUCH * body.height for side, d in hand_distances(body, orientations, heads).items()}
 
 
 def clearances(body: Body, orientations, heads) -> dict:
@@ -124,12 +139,14 @@ def clearances(body: Body, orientations, heads) -> dict:
 
 
 def clear(body: Body, rotations, locations, fps: float, clearance: dict | None = None, strength: float = 1.0,
-          sides=bone_mapping.SIDES) -> Cleared:
+          sides=bone_mapping.SIDES, touches: dict | None = None) -> Cleared:
     """Brings every arm of sides that goes into the body back out, changing the upper arms', forearms' and
     hands' rotation channels in rotations (frames, 4B; locations (frames, 3B) place the root) in place.
     clearance: per side, (frames,) the distance (armature units) the arm is to keep where it goes in (the
     source's own, scaled), default none; strength: the share of each turn applied (1: out, 0: as it was).
-    Half a cell of the field is kept beyond it: the field's own precision (docs/body.md)."""
+    Half a cell of the field is kept beyond it: the field's own precision (docs/body.md). touches: per side,
+    (frames,) where the hand is to touch the body (the source's own touches): there a hand farther than a
+    cell from the body is brought onto it, the nearest way, the rest of the arm kept out."""
     rig = body.rig
     native = native_state.native()
     orientations, heads = native.armature_pose(rig.native, np.ascontiguousarray(rotations),
@@ -141,21 +158,22 @@ def clear(body: Body, rotations, locations, fps: float, clearance: dict | None =
                                        np.maximum(np.asarray(kept, dtype=np.float64), 0.0))
         joints = _joints(arm, heads)
         points = _points(arm, orientations, heads)
-        distance = body.posed(points, orientations, heads).min(axis=1)
-        inside = distance < 0.0
-        went_in[arm.side], turns[arm.side] = inside, np.zeros((len(rotations), 6))
-        if not inside.any():
+        touch = np.zeros(len(rotations), dtype=bool) if (touches or {}).get(arm.side) is None else \
+            np.asarray(touches[arm.side], dtype=bool) & arm.on_hand.any()
+        needed = _needed(body, arm, orientations, heads, points, joints, np.zeros((len(rotations), 6)), touch)
+        went_in[arm.side], turns[arm.side] = needed, np.zeros((len(rotations), 6))
+        if not needed.any():
             continue
-        frames = np.flatnonzero(inside)
+        frames = np.flatnonzero(needed)
         spread = np.zeros((len(rotations), 6))
         # Each round solves the frames still in from where the last left them, and spreads what it adds
         # (smooth in turn): a frame's neighbours that needed less pull its average down, the next round
         # makes that up.
         for _ in range(ROUNDS):
             solved = _solve(body, arm, orientations[frames], heads[frames], points[frames], joints[frames],
-                            wanted[frames], spread[frames])
+                            wanted[frames], spread[frames], touch[frames])
             spread += _spread_turns(frames, solved - spread[frames], len(rotations), fps)
-            frames = np.flatnonzero(_distance_after(body, arm, orientations, heads, points, joints, spread) < 0.0)
+            frames = np.flatnonzero(_needed(body, arm, orientations, heads, points, joints, spread, touch))
             if not len(frames):
                 break
         # A frame whose solve found no finite turn (never seen) is left as it was, never made not finite.
@@ -197,8 +215,17 @@ def _quaternions(rotvecs) -> np.ndarray:
     return np.hstack([np.cos(0.5 * angle), np.sin(0.5 * angle) * axis])
 
 
-def _solve(body: Body, arm: Arm, orientations, heads, points, joints, wanted, turns) -> np.ndarray:
-    """(frames, 6) turns from turns on that bring every skin point to wanted (frames,) from the body."""
+def _needed(body: Body, arm: Arm, orientations, heads, points, joints, turns, touch) -> np.ndarray:
+    """(frames,) the frames the arm, turned so, still goes into the body on, or where it is to touch, its
+    hand is farther than a cell from it."""
+    distance = body.posed(_moved(arm, points, joints, turns), orientations, heads)
+    hand = np.where(arm.on_hand[None, :], distance, np.inf).min(axis=1)
+    return (distance.min(axis=1) < 0.0) | (touch & (hand > body.spacing))
+
+
+def _solve(body: Body, arm: Arm, orientations, heads, points, joints, wanted, turns, touch) -> np.ndarray:
+    """(frames, 6) turns from turns on that bring every skin point to wanted (frames,) from the body and, on
+    frames to touch, the hand's point nearest the body to half a cell from it (from either side)."""
     turns = turns.copy()
     lever_hand = (joints[:, 2] - joints[:, 1])[:, None, :]
     for _ in range(ITERATIONS):
@@ -206,7 +233,12 @@ def _solve(body: Body, arm: Arm, orientations, heads, points, joints, wanted, tu
         distance, slope = body.posed_with_gradient(moved, orientations, heads)
         short = np.where(np.isfinite(distance), wanted[:, None] - distance, 0.0)
         active = short > 0.0
-        if not active.any():
+        if touch.any():
+            nearest = np.argmin(np.where(arm.on_hand[None, :], distance, np.inf), axis=1)
+            rows = np.flatnonzero(touch & np.isfinite(distance[np.arange(len(distance)), nearest]))
+            short[rows, nearest[rows]] = 0.5 * body.spacing - distance[rows, nearest[rows]]
+            active[rows, nearest[rows]] = True
+        if not np.any(active & (np.abs(short) > 1e-6 * body.spacing)):
             break
         # How each point's distance changes with each turn (a point moves by the turn x its lever arm).
         shoulder_rows = np.cross(moved - joints[:, None, 0], slope)
@@ -255,10 +287,6 @@ def _nearest(frames, count: int) -> tuple[np.ndarray, np.ndarray]:
     left = np.where(after > 0, every - frames[before], np.inf)
     right = np.where(after < len(frames), frames[later] - every, np.inf)
     return np.minimum(left, right), np.where(left <= right, before, later)
-
-
-def _distance_after(body: Body, arm: Arm, orientations, heads, points, joints, turns) -> np.ndarray:
-    return body.posed(_moved(arm, points, joints, turns), orientations, heads).min(axis=1)
 
 
 def _apply(rotations, orientations, arm: Arm, turns) -> None:

@@ -127,8 +127,11 @@ class RetargetOptions:
     prop_space: str = "bone"
     # A forearm or hand that goes into the target's own body brought back out (BODY_MODES): "auto" where
     # the target has a skinned mesh, "off"; body_strength the share of that correction applied (0..1).
+    # body_touches: where the source's hand touches its own body (both rigs skinned), the target's is
+    # brought onto its own.
     body: str = "auto"
     body_strength: float = 1.0
+    body_touches: bool = True
     bones: tuple | None = None
     # Where the keys go (retarget_parts.INTO): a "new" action, the target's "current" action over the clip's
     # frames, or an "nla" track above it, its blend ("replace" or "add") and influence (0..1).
@@ -172,7 +175,8 @@ class RetargetOptions:
             raise ValueError("a source match pose on a frame needs match_frame")
         if not isinstance(self.plant_feet, (bool, np.bool_, type(None))):
             raise ValueError(f"plant_feet must be True, False or None, not {self.plant_feet!r}")
-        for name, value in (("align_facing", self.align_facing), ("two_hands", self.two_hands)):
+        for name, value in (("align_facing", self.align_facing), ("two_hands", self.two_hands),
+                            ("body_touches", self.body_touches)):
             if not isinstance(value, (bool, np.bool_)):
                 raise ValueError(f"{name} must be True or False, not {value!r}")
         for name, value in (("source_floor", self.source_floor), ("target_floor", self.target_floor)):

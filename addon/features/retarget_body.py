@@ -1,6 +1,7 @@
 """The retarget's body stage on the rigs and the clip as read (core.body_clearance): where the target deforms
 a mesh, its forearms and hands kept out of its own body, as far as the source keeps its own from its body
-where the source has a mesh too (scaled). rigs, clip, fit: features/retargeting's."""
+where the source has a mesh too (scaled), and its hands onto its body where the source's touch its own
+(body_touches). rigs, clip, fit: features/retargeting's."""
 from __future__ import annotations
 
 from ..core import body, body_clearance
@@ -19,10 +20,12 @@ def keep_out(rigs, clip, fit, rotations, locations, o: RetargetOptions, written)
     target_body = body.Body.cached(rigs.tgt, mesh)
     sides = [a.side for a in body_clearance.arms(target_body)
              if written is None or {a.upper_arm, a.forearm, a.hand} <= written]
-    clearance = None
+    clearance = touches = None
     if clip.mesh is not None and body.skins_body(rigs.src, clip.mesh):
         source_body = body.Body.cached(rigs.src, clip.mesh)
         clearance = {side: fit.scale * kept for side, kept in
                      body_clearance.clearances(source_body, clip.rotations, clip.heads).items()}
-    cleared = body_clearance.clear(target_body, rotations, locations, clip.fps, clearance, o.body_strength, sides)
+        touches = body_clearance.touching(source_body, clip.rotations, clip.heads) if o.body_touches else None
+    cleared = body_clearance.clear(target_body, rotations, locations, clip.fps, clearance, o.body_strength, sides,
+                                   touches)
     return body_clearance.Report("on", mesh.source, {side: int(n.sum()) for side, n in cleared.went_in.items()})

@@ -233,6 +233,9 @@ class MOTIONKIT_PG_retarget(bpy.types.PropertyGroup):
                                    "mesh")
     body_strength: FloatProperty(name="Strength", default=1.0, min=0.0, max=1.0, subtype='FACTOR',
                                  description="How much of the way out of the body each arm is moved")
+    body_touches: BoolProperty(name="Touches", default=True,
+                               description="Where the source's hand touches its own body (both characters skinned), "
+                                           "the target's hand is brought onto its own")
     preview: PointerProperty(type=MOTIONKIT_PG_retarget_preview)
 
     def bone_map(self) -> list[tuple[str, str]]:
@@ -252,7 +255,7 @@ class MOTIONKIT_PG_retarget(bpy.types.PropertyGroup):
             floor_fit=self.floor_fit, chain_modes=self.reference_pose.chain_modes() or None,
             channels=tuple(c for c in channel_carry.IDS if c in self.channels),
             channel_map=self.channel_map() if named else None, prop_space=self.prop_space, two_hands=self.two_hands,
-            body=self.body, body_strength=self.body_strength, **self._written())
+            body=self.body, body_strength=self.body_strength, body_touches=self.body_touches, **self._written())
 
     def control_keywords(self) -> dict:
         """The panel's control rig choices (controls, limbs, control_map, keys, reduce) as retarget_clip and
@@ -807,6 +810,9 @@ class MOTIONKIT_PT_retarget_options(RetargetSubPanel, bpy.types.Panel):
         row = col.row()
         row.active = settings.body != "off"
         row.prop(settings, "body_strength")
+        row = col.row()
+        row.active = settings.body != "off"
+        row.prop(settings, "body_touches")
         _draw_carry(self.layout, settings)
 
 

@@ -23,12 +23,12 @@ def _quaternions(rotvecs):
     return np.roll(Rotation.from_rotvec(rotvecs).as_quat(), 1, axis=-1)
 
 
-def _into_the_belly(rig, still: int = 0):
+def _into_the_belly(rig, still: int = 0, reach: float = 1.0):
     """FRAMES frames (and still frames at rest before and after): the left arm swung down and its forearm
     across into the belly and back (a sine), the right arm still; found once by hand, 7 cm deep at the
-    middle frame."""
+    middle frame (reach: the share of that swing; 0.87 stops the hand 5 cm off the belly)."""
     rotations = np.tile([1.0, 0.0, 0.0, 0.0], (FRAMES + 2 * still, len(rig)))
-    rise = np.concatenate([np.zeros(still), np.sin(np.linspace(0.0, np.pi, FRAMES)), np.zeros(still)])[:, None]
+    rise = reach * np.concatenate([np.zeros(still), np.sin(np.linspace(0.0, np.pi, FRAMES)), np.zeros(still)])[:, None]
     for name, rotvec in (("LeftArm", [-0.785, -0.156, 0.941]), ("LeftForeArm", [1.792, -1.511, 1.817])):
         b = rig.index("mixamorig:" + name)
         rotations[:, 4 * b:4 * b + 4] = _quaternions(rise * np.array(rotvec))
@@ -120,3 +120,41 @@ def test_strength_scales_the_turn_and_a_side_left_out_is_left(vegas, core_native
     body_clearance.clear(body, none, np.zeros((FRAMES, 3 * len(rig))), FPS, sides=("R",))
     np.testing.assert_allclose(b.turns["L"], 0.5 * a.turns["L"], atol=1e-12)
     np.testing.assert_array_equal(none, before)
+
+
+def _hand_gap(rig, mesh, world):
+    """(frames,) the left hand's vertices' nearest distance to the trunk, head and thighs (0 inside), against
+    the skin sampled six a triangle's side (tests/python/test_body.py's way)."""
+    from test_body import _surface_samples
+    from core.skinned_mesh import SkinnedMesh
+    labels = body_module.parts(rig, rig.body)
+    on_body = np.array([b >= 0 and labels[b] in body_module.BODY_PARTS for b in mesh.bone])
+    triangles = mesh.triangles[on_body[mesh.triangles].all(axis=1)]
+    hand = mesh.bone == rig.index("mixamorig:LeftHand")
+    out = []
+    for w in world:
+        if np.any(bodies.winding_numbers(w[hand], w, triangles) > 0.5):
+            out.append(0.0)
+            continue
+        surface = _surface_samples(SkinnedMesh(w, triangles, mesh.bone, mesh.weight))
+        out.append(min(np.sqrt(((surface - p) ** 2).sum(axis=1).min()) for p in w[hand][::4]))
+    return np.array(out)
+
+
+def test_a_hand_the_source_touches_its_body_with_comes_onto_the_target_s(vegas, core_native):
+    """The arm swung to stop the hand 5 cm off the belly; asked to touch on the middle ten frames (the
+    source's touches), the hand comes onto the belly there: within two cells of the skin (a cell the field's
+    reading, half a cell kept, the sample's sixth of an edge), against the mesh skinned independently."""
+    rig, mesh = vegas
+    body = body_module.Body.of(rig, mesh)
+    before = _into_the_belly(rig, reach=0.87)
+    after = before.copy()
+    touches = {"L": np.zeros(FRAMES, dtype=bool)}
+    touches["L"][25:35] = True
+    cleared = body_clearance.clear(body, after, np.zeros((FRAMES, 3 * len(rig))), FPS, touches=touches)
+    middle = slice(25, 35, 3)
+    gap_before = _hand_gap(rig, mesh, _skinned(rig, mesh, before[middle])[0])
+    gap_after = _hand_gap(rig, mesh, _skinned(rig, mesh, after[middle])[0])
+    assert gap_before.min() > 0.04 and cleared.went_in["L"][25:35].all()
+    assert gap_after.max() < 2.0 * body.spacing
+    assert _arm_inside(rig, mesh, _skinned(rig, mesh, after[middle])[0]).max() <= 0.01

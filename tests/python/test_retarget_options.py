@@ -19,7 +19,8 @@ DOCUMENTED_DEFAULTS = dict(
     align_facing=True, floor_root="auto", root_smoothing=0.25, root_motion_onto="auto", plant_feet=None,
     contact_settings=None, source_floor=None, target_floor=None, floor_fit="legs", chain_modes=None, parts="whole",
     bones=None, into="new", blend="replace", influence=1.0, channels=("scale", "properties", "shape_keys"),
-    channel_map=None, two_hands=True, prop_space="bone", body="auto", body_strength=1.0)
+    channel_map=None, two_hands=True, prop_space="bone", body="auto", body_strength=1.0,
+    body_touches=True)
 
 
 def test_defaults_are_the_documented_ones_and_valid():
@@ -104,6 +105,7 @@ BAD = [  # (field values, what the message must say: the option and the value)
     (dict(prop_space="pocket"), r"unknown prop_space 'pocket'"),
     (dict(body="on"), r"unknown body 'on'; expected one of \['auto', 'off'\]"),
     (dict(body_strength=2), r"body_strength must be a number from 0 to 1, not 2"),
+    (dict(body_touches=1), r"body_touches must be True or False, not 1"),
     (dict(blend="multiply"), r"unknown blend 'multiply'"),
     (dict(influence=1.5), r"influence must be a number from 0 to 1, not 1\.5"),
     (dict(influence=True), r"influence must be a number from 0 to 1, not True"),
