@@ -29,6 +29,7 @@ import install_addon  # noqa: E402
 import rigify_rig  # noqa: E402
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import body_figure  # noqa: E402
 import cleanup_figures  # noqa: E402
 import contacts_plot  # noqa: E402
 import filters_plot  # noqa: E402
@@ -427,6 +428,14 @@ def main() -> None:
                                       args.samples)
     else:
         print(f"demo: {fbx} is absent, so feet_fingers.png is left out")
+    # Last, as it replaces the scene's objects too: arms kept out of a cartoon body, with the meshes.
+    shared = os.path.join(os.path.dirname(ROOT), "shared")
+    why_not = body_figure.available(shared)
+    if why_not is None:
+        body_figure.figure(motionkit, add_label, render, shared, os.path.join(out, "body.png"), args.samples)
+        print(f"demo: wrote {os.path.join(out, 'body.png')}")
+    else:
+        print(f"demo: {why_not}, so body.png is left out")
     print(f"demo: wrote {blend}, {png} and {reach} in {time.perf_counter() - start:.1f} s")
 
 

@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import bone_mapping, native_state, rotation_channels
-from .body import ARM_PARTS, Body
+from .body import ARM_PARTS, MARGIN, Body
 
 SAMPLES = 64          # skin points per arm, spread over its forearm and hand (farthest-point order)
 ITERATIONS = 6        # Gauss-Newton steps per frame
@@ -154,8 +154,10 @@ def clear(body: Body, rotations, locations, fps: float, clearance: dict | None =
     went_in, turns = {}, {}
     for arm in (a for a in arms(body) if a.side in sides):
         kept = (clearance or {}).get(arm.side)
+        # No farther than the field reaches (a source's arm far from its body keeps what can be measured).
+        reach = MARGIN * body.height - 2.0 * body.spacing
         wanted = 0.5 * body.spacing + (np.zeros(len(rotations)) if kept is None else
-                                       np.maximum(np.asarray(kept, dtype=np.float64), 0.0))
+                                       np.clip(np.asarray(kept, dtype=np.float64), 0.0, reach))
         joints = _joints(arm, heads)
         points = _points(arm, orientations, heads)
         touch = np.zeros(len(rotations), dtype=bool) if (touches or {}).get(arm.side) is None else \

@@ -44,6 +44,10 @@ def skin(armature: bpy.types.Object, shared: str, character: str, subdivisions: 
             group.add([int(v)], float(weights[v, k]), 'REPLACE')
     modifier = obj.modifiers.new("Armature", 'ARMATURE')
     modifier.object = armature
+    # Parented, so that moving the armature moves its mesh (the modifier alone would turn each part about
+    # joints moved away from it).
+    obj.parent = armature
+    obj.matrix_parent_inverse = armature.matrix_world.inverted()
     return obj
 
 
