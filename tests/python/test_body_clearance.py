@@ -158,3 +158,16 @@ def test_a_hand_the_source_touches_its_body_with_comes_onto_the_target_s(vegas, 
     assert gap_before.min() > 0.04 and cleared.went_in["L"][25:35].all()
     assert gap_after.max() < 2.0 * body.spacing
     assert _arm_inside(rig, mesh, _skinned(rig, mesh, after[middle])[0]).max() <= 0.01
+
+
+def test_a_clearance_beyond_the_field_s_reach_asks_only_what_it_can_measure(vegas, core_native):
+    """A source whose arm is far from its body everywhere (its clearance +inf, off its own field) asks the
+    target's arm out as far as the target's field reaches, never a turn that is not finite."""
+    rig, mesh = vegas
+    body = body_module.Body.of(rig, mesh)
+    before = _into_the_belly(rig)
+    after = before.copy()
+    body_clearance.clear(body, after, np.zeros((FRAMES, 3 * len(rig))), FPS, clearance={"L": np.full(FRAMES, np.inf)})
+    assert np.all(np.isfinite(after))
+    changed = np.any(after != before, axis=1)
+    assert changed.sum() > 10
