@@ -11,9 +11,9 @@ from bpy_extras.io_utils import ExportHelper, ImportHelper
 from . import common, contacts as contact_ui, preview
 from .preview import MOTIONKIT_PG_retarget_preview
 from ..blender import pose_channels
-from ..core import bone_mapping, channel_carry, display_names, props, retarget_options, retarget_parts
+from ..core import bone_mapping, channel_carry, display_names, props, retarget_parts
 from ..core.chain_modes import CHAINS
-from ..core.retarget_options import RetargetOptions
+from ..core.retarget_options import BODY_MODES, RetargetOptions
 from ..features import bvh, control_rigs, retarget_sources, retargeting, scene_timing
 
 
@@ -228,7 +228,7 @@ class MOTIONKIT_PG_retarget(bpy.types.PropertyGroup):
                             description="A prop under one hand that the source's other hand holds (a rifle): the "
                                         "target's other hand stays where the source's holds it, relative to the "
                                         "prop and scaled, whatever the arms' lengths")
-    body: EnumProperty(name="Body", items=retarget_options.BODY_MODES, default="auto",
+    body: EnumProperty(name="Body", items=BODY_MODES, default="auto",
                        description="Keep the target's forearms and hands out of its own body where it has a skinned "
                                    "mesh")
     body_strength: FloatProperty(name="Strength", default=1.0, min=0.0, max=1.0, subtype='FACTOR',
