@@ -110,11 +110,6 @@ class Body:
     def at_rest(self, points) -> tuple[np.ndarray, np.ndarray]:
         """(distance, owner) at points (..., 3) of the rest space: the field's trilinear distance and the
         nearest cell's bone; +inf and -1 off the grid."""
-        distance, owner, _ = self._read(points, gradient=False)
-        return distance, owner
-
-    def _read(self, points, gradient: bool):
-        """at_rest's (distance, owner) and, with gradient, the trilinear distance's gradient (..., 3)."""
         points = np.asarray(points, dtype=np.float64)
         x = (points - self.origin) / self.spacing
         dims = np.array(self.distance.shape)
@@ -123,20 +118,13 @@ class Body:
         i0 = np.floor(x).astype(np.int64)
         f = x - i0
         out = np.zeros(points.shape[:-1])
-        slope = np.zeros(points.shape) if gradient else None
         for corner in range(8):
             o = np.array([(corner >> 2) & 1, (corner >> 1) & 1, corner & 1])
-            factors = np.where(o, f, 1.0 - f)
             idx = np.minimum(i0 + o, dims - 1)
-            value = self.distance[idx[..., 0], idx[..., 1], idx[..., 2]]
-            out += np.prod(factors, axis=-1) * value
-            if gradient:
-                for a in range(3):
-                    others = np.prod(np.delete(factors, a, axis=-1), axis=-1)
-                    slope[..., a] += (1.0 if o[a] else -1.0) * others * value / self.spacing
+            out += np.prod(np.where(o, f, 1.0 - f), axis=-1) * self.distance[idx[..., 0], idx[..., 1], idx[..., 2]]
         near = np.rint(x).astype(np.int64)
         owner = self.owner[near[..., 0], near[..., 1], near[..., 2]]
-        return np.where(inside, out, np.inf), np.where(inside, owner, -1), slope
+        return np.where(inside, out, np.inf), np.where(inside, owner, -1)
 
     def posed(self, points, orientations, heads) -> np.ndarray:
         """(frames, N) the body's signed distance at points (frames, N, 3) of the armature's space, the rig

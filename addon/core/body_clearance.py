@@ -50,7 +50,7 @@ class Arm:
 
 def arms(body: Body) -> list[Arm]:
     """The arms whose upper arm, forearm and hand are labelled and whose forearm or hand the mesh skins."""
-    rig, labels, mesh = body.rig, rig_body(body), body.mesh
+    rig, labels, mesh = body.rig, body.rig.body, body.mesh
     out = []
     for side in bone_mapping.SIDES:
         names = [labels.limbs.get(f"{key}.{side}") for key in ("upper_arm", "forearm", "hand")]
@@ -69,10 +69,6 @@ def arms(body: Body) -> list[Arm]:
         on_hand = np.array([rig.is_below(int(b), hand) for b in bones], dtype=bool)
         out.append(Arm(side, upper, fore, hand, bones, local, on_hand))
     return out
-
-
-def rig_body(body: Body) -> bone_mapping.Body:
-    return body.rig.body
 
 
 def _spread(points, count: int) -> np.ndarray:
