@@ -139,16 +139,29 @@ class Body:
         where no carrier reads a point); natively (_native.body_sample)."""
         points = np.asarray(points, dtype=np.float64)
         frames, count = points.shape[0], points.shape[1]
-        rig = self.rig
         read, slope = native_state.native().body_sample(
-            self._flat_distance, self._flat_owner, dims=[int(d) for d in self.distance.shape], origin=self.origin,
-            spacing=self.spacing, carriers=[int(b) for b in self.carriers],
-            carrier_rest=np.ascontiguousarray(rig.unit_rest[self.carriers]),
-            carrier_heads=np.ascontiguousarray(rig.heads[self.carriers]),
-            orientations=np.ascontiguousarray(orientations, dtype=np.float64),
+            **self.field_arguments(), orientations=np.ascontiguousarray(orientations, dtype=np.float64),
             heads=np.ascontiguousarray(heads, dtype=np.float64),
             points=np.ascontiguousarray(points.reshape(frames, 3 * count)), gradient=gradient)
         return read, (slope.reshape(frames, count, 3) if gradient else None)
+
+    def field_arguments(self) -> dict:
+        """The field and its carriers as the native reads take them (_native.body_sample, body_arm)."""
+        rig = self.rig
+        return dict(distance=self._flat_distance, owner=self._flat_owner, dims=[int(d) for d in self.distance.shape],
+                    origin=self.origin, spacing=self.spacing, carriers=[int(b) for b in self.carriers],
+                    carrier_rest=np.ascontiguousarray(rig.unit_rest[self.carriers]),
+                    carrier_heads=np.ascontiguousarray(rig.heads[self.carriers]), carrier_cells=self._carrier_cells)
+
+    @cached_property
+    def _carrier_cells(self) -> np.ndarray:
+        """(K, 6) int32: per carrier the first and last cell (i, j, k) of the box around the cells it owns, so
+        that the native reads pass over a carrier whose box a point misses without touching the grid."""
+        out = np.zeros((len(self.carriers), 6), dtype=np.int32)
+        for row, bone in enumerate(self.carriers):
+            owned = np.argwhere(self.owner == bone)
+            out[row] = np.concatenate([owned.min(axis=0), owned.max(axis=0)])
+        return out
 
     @cached_property
     def _flat_distance(self) -> np.ndarray:
@@ -166,7 +179,7 @@ def skins_body(rig: RigData, mesh: SkinnedMesh) -> bool:
 
 
 def _on_body(labels, mesh: SkinnedMesh) -> np.ndarray:
-    return np.array([b >= 0 and labels[b] in BODY_PARTS for b in mesh.bone], dtype=bool)
+    return np.isin(mesh.bone, [b for b, part in enumerate(labels) if part in BODY_PARTS])
 
 
 _CACHE: dict = {}

@@ -12,6 +12,7 @@ still in after that are solved again from there, and what that adds spread in tu
 """
 from __future__ import annotations
 
+import weakref
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -49,7 +50,18 @@ class Arm:
 
 
 def arms(body: Body) -> list[Arm]:
-    """The arms whose upper arm, forearm and hand are labelled and whose forearm or hand the mesh skins."""
+    """The arms whose upper arm, forearm and hand are labelled and whose forearm or hand the mesh skins
+    (found once a body: a retarget asks for them several times, a batch on every take)."""
+    found = _ARMS.get(body)
+    if found is None:
+        found = _ARMS[body] = _find_arms(body)
+    return found
+
+
+_ARMS: "weakref.WeakKeyDictionary[Body, list[Arm]]" = weakref.WeakKeyDictionary()
+
+
+def _find_arms(body: Body) -> list[Arm]:
     rig, labels, mesh = body.rig, body.rig.body, body.mesh
     out = []
     for side in bone_mapping.SIDES:
@@ -57,8 +69,10 @@ def arms(body: Body) -> list[Arm]:
         if any(n is None or n not in rig for n in names):
             continue
         upper, fore, hand = (rig.index(n) for n in names)
-        riding = np.array([b >= 0 and body.part[b] in ARM_PARTS and rig.is_below(int(b), upper)
-                           for b in mesh.bone], dtype=bool)
+        # Decided per bone, not per vertex: a mesh has tens of thousands of vertices on a few bones.
+        carried = [int(b) for b in np.unique(mesh.bone)
+                   if b >= 0 and body.part[b] in ARM_PARTS and rig.is_below(int(b), upper)]
+        riding = np.isin(mesh.bone, carried)
         if not riding.any():
             continue
         chosen = _spread(mesh.vertices[riding], SAMPLES)
@@ -116,8 +130,7 @@ class Report:
 def hand_distances(body: Body, orientations, heads) -> dict:
     """Per arm (side), (frames,) how far its hand is from the body on each frame of a pose (negative
     inside)."""
-    return {arm.side: body.posed(_points(arm, orientations, heads)[:, arm.on_hand], orientations, heads).min(axis=1)
-            for arm in arms(body) if arm.on_hand.any()}
+    return {arm.side: _measured(body, arm, orientations, heads).hand for arm in arms(body) if arm.on_hand.any()}
 
 
 def touching(body: Body, orientations, heads) -> dict:
@@ -130,8 +143,14 @@ def clearances(body: Body, orientations, heads) -> dict:
     """Per arm (side), (frames,) how far its skin stays from the body on each frame of a pose (an armature
     pose: orientations (frames, 4B), heads (frames, 3B)), 0 where it goes in: a hand that sinks into its own
     body touches it, its depth is no clearance to copy."""
-    return {arm.side: np.maximum(body.posed(_points(arm, orientations, heads), orientations, heads).min(axis=1),
-                                 0.0) for arm in arms(body)}
+    return {arm.side: np.maximum(_measured(body, arm, orientations, heads).least, 0.0) for arm in arms(body)}
+
+
+def _measured(body: Body, arm: Arm, orientations, heads):
+    """_native.BodyArmResult of the arm as the pose has it, on every frame."""
+    count = len(orientations)
+    return _arm(body, arm, orientations, heads, np.zeros(count), np.zeros((count, 6)), np.zeros(count, dtype=bool),
+                np.arange(count), 0)[1]
 
 
 def clear(body: Body, rotations, locations, fps: float, clearance: dict | None = None, strength: float = 1.0,
@@ -154,24 +173,26 @@ def clear(body: Body, rotations, locations, fps: float, clearance: dict | None =
         reach = MARGIN * body.height - 2.0 * body.spacing
         wanted = 0.5 * body.spacing + (np.zeros(len(rotations)) if kept is None else
                                        np.clip(np.asarray(kept, dtype=np.float64), 0.0, reach))
-        joints = _joints(arm, heads)
-        points = _points(arm, orientations, heads)
         touch = np.zeros(len(rotations), dtype=bool) if (touches or {}).get(arm.side) is None else \
             np.asarray(touches[arm.side], dtype=bool) & arm.on_hand.any()
-        needed = _needed(body, arm, orientations, heads, points, joints, np.zeros((len(rotations), 6)), touch)
-        went_in[arm.side], turns[arm.side] = needed, np.zeros((len(rotations), 6))
+        count = len(rotations)
+        spread = np.zeros((count, 6))
+        needed = _needed(body, arm, orientations, heads, spread, touch, np.arange(count))
+        went_in[arm.side], turns[arm.side] = needed, np.zeros((count, 6))
         if not needed.any():
             continue
         frames = np.flatnonzero(needed)
-        spread = np.zeros((len(rotations), 6))
         # Each round solves the frames still in from where the last left them, and spreads what it adds
         # (smooth in turn): a frame's neighbours that needed less pull its average down, the next round
         # makes that up.
-        for _ in range(ROUNDS):
-            solved = _solve(body, arm, orientations[frames], heads[frames], points[frames], joints[frames],
-                            wanted[frames], spread[frames], touch[frames])
-            spread += _spread_turns(frames, solved - spread[frames], len(rotations), fps)
-            frames = np.flatnonzero(_needed(body, arm, orientations, heads, points, joints, spread, touch))
+        for round_ in range(ROUNDS):
+            solved = _solve(body, arm, orientations, heads, wanted, spread, touch, frames)
+            spread += _spread_turns(frames, solved - spread[frames], count, fps)
+            if round_ == ROUNDS - 1:
+                break
+            # Only a frame that went in or that the turns reach can be in now: the others are as they were.
+            reached = np.flatnonzero(needed | np.any(spread != 0.0, axis=1))
+            frames = reached[_needed(body, arm, orientations, heads, spread, touch, reached)]
             if not len(frames):
                 break
         # A frame whose solve found no finite turn (never seen) is left as it was, never made not finite.
@@ -181,76 +202,40 @@ def clear(body: Body, rotations, locations, fps: float, clearance: dict | None =
     return Cleared(went_in, turns)
 
 
-def _joints(arm: Arm, heads) -> np.ndarray:
-    """(frames, 3, 3): the shoulder's, elbow's and wrist's posed heads."""
-    return np.stack([heads[:, 3 * b:3 * b + 3] for b in (arm.upper_arm, arm.forearm, arm.hand)], axis=1)
-
-
-def _points(arm: Arm, orientations, heads) -> np.ndarray:
-    """(frames, S, 3): the arm's skin points where its bones are posed."""
-    g = np.stack([orientations[:, 4 * b:4 * b + 4] for b in arm.bones], axis=1)
-    h = np.stack([heads[:, 3 * b:3 * b + 3] for b in arm.bones], axis=1)
-    return rotation_channels.rotate_each(g, arm.local) + h
-
-
-def _moved(arm: Arm, points, joints, turns) -> np.ndarray:
-    """The skin points after the shoulder's turn (about the shoulder) and the elbow's (about the elbow,
-    itself carried by the shoulder's); the hand keeps its orientation, carried along by the wrist."""
-    shoulder, elbow, wrist = joints[:, 0], joints[:, 1], joints[:, 2]
-    qs, qe = _quaternions(turns[:, :3]), _quaternions(turns[:, 3:])
-    turn = lambda q, v: rotation_channels.rotate_each(q[:, None, :], v)  # noqa: E731
-    new_elbow = turn(qs, (elbow - shoulder)[:, None, :])[:, 0] + shoulder
-    both = rotation_channels.multiply(qs, qe)
-    fore = turn(both, points - elbow[:, None, :]) + new_elbow[:, None, :]
-    new_wrist = turn(both, (wrist - elbow)[:, None, :])[:, 0] + new_elbow
-    hand = points - wrist[:, None, :] + new_wrist[:, None, :]
-    return np.where(arm.on_hand[None, :, None], hand, fore)
-
-
 def _quaternions(rotvecs) -> np.ndarray:
     angle = np.linalg.norm(rotvecs, axis=1, keepdims=True)
     axis = np.divide(rotvecs, angle, out=np.zeros_like(rotvecs), where=angle > 1e-15)
     return np.hstack([np.cos(0.5 * angle), np.sin(0.5 * angle) * axis])
 
 
-def _needed(body: Body, arm: Arm, orientations, heads, points, joints, turns, touch) -> np.ndarray:
-    """(frames,) the frames the arm, turned so, still goes into the body on, or where it is to touch, its
-    hand is farther than a cell from it."""
-    distance = body.posed(_moved(arm, points, joints, turns), orientations, heads)
-    hand = np.where(arm.on_hand[None, :], distance, np.inf).min(axis=1)
-    return (distance.min(axis=1) < 0.0) | (touch & (hand > body.spacing))
+def _needed(body: Body, arm: Arm, orientations, heads, turns, touch, frames) -> np.ndarray:
+    """(len(frames),) whether on each of frames the arm, turned so, still goes into the body, or where it
+    is to touch, its hand is farther than a cell from it."""
+    _, measured = _arm(body, arm, orientations, heads, np.zeros(len(turns)), turns, touch, frames, 0)
+    return (measured.least < 0.0) | (touch[frames] & (measured.hand > body.spacing))
 
 
-def _solve(body: Body, arm: Arm, orientations, heads, points, joints, wanted, turns, touch) -> np.ndarray:
-    """(frames, 6) turns from turns on that bring every skin point to wanted (frames,) from the body and, on
-    frames to touch, the hand's point nearest the body to half a cell from it (from either side)."""
-    turns = turns.copy()
-    lever_hand = (joints[:, 2] - joints[:, 1])[:, None, :]
-    for _ in range(ITERATIONS):
-        moved = _moved(arm, points, joints, turns)
-        distance, slope = body.posed_with_gradient(moved, orientations, heads)
-        short = np.where(np.isfinite(distance), wanted[:, None] - distance, 0.0)
-        active = short > 0.0
-        if touch.any():
-            nearest = np.argmin(np.where(arm.on_hand[None, :], distance, np.inf), axis=1)
-            rows = np.flatnonzero(touch & np.isfinite(distance[np.arange(len(distance)), nearest]))
-            short[rows, nearest[rows]] = 0.5 * body.spacing - distance[rows, nearest[rows]]
-            active[rows, nearest[rows]] = True
-        if not np.any(active & (np.abs(short) > 1e-6 * body.spacing)):
-            break
-        # How each point's distance changes with each turn (a point moves by the turn x its lever arm).
-        shoulder_rows = np.cross(moved - joints[:, None, 0], slope)
-        elbow_lever = np.where(arm.on_hand[None, :, None], lever_hand, moved - joints[:, None, 1])
-        jacobian = np.concatenate([shoulder_rows, np.cross(elbow_lever, slope)], axis=2) * active[..., None]
-        residual = short * active
-        normal = np.einsum("fsi,fsj->fij", jacobian, jacobian) + TURN_WEIGHT ** 2 * np.eye(6)
-        step = np.linalg.solve(normal, np.einsum("fsi,fs->fi", jacobian, residual)[..., None])[..., 0]
-        # A step of at most MAX_STEP radians a joint: the distance is linear in a turn only near it.
-        for joint in (slice(0, 3), slice(3, 6)):
-            size = np.linalg.norm(step[:, joint], axis=1, keepdims=True)
-            step[:, joint] *= np.minimum(1.0, MAX_STEP / np.maximum(size, 1e-300))
-        turns += step
-    return turns
+def _solve(body: Body, arm: Arm, orientations, heads, wanted, turns, touch, frames) -> np.ndarray:
+    """(len(frames), 6) the turns from turns (every frame's, (frames, 6)) on that bring every skin point to
+    wanted (frames,) from the body and, on frames to touch, the hand's point nearest the body to half a cell
+    from it (from either side)."""
+    return _arm(body, arm, orientations, heads, wanted, turns, touch, frames, ITERATIONS)[0][frames]
+
+
+def _arm(body: Body, arm: Arm, orientations, heads, wanted, turns, touch, frames, iterations):
+    """(every frame's turns, solved from turns on at frames; _native.BodyArmResult at frames): the arm's
+    Gauss-Newton, natively (_native.body_arm: the least turn on the points short of wanted, the hand's
+    direction kept)."""
+    solved = np.array(turns, dtype=np.float64, order="C")
+    measured = native_state.native().body_arm(
+        **body.field_arguments(), orientations=np.ascontiguousarray(orientations, dtype=np.float64),
+        heads=np.ascontiguousarray(heads, dtype=np.float64), arm=[arm.upper_arm, arm.forearm, arm.hand],
+        point_bones=[int(b) for b in arm.bones], point_local=np.ascontiguousarray(arm.local, dtype=np.float64),
+        on_hand=arm.on_hand.astype(int).tolist(), frames=[int(f) for f in frames],
+        wanted=np.ascontiguousarray(wanted, dtype=np.float64), touch=np.asarray(touch, dtype=int).tolist(),
+        turns=solved, touch_distance=0.5 * body.spacing, iterations=iterations, turn_weight=TURN_WEIGHT,
+        max_step=MAX_STEP)
+    return solved, measured
 
 
 def _spread_turns(frames, solved, count: int, fps: float) -> np.ndarray:

@@ -5,59 +5,13 @@
 #include <string>
 #include <vector>
 
+#include "body_boxes.hpp"
 #include "motionkit/body_field.hpp"
 
 namespace motionkit {
 namespace {
 
-using TriangleMatrix = Eigen::Matrix<int, Eigen::Dynamic, 3, Eigen::RowMajor>;
-
-struct Mesh {
-  RowMatrixXd vertices;
-  TriangleMatrix triangles;
-};
-
-// An axis-aligned box from -h to h, its faces wound outwards.
-Mesh Box(const Eigen::Vector3d& h) {
-  Mesh m{RowMatrixXd(8, 3), TriangleMatrix(12, 3)};
-  for (int v = 0; v < 8; ++v) {
-    m.vertices.row(v) << ((v & 1) ? h.x() : -h.x()), ((v & 2) ? h.y() : -h.y()), ((v & 4) ? h.z() : -h.z());
-  }
-  m.triangles << 0, 2, 1, 1, 2, 3, 4, 5, 6, 5, 7, 6, 0, 1, 4, 1, 5, 4, 2, 6, 3, 3, 6, 7, 0, 4, 2, 2, 4, 6, 1, 3, 5,
-      3, 7, 5;
-  return m;
-}
-
-double BoxDistance(const Eigen::Vector3d& p, const Eigen::Vector3d& h) {
-  const Eigen::Vector3d q = p.cwiseAbs() - h;
-  return q.cwiseMax(0.0).norm() + std::min(q.maxCoeff(), 0.0);
-}
-
-struct Field {
-  Eigen::VectorXd distance;
-  Eigen::VectorXi bone;
-  Eigen::Vector3d origin;
-  double spacing;
-  Eigen::Vector3i dims;
-  Eigen::Vector3d Centre(Eigen::Index cell) const {
-    const Eigen::Index k = cell % dims.z(), j = (cell / dims.z()) % dims.y(), i = cell / (dims.z() * dims.y());
-    return origin + spacing * Eigen::Vector3d(static_cast<double>(i), static_cast<double>(j), static_cast<double>(k));
-  }
-};
-
-Field Build(const Mesh& m, std::vector<int> bones, double spacing, double reach) {
-  const Eigen::Vector3d low = m.vertices.colwise().minCoeff().transpose().array() - reach;
-  const Eigen::Vector3d high = m.vertices.colwise().maxCoeff().transpose().array() + reach;
-  Field f;
-  f.origin = low;
-  f.spacing = spacing;
-  f.dims = ((high - low) / spacing).array().ceil().cast<int>() + 1;
-  f.distance.resize(f.dims.prod());
-  f.bone.resize(f.dims.prod());
-  BodyFieldJob job(m.vertices, m.triangles, std::move(bones), f.origin, spacing, f.dims, f.distance, f.bone);
-  job.Run();
-  return f;
-}
+using namespace testing_boxes;
 
 // The box's distance everywhere: exact (doubles) within two cells of a face, where it is measured point to
 // triangle; beyond, carried by the neighbours' nearest points. Outside a convex body every cell's nearest
@@ -134,6 +88,21 @@ TEST(BodyField, EachCellNamesTheBoneOfTheNearestSurfacesVertex) {
       EXPECT_EQ(f.bone[cell], c.z() > 0 ? 7 : 3) << "cell " << cell;
     }
   }
+}
+
+TEST(BodyField, ThreadsChangeNothing) {
+  const Mesh m = Box(Eigen::Vector3d(0.3, 0.2, 0.5));
+  Eigen::VectorXd d1(8000), d2(8000);
+  Eigen::VectorXi b1(8000), b2(8000);
+  const Eigen::Vector3d origin(-0.6, -0.6, -0.6);
+  BodyFieldJob one(m.vertices, m.triangles, std::vector<int>(8, 0), origin, 0.06, Eigen::Vector3i(20, 20, 20), d1, b1);
+  BodyFieldJob two(m.vertices, m.triangles, std::vector<int>(8, 0), origin, 0.06, Eigen::Vector3i(20, 20, 20), d2, b2);
+  one.threads = 1;
+  two.threads = 2;
+  one.Run();
+  two.Run();
+  EXPECT_TRUE((d1.array() == d2.array()).all() && (b1.array() == b2.array()).all());
+  EXPECT_TRUE((d1.array() < 0.0).any());
 }
 
 TEST(BodyField, BadInputIsRefusedByName) {

@@ -20,7 +20,7 @@ namespace motionkit {
 
 using ConstTriangleView = Eigen::Ref<const Eigen::Matrix<int, Eigen::Dynamic, 3, Eigen::RowMajor>>;
 
-// Caller-owned buffers; Run() allocates its per-column ray hits and the per-cell nearest points once.
+// Caller-owned buffers; Run() allocates its per-column ray hits, the per-cell nearest points and votes once.
 //   vertices:    V x 3 rest positions (finite)
 //   triangles:   T x 3 vertex indices
 //   vertex_bone: V, the bone carrying each vertex most (any int; -1 for none)
@@ -48,6 +48,8 @@ struct BodyFieldJob {
   Eigen::Vector3i dims;
   Eigen::Ref<Eigen::VectorXd> distance;
   Eigen::Ref<Eigen::VectorXi> bone;
+  int threads = 0;  // the distances and the three axes' votes on this many threads (0: one per hardware
+                    // thread); the same result on any number
 
   // At least one triangle, indices in range (naming the triangle), finite vertices (naming the vertex),
   // one bone per vertex, spacing > 0, every dimension >= 2, outputs of nx*ny*nz.

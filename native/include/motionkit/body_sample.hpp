@@ -5,6 +5,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -13,35 +14,14 @@
 
 namespace motionkit {
 
-// Caller-owned buffers; Run() allocates nothing.
+// A body's field as BodyFieldJob made it and the bones that read it (caller-owned views):
 //   distance, owner: the field's nx*ny*nz cells ((i*ny + j)*nz + k), dims, origin (the first cell's
 //                    centre) and spacing as BodyFieldJob made them
 //   carriers:        the bones that read the field; carrier_rest (K x 4, w x y z) and carrier_heads (K x 3)
-//                    their rest orientations and heads
-//   orientations:    frames x 4B, heads frames x 3B: the armature pose (every bone; carriers index it)
-//   points:          frames x 3N, the points to read on each frame
-//   read:            frames x N out: the distance, +inf where no carrier owns the cell a point maps to
-//   gradient:        frames x 3N out (or 0 columns for none): its gradient, 0 where read is +inf
-struct BodySampleJob {
-  BodySampleJob(ConstVectorView distance_in, Eigen::Ref<const Eigen::VectorXi> owner_in, Eigen::Vector3i dims_in,
-                Eigen::Vector3d origin_in, double spacing_in, std::vector<int> carriers_in,
-                ConstMatrixView carrier_rest_in, ConstMatrixView carrier_heads_in, ConstMatrixView orientations_in,
-                ConstMatrixView heads_in, ConstMatrixView points_in, Eigen::Ref<RowMatrixXd> read_out,
-                Eigen::Ref<RowMatrixXd> gradient_out)
-      : distance(distance_in),
-        owner(owner_in),
-        dims(dims_in),
-        origin(origin_in),
-        spacing(spacing_in),
-        carriers(std::move(carriers_in)),
-        carrier_rest(carrier_rest_in),
-        carrier_heads(carrier_heads_in),
-        orientations(orientations_in),
-        heads(heads_in),
-        points(points_in),
-        read(read_out),
-        gradient(gradient_out) {}
-
+//                    their rest orientations and heads; carrier_cells (K x 6, or 0 rows) the first and last
+//                    cell (i, j, k) of the box around the cells each owns, so that a point read through a
+//                    carrier whose box it misses is passed over without touching the grid
+struct BodyFieldView {
   ConstVectorView distance;
   Eigen::Ref<const Eigen::VectorXi> owner;
   Eigen::Vector3i dims;
@@ -50,6 +30,30 @@ struct BodySampleJob {
   std::vector<int> carriers;
   ConstMatrixView carrier_rest;
   ConstMatrixView carrier_heads;
+  Eigen::Ref<const Eigen::Matrix<int, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> carrier_cells;
+
+  // The cells number nx*ny*nz, one rest per carrier, each carrier a bone of a pose of `bones` (the message
+  // starts with `job`).
+  Status Validate(Eigen::Index bones, const std::string& job) const;
+};
+
+// Caller-owned buffers; Run() allocates nothing.
+//   field:           the body (BodyFieldView)
+//   orientations:    frames x 4B, heads frames x 3B: the armature pose (every bone; carriers index it)
+//   points:          frames x 3N, the points to read on each frame
+//   read:            frames x N out: the distance, +inf where no carrier owns the cell a point maps to
+//   gradient:        frames x 3N out (or 0 columns for none): its gradient, 0 where read is +inf
+struct BodySampleJob {
+  BodySampleJob(BodyFieldView field_in, ConstMatrixView orientations_in, ConstMatrixView heads_in,
+                ConstMatrixView points_in, Eigen::Ref<RowMatrixXd> read_out, Eigen::Ref<RowMatrixXd> gradient_out)
+      : field(std::move(field_in)),
+        orientations(orientations_in),
+        heads(heads_in),
+        points(points_in),
+        read(read_out),
+        gradient(gradient_out) {}
+
+  BodyFieldView field;
   ConstMatrixView orientations;
   ConstMatrixView heads;
   ConstMatrixView points;

@@ -7,7 +7,10 @@
 #include <cstdint>
 #include <limits>
 #include <string>
+#include <thread>
 #include <utility>
+
+#include "../parallel.hpp"
 
 namespace motionkit {
 namespace {
@@ -219,15 +222,28 @@ void BodyFieldJob::Run() {
   const Grid grid(*this);
   distance.setConstant(std::numeric_limits<double>::infinity());
   bone.setConstant(-1);
+  // The distances (the band, then the sweeps) and each axis' inside votes are independent: four tasks on
+  // the threads there are, each writing its own buffer, the same result on any number.
   std::vector<Vec3> nearest(static_cast<std::size_t>(distance.size()), Vec3::Zero());
-  NearSurface(*this, grid, nearest);
-  // Two passes each way carry a nearest point around any corner of a body's surface.
-  for (int pass = 0; pass < 2; ++pass) {
-    Sweep(*this, grid, nearest, +1);
-    Sweep(*this, grid, nearest, -1);
-  }
+  std::array<std::vector<std::uint8_t>, 3> axis_votes;
+  for (auto& along : axis_votes) along.assign(static_cast<std::size_t>(distance.size()), 0);
+  internal::ParallelFor(4, threads > 0 ? threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency())),
+                        [&](int task) {
+                          if (task == 0) {
+                            NearSurface(*this, grid, nearest);
+                            // Two passes each way carry a nearest point around any corner of a body's surface.
+                            for (int pass = 0; pass < 2; ++pass) {
+                              Sweep(*this, grid, nearest, +1);
+                              Sweep(*this, grid, nearest, -1);
+                            }
+                            return;
+                          }
+                          VoteAlong(*this, grid, task - 1, axis_votes[static_cast<std::size_t>(task - 1)]);
+                        });
   std::vector<std::uint8_t> votes(static_cast<std::size_t>(distance.size()), 0);
-  for (int a = 0; a < 3; ++a) VoteAlong(*this, grid, a, votes);
+  for (const auto& along : axis_votes) {
+    for (std::size_t cell = 0; cell < votes.size(); ++cell) votes[cell] = static_cast<std::uint8_t>(votes[cell] + along[cell]);
+  }
   for (Eigen::Index cell = 0; cell < distance.size(); ++cell) {
     if (votes[static_cast<std::size_t>(cell)] >= 2) distance[cell] = -distance[cell];
   }

@@ -1,0 +1,217 @@
+// An arm's least turn out of its body (native/include/motionkit/body_arm.hpp).
+#include "motionkit/body_arm.hpp"
+
+#include <Eigen/Cholesky>
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <string>
+#include <thread>
+
+#include "body_read.hpp"
+#include "../parallel.hpp"
+
+namespace motionkit {
+namespace {
+
+using Vector6d = Eigen::Matrix<double, 6, 1>;
+using Matrix6d = Eigen::Matrix<double, 6, 6>;
+constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr Eigen::Index kBlock = 64;  // frames a thread takes at a time
+// A frame's solve stops once no point is short of where it is wanted by more than this share of a cell:
+// 0.14 mm on a 1.8 m character, far below the field's own precision (half a cell is kept for it).
+constexpr double kConverged = 1e-2;
+
+// One thread's per-point buffers (S each).
+struct Scratch {
+  explicit Scratch(std::size_t count) : posed(count), moved(count), slope(count), distance(count) {}
+  std::vector<Eigen::Vector3d> posed;
+  std::vector<Eigen::Vector3d> moved;
+  std::vector<Eigen::Vector3d> slope;
+  std::vector<double> distance;
+};
+
+Eigen::Vector3d Head(const BodyArmJob& job, Eigen::Index frame, int bone) {
+  return job.heads.block<1, 3>(frame, 3 * bone).transpose();
+}
+
+Eigen::Quaterniond FromRotationVector(const Eigen::Vector3d& v) {
+  const double angle = v.norm();
+  if (!(angle > 1e-15)) return Eigen::Quaterniond::Identity();
+  const Eigen::Vector3d axis = std::sin(0.5 * angle) * (v / angle);
+  return Eigen::Quaterniond(std::cos(0.5 * angle), axis.x(), axis.y(), axis.z());
+}
+
+class ArmFrame {
+ public:
+  ArmFrame(const BodyArmJob& job, Eigen::Index frame, Scratch& scratch)
+      : job_(job),
+        frame_(frame),
+        s_(scratch),
+        shoulder_(Head(job, frame, job.arm[0])),
+        elbow_(Head(job, frame, job.arm[1])),
+        wrist_(Head(job, frame, job.arm[2])) {
+    for (std::size_t n = 0; n < s_.posed.size(); ++n) {
+      const int b = job.point_bones[n];
+      const Eigen::Quaterniond g(job.orientations(frame, 4 * b), job.orientations(frame, 4 * b + 1),
+                                 job.orientations(frame, 4 * b + 2), job.orientations(frame, 4 * b + 3));
+      s_.posed[n] = g.normalized() * job.point_local.row(static_cast<Eigen::Index>(n)).transpose() + Head(job, frame, b);
+    }
+  }
+
+  // Each point where the turns t (shoulder's, elbow's rotation vectors) put it.
+  void Move(const Vector6d& t) {
+    const Eigen::Quaterniond qs = FromRotationVector(t.head<3>()), both = qs * FromRotationVector(t.tail<3>());
+    const Eigen::Vector3d new_elbow = qs * (elbow_ - shoulder_) + shoulder_;
+    const Eigen::Vector3d new_wrist = both * (wrist_ - elbow_) + new_elbow;
+    for (std::size_t n = 0; n < s_.moved.size(); ++n) {
+      const Eigen::Vector3d& p = s_.posed[n];
+      s_.moved[n] = job_.on_hand[n] ? Eigen::Vector3d(p - wrist_ + new_wrist) : Eigen::Vector3d(both * (p - elbow_) + new_elbow);
+    }
+  }
+
+  // The body's distance (and gradient) at each moved point: the nearest of the carriers' reads.
+  void Read(bool slopes) {
+    std::fill(s_.distance.begin(), s_.distance.end(), kInf);
+    if (slopes) std::fill(s_.slope.begin(), s_.slope.end(), Eigen::Vector3d::Zero());
+    for (std::size_t c = 0; c < job_.field.carriers.size(); ++c) {
+      const internal::CarrierMotion motion = internal::Motion(job_.field, c, job_.orientations, job_.heads, frame_);
+      for (std::size_t n = 0; n < s_.moved.size(); ++n) {
+        Eigen::Vector3d slope;
+        const double d = internal::ReadThrough(job_.field, motion, s_.moved[n], slopes ? &slope : nullptr);
+        if (!(d < s_.distance[n])) continue;
+        s_.distance[n] = d;
+        if (slopes) s_.slope[n] = slope;
+      }
+    }
+  }
+
+  // One Gauss-Newton step from t, or false where no point is short of where it is wanted.
+  bool Step(Vector6d& t) {
+    Move(t);
+    Read(true);
+    const double wanted = job_.wanted[frame_];
+    const int nearest = job_.touch[static_cast<std::size_t>(frame_)] ? NearestOnHand() : -1;
+    Matrix6d normal = job_.turn_weight * job_.turn_weight * Matrix6d::Identity();
+    Vector6d rhs = Vector6d::Zero();
+    bool short_of_it = false;
+    for (std::size_t n = 0; n < s_.moved.size(); ++n) {
+      const double d = s_.distance[n];
+      double r;
+      if (static_cast<int>(n) == nearest) {
+        r = job_.touch_distance - d;
+      } else if (std::isfinite(d) && wanted - d > 0.0) {
+        r = wanted - d;
+      } else {
+        continue;
+      }
+      short_of_it = short_of_it || std::abs(r) > kConverged * job_.field.spacing;
+      const Eigen::Vector3d& g = s_.slope[n];
+      const Eigen::Vector3d lever = job_.on_hand[n] ? Eigen::Vector3d(wrist_ - elbow_) : Eigen::Vector3d(s_.moved[n] - elbow_);
+      Vector6d row;
+      row << (s_.moved[n] - shoulder_).cross(g), lever.cross(g);
+      normal.noalias() += row * row.transpose();
+      rhs += r * row;
+    }
+    if (!short_of_it) return false;
+    Vector6d step = normal.ldlt().solve(rhs);
+    // At most max_step radians a joint: the distance is linear in a turn only near it.
+    for (int joint = 0; joint < 2; ++joint) {
+      const double size = step.segment<3>(3 * joint).norm();
+      if (size > job_.max_step) step.segment<3>(3 * joint) *= job_.max_step / size;
+    }
+    t += step;
+    return true;
+  }
+
+  // The nearest and the hand's nearest distance where t puts the arm.
+  void Measure(const Vector6d& t, double& least, double& hand) {
+    Move(t);
+    Read(false);
+    least = hand = kInf;
+    for (std::size_t n = 0; n < s_.moved.size(); ++n) {
+      least = std::min(least, s_.distance[n]);
+      if (job_.on_hand[n]) hand = std::min(hand, s_.distance[n]);
+    }
+  }
+
+ private:
+  int NearestOnHand() const {
+    int found = -1;
+    for (std::size_t n = 0; n < s_.moved.size(); ++n) {
+      if (job_.on_hand[n] && std::isfinite(s_.distance[n]) &&
+          (found < 0 || s_.distance[n] < s_.distance[static_cast<std::size_t>(found)])) {
+        found = static_cast<int>(n);
+      }
+    }
+    return found;
+  }
+
+  const BodyArmJob& job_;
+  Eigen::Index frame_;
+  Scratch& s_;
+  Eigen::Vector3d shoulder_, elbow_, wrist_;
+};
+
+}  // namespace
+
+Status BodyArmJob::Validate() const {
+  const Eigen::Index count = static_cast<Eigen::Index>(point_bones.size()), all = orientations.rows();
+  const Eigen::Index bones = orientations.cols() / 4;
+  if (heads.rows() != all || heads.cols() != 3 * bones || orientations.cols() != 4 * bones) {
+    return Status::Fail("body arm: the pose must be F x 4B orientations and F x 3B heads");
+  }
+  if (Status s = field.Validate(bones, "body arm"); !s.ok()) return s;
+  for (int b : arm) {
+    if (b < 0 || b >= bones) return Status::Fail("body arm: arm bone " + std::to_string(b) + " out of range");
+  }
+  for (int b : point_bones) {
+    if (b < 0 || b >= bones) return Status::Fail("body arm: point bone " + std::to_string(b) + " out of range");
+  }
+  if (point_local.rows() != count || point_local.cols() != 3 || !point_local.allFinite() ||
+      static_cast<Eigen::Index>(on_hand.size()) != count) {
+    return Status::Fail("body arm: one finite offset and one on_hand a point");
+  }
+  if (wanted.size() != all || static_cast<Eigen::Index>(touch.size()) != all || turns.rows() != all ||
+      turns.cols() != 6 || least.size() != static_cast<Eigen::Index>(frames.size()) || hand.size() != least.size()) {
+    return Status::Fail("body arm: wanted, touch and turns of every frame, least and hand of each solved");
+  }
+  if (iterations < 0 || !(turn_weight > 0.0) || !(max_step > 0.0) || !std::isfinite(touch_distance)) {
+    return Status::Fail("body arm: iterations >= 0, turn_weight and max_step > 0, a finite touch_distance");
+  }
+  for (int f : frames) {
+    if (f < 0 || f >= all) return Status::Fail("body arm: frame index " + std::to_string(f) + " out of range");
+    if (!orientations.row(f).allFinite() || !heads.row(f).allFinite() || !turns.row(f).allFinite() ||
+        !std::isfinite(wanted[f])) {
+      return Status::Fail("body arm: frame index " + std::to_string(f) +
+                          ": its pose, turns and wanted distance must be finite");
+    }
+  }
+  return Status::Ok();
+}
+
+void BodyArmJob::Run() {
+  Validate().ThrowIfFailed();
+  const Eigen::Index solved = static_cast<Eigen::Index>(frames.size());
+  const int blocks = static_cast<int>((solved + kBlock - 1) / kBlock);
+  const int workers = threads > 0 ? threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  // Each block's buffers made before the threads start (a task must not throw).
+  std::vector<Scratch> scratches(static_cast<std::size_t>(blocks), Scratch(point_bones.size()));
+  internal::ParallelFor(blocks, workers, [&](int block) {
+    Scratch& scratch = scratches[static_cast<std::size_t>(block)];
+    const Eigen::Index end = std::min(solved, (block + 1) * kBlock);
+    for (Eigen::Index i = block * kBlock; i < end; ++i) {
+      const Eigen::Index f = frames[static_cast<std::size_t>(i)];
+      ArmFrame arm_frame(*this, f, scratch);
+      Vector6d t = turns.row(f).transpose();
+      for (int step = 0; step < iterations && arm_frame.Step(t); ++step) {
+      }
+      if (!t.allFinite()) t.setZero();  // never seen; a frame left as it was, never made not finite
+      turns.row(f) = t.transpose();
+      arm_frame.Measure(t, least[i], hand[i]);
+    }
+  });
+}
+
+}  // namespace motionkit
