@@ -9,7 +9,8 @@ import os
 
 COLUMNS = ("file", "take", "action", "status", "reason", "frames", "fps", "bones_mapped", "fingers_mapped",
            "sliding_median_mm", "sliding_worst_mm", "floor_above_mm", "floor_below_mm", "direction_worst_deg",
-           "direction_worst_bone", "pop_worst_deg", "pop_bone", "pop_frame", "channels_left_out", "seconds", "output")
+           "direction_worst_bone", "pop_worst_deg", "pop_bone", "pop_frame", "body", "channels_left_out", "seconds",
+           "output")
 # The console table: (column, heading, width)
 _TABLE = (("action", "clip", 28), ("status", "status", 7), ("frames", "frames", 6), ("bones_mapped", "bones", 5),
           ("fingers_mapped", "fing", 4), ("sliding_worst_mm", "slide mm", 8), ("floor_above_mm", "above mm", 8),

@@ -72,6 +72,8 @@ def _retarget_take(path, stem, take, action, count, source, target, out_dir, exp
         pairs, kept = list(retargeted.pairs), list(retargeted.kept_bones)
         made = retargeted.action
         made.use_fake_user = True
+        # What the body stage did (the arms kept out of the target's body, or why not), as the button says.
+        row["body"] = retargeted.body.message() if retargeted.body is not None else ""
         # The scale, properties and shape keys the target had no place for (RetargetOptions.channels).
         row["channels_left_out"] = channel_carry.summary(retargeted.channels_left_out)
         row.update(clip_report.row_figures(source, target, pairs, kept))

@@ -62,3 +62,80 @@ def test_a_slim_dancer_s_macarena_onto_a_cartoon_mouse_keeps_the_arms_out_of_its
     a, b = _pose_columns(plain, frames), _pose_columns(body, frames)
     # The same keys through Blender's float32 F-curves.
     np.testing.assert_allclose(b[:, columns], a[:, columns], atol=1e-6)
+
+
+def _arm_poses(obj, frames):
+    """(frames, arm bones x 4) the arms' pose rotations as Blender evaluates each frame."""
+    columns = [k for k, pb in enumerate(obj.pose.bones) if pb.name.split(":")[-1] in ARM_BONES]
+    poses = _pose_columns(obj, frames)
+    return poses[:, np.concatenate([np.arange(4 * k, 4 * k + 4) for k in columns])]
+
+
+ARM_BONES = ("LeftArm", "LeftForeArm", "LeftHand", "RightArm", "RightForeArm", "RightHand")
+
+
+def test_the_preview_plays_the_arms_kept_out_and_strength_and_off_change_it(mk, bodies_dir):
+    """The Retarget panel's live preview onto Mousey with his mesh plays what motionkit.retarget keys (the
+    arms kept out of his body); Strength 0 and Body off play the bones-only retarget, which Blender's
+    evaluated mesh shows deeper in the body."""
+    import importlib
+    import bpy
+    ui_preview = importlib.import_module(mk.__name__ + ".ui.preview")
+    source = mp.import_bvh(DANCE.format("Sporty_Granny"))
+    own = mp.import_bvh(DANCE.format("Mousey"))
+    target = mp.rest_copy(own, "previewed")
+    skinned = bm.Skinned.of(target, bodies_dir, "Mousey")
+    frames = np.array([1, 141, 281, 421])
+    keyed = mk.retarget(source, target)
+    retargeted = _arm_poses(target, frames)
+    off = mk.retarget(source, target, body="off")
+    bones_only, bones_only_in = _arm_poses(target, frames), bm.measure(skinned, frames).inside.mean()
+    target.animation_data.action = None
+    bpy.data.actions.remove(keyed)
+    bpy.data.actions.remove(off)
+    settings = bpy.context.scene.motionkit_retarget
+    settings.source_kind, settings.source, settings.target = 'ARMATURE', source, target
+    settings.set_bone_map(mk.retargeting.auto_map(source, target))
+    settings.scene_from_clip = False
+    try:
+        assert bpy.ops.motionkit.retarget_preview() == {'FINISHED'} and settings.preview.message == ""
+        # The same keys through Blender's float32 F-curves.
+        np.testing.assert_allclose(_arm_poses(target, frames), retargeted, atol=1e-6)
+        previewed_in = bm.measure(skinned, frames).inside.mean()
+        assert previewed_in < 0.5 * bones_only_in
+        for prop, value in (("body_strength", 0.0), ("body", "off")):
+            setattr(settings, prop, value)
+            ui_preview._tick()  # the timer's look at the settings, called here: no event loop
+            np.testing.assert_allclose(_arm_poses(target, frames), bones_only, atol=1e-6)
+            settings.property_unset(prop)
+        assert bpy.ops.motionkit.retarget_preview_cancel() == {'FINISHED'}
+    finally:
+        ui_preview.stop(settings)
+        settings.property_unset("scene_from_clip")
+
+
+def test_a_library_onto_a_character_keeps_its_arms_out_and_its_report_says_so(mk, bodies_dir, tmp_path):
+    """motionkit.batch.retarget_library onto Mousey with his mesh keeps his arms out of his body (under half
+    the arm vertices inside that a bones-only retarget leaves, by Blender's evaluated mesh), and its
+    report's body column says what the stage did; onto the same character without a mesh, that there was
+    none."""
+    own = mp.import_bvh(DANCE.format("Mousey"))
+    target, bare = mp.rest_copy(own, "library"), mp.rest_copy(own, "bare")
+    skinned = bm.Skinned.of(target, bodies_dir, "Mousey")
+    frames = np.array([1, 141, 281, 421])
+    done = mk.batch.retarget_library([DANCE.format("Sporty_Granny")], target, report_dir=str(tmp_path))
+    row = done.rows[0]
+    assert row["status"] == "ok" and row["body"].startswith("Arms kept out of the body of ")
+    assert " on " in row["body"] and "frames" in row["body"]
+    target.animation_data.action = done.actions[0]
+    batch_in = bm.measure(skinned, frames).inside.mean()
+    with_mesh = _arm_poses(target, frames)
+    source = mp.import_bvh(DANCE.format("Sporty_Granny"))
+    off = mk.retarget(source, target, body="off")
+    assert bm.measure(skinned, frames).inside.mean() > 2.0 * batch_in
+    assert np.abs(_arm_poses(target, frames) - with_mesh).max() > 1e-2  # the batch's arms were moved
+    target.animation_data.action = off
+    alone = mk.batch.retarget_library([DANCE.format("Sporty_Granny")], bare)
+    assert alone.rows[0]["body"] == ("The target deforms no mesh: its arms were not kept out of its body")
+    with open(tmp_path / "report.csv", encoding="utf-8") as f:
+        assert "body" in f.readline().split(",")
