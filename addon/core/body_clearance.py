@@ -153,15 +153,96 @@ def _measured(body: Body, arm: Arm, orientations, heads):
                 np.arange(count), 0)[1]
 
 
+@dataclass(frozen=True)
+class Place:
+    """Where one arm's hand touches the body on each frame: bone (frames,) the body bone carrying the place
+    (-1 where it touches nowhere), offset (frames, 3) the place less that bone's posed head, and hand
+    (frames, 3) the hand's point that touches it less the hand's posed head, in the armature's space (NaN
+    where bone is -1)."""
+    bone: np.ndarray
+    offset: np.ndarray
+    hand: np.ndarray
+
+
+def touch_places(body: Body, orientations, heads, touching: dict) -> dict:
+    """Per arm (side), the Place its hand touches the body at on the frames of touching (per side, (frames,)
+    bools, as touching() finds them): the skin point nearest the hand's nearest point, and the body bone
+    whose part of the field carries it there."""
+    count = len(orientations)
+    out = {}
+    for arm in arms(body):
+        bone, offset, hand = np.full(count, -1), np.full((count, 3), np.nan), np.full((count, 3), np.nan)
+        frames = np.flatnonzero(np.asarray(touching.get(arm.side, np.zeros(count)), dtype=bool))
+        if len(frames) and arm.on_hand.any():
+            o, h = orientations[frames], heads[frames]
+            points = _posed(arm, o, h)[:, arm.on_hand]
+            distance, slope = body.posed_with_gradient(points, o, h)
+            rows, nearest = np.arange(len(frames)), np.argmin(distance, axis=1)
+            d, g = distance[rows, nearest], slope[rows, nearest]
+            size = np.linalg.norm(g, axis=1)
+            fine = np.isfinite(d) & (size > 1e-12)
+            on_skin = points[rows, nearest] - np.where(fine, d / np.maximum(size, 1e-12), 0.0)[:, None] * g
+            carrier = np.where(fine, _carrier_at(body, on_skin, o, h), -1)
+            found = carrier >= 0
+            bone[frames[found]] = carrier[found]
+            held = np.flatnonzero(found)
+            offset[frames[held]] = on_skin[held] - h[held[:, None], 3 * carrier[held][:, None] + np.arange(3)]
+            hand[frames[held]] = points[rows, nearest][held] - h[held, 3 * arm.hand:3 * arm.hand + 3]
+        out[arm.side] = Place(bone, offset, hand)
+    return out
+
+
+def _carrier_at(body: Body, points, orientations, heads) -> np.ndarray:
+    """(N,) per point (N, 3; the pose's frame N) the carrier whose part of the field holds it (the one it
+    reads nearest the skin through, as Body.posed reads), -1 for none."""
+    rig, best, found = body.rig, np.full(len(points), np.inf), np.full(len(points), -1)
+    for b in body.carriers:
+        to_rest = rotation_channels.multiply(np.broadcast_to(rig.unit_rest[b], (len(points), 4)),
+                                             rotation_channels.conjugate(orientations[:, 4 * b:4 * b + 4]))
+        rest = rotation_channels.rotate_each(to_rest, points - heads[:, 3 * b:3 * b + 3]) + rig.heads[b]
+        distance, owner = body.at_rest(rest)
+        better = (owner == b) & (np.abs(distance) < best)
+        best, found = np.where(better, np.abs(distance), best), np.where(better, b, found)
+    return found
+
+
+def _posed(arm: Arm, orientations, heads) -> np.ndarray:
+    """(frames, S, 3): the arm's skin points where the pose has its bones."""
+    g = np.stack([orientations[:, 4 * b:4 * b + 4] for b in arm.bones], axis=1)
+    h = np.stack([heads[:, 3 * b:3 * b + 3] for b in arm.bones], axis=1)
+    return rotation_channels.rotate_each(g, arm.local) + h
+
+
+def _goals(body: Body, arm: Arm, place: Place, orientations, heads) -> tuple:
+    """(goals, contacts), each (frames, 3), for a Place (on this rig's bones): where the hand is to go on
+    each frame (the bone's posed head plus the offset, taken to the nearest point half a cell off the skin;
+    NaN where the place is off the field or there is none) and the hand's point that goes there (the hand's
+    posed head plus the place's hand offset); (None, None) where there is none on any frame."""
+    on = np.flatnonzero(place.bone >= 0)
+    if not len(on):
+        return None, None
+    wanted = heads[on[:, None], 3 * place.bone[on][:, None] + np.arange(3)] + place.offset[on]
+    distance, slope = body.posed_with_gradient(wanted[:, None, :], orientations[on], heads[on])
+    d, g = distance[:, 0], slope[:, 0]
+    size = np.linalg.norm(g, axis=1)
+    fine = np.isfinite(d) & (size > 1e-12)
+    goals, contacts = np.full((len(orientations), 3), np.nan), np.zeros((len(orientations), 3))
+    goals[on[fine]] = (wanted - ((d - 0.5 * body.spacing) / np.maximum(size, 1e-12))[:, None] * g)[fine]
+    contacts[on] = heads[on, 3 * arm.hand:3 * arm.hand + 3] + place.hand[on]
+    return goals, contacts
+
+
 def clear(body: Body, rotations, locations, fps: float, clearance: dict | None = None, strength: float = 1.0,
-          sides=bone_mapping.SIDES, touches: dict | None = None) -> Cleared:
+          sides=bone_mapping.SIDES, touches: dict | None = None, places: dict | None = None) -> Cleared:
     """Brings every arm of sides that goes into the body back out, changing the upper arms', forearms' and
     hands' rotation channels in rotations (frames, 4B; locations (frames, 3B) place the root) in place.
     clearance: per side, (frames,) the distance (armature units) the arm is to keep where it goes in (the
     source's own, scaled), default none; strength: the share of each turn applied (1: out, 0: as it was).
     Half a cell of the field is kept beyond it: the field's own precision (docs/body.md). touches: per side,
     (frames,) where the hand is to touch the body (the source's own touches): there a hand farther than a
-    cell from the body is brought onto it, the nearest way, the rest of the arm kept out."""
+    cell from the body is brought onto it, the rest of the arm kept out: at the corresponding place where
+    places (per side, a Place on this rig's bones: the source's touch_places, mapped) has one on the
+    frame (the hand's point nearest it onto the skin there, half a cell off), else the nearest way."""
     rig = body.rig
     native = native_state.native()
     orientations, heads = native.armature_pose(rig.native, np.ascontiguousarray(rotations),
@@ -176,8 +257,10 @@ def clear(body: Body, rotations, locations, fps: float, clearance: dict | None =
         touch = np.zeros(len(rotations), dtype=bool) if (touches or {}).get(arm.side) is None else \
             np.asarray(touches[arm.side], dtype=bool) & arm.on_hand.any()
         count = len(rotations)
+        place = (places or {}).get(arm.side)
+        goals, contacts = (None, None) if place is None else _goals(body, arm, place, orientations, heads)
         spread = np.zeros((count, 6))
-        needed = _needed(body, arm, orientations, heads, spread, touch, np.arange(count))
+        needed = _needed(body, arm, orientations, heads, spread, touch, np.arange(count), (goals, contacts))
         went_in[arm.side], turns[arm.side] = needed, np.zeros((count, 6))
         if not needed.any():
             continue
@@ -186,13 +269,13 @@ def clear(body: Body, rotations, locations, fps: float, clearance: dict | None =
         # (smooth in turn): a frame's neighbours that needed less pull its average down, the next round
         # makes that up.
         for round_ in range(ROUNDS):
-            solved = _solve(body, arm, orientations, heads, wanted, spread, touch, frames)
+            solved = _solve(body, arm, orientations, heads, wanted, spread, touch, frames, (goals, contacts))
             spread += _spread_turns(frames, solved - spread[frames], count, fps)
             if round_ == ROUNDS - 1:
                 break
             # Only a frame that went in or that the turns reach can be in now: the others are as they were.
             reached = np.flatnonzero(needed | np.any(spread != 0.0, axis=1))
-            frames = reached[_needed(body, arm, orientations, heads, spread, touch, reached)]
+            frames = reached[_needed(body, arm, orientations, heads, spread, touch, reached, (goals, contacts))]
             if not len(frames):
                 break
         # A frame whose solve found no finite turn (never seen) is left as it was, never made not finite.
@@ -208,24 +291,27 @@ def _quaternions(rotvecs) -> np.ndarray:
     return np.hstack([np.cos(0.5 * angle), np.sin(0.5 * angle) * axis])
 
 
-def _needed(body: Body, arm: Arm, orientations, heads, turns, touch, frames) -> np.ndarray:
+def _needed(body: Body, arm: Arm, orientations, heads, turns, touch, frames, goals=(None, None)) -> np.ndarray:
     """(len(frames),) whether on each of frames the arm, turned so, still goes into the body, or where it
-    is to touch, its hand is farther than a cell from it."""
-    _, measured = _arm(body, arm, orientations, heads, np.zeros(len(turns)), turns, touch, frames, 0)
-    return (measured.least < 0.0) | (touch[frames] & (measured.hand > body.spacing))
+    is to touch, its hand is farther than a cell from the body (or from its goal, where it has one)."""
+    _, measured = _arm(body, arm, orientations, heads, np.zeros(len(turns)), turns, touch, frames, 0, goals)
+    far = measured.hand > body.spacing
+    if goals[0] is not None:
+        far = np.where(np.all(np.isfinite(goals[0][frames]), axis=1), measured.gap > body.spacing, far)
+    return (measured.least < 0.0) | (touch[frames] & far)
 
 
-def _solve(body: Body, arm: Arm, orientations, heads, wanted, turns, touch, frames) -> np.ndarray:
+def _solve(body: Body, arm: Arm, orientations, heads, wanted, turns, touch, frames, goals=(None, None)) -> np.ndarray:
     """(len(frames), 6) the turns from turns (every frame's, (frames, 6)) on that bring every skin point to
-    wanted (frames,) from the body and, on frames to touch, the hand's point nearest the body to half a cell
-    from it (from either side)."""
-    return _arm(body, arm, orientations, heads, wanted, turns, touch, frames, ITERATIONS)[0][frames]
+    wanted (frames,) from the body and, on frames to touch, the hand's point nearest its goal onto it, or
+    where there is none the hand's point nearest the body to half a cell from it (from either side)."""
+    return _arm(body, arm, orientations, heads, wanted, turns, touch, frames, ITERATIONS, goals)[0][frames]
 
 
-def _arm(body: Body, arm: Arm, orientations, heads, wanted, turns, touch, frames, iterations):
+def _arm(body: Body, arm: Arm, orientations, heads, wanted, turns, touch, frames, iterations, goals=(None, None)):
     """(every frame's turns, solved from turns on at frames; _native.BodyArmResult at frames): the arm's
     Gauss-Newton, natively (_native.body_arm: the least turn on the points short of wanted, the hand's
-    direction kept)."""
+    direction kept; goals: (_goals' goals, contacts) or (None, None))."""
     solved = np.array(turns, dtype=np.float64, order="C")
     measured = native_state.native().body_arm(
         **body.field_arguments(), orientations=np.ascontiguousarray(orientations, dtype=np.float64),
@@ -233,8 +319,9 @@ def _arm(body: Body, arm: Arm, orientations, heads, wanted, turns, touch, frames
         point_bones=[int(b) for b in arm.bones], point_local=np.ascontiguousarray(arm.local, dtype=np.float64),
         on_hand=arm.on_hand.astype(int).tolist(), frames=[int(f) for f in frames],
         wanted=np.ascontiguousarray(wanted, dtype=np.float64), touch=np.asarray(touch, dtype=int).tolist(),
-        turns=solved, touch_distance=0.5 * body.spacing, iterations=iterations, turn_weight=TURN_WEIGHT,
-        max_step=MAX_STEP)
+        turns=solved, goals=None if goals[0] is None else np.ascontiguousarray(goals[0], dtype=np.float64),
+        contacts=None if goals[1] is None else np.ascontiguousarray(goals[1], dtype=np.float64),
+        touch_distance=0.5 * body.spacing, iterations=iterations, turn_weight=TURN_WEIGHT, max_step=MAX_STEP)
     return solved, measured
 
 

@@ -4,6 +4,7 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -62,32 +63,35 @@ py::object BodySample(const ConstVectorView& distance, const Eigen::Ref<const Ei
 struct BodyArmResult {
   py::array_t<double> least;
   py::array_t<double> hand;
+  py::array_t<double> gap;
 };
 
 BodyArmResult BodyArm(const ConstVectorView& distance, const Eigen::Ref<const Eigen::VectorXi>& owner,
                       const std::vector<int>& dims, const PointArg& origin, double spacing,
                       const std::vector<int>& carriers, const ConstMatrixView& carrier_rest,
                       const ConstMatrixView& carrier_heads, const CellBoxes& carrier_cells,
-                      const ConstMatrixView& orientations,
-                      const ConstMatrixView& heads, const std::vector<int>& arm, const std::vector<int>& point_bones,
-                      const ConstMatrixView& point_local, const std::vector<int>& on_hand,
-                      const std::vector<int>& frames, const ConstVectorView& wanted, const std::vector<int>& touch,
-                      Eigen::Ref<RowMatrixXd> turns, double touch_distance, int iterations, double turn_weight,
-                      double max_step, int threads) {
+                      const ConstMatrixView& orientations, const ConstMatrixView& heads, const std::vector<int>& arm,
+                      const std::vector<int>& point_bones, const ConstMatrixView& point_local,
+                      const std::vector<int>& on_hand, const std::vector<int>& frames, const ConstVectorView& wanted,
+                      const std::vector<int>& touch, Eigen::Ref<RowMatrixXd> turns,
+                      const std::optional<RowMatrixXd>& goals, const std::optional<RowMatrixXd>& contacts,
+                      double touch_distance, int iterations,
+                      double turn_weight, double max_step, int threads) {
   if (arm.size() != 3) throw py::value_error("body_arm: arm must be the upper arm's, forearm's and hand's bones");
   const Eigen::Index solved = static_cast<Eigen::Index>(frames.size());
-  OutputVector<double> least(solved), hand(solved);
+  OutputVector<double> least(solved), hand(solved), gap(solved);
+  const RowMatrixXd none(0, 3);
   BodyArmJob job(Field(distance, owner, dims, origin, spacing, carriers, carrier_rest, carrier_heads, carrier_cells,
                        "body_arm"),
                  orientations, heads, {arm[0], arm[1], arm[2]}, point_bones, point_local, on_hand, frames, wanted,
-                 touch, turns, least.view, hand.view);
+                 touch, goals ? *goals : none, contacts ? *contacts : none, turns, least.view, hand.view, gap.view);
   job.touch_distance = touch_distance;
   job.iterations = iterations;
   job.turn_weight = turn_weight;
   job.max_step = max_step;
   job.threads = threads;
   RunWithoutGil(job);
-  return {least.array, hand.array};
+  return {least.array, hand.array, gap.array};
 }
 
 }  // namespace
@@ -96,7 +100,9 @@ void BindBody(py::module_& m) {
   py::class_<BodyArmResult>(m, "BodyArmResult", "What body_arm returns, by name.")
       .def_readonly("least", &BodyArmResult::least,
                     "float64 (frames,): the nearest arm point's distance from the body after the turns")
-      .def_readonly("hand", &BodyArmResult::hand, "float64 (frames,): the nearest hand point's distance");
+      .def_readonly("hand", &BodyArmResult::hand, "float64 (frames,): the nearest hand point's distance")
+      .def_readonly("gap", &BodyArmResult::gap,
+                    "float64 (frames,): the hand's nearest point's distance to its goal (0 where none)");
   m.def("body_field", &BodyField, "vertices"_a.noconvert(), "triangles"_a.noconvert(), "vertex_bone"_a,
         py::kw_only(), "origin"_a, "spacing"_a, "dims"_a,
         R"pbdoc(
@@ -138,7 +144,9 @@ void BindBody(py::module_& m) {
         "spacing"_a, "carriers"_a, "carrier_rest"_a.noconvert(), "carrier_heads"_a.noconvert(),
         "carrier_cells"_a.noconvert(),
         "orientations"_a.noconvert(), "heads"_a.noconvert(), "arm"_a, "point_bones"_a, "point_local"_a.noconvert(),
-        "on_hand"_a, "frames"_a, "wanted"_a.noconvert(), "touch"_a, "turns"_a.noconvert(), "touch_distance"_a = 0.0,
+        "on_hand"_a, "frames"_a, "wanted"_a.noconvert(), "touch"_a, "turns"_a.noconvert(), "goals"_a = py::none(),
+        "contacts"_a = py::none(),
+        "touch_distance"_a = 0.0,
         "iterations"_a = 6, "turn_weight"_a = 0.05, "max_step"_a = 0.25, "threads"_a = 0,
         R"pbdoc(
         An arm's least turn out of its body, by Gauss-Newton on its skin points.
@@ -150,7 +158,10 @@ void BindBody(py::module_& m) {
         offset in the bone's rest frame; on_hand (S,): nonzero for a hand
         point; frames: the frames to solve; wanted (F,): the clearance every
         point is to keep; touch (F,): nonzero where the hand's nearest point is
-        brought to touch_distance instead. turns (F, 6) float64 is read and
+        brought to touch_distance instead, or where goals (F, 3), when
+        given, has a finite row, the hand's point nearest it onto it (or
+        contacts' (F, 3): the hand's own point posed that goes there).
+        turns (F, 6) float64 is read and
         written in place on the frames solved: where each starts and what it
         found (the shoulder's and the elbow's rotation vectors, the armature's
         space; a forearm point turns about the elbow by both, a hand point is
@@ -160,7 +171,7 @@ void BindBody(py::module_& m) {
 
         Returns BodyArmResult (least, hand: per frame solved, after the turns,
         the nearest point's and the nearest hand point's distance, +inf where
-        none is read). Errors name the frame. The GIL is released.
+        none is read; gap: the hand's distance to its goal, 0 where none). Errors name the frame. The GIL is released.
       )pbdoc");
 }
 

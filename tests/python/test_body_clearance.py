@@ -171,3 +171,51 @@ def test_a_clearance_beyond_the_field_s_reach_asks_only_what_it_can_measure(vega
     assert np.all(np.isfinite(after))
     changed = np.any(after != before, axis=1)
     assert changed.sum() > 10
+
+
+def _touch_patch(rig, mesh, world):
+    """(frames, 3) where the left hand touches the body on each frame of the mesh skinned independently: the
+    centre of the trunk, head and thighs' skin (sampled six a triangle's side) within a centimetre more than
+    the nearest of the hand's vertices is of it (a patch: the nearest single point jumps about a flat hand)."""
+    from test_body import _surface_samples
+    from core.skinned_mesh import SkinnedMesh
+    labels = body_module.parts(rig, rig.body)
+    on_body = np.array([b >= 0 and labels[b] in body_module.BODY_PARTS for b in mesh.bone])
+    triangles = mesh.triangles[on_body[mesh.triangles].all(axis=1)]
+    hand = mesh.bone == rig.index("mixamorig:LeftHand")
+    out = []
+    for w in world:
+        surface = _surface_samples(SkinnedMesh(w, triangles, mesh.bone, mesh.weight))
+        gaps = np.linalg.norm(surface[:, None, :] - w[hand][None, ::2, :], axis=2).min(axis=1)
+        out.append(surface[gaps <= gaps.min() + 0.01].mean(axis=0))
+    return np.array(out)
+
+
+def test_a_hand_the_source_touches_its_body_with_comes_onto_the_target_s_at_the_same_place(vegas, core_native):
+    """The source's hand on the belly (the swing stopped 0.7-1.4 cm off it on its middle eight frames, touching
+    by touching()); the target the same character with the arm only half-way there: asked to touch at the source's places (touch_places), its
+    hand comes onto the belly where the source's touches it, by the mesh skinned independently (the centre of
+    the skin it touches within 3 cells of the source's: half a cell kept off the skin, the field's sqrt(3)/2
+    cell, the hand's samples a cell apart, and half a cell as the hand lies turned: here it keeps the
+    target's own orientation, where a retarget gives it the source's; measured 3.2-4.0 cm, cells of 1.6 cm),
+    its arm kept out; where the nearest way takes it (no places), more than 10 cm from there (14.6-15.5)."""
+    rig, mesh = vegas
+    body = body_module.Body.of(rig, mesh)
+    source, locations = _into_the_belly(rig, reach=0.92), np.zeros((FRAMES, 3 * len(rig)))
+    orientations, heads = core_native.armature_pose(rig.native, source, locations)
+    touches = body_clearance.touching(body, orientations, heads)
+    places = body_clearance.touch_places(body, orientations, heads, touches)
+    middle = slice(26, 34, 2)
+    assert touches["L"][26:34].all() and not touches["R"].any()
+    assert {rig.names[b] for b in places["L"].bone[touches["L"]]} <= {"mixamorig:Spine", "mixamorig:Spine1",
+                                                                      "mixamorig:Spine2", "mixamorig:Hips"}
+    touched = _touch_patch(rig, mesh, _skinned(rig, mesh, source[middle])[0])
+    gaps = {}
+    for kind, given in (("place", places), ("nearest", None)):
+        after = _into_the_belly(rig, reach=0.5)
+        body_clearance.clear(body, after, locations, FPS, touches=touches, places=given)
+        world = _skinned(rig, mesh, after[middle])[0]
+        gaps[kind] = np.linalg.norm(_touch_patch(rig, mesh, world) - touched, axis=1)
+        assert _arm_inside(rig, mesh, world).max() <= 0.01
+    assert gaps["place"].max() < 3.0 * body.spacing
+    assert gaps["nearest"].min() > 0.1

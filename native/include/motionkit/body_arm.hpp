@@ -6,8 +6,10 @@
 // A point p on the forearm moves to qs qe (p - elbow) + elbow', on the hand to p - wrist + wrist', where
 // qs and qe are the shoulder's and the elbow's turns, elbow' = qs (elbow - shoulder) + shoulder and wrist' =
 // qs qe (wrist - elbow) + elbow'. Each step solves (J^T J + w^2 I) step = J^T r over the points nearer the
-// body than wanted (r: how much nearer; J: a point's distance moves by a turn's cross product with its lever
-// arm, the lever of the elbow's turn on a hand point being the forearm), each joint's step at most max_step.
+// body than wanted (r: how much nearer; J: a point's distance moves by the shoulder's turn's cross product
+// with its lever from the shoulder, and by the elbow's, in the shoulder-turned space, with its lever from
+// the elbow where the arm is now) and, on a frame to touch a goal, the three rows of the hand's point
+// nearest it; each joint's step at most max_step, taken on by each turn (qs <- exp(step) qs, qe the same).
 #pragma once
 
 #include <Eigen/Core>
@@ -32,17 +34,24 @@ namespace motionkit {
 //   frames:          the frames to solve (indices into F, any order, each once)
 //   wanted:          F: the distance every point is to keep from the body
 //   touch:           F: nonzero where the hand's point nearest the body is brought to touch_distance (from
-//                    either side) rather than kept out
+//                    either side) rather than kept out, or where goals has a finite row, the hand's point
+//                    nearest that goal onto it (the rest of the arm kept out)
+//   goals:           F x 3 (or 0 rows for none): where a touching hand goes (a place on the body)
+//   contacts:        F x 3 (or 0 rows: the hand's point nearest the goal): the point of the hand, posed, that
+//                    goes onto the goal (it rides on the hand, carried by the wrist)
 //   turns:           F x 6 in and out: on the frames solved, where the solve starts and what it found (the
 //                    shoulder's then the elbow's rotation vector); iterations 0 reads only
 //   least, hand:     one per frame solved, out: after the turns, the nearest of the points' distances and of
-//                    the hand's (+inf where none is read)
+//                    the hand's (+inf where none is read); gap: the hand's nearest point's distance to the
+//                    frame's goal (0 where it has none)
 struct BodyArmJob {
   BodyArmJob(BodyFieldView field_in, ConstMatrixView orientations_in, ConstMatrixView heads_in,
              std::array<int, 3> arm_in, std::vector<int> point_bones_in, ConstMatrixView point_local_in,
              std::vector<int> on_hand_in, std::vector<int> frames_in, ConstVectorView wanted_in,
-             std::vector<int> touch_in, Eigen::Ref<RowMatrixXd> turns_io, Eigen::Ref<Eigen::VectorXd> least_out,
-             Eigen::Ref<Eigen::VectorXd> hand_out)
+             std::vector<int> touch_in, ConstMatrixView goals_in, ConstMatrixView contacts_in,
+             Eigen::Ref<RowMatrixXd> turns_io,
+             Eigen::Ref<Eigen::VectorXd> least_out, Eigen::Ref<Eigen::VectorXd> hand_out,
+             Eigen::Ref<Eigen::VectorXd> gap_out)
       : field(std::move(field_in)),
         orientations(orientations_in),
         heads(heads_in),
@@ -53,9 +62,12 @@ struct BodyArmJob {
         frames(std::move(frames_in)),
         wanted(wanted_in),
         touch(std::move(touch_in)),
+        goals(goals_in),
+        contacts(contacts_in),
         turns(turns_io),
         least(least_out),
-        hand(hand_out) {}
+        hand(hand_out),
+        gap(gap_out) {}
 
   BodyFieldView field;
   ConstMatrixView orientations;
@@ -67,9 +79,12 @@ struct BodyArmJob {
   std::vector<int> frames;
   ConstVectorView wanted;
   std::vector<int> touch;
+  ConstMatrixView goals;
+  ConstMatrixView contacts;
   Eigen::Ref<RowMatrixXd> turns;
   Eigen::Ref<Eigen::VectorXd> least;
   Eigen::Ref<Eigen::VectorXd> hand;
+  Eigen::Ref<Eigen::VectorXd> gap;
   double touch_distance = 0.0;
   int iterations = 6;        // Gauss-Newton steps a frame at most
   double turn_weight = 0.05;  // w: the least turn, shared between the joints

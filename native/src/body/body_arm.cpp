@@ -25,11 +25,20 @@ constexpr double kConverged = 1e-2;
 
 // One thread's per-point buffers (S each).
 struct Scratch {
-  explicit Scratch(std::size_t count) : posed(count), moved(count), slope(count), distance(count) {}
+  explicit Scratch(std::size_t count)
+      : posed(count),
+        moved(count),
+        slope(count),
+        distance(count),
+        shoulder_turn(Eigen::Matrix3d::Identity()),
+        elbow(Eigen::Vector3d::Zero()),
+        wrist(Eigen::Vector3d::Zero()) {}
   std::vector<Eigen::Vector3d> posed;
   std::vector<Eigen::Vector3d> moved;
   std::vector<Eigen::Vector3d> slope;
   std::vector<double> distance;
+  Eigen::Matrix3d shoulder_turn;   // where Move last put the arm: the shoulder's turn, the elbow and the wrist
+  Eigen::Vector3d elbow, wrist;
 };
 
 Eigen::Vector3d Head(const BodyArmJob& job, Eigen::Index frame, int bone) {
@@ -65,6 +74,9 @@ class ArmFrame {
     const Eigen::Quaterniond qs = FromRotationVector(t.head<3>()), both = qs * FromRotationVector(t.tail<3>());
     const Eigen::Vector3d new_elbow = qs * (elbow_ - shoulder_) + shoulder_;
     const Eigen::Vector3d new_wrist = both * (wrist_ - elbow_) + new_elbow;
+    s_.shoulder_turn = qs.toRotationMatrix();
+    s_.elbow = new_elbow;
+    s_.wrist = new_wrist;
     for (std::size_t n = 0; n < s_.moved.size(); ++n) {
       const Eigen::Vector3d& p = s_.posed[n];
       s_.moved[n] = job_.on_hand[n] ? Eigen::Vector3d(p - wrist_ + new_wrist) : Eigen::Vector3d(both * (p - elbow_) + new_elbow);
@@ -92,14 +104,31 @@ class ArmFrame {
     Move(t);
     Read(true);
     const double wanted = job_.wanted[frame_];
-    const int nearest = job_.touch[static_cast<std::size_t>(frame_)] ? NearestOnHand() : -1;
+    const bool touch = job_.touch[static_cast<std::size_t>(frame_)] != 0, to_goal = touch && HasGoal();
+    const bool contact = to_goal && job_.contacts.rows() != 0;
+    const int nearest = contact ? -1 : to_goal ? NearestToGoal() : touch ? NearestOnHand() : -1;
     Matrix6d normal = job_.turn_weight * job_.turn_weight * Matrix6d::Identity();
     Vector6d rhs = Vector6d::Zero();
     bool short_of_it = false;
+    if (to_goal && (contact || nearest >= 0)) {
+      // The hand's contact point (or its point nearest the goal) onto the goal: a point moves by each turn's
+      // cross product with its lever.
+      const std::size_t n = static_cast<std::size_t>(std::max(nearest, 0));
+      const Eigen::Vector3d point = contact ? Contact() : s_.moved[n];
+      const Eigen::Vector3d lever = contact ? Eigen::Vector3d(s_.wrist - s_.elbow) : Lever(n);
+      const Eigen::Vector3d r = Goal() - point;
+      short_of_it = r.norm() > kConverged * job_.field.spacing;
+      Eigen::Matrix<double, 3, 6> rows;
+      rows << -Skew(point - shoulder_), -Skew(lever) * s_.shoulder_turn;
+      normal.noalias() += rows.transpose() * rows;
+      rhs.noalias() += rows.transpose() * r;
+    }
     for (std::size_t n = 0; n < s_.moved.size(); ++n) {
       const double d = s_.distance[n];
       double r;
-      if (static_cast<int>(n) == nearest) {
+      if (static_cast<int>(n) == nearest && to_goal) {
+        continue;
+      } else if (static_cast<int>(n) == nearest) {
         r = job_.touch_distance - d;
       } else if (std::isfinite(d) && wanted - d > 0.0) {
         r = wanted - d;
@@ -108,9 +137,8 @@ class ArmFrame {
       }
       short_of_it = short_of_it || std::abs(r) > kConverged * job_.field.spacing;
       const Eigen::Vector3d& g = s_.slope[n];
-      const Eigen::Vector3d lever = job_.on_hand[n] ? Eigen::Vector3d(wrist_ - elbow_) : Eigen::Vector3d(s_.moved[n] - elbow_);
       Vector6d row;
-      row << (s_.moved[n] - shoulder_).cross(g), lever.cross(g);
+      row << (s_.moved[n] - shoulder_).cross(g), s_.shoulder_turn.transpose() * Lever(n).cross(g);
       normal.noalias() += row * row.transpose();
       rhs += r * row;
     }
@@ -121,22 +149,70 @@ class ArmFrame {
       const double size = step.segment<3>(3 * joint).norm();
       if (size > job_.max_step) step.segment<3>(3 * joint) *= job_.max_step / size;
     }
-    t += step;
+    // Each turn taken on by the step's turn before it, in the space the Jacobian's rows are in: the
+    // shoulder's in the armature's, the elbow's in the shoulder-turned one (the forearm turns by qs qe).
+    t.head<3>() = Compose(step.head<3>(), t.head<3>());
+    t.tail<3>() = Compose(step.tail<3>(), t.tail<3>());
     return true;
   }
 
-  // The nearest and the hand's nearest distance where t puts the arm.
-  void Measure(const Vector6d& t, double& least, double& hand) {
+  // The nearest and the hand's nearest distance where t puts the arm, and how far the hand is from its goal
+  // (0 where it has none).
+  void Measure(const Vector6d& t, double& least, double& hand, double& gap) {
     Move(t);
     Read(false);
     least = hand = kInf;
+    gap = 0.0;
     for (std::size_t n = 0; n < s_.moved.size(); ++n) {
       least = std::min(least, s_.distance[n]);
       if (job_.on_hand[n]) hand = std::min(hand, s_.distance[n]);
     }
+    if (!HasGoal()) return;
+    if (job_.contacts.rows() != 0) {
+      gap = (Goal() - Contact()).norm();
+      return;
+    }
+    const int nearest = NearestToGoal();
+    if (nearest >= 0) gap = (Goal() - s_.moved[static_cast<std::size_t>(nearest)]).norm();
   }
 
  private:
+  bool HasGoal() const { return job_.goals.rows() != 0 && job_.goals.row(frame_).allFinite(); }
+  Eigen::Vector3d Goal() const { return job_.goals.row(frame_).transpose(); }
+  // The hand's contact point where Move last put the arm: carried by the wrist, as the hand's points are.
+  Eigen::Vector3d Contact() const { return job_.contacts.row(frame_).transpose() - wrist_ + s_.wrist; }
+
+  int NearestToGoal() const {
+    int found = -1;
+    double best = kInf;
+    for (std::size_t n = 0; n < s_.moved.size(); ++n) {
+      const double d = (s_.moved[n] - Goal()).squaredNorm();
+      if (job_.on_hand[n] && d < best) {
+        best = d;
+        found = static_cast<int>(n);
+      }
+    }
+    return found;
+  }
+
+  // How a turn of the elbow moves point n (its lever: from the elbow where the arm is now, to the point on
+  // the forearm, to the wrist for a hand point, which the wrist carries).
+  Eigen::Vector3d Lever(std::size_t n) const {
+    return job_.on_hand[n] ? Eigen::Vector3d(s_.wrist - s_.elbow) : Eigen::Vector3d(s_.moved[n] - s_.elbow);
+  }
+
+  // The rotation vector of turning by b, then by a.
+  static Eigen::Vector3d Compose(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+    const Eigen::AngleAxisd both(FromRotationVector(a) * FromRotationVector(b));
+    return both.angle() * both.axis();
+  }
+
+  static Eigen::Matrix3d Skew(const Eigen::Vector3d& v) {
+    Eigen::Matrix3d m;
+    m << 0.0, -v.z(), v.y(), v.z(), 0.0, -v.x(), -v.y(), v.x(), 0.0;
+    return m;
+  }
+
   int NearestOnHand() const {
     int found = -1;
     for (std::size_t n = 0; n < s_.moved.size(); ++n) {
@@ -174,8 +250,11 @@ Status BodyArmJob::Validate() const {
     return Status::Fail("body arm: one finite offset and one on_hand a point");
   }
   if (wanted.size() != all || static_cast<Eigen::Index>(touch.size()) != all || turns.rows() != all ||
-      turns.cols() != 6 || least.size() != static_cast<Eigen::Index>(frames.size()) || hand.size() != least.size()) {
-    return Status::Fail("body arm: wanted, touch and turns of every frame, least and hand of each solved");
+      turns.cols() != 6 || least.size() != static_cast<Eigen::Index>(frames.size()) || hand.size() != least.size() ||
+      gap.size() != least.size() || (goals.rows() != 0 && (goals.rows() != all || goals.cols() != 3)) ||
+      (contacts.rows() != 0 && (goals.rows() == 0 || contacts.rows() != all || contacts.cols() != 3))) {
+    return Status::Fail("body arm: wanted, touch, turns (and goals, contacts) of every frame, least, hand and gap of "
+                        "each solved");
   }
   if (iterations < 0 || !(turn_weight > 0.0) || !(max_step > 0.0) || !std::isfinite(touch_distance)) {
     return Status::Fail("body arm: iterations >= 0, turn_weight and max_step > 0, a finite touch_distance");
@@ -209,7 +288,7 @@ void BodyArmJob::Run() {
       }
       if (!t.allFinite()) t.setZero();  // never seen; a frame left as it was, never made not finite
       turns.row(f) = t.transpose();
-      arm_frame.Measure(t, least[i], hand[i]);
+      arm_frame.Measure(t, least[i], hand[i], gap[i]);
     }
   });
 }

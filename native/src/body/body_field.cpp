@@ -65,7 +65,8 @@ Vec3 Vertex(const BodyFieldJob& job, Eigen::Index t, int corner) {
   return job.vertices.row(job.triangles(t, corner)).transpose();
 }
 
-// The exact distance, nearest point and its bone in every cell within two cells of a triangle.
+// The exact distance (squared, as the sweeps compare it, until Run takes its root), nearest point and its
+// bone in every cell within two cells of a triangle.
 void NearSurface(BodyFieldJob& job, const Grid& grid, std::vector<Vec3>& nearest) {
   const double band = 2.0 * job.spacing;
   for (Eigen::Index t = 0; t < job.triangles.rows(); ++t) {
@@ -79,7 +80,7 @@ void NearSurface(BodyFieldJob& job, const Grid& grid, std::vector<Vec3>& nearest
         for (int k = sk[0]; k <= sk[1]; ++k) {
           const Vec3 centre = grid.Centre(i, j, k);
           const Vec3 point = ClosestOnTriangle(centre, v[0], v[1], v[2]);
-          const double d = (point - centre).norm();
+          const double d = (point - centre).squaredNorm();
           const Eigen::Index cell = grid.Cell(i, j, k);
           if (d >= job.distance[cell]) continue;
           job.distance[cell] = d;
@@ -118,7 +119,7 @@ void Sweep(BodyFieldJob& job, const Grid& grid, std::vector<Vec3>& nearest, int 
               const Eigen::Index from = grid.Cell(a, b, c);
               if (!std::isfinite(job.distance[from])) continue;
               const Vec3& point = nearest[static_cast<std::size_t>(from)];
-              const double d = (point - centre).norm();
+              const double d = (point - centre).squaredNorm();
               if (d < job.distance[cell]) {
                 job.distance[cell] = d;
                 nearest[static_cast<std::size_t>(cell)] = point;
@@ -245,6 +246,7 @@ void BodyFieldJob::Run() {
     for (std::size_t cell = 0; cell < votes.size(); ++cell) votes[cell] = static_cast<std::uint8_t>(votes[cell] + along[cell]);
   }
   for (Eigen::Index cell = 0; cell < distance.size(); ++cell) {
+    distance[cell] = std::sqrt(distance[cell]);
     if (votes[static_cast<std::size_t>(cell)] >= 2) distance[cell] = -distance[cell];
   }
 }
