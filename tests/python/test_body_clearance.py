@@ -122,21 +122,27 @@ def test_strength_scales_the_turn_and_a_side_left_out_is_left(vegas, core_native
     np.testing.assert_array_equal(none, before)
 
 
-def _hand_gap(rig, mesh, world):
-    """(frames,) the left hand's vertices' nearest distance to the trunk, head and thighs (0 inside), against
-    the skin sampled six a triangle's side (tests/python/test_body.py's way)."""
+def _body_skin(rig, mesh):
+    """(the trunk, head and thighs' triangles, the left hand's vertices (bools), a function of a posed mesh's
+    vertices giving its body skin sampled six a triangle's side: tests/python/test_body.py's way)."""
     from test_body import _surface_samples
     from core.skinned_mesh import SkinnedMesh
     labels = body_module.parts(rig, rig.body)
     on_body = np.array([b >= 0 and labels[b] in body_module.BODY_PARTS for b in mesh.bone])
     triangles = mesh.triangles[on_body[mesh.triangles].all(axis=1)]
     hand = mesh.bone == rig.index("mixamorig:LeftHand")
+    return triangles, hand, lambda w: _surface_samples(SkinnedMesh(w, triangles, mesh.bone, mesh.weight))
+
+
+def _hand_gap(rig, mesh, world):
+    """(frames,) the left hand's vertices' nearest distance to the trunk, head and thighs (0 inside)."""
+    triangles, hand, skin = _body_skin(rig, mesh)
     out = []
     for w in world:
         if np.any(bodies.winding_numbers(w[hand], w, triangles) > 0.5):
             out.append(0.0)
             continue
-        surface = _surface_samples(SkinnedMesh(w, triangles, mesh.bone, mesh.weight))
+        surface = skin(w)
         out.append(min(np.sqrt(((surface - p) ** 2).sum(axis=1).min()) for p in w[hand][::4]))
     return np.array(out)
 
@@ -177,15 +183,10 @@ def _touch_patch(rig, mesh, world):
     """(frames, 3) where the left hand touches the body on each frame of the mesh skinned independently: the
     centre of the trunk, head and thighs' skin (sampled six a triangle's side) within a centimetre more than
     the nearest of the hand's vertices is of it (a patch: the nearest single point jumps about a flat hand)."""
-    from test_body import _surface_samples
-    from core.skinned_mesh import SkinnedMesh
-    labels = body_module.parts(rig, rig.body)
-    on_body = np.array([b >= 0 and labels[b] in body_module.BODY_PARTS for b in mesh.bone])
-    triangles = mesh.triangles[on_body[mesh.triangles].all(axis=1)]
-    hand = mesh.bone == rig.index("mixamorig:LeftHand")
+    _, hand, skin = _body_skin(rig, mesh)
     out = []
     for w in world:
-        surface = _surface_samples(SkinnedMesh(w, triangles, mesh.bone, mesh.weight))
+        surface = skin(w)
         gaps = np.linalg.norm(surface[:, None, :] - w[hand][None, ::2, :], axis=2).min(axis=1)
         out.append(surface[gaps <= gaps.min() + 0.01].mean(axis=0))
     return np.array(out)
