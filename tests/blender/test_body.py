@@ -111,7 +111,9 @@ def test_the_preview_plays_the_arms_kept_out_and_strength_and_off_change_it(mk, 
         assert bpy.ops.motionkit.retarget_preview_cancel() == {'FINISHED'}
     finally:
         ui_preview.stop(settings)
-        settings.property_unset("scene_from_clip")
+        settings.pairs.clear()  # the scene's panel as the next tests expect it
+        for prop in ("scene_from_clip", "source_kind", "source", "target", "body", "body_strength"):
+            settings.property_unset(prop)
 
 
 def test_a_library_onto_a_character_keeps_its_arms_out_and_its_report_says_so(mk, bodies_dir, tmp_path):
