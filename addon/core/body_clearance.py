@@ -193,16 +193,17 @@ def touch_places(body: Body, orientations, heads, touching: dict) -> dict:
 
 
 def _carrier_at(body: Body, points, orientations, heads) -> np.ndarray:
-    """(N,) per point (N, 3; the pose's frame N) the carrier whose part of the field holds it (the one it
-    reads nearest the skin through, as Body.posed reads), -1 for none."""
+    """(N,) per point (N, 3; the pose's frame N) the carrier whose part of the field holds it: of those that
+    own the cell it maps to, the one reading the least signed distance, as Body.posed's native read takes
+    it, -1 for none."""
     rig, best, found = body.rig, np.full(len(points), np.inf), np.full(len(points), -1)
     for b in body.carriers:
         to_rest = rotation_channels.multiply(np.broadcast_to(rig.unit_rest[b], (len(points), 4)),
                                              rotation_channels.conjugate(orientations[:, 4 * b:4 * b + 4]))
         rest = rotation_channels.rotate_each(to_rest, points - heads[:, 3 * b:3 * b + 3]) + rig.heads[b]
         distance, owner = body.at_rest(rest)
-        better = (owner == b) & (np.abs(distance) < best)
-        best, found = np.where(better, np.abs(distance), best), np.where(better, b, found)
+        better = (owner == b) & (distance < best)
+        best, found = np.where(better, distance, best), np.where(better, b, found)
     return found
 
 
