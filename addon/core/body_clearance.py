@@ -243,7 +243,8 @@ def clear(body: Body, rotations, locations, fps: float, clearance: dict | None =
     (frames,) where the hand is to touch the body (the source's own touches): there a hand farther than a
     cell from the body is brought onto it, the rest of the arm kept out: at the corresponding place where
     places (per side, a Place on this rig's bones: the source's touch_places, mapped) has one on the
-    frame (the hand's point nearest it onto the skin there, half a cell off), else the nearest way."""
+    frame that the hand reaches with the arm kept out (_reachable; the hand's point nearest it onto the
+    skin there, half a cell off), else the nearest way."""
     rig = body.rig
     native = native_state.native()
     orientations, heads = native.armature_pose(rig.native, np.ascontiguousarray(rotations),
@@ -260,6 +261,8 @@ def clear(body: Body, rotations, locations, fps: float, clearance: dict | None =
         count = len(rotations)
         place = (places or {}).get(arm.side)
         goals, contacts = (None, None) if place is None else _goals(body, arm, place, orientations, heads)
+        if goals is not None:
+            goals = _reachable(body, arm, orientations, heads, wanted, touch, (goals, contacts))
         spread = np.zeros((count, 6))
         needed = _needed(body, arm, orientations, heads, spread, touch, np.arange(count), (goals, contacts))
         went_in[arm.side], turns[arm.side] = needed, np.zeros((count, 6))
@@ -284,6 +287,23 @@ def clear(body: Body, rotations, locations, fps: float, clearance: dict | None =
         turns[arm.side] = strength * spread
         _apply(rotations, orientations, arm, turns[arm.side])
     return Cleared(went_in, turns)
+
+
+def _reachable(body: Body, arm: Arm, orientations, heads, wanted, touch, goals) -> np.ndarray:
+    """goals[0] (frames, 3) kept on the touching frames where the arm's solve brings the hand onto its goal
+    (within a cell) with the rest of the arm out of the body (within half a cell, the field's precision),
+    NaN on the others: there the hand touches the nearest way. The clearance comes first: a place the
+    target's hand cannot reach from outside its body (a far side of a bigger head, past the belly) would
+    drag the arm through the body to it, or leave the hand short of the body, off it."""
+    on = np.flatnonzero(touch & np.all(np.isfinite(goals[0]), axis=1))
+    if not len(on):
+        return goals[0]
+    _, measured = _arm(body, arm, orientations, heads, wanted, np.zeros((len(orientations), 6)), touch, on,
+                       ROUNDS * ITERATIONS, goals)
+    reached = (measured.least >= -0.5 * body.spacing) & (measured.gap <= body.spacing)
+    kept = goals[0].copy()
+    kept[on[~reached]] = np.nan
+    return kept
 
 
 def _quaternions(rotvecs) -> np.ndarray:

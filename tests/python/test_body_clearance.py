@@ -220,3 +220,25 @@ def test_a_hand_the_source_touches_its_body_with_comes_onto_the_target_s_at_the_
         assert _arm_inside(rig, mesh, world).max() <= 0.01
     assert gaps["place"].max() < 3.0 * body.spacing
     assert gaps["nearest"].min() > 0.1
+
+
+def test_a_place_the_hand_cannot_reach_from_outside_the_body_is_touched_the_nearest_way(vegas, core_native):
+    """The source's touch place moved to the far side of the target's body (its offset from the spine bone
+    turned to the back, where the belly is in front): reaching it would take the arm through the body (driven
+    there it goes 66-77 % inside). The clearance comes first: the arm stays out (at most 1 % inside, as the
+    other tests) and the hand, 5 cm off the belly before, touches the nearest way (within two cells of the
+    skin, as the nearest-way test: measured 1.1-2.3 cm, cells of 1.6 cm)."""
+    rig, mesh = vegas
+    body = body_module.Body.of(rig, mesh)
+    source, locations = _into_the_belly(rig, reach=0.92), np.zeros((FRAMES, 3 * len(rig)))
+    orientations, heads = core_native.armature_pose(rig.native, source, locations)
+    touches = body_clearance.touching(body, orientations, heads)
+    place = body_clearance.touch_places(body, orientations, heads, touches)["L"]
+    behind = place.offset * np.array([1.0, -1.0, 1.0])  # the front is +Y here: the belly's vertices reach it
+    assert np.nanmin(behind[:, 1]) < -0.2  # 20 cm behind the spine bone's head at least
+    after = _into_the_belly(rig, reach=0.87)
+    body_clearance.clear(body, after, locations, FPS, touches=touches,
+                         places={"L": body_clearance.Place(place.bone, behind, place.hand)})
+    world = _skinned(rig, mesh, after[26:34:2])[0]
+    assert _arm_inside(rig, mesh, world).max() <= 0.01
+    assert _hand_gap(rig, mesh, world).max() < 2.0 * body.spacing
