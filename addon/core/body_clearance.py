@@ -18,9 +18,12 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import bone_mapping, native_state, rotation_channels
-from .body import ARM_PARTS, MARGIN, Body
+from .body import ARM_PARTS, BODY_PARTS, MARGIN, Body
 
 SAMPLES = 64          # skin points per arm, spread over its forearm and hand (farthest-point order)
+# Body skin points (farthest-point order) a hand is brought toward where the field does not reach it: on a
+# 1.8 m character's 1.8 square metres of skin, one about every 4 cm (the field takes it onto the skin).
+SKIN_SAMPLES = 1024
 ITERATIONS = 6        # Gauss-Newton steps per frame
 # Below this of the turn (radians) both joints are alike to the solve: the least turn is the one it takes.
 # A tenth of a radian's weight against a lever of half a metre: a centimetre of reach costs 0.01 rad.
@@ -83,6 +86,31 @@ def _find_arms(body: Body) -> list[Arm]:
         on_hand = np.array([rig.is_below(int(b), hand) for b in bones], dtype=bool)
         out.append(Arm(side, upper, fore, hand, bones, local, on_hand))
     return out
+
+
+@dataclass(frozen=True)
+class Skin:
+    """The body's skin points a hand far from it is brought toward: the bone each rides on (K,) and its offset
+    in that bone's rest frame (K, 3)."""
+    bones: np.ndarray
+    local: np.ndarray
+
+
+def skin(body: Body) -> Skin:
+    """SKIN_SAMPLES of the body's (trunk, head, thighs) vertices, spread farthest-point, found once a body."""
+    found = _SKIN.get(body)
+    if found is None:
+        rig, mesh = body.rig, body.mesh
+        on = np.flatnonzero([b >= 0 and body.part[b] in BODY_PARTS for b in mesh.bone])
+        chosen = on[_spread(mesh.vertices[on], SKIN_SAMPLES)]
+        bones = mesh.bone[chosen]
+        local = rotation_channels.rotate_each(rotation_channels.conjugate(rig.unit_rest[bones]),
+                                              mesh.vertices[chosen] - rig.heads[bones])
+        found = _SKIN[body] = Skin(bones, local)
+    return found
+
+
+_SKIN: "weakref.WeakKeyDictionary[Body, Skin]" = weakref.WeakKeyDictionary()
 
 
 def _spread(points, count: int) -> np.ndarray:
@@ -156,12 +184,14 @@ def _measured(body: Body, arm: Arm, orientations, heads):
 @dataclass(frozen=True)
 class Place:
     """Where one arm's hand touches the body on each frame: bone (frames,) the body bone carrying the place
-    (-1 where it touches nowhere), offset (frames, 3) the place less that bone's posed head, and hand
-    (frames, 3) the hand's point that touches it less the hand's posed head, in the armature's space (NaN
-    where bone is -1)."""
+    (-1 where it touches nowhere), offset (frames, 3) the place less that bone's posed head, in the
+    armature's space, and hand (frames, 3) the hand's point that touches it less the hand's posed head,
+    turned back by the hand's turn from its rest (where that point is on the hand at rest) (NaN where bone is
+    -1); reach: that hand's length (hand_reach), what the hand's offset is a share of."""
     bone: np.ndarray
     offset: np.ndarray
     hand: np.ndarray
+    reach: float
 
 
 def touch_places(body: Body, orientations, heads, touching: dict) -> dict:
@@ -187,9 +217,20 @@ def touch_places(body: Body, orientations, heads, touching: dict) -> dict:
             bone[frames[found]] = carrier[found]
             held = np.flatnonzero(found)
             offset[frames[held]] = on_skin[held] - h[held[:, None], 3 * carrier[held][:, None] + np.arange(3)]
-            hand[frames[held]] = points[rows, nearest][held] - h[held, 3 * arm.hand:3 * arm.hand + 3]
-        out[arm.side] = Place(bone, offset, hand)
+            hand[frames[held]] = rotation_channels.rotate_each(
+                rotation_channels.conjugate(_hand_turn(body, arm, o[held])),
+                points[rows, nearest][held] - h[held, 3 * arm.hand:3 * arm.hand + 3])
+        out[arm.side] = Place(bone, offset, hand, hand_reach(body, arm))
     return out
+
+
+def hand_reach(body: Body, arm: Arm) -> float:
+    """How far the arm's hand skin reaches from its wrist (the hand bone's head) at rest: its length."""
+    rig, on = body.rig, arm.on_hand
+    if not on.any():
+        return 0.0
+    rest = rotation_channels.rotate_each(rig.unit_rest[arm.bones[on]], arm.local[on]) + rig.heads[arm.bones[on]]
+    return float(np.linalg.norm(rest - rig.heads[arm.hand], axis=1).max())
 
 
 def _carrier_at(body: Body, points, orientations, heads) -> np.ndarray:
@@ -223,14 +264,80 @@ def _goals(body: Body, arm: Arm, place: Place, orientations, heads) -> tuple:
     if not len(on):
         return None, None
     wanted = heads[on[:, None], 3 * place.bone[on][:, None] + np.arange(3)] + place.offset[on]
-    distance, slope = body.posed_with_gradient(wanted[:, None, :], orientations[on], heads[on])
+    goals, contacts = np.full((len(orientations), 3), np.nan), np.zeros((len(orientations), 3))
+    goals[on] = _off_skin(body, wanted, orientations[on], heads[on])
+    # The same share of the target's hand as the source's touching point is of its own: scaled as the body is,
+    # a cartoon glove's fingertip would be a hand's length beyond a slim hand's fingers.
+    # On the hand as it is turned on each frame (the hand keeps the target's orientation, which need not be the
+    # source's), the same share of its length, and there the hand's own skin point nearest: hands are not alike
+    # in shape either (a cartoon glove's fingertip, shrunk to a slim hand's length, is off its fingers).
+    size = hand_reach(body, arm) / place.reach if place.reach > 0.0 else 1.0
+    mapped = heads[on, 3 * arm.hand:3 * arm.hand + 3] + rotation_channels.rotate_each(
+        _hand_turn(body, arm, orientations[on]), size * place.hand[on])
+    skin = _posed(arm, orientations[on], heads[on])[:, arm.on_hand]
+    nearest = np.argmin(np.linalg.norm(skin - mapped[:, None, :], axis=2), axis=1)
+    contacts[on] = skin[np.arange(len(on)), nearest]
+    return goals, contacts
+
+
+def _hand_turn(body: Body, arm: Arm, orientations) -> np.ndarray:
+    """(frames, 4) the hand's turn from its rest on each frame of a pose (armature space)."""
+    rest = np.broadcast_to(body.rig.unit_rest[arm.hand], (len(orientations), 4))
+    return rotation_channels.multiply(orientations[:, 4 * arm.hand:4 * arm.hand + 4], rotation_channels.conjugate(rest))
+
+
+def _off_skin(body: Body, points, orientations, heads) -> np.ndarray:
+    """(N, 3) the points (N, 3; on the pose's frames N) each taken along the field's gradient to half a cell
+    off the skin (NaN where the field does not reach one)."""
+    distance, slope = body.posed_with_gradient(points[:, None, :], orientations, heads)
     d, g = distance[:, 0], slope[:, 0]
     size = np.linalg.norm(g, axis=1)
     fine = np.isfinite(d) & (size > 1e-12)
-    goals, contacts = np.full((len(orientations), 3), np.nan), np.zeros((len(orientations), 3))
-    goals[on[fine]] = (wanted - ((d - 0.5 * body.spacing) / np.maximum(size, 1e-12))[:, None] * g)[fine]
-    contacts[on] = heads[on, 3 * arm.hand:3 * arm.hand + 3] + place.hand[on]
+    out = np.full((len(points), 3), np.nan)
+    out[fine] = points[fine] - ((d[fine] - 0.5 * body.spacing) / size[fine])[:, None] * g[fine]
+    return out
+
+
+def _nearest_goals(body: Body, arm: Arm, orientations, heads, frames, fps: float) -> tuple:
+    """(goals, contacts) as _goals gives them, on frames (indices): the body's skin point (skin()) nearest
+    the hand's skin, half a cell off, and the hand's point nearest it, each averaged over the frames around
+    (Gaussian, SPREAD: the goal relative to the body's first carrier, the hand's point to the wrist). The
+    field's gradient takes a hand near the body the nearest way, but it reaches only MARGIN beyond the skin:
+    a longer arm's hand, farther, is pulled by nothing. Averaged, since from afar the nearest pair of points
+    jumps from frame to frame (a finger, then the wrist; the belly, then a thigh), and the arm would with it."""
+    count = len(orientations)
+    found, touching = np.full((count, 3), np.nan), np.full((count, 3), np.nan)
+    on_skin = skin(body)
+    base, wrist = 3 * int(body.carriers[0]), 3 * arm.hand
+    for start in range(0, len(frames), 64):  # (64, hand, skin) distances at a time: a few megabytes
+        chunk = frames[start:start + 64]
+        o, h = orientations[chunk], heads[chunk]
+        hand, body_points = _posed(arm, o, h)[:, arm.on_hand], _posed(on_skin, o, h)
+        gaps = np.linalg.norm(hand[:, :, None, :] - body_points[:, None, :, :], axis=3)
+        flat = np.argmin(gaps.reshape(len(chunk), -1), axis=1)
+        rows, which, where = np.arange(len(chunk)), flat // gaps.shape[2], flat % gaps.shape[2]
+        found[chunk] = body_points[rows, where] - h[:, base:base + 3]
+        touching[chunk] = hand[rows, which] - h[:, wrist:wrist + 3]
+    goals, contacts = np.full((count, 3), np.nan), np.zeros((count, 3))
+    found, touching = _averaged(found, fps), _averaged(touching, fps)
+    goals[frames] = _off_skin(body, found[frames] + heads[frames, base:base + 3], orientations[frames], heads[frames])
+    contacts[frames] = touching[frames] + heads[frames, wrist:wrist + 3]
     return goals, contacts
+
+
+def _averaged(values, fps: float) -> np.ndarray:
+    """(frames, 3) values averaged over the frames around each (Gaussian, SPREAD) where they are finite, NaN
+    where they are not."""
+    sigma = max(SPREAD * fps, 1e-9)
+    reach = int(np.ceil(4.0 * sigma))
+    kernel = np.exp(-0.5 * (np.arange(-reach, reach + 1) / sigma) ** 2)
+    present = np.all(np.isfinite(values), axis=1)
+    filled = np.where(present[:, None], values, 0.0)
+    centred = lambda v: np.convolve(v, kernel)[reach:reach + len(values)]  # noqa: E731
+    total = centred(present.astype(float))
+    out = np.stack([centred(filled[:, k]) for k in range(3)], axis=1) / np.maximum(total, 1e-300)[:, None]
+    out[~present] = np.nan
+    return out
 
 
 def clear(body: Body, rotations, locations, fps: float, clearance: dict | None = None, strength: float = 1.0,
@@ -259,10 +366,8 @@ def clear(body: Body, rotations, locations, fps: float, clearance: dict | None =
         touch = np.zeros(len(rotations), dtype=bool) if (touches or {}).get(arm.side) is None else \
             np.asarray(touches[arm.side], dtype=bool) & arm.on_hand.any()
         count = len(rotations)
-        place = (places or {}).get(arm.side)
-        goals, contacts = (None, None) if place is None else _goals(body, arm, place, orientations, heads)
-        if goals is not None:
-            goals = _reachable(body, arm, orientations, heads, wanted, touch, (goals, contacts))
+        goals, contacts, tried = _touch_goals(body, arm, (places or {}).get(arm.side), orientations, heads, wanted,
+                                              touch, fps)
         spread = np.zeros((count, 6))
         needed = _needed(body, arm, orientations, heads, spread, touch, np.arange(count), (goals, contacts))
         went_in[arm.side], turns[arm.side] = needed, np.zeros((count, 6))
@@ -271,9 +376,14 @@ def clear(body: Body, rotations, locations, fps: float, clearance: dict | None =
         frames = np.flatnonzero(needed)
         # Each round solves the frames still in from where the last left them, and spreads what it adds
         # (smooth in turn): a frame's neighbours that needed less pull its average down, the next round
-        # makes that up.
+        # makes that up. The first takes the turns the goals' trial found (_reachable) where it has them.
+        seeded = np.all(np.isfinite(tried), axis=1)
         for round_ in range(ROUNDS):
-            solved = _solve(body, arm, orientations, heads, wanted, spread, touch, frames, (goals, contacts))
+            fresh = ~seeded[frames] if round_ == 0 else np.ones(len(frames), dtype=bool)
+            solved = np.nan_to_num(tried[frames])
+            if fresh.any():
+                solved[fresh] = _solve(body, arm, orientations, heads, wanted, spread, touch, frames[fresh],
+                                       (goals, contacts))
             spread += _spread_turns(frames, solved - spread[frames], count, fps)
             if round_ == ROUNDS - 1:
                 break
@@ -289,21 +399,46 @@ def clear(body: Body, rotations, locations, fps: float, clearance: dict | None =
     return Cleared(went_in, turns)
 
 
-def _reachable(body: Body, arm: Arm, orientations, heads, wanted, touch, goals) -> np.ndarray:
-    """goals[0] (frames, 3) kept on the touching frames where the arm's solve brings the hand onto its goal
+def _reachable(body: Body, arm: Arm, orientations, heads, wanted, touch, goals) -> tuple:
+    """(goals[0] (frames, 3) kept on the touching frames where the arm's solve brings the hand onto its goal
     (within a cell) with the rest of the arm out of the body (within half a cell, the field's precision),
-    NaN on the others: there the hand touches the nearest way. The clearance comes first: a place the
-    target's hand cannot reach from outside its body (a far side of a bigger head, past the belly) would
-    drag the arm through the body to it, or leave the hand short of the body, off it."""
+    NaN on the others; that solve's turns (frames, 6) on the frames kept, NaN on the others). Where a goal is
+    not kept the hand touches the nearest way. The clearance comes first: a place the target's hand cannot
+    reach from outside its body (a far side of a bigger head, past the belly) would drag the arm through the
+    body to it, or leave the hand short of the body, off it."""
     on = np.flatnonzero(touch & np.all(np.isfinite(goals[0]), axis=1))
+    kept, tried = goals[0].copy(), np.full((len(orientations), 6), np.nan)
     if not len(on):
-        return goals[0]
-    _, measured = _arm(body, arm, orientations, heads, wanted, np.zeros((len(orientations), 6)), touch, on,
-                       ROUNDS * ITERATIONS, goals)
+        return kept, tried
+    solved, measured = _arm(body, arm, orientations, heads, wanted, np.zeros((len(orientations), 6)), touch, on,
+                            ROUNDS * ITERATIONS, goals)
     reached = (measured.least >= -0.5 * body.spacing) & (measured.gap <= body.spacing)
-    kept = goals[0].copy()
     kept[on[~reached]] = np.nan
-    return kept
+    tried[on[reached]] = solved[on[reached]]
+    return kept, tried
+
+
+def _touch_goals(body: Body, arm: Arm, place, orientations, heads, wanted, touch, fps: float) -> tuple:
+    """(goals, contacts, tried) for the touching frames: the source's place (_goals) where the arm reaches it
+    from outside (_reachable), else the nearest skin's (_nearest_goals) where it reaches that; goals NaN
+    where neither (the field's nearest way then), (None, None, ...) where no frame touches; tried: the turns
+    _reachable's solves found on the frames with a goal, NaN elsewhere."""
+    count = len(orientations)
+    goals, contacts, tried = None, None, np.full((count, 6), np.nan)
+    if place is not None:
+        goals, contacts = _goals(body, arm, place, orientations, heads)
+        if goals is not None:
+            goals, tried = _reachable(body, arm, orientations, heads, wanted, touch, (goals, contacts))
+    none = touch & (np.ones(count, dtype=bool) if goals is None else ~np.all(np.isfinite(goals), axis=1))
+    if not none.any():
+        return goals, contacts, tried
+    near, touching = _nearest_goals(body, arm, orientations, heads, np.flatnonzero(none), fps)
+    near, near_tried = _reachable(body, arm, orientations, heads, wanted, none, (near, touching))
+    taken = np.all(np.isfinite(near), axis=1)
+    if goals is None:
+        return near, touching, near_tried
+    return (np.where(taken[:, None], near, goals), np.where(taken[:, None], touching, contacts),
+            np.where(taken[:, None], near_tried, tried))
 
 
 def _quaternions(rotvecs) -> np.ndarray:
@@ -347,20 +482,19 @@ def _arm(body: Body, arm: Arm, orientations, heads, wanted, turns, touch, frames
 
 
 def _spread_turns(frames, solved, count: int, fps: float) -> np.ndarray:
-    """(count, 6): the solved frames' turns averaged over the frames around each (Gaussian, SPREAD), eased
-    from nothing EASE (or as EASE_RATE asks of the largest turn) before the first and after the last of a run
-    of frames that go in."""
+    """(count, 6): the solved frames' turns, joined by lines between them (and held before the first and after
+    the last), averaged over the frames around each (Gaussian, SPREAD), eased from nothing EASE (or as
+    EASE_RATE asks of the largest turn) before the first and after the last of a run of frames that go in.
+    The lines, never the nearer run's turn: between two runs that would switch from one to the other
+    halfway, a pop as large as their difference."""
     sigma = max(SPREAD * fps, 1e-9)
     reach = int(np.ceil(4.0 * sigma))
     kernel = np.exp(-0.5 * (np.arange(-reach, reach + 1) / sigma) ** 2)
-    full, present = np.zeros((count, 6)), np.zeros(count)
-    full[frames], present[frames] = solved, 1.0
+    every = np.arange(count)
+    line = np.stack([np.interp(every, frames, solved[:, k]) for k in range(6)], axis=1)
     centred = lambda v: np.convolve(v, kernel)[reach:reach + count]  # noqa: E731
-    total = centred(present)
-    summed = np.stack([centred(full[:, k]) for k in range(6)], axis=1)
-    gaps, nearest = _nearest(frames, count)
-    # Beyond the Gaussian's reach the nearest frame's turn, eased from there.
-    mean = np.where(total[:, None] > 1e-9, summed / np.maximum(total, 1e-300)[:, None], solved[nearest])
+    mean = np.stack([centred(line[:, k]) for k in range(6)], axis=1) / centred(np.ones(count))[:, None]
+    gaps, _ = _nearest(frames, count)
     peak = np.degrees(max(np.linalg.norm(solved[:, :3], axis=1).max(), np.linalg.norm(solved[:, 3:], axis=1).max()))
     ease_frames = max(EASE * fps, 1.5 * peak / EASE_RATE, 1e-9)
     ease = np.clip(1.0 - gaps / ease_frames, 0.0, 1.0)

@@ -38,11 +38,11 @@ def keep_out(rigs, clip, fit, rotations, locations, o: RetargetOptions, written)
 
 def _on_target(place: body_clearance.Place, pairs_idx, fit) -> body_clearance.Place:
     """The source's touch place on the target: the target bone its bone is paired with, the offsets from its
-    head and from the hand's turned from the source's armature space into the target's and scaled as the
-    root's path is (the target's skin found near it then, core.body_clearance); none where the source's
-    bone is not paired."""
+    head and from the hand's (and the hand's length) turned from the source's armature space into the
+    target's and scaled as the root's path is (the target's skin and hand found near them then,
+    core.body_clearance); none where the source's bone is not paired."""
     paired = dict(pairs_idx)
     bone = np.array([paired.get(int(b), -1) if b >= 0 else -1 for b in place.bone])
     moved = [np.where((bone >= 0)[:, None], fit.scale * rotation_channels.rotate(fit.space, np.nan_to_num(v)), np.nan)
              for v in (place.offset, place.hand)]
-    return body_clearance.Place(bone, *moved)
+    return body_clearance.Place(bone, *moved, fit.scale * place.reach)
