@@ -78,15 +78,15 @@ class Body:
         """The field of mesh's skin over the body bones' vertices; a ValueError naming the mesh where no
         vertex is carried by a body bone."""
         labels = parts(rig, rig.body if body is None else body)
-        on_body = _on_body(labels, mesh)
-        if not on_body.any():
+        carried = on_body(labels, mesh)
+        if not carried.any():
             raise ValueError(f"mesh '{mesh.source}': no vertex is weighted to the trunk, head or thighs of "
                              f"'{rig.name}'")
         heights = mesh.vertices @ rig.up
         height = float(np.ptp(heights))
         spacing = height / cells_per_height
-        low = mesh.vertices[on_body].min(axis=0) - MARGIN * height
-        high = mesh.vertices[on_body].max(axis=0) + MARGIN * height
+        low = mesh.vertices[carried].min(axis=0) - MARGIN * height
+        high = mesh.vertices[carried].max(axis=0) + MARGIN * height
         dims = [int(d) for d in np.ceil((high - low) / spacing).astype(int) + 1]
         distance, owner = native_state.native().body_field(
             mesh.vertices, mesh.triangles, [int(b) for b in mesh.bone], origin=low, spacing=spacing, dims=dims)
@@ -175,10 +175,11 @@ class Body:
 def skins_body(rig: RigData, mesh: SkinnedMesh) -> bool:
     """Whether any of mesh's vertices is weighted most to the rig's trunk, head or thighs (a face or a prop
     alone is no body)."""
-    return bool(_on_body(parts(rig, rig.body), mesh).any())
+    return bool(on_body(parts(rig, rig.body), mesh).any())
 
 
-def _on_body(labels, mesh: SkinnedMesh) -> np.ndarray:
+def on_body(labels, mesh: SkinnedMesh) -> np.ndarray:
+    """(V,) whether each of mesh's vertices is weighted most to a body bone (BODY_PARTS) of labels (parts())."""
     return np.isin(mesh.bone, [b for b, part in enumerate(labels) if part in BODY_PARTS])
 
 

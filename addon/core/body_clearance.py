@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import bone_mapping, native_state, rotation_channels
-from .body import ARM_PARTS, BODY_PARTS, MARGIN, Body
+from .body import ARM_PARTS, MARGIN, Body, on_body
 
 SAMPLES = 64          # skin points per arm, spread over its forearm and hand (farthest-point order)
 # Body skin points (farthest-point order) a hand is brought toward where the field does not reach it: on a
@@ -81,8 +81,7 @@ def _find_arms(body: Body) -> list[Arm]:
         chosen = _spread(mesh.vertices[riding], SAMPLES)
         vertices = mesh.vertices[riding][chosen]
         bones = mesh.bone[riding][chosen]
-        local = rotation_channels.rotate_each(rotation_channels.conjugate(rig.unit_rest[bones]),
-                                              vertices - rig.heads[bones])
+        local = _riding(rig, vertices, bones)
         on_hand = np.array([rig.is_below(int(b), hand) for b in bones], dtype=bool)
         out.append(Arm(side, upper, fore, hand, bones, local, on_hand))
     return out
@@ -100,14 +99,16 @@ def skin(body: Body) -> Skin:
     """SKIN_SAMPLES of the body's (trunk, head, thighs) vertices, spread farthest-point, found once a body."""
     found = _SKIN.get(body)
     if found is None:
-        rig, mesh = body.rig, body.mesh
-        on = np.flatnonzero([b >= 0 and body.part[b] in BODY_PARTS for b in mesh.bone])
+        mesh = body.mesh
+        on = np.flatnonzero(on_body(body.part, mesh))
         chosen = on[_spread(mesh.vertices[on], SKIN_SAMPLES)]
-        bones = mesh.bone[chosen]
-        local = rotation_channels.rotate_each(rotation_channels.conjugate(rig.unit_rest[bones]),
-                                              mesh.vertices[chosen] - rig.heads[bones])
-        found = _SKIN[body] = Skin(bones, local)
+        found = _SKIN[body] = Skin(mesh.bone[chosen], _riding(body.rig, mesh.vertices[chosen], mesh.bone[chosen]))
     return found
+
+
+def _riding(rig, vertices, bones) -> np.ndarray:
+    """(N, 3) each vertex's offset in its bone's rest frame: what carries it rigidly with that bone."""
+    return rotation_channels.rotate_each(rotation_channels.conjugate(rig.unit_rest[bones]), vertices - rig.heads[bones])
 
 
 _SKIN: "weakref.WeakKeyDictionary[Body, Skin]" = weakref.WeakKeyDictionary()
@@ -266,8 +267,6 @@ def _goals(body: Body, arm: Arm, place: Place, orientations, heads) -> tuple:
     wanted = heads[on[:, None], 3 * place.bone[on][:, None] + np.arange(3)] + place.offset[on]
     goals, contacts = np.full((len(orientations), 3), np.nan), np.zeros((len(orientations), 3))
     goals[on] = _off_skin(body, wanted, orientations[on], heads[on])
-    # The same share of the target's hand as the source's touching point is of its own: scaled as the body is,
-    # a cartoon glove's fingertip would be a hand's length beyond a slim hand's fingers.
     # On the hand as it is turned on each frame (the hand keeps the target's orientation, which need not be the
     # source's), the same share of its length, and there the hand's own skin point nearest: hands are not alike
     # in shape either (a cartoon glove's fingertip, shrunk to a slim hand's length, is off its fingers).
@@ -328,16 +327,22 @@ def _nearest_goals(body: Body, arm: Arm, orientations, heads, frames, fps: float
 def _averaged(values, fps: float) -> np.ndarray:
     """(frames, 3) values averaged over the frames around each (Gaussian, SPREAD) where they are finite, NaN
     where they are not."""
+    present = np.all(np.isfinite(values), axis=1)
+    out = _gaussian(np.where(present[:, None], values, 0.0), present.astype(float), fps)
+    out[~present] = np.nan
+    return out
+
+
+def _gaussian(values, weights, fps: float) -> np.ndarray:
+    """(frames, C) the weighted mean of values (frames, C) over the frames around each (a Gaussian of SPREAD,
+    cut at four deviations), weights (frames,) each frame's; 0 where no weight is in reach."""
     sigma = max(SPREAD * fps, 1e-9)
     reach = int(np.ceil(4.0 * sigma))
     kernel = np.exp(-0.5 * (np.arange(-reach, reach + 1) / sigma) ** 2)
-    present = np.all(np.isfinite(values), axis=1)
-    filled = np.where(present[:, None], values, 0.0)
     centred = lambda v: np.convolve(v, kernel)[reach:reach + len(values)]  # noqa: E731
-    total = centred(present.astype(float))
-    out = np.stack([centred(filled[:, k]) for k in range(3)], axis=1) / np.maximum(total, 1e-300)[:, None]
-    out[~present] = np.nan
-    return out
+    total = centred(weights)
+    summed = np.stack([centred(weights * values[:, k]) for k in range(values.shape[1])], axis=1)
+    return summed / np.maximum(total, 1e-300)[:, None]
 
 
 def clear(body: Body, rotations, locations, fps: float, clearance: dict | None = None, strength: float = 1.0,
@@ -487,14 +492,10 @@ def _spread_turns(frames, solved, count: int, fps: float) -> np.ndarray:
     EASE_RATE asks of the largest turn) before the first and after the last of a run of frames that go in.
     The lines, never the nearer run's turn: between two runs that would switch from one to the other
     halfway, a pop as large as their difference."""
-    sigma = max(SPREAD * fps, 1e-9)
-    reach = int(np.ceil(4.0 * sigma))
-    kernel = np.exp(-0.5 * (np.arange(-reach, reach + 1) / sigma) ** 2)
     every = np.arange(count)
     line = np.stack([np.interp(every, frames, solved[:, k]) for k in range(6)], axis=1)
-    centred = lambda v: np.convolve(v, kernel)[reach:reach + count]  # noqa: E731
-    mean = np.stack([centred(line[:, k]) for k in range(6)], axis=1) / centred(np.ones(count))[:, None]
-    gaps, _ = _nearest(frames, count)
+    mean = _gaussian(line, np.ones(count), fps)
+    gaps = _gaps(frames, count)
     peak = np.degrees(max(np.linalg.norm(solved[:, :3], axis=1).max(), np.linalg.norm(solved[:, 3:], axis=1).max()))
     ease_frames = max(EASE * fps, 1.5 * peak / EASE_RATE, 1e-9)
     ease = np.clip(1.0 - gaps / ease_frames, 0.0, 1.0)
@@ -502,16 +503,15 @@ def _spread_turns(frames, solved, count: int, fps: float) -> np.ndarray:
     return mean * ease[:, None]
 
 
-def _nearest(frames, count: int) -> tuple[np.ndarray, np.ndarray]:
-    """(count,) each frame's distance in frames to the nearest of frames (sorted indices), and which of them
-    (an index into frames)."""
+def _gaps(frames, count: int) -> np.ndarray:
+    """(count,) each frame's distance in frames to the nearest of frames (sorted indices)."""
     every = np.arange(count)
     after = np.searchsorted(frames, every)
     before = np.maximum(after - 1, 0)
     later = np.minimum(after, len(frames) - 1)
     left = np.where(after > 0, every - frames[before], np.inf)
     right = np.where(after < len(frames), frames[later] - every, np.inf)
-    return np.minimum(left, right), np.where(left <= right, before, later)
+    return np.minimum(left, right)
 
 
 def _apply(rotations, orientations, arm: Arm, turns) -> None:
