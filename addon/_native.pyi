@@ -126,7 +126,8 @@ def body_arm(distance: F64, owner: I32, *, dims: list[int], origin: npt.ArrayLik
     arm: list[int],
     point_bones: list[int], point_local: F64, on_hand: list[int], frames: list[int], wanted: F64, touch: list[int],
     turns: F64, goals: F64 | None = None, contacts: F64 | None = None, touch_distance: float = 0.0,
-    iterations: int = 6, turn_weight: float = 0.05, max_step: float = 0.25, threads: int = 0) -> BodyArmResult: ...
+    iterations: int = 6, turn_weight: float = 0.05, max_step: float = 0.25, smoothness: float = 0.0,
+    threads: int = 0) -> BodyArmResult: ...
 
 # Full-body inverse kinematics (native/python/bind_ik.cpp).
 class IkEffector:

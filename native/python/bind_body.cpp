@@ -76,7 +76,7 @@ BodyArmResult BodyArm(const ConstVectorView& distance, const Eigen::Ref<const Ei
                       const std::vector<int>& touch, Eigen::Ref<RowMatrixXd> turns,
                       const std::optional<RowMatrixXd>& goals, const std::optional<RowMatrixXd>& contacts,
                       double touch_distance, int iterations,
-                      double turn_weight, double max_step, int threads) {
+                      double turn_weight, double max_step, double smoothness, int threads) {
   if (arm.size() != 3) throw py::value_error("body_arm: arm must be the upper arm's, forearm's and hand's bones");
   const Eigen::Index solved = static_cast<Eigen::Index>(frames.size());
   OutputVector<double> least(solved), hand(solved), gap(solved);
@@ -89,6 +89,7 @@ BodyArmResult BodyArm(const ConstVectorView& distance, const Eigen::Ref<const Ei
   job.iterations = iterations;
   job.turn_weight = turn_weight;
   job.max_step = max_step;
+  job.smoothness = smoothness;
   job.threads = threads;
   RunWithoutGil(job);
   return {least.array, hand.array, gap.array};
@@ -147,7 +148,8 @@ void BindBody(py::module_& m) {
         "on_hand"_a, "frames"_a, "wanted"_a.noconvert(), "touch"_a, "turns"_a.noconvert(), "goals"_a = py::none(),
         "contacts"_a = py::none(),
         "touch_distance"_a = 0.0,
-        "iterations"_a = 6, "turn_weight"_a = 0.05, "max_step"_a = 0.25, "threads"_a = 0,
+        "iterations"_a = 6, "turn_weight"_a = 0.05, "max_step"_a = 0.25, "smoothness"_a = 0.0,
+        "threads"_a = 0,
         R"pbdoc(
         An arm's least turn out of its body, by Gauss-Newton on its skin points.
 
@@ -166,7 +168,10 @@ void BindBody(py::module_& m) {
         found (the shoulder's and the elbow's rotation vectors, the armature's
         space; a forearm point turns about the elbow by both, a hand point is
         carried by the wrist, keeping its orientation). iterations 0 only
-        measures. threads: 0 for one per hardware thread; the same result on
+        measures. smoothness: where > 0, each run of consecutive frames is
+        solved as one, smoothness times the difference of neighbouring
+        frames' turns among its rows (frames then each once; 0: each frame
+        alone). threads: 0 for one per hardware thread; the same result on
         any.
 
         Returns BodyArmResult (least, hand: per frame solved, after the turns,

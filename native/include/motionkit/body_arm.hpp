@@ -90,11 +90,18 @@ struct BodyArmJob {
   double turn_weight = 0.05;  // w: the least turn, shared between the joints
   double max_step = 0.25;     // radians a joint turns in one step at most
   int threads = 0;            // frames on this many threads (0: one per hardware thread); the same result on any
+  // c: where > 0, each run of consecutive frames is solved as one, c (t_f - t_{f-1}) among its rows (radians
+  // weighed as the points' distances are): neighbouring frames take alike turns, never each its own way
+  // round the body (frames then each once, runs on the threads). 0: each frame alone.
+  double smoothness = 0.0;
 
   // Shapes agree, bones in range, the field's (BodyFieldView::Validate), finite inputs (naming the frame),
   // options in range.
   Status Validate() const;
   void Run();
+
+ private:
+  void RunCoupled();
 };
 
 }  // namespace motionkit

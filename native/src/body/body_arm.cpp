@@ -101,14 +101,24 @@ class ArmFrame {
 
   // One Gauss-Newton step from t, or false where no point is short of where it is wanted.
   bool Step(Vector6d& t) {
+    Matrix6d normal;
+    Vector6d rhs;
+    if (!Linearise(t, normal, rhs)) return false;
+    Take(normal.ldlt().solve(rhs), job_.max_step, t);
+    return true;
+  }
+
+  // The normal equations of a step from t (normal = J^T J + w^2 I, rhs = J^T r), or false where no point
+  // is short of where it is wanted (normal and rhs are then w^2 I and 0).
+  bool Linearise(const Vector6d& t, Matrix6d& normal, Vector6d& rhs) {
     Move(t);
     Read(true);
     const double wanted = job_.wanted[frame_];
     const bool touch = job_.touch[static_cast<std::size_t>(frame_)] != 0, to_goal = touch && HasGoal();
     const bool contact = to_goal && job_.contacts.rows() != 0;
     const int nearest = contact ? -1 : to_goal ? NearestToGoal() : touch ? NearestOnHand() : -1;
-    Matrix6d normal = job_.turn_weight * job_.turn_weight * Matrix6d::Identity();
-    Vector6d rhs = Vector6d::Zero();
+    normal = job_.turn_weight * job_.turn_weight * Matrix6d::Identity();
+    rhs.setZero();
     bool short_of_it = false;
     if (to_goal && (contact || nearest >= 0)) {
       // The hand's contact point (or its point nearest the goal) onto the goal: a point moves by each turn's
@@ -142,18 +152,23 @@ class ArmFrame {
       normal.noalias() += row * row.transpose();
       rhs += r * row;
     }
-    if (!short_of_it) return false;
-    Vector6d step = normal.ldlt().solve(rhs);
-    // At most max_step radians a joint: the distance is linear in a turn only near it.
+    if (!short_of_it) {
+      normal = job_.turn_weight * job_.turn_weight * Matrix6d::Identity();
+      rhs.setZero();
+    }
+    return short_of_it;
+  }
+
+  // A step taken on by t: at most max_step radians a joint (the distance is linear in a turn only near it),
+  // each turn taken on by the step's turn before it, in the space the Jacobian's rows are in: the
+  // shoulder's in the armature's, the elbow's in the shoulder-turned one (the forearm turns by qs qe).
+  static void Take(Vector6d step, double max_step, Vector6d& t) {
     for (int joint = 0; joint < 2; ++joint) {
       const double size = step.segment<3>(3 * joint).norm();
-      if (size > job_.max_step) step.segment<3>(3 * joint) *= job_.max_step / size;
+      if (size > max_step) step.segment<3>(3 * joint) *= max_step / size;
     }
-    // Each turn taken on by the step's turn before it, in the space the Jacobian's rows are in: the
-    // shoulder's in the armature's, the elbow's in the shoulder-turned one (the forearm turns by qs qe).
     t.head<3>() = Compose(step.head<3>(), t.head<3>());
     t.tail<3>() = Compose(step.tail<3>(), t.tail<3>());
-    return true;
   }
 
   // The nearest and the hand's nearest distance where t puts the arm, and how far the hand is from its goal
@@ -230,6 +245,10 @@ class ArmFrame {
   Eigen::Vector3d shoulder_, elbow_, wrist_;
 };
 
+int Workers(int threads) {
+  return threads > 0 ? threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+}
+
 }  // namespace
 
 Status BodyArmJob::Validate() const {
@@ -256,8 +275,15 @@ Status BodyArmJob::Validate() const {
     return Status::Fail("body arm: wanted, touch, turns (and goals, contacts) of every frame, least, hand and gap of "
                         "each solved");
   }
-  if (iterations < 0 || !(turn_weight > 0.0) || !(max_step > 0.0) || !std::isfinite(touch_distance)) {
-    return Status::Fail("body arm: iterations >= 0, turn_weight and max_step > 0, a finite touch_distance");
+  if (iterations < 0 || !(turn_weight > 0.0) || !(max_step > 0.0) || !std::isfinite(touch_distance) ||
+      !(smoothness >= 0.0) || !std::isfinite(smoothness)) {
+    return Status::Fail("body arm: iterations >= 0, turn_weight and max_step > 0, a finite touch_distance and "
+                        "smoothness >= 0");
+  }
+  std::vector<int> sorted(frames);
+  std::sort(sorted.begin(), sorted.end());
+  if (const auto twice = std::adjacent_find(sorted.begin(), sorted.end()); twice != sorted.end()) {
+    return Status::Fail("body arm: frame index " + std::to_string(*twice) + " listed twice");
   }
   for (int f : frames) {
     if (f < 0 || f >= all) return Status::Fail("body arm: frame index " + std::to_string(f) + " out of range");
@@ -272,12 +298,15 @@ Status BodyArmJob::Validate() const {
 
 void BodyArmJob::Run() {
   Validate().ThrowIfFailed();
+  if (smoothness > 0.0) {
+    RunCoupled();
+    return;
+  }
   const Eigen::Index solved = static_cast<Eigen::Index>(frames.size());
   const int blocks = static_cast<int>((solved + kBlock - 1) / kBlock);
-  const int workers = threads > 0 ? threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   // Each block's buffers made before the threads start (a task must not throw).
   std::vector<Scratch> scratches(static_cast<std::size_t>(blocks), Scratch(point_bones.size()));
-  internal::ParallelFor(blocks, workers, [&](int block) {
+  internal::ParallelFor(blocks, Workers(threads), [&](int block) {
     Scratch& scratch = scratches[static_cast<std::size_t>(block)];
     const Eigen::Index end = std::min(solved, (block + 1) * kBlock);
     for (Eigen::Index i = block * kBlock; i < end; ++i) {
@@ -289,6 +318,76 @@ void BodyArmJob::Run() {
       if (!t.allFinite()) t.setZero();  // never seen; a frame left as it was, never made not finite
       turns.row(f) = t.transpose();
       arm_frame.Measure(t, least[i], hand[i], gap[i]);
+    }
+  });
+}
+
+// Runs of consecutive frames, each solved as one least-squares problem: every frame's own rows (as Step
+// takes them) and smoothness (t_f - t_{f-1}) between neighbours. Its normal equations are block-tridiagonal
+// (6 x 6 blocks: D_f = N_f + smoothness^2 (neighbours) I, -smoothness^2 I beside), eliminated frame by frame
+// (block Thomas: D'_f = D_f - c^2 D'_{f-1}^-1, c = smoothness^2) on every Gauss-Newton step.
+void BodyArmJob::RunCoupled() {
+  const std::size_t solved = frames.size();
+  std::vector<std::size_t> order(solved);
+  for (std::size_t i = 0; i < solved; ++i) order[i] = i;
+  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return frames[a] < frames[b]; });
+  std::vector<std::size_t> starts;  // where each run begins in order, and its end last
+  for (std::size_t k = 0; k < solved; ++k) {
+    if (k == 0 || frames[order[k]] != frames[order[k - 1]] + 1) starts.push_back(k);
+  }
+  starts.push_back(solved);
+  const int runs = static_cast<int>(starts.size()) - 1;
+  // Every buffer made before the threads start (a task must not throw): per run a scratch, per frame the
+  // turns, the eliminated blocks' inverses and right-hand sides.
+  std::vector<Scratch> scratches(static_cast<std::size_t>(std::max(runs, 0)), Scratch(point_bones.size()));
+  std::vector<Vector6d> t(solved), y(solved), step(solved);
+  std::vector<Matrix6d> inverse(solved);
+  const double c = smoothness * smoothness;
+  internal::ParallelFor(runs, Workers(threads), [&](int run) {
+    Scratch& scratch = scratches[static_cast<std::size_t>(run)];
+    const std::size_t first = starts[static_cast<std::size_t>(run)], last = starts[static_cast<std::size_t>(run) + 1];
+    for (std::size_t k = first; k < last; ++k) t[k] = turns.row(frames[order[k]]).transpose();
+    for (int iteration = 0; iteration < iterations; ++iteration) {
+      bool short_of_it = false;
+      for (std::size_t k = first; k < last; ++k) {
+        ArmFrame arm_frame(*this, frames[order[k]], scratch);
+        Matrix6d normal;
+        Vector6d rhs;
+        short_of_it = arm_frame.Linearise(t[k], normal, rhs) || short_of_it;
+        // The coupling's rows: each neighbour's difference pulls the frame toward it.
+        if (k > first) {
+          normal.diagonal().array() += c;
+          rhs -= c * (t[k] - t[k - 1]);
+        }
+        if (k + 1 < last) {
+          normal.diagonal().array() += c;
+          rhs -= c * (t[k] - t[k + 1]);
+        }
+        if (k > first) {
+          normal -= c * c * inverse[k - 1];
+          rhs += c * (inverse[k - 1] * y[k - 1]);
+        }
+        inverse[k] = normal.ldlt().solve(Matrix6d::Identity());
+        y[k] = rhs;
+      }
+      double largest = 0.0;
+      for (std::size_t k = last; k-- > first;) {
+        step[k] = inverse[k] * (k + 1 < last ? Vector6d(y[k] + c * step[k + 1]) : y[k]);
+        largest = std::max(largest, step[k].cwiseAbs().maxCoeff());
+      }
+      for (std::size_t k = first; k < last; ++k) ArmFrame::Take(step[k], max_step, t[k]);
+      // Converged: no frame short of where it is wanted, and the coupling's pull down to a ten-thousandth
+      // of a radian.
+      if (!short_of_it && largest < 1e-4) break;
+    }
+    for (std::size_t k = first; k < last; ++k) {
+      const std::size_t i = order[k];
+      const Eigen::Index f = frames[i];
+      if (!t[k].allFinite()) t[k].setZero();  // never seen; a frame left as it was, never made not finite
+      turns.row(f) = t[k].transpose();
+      ArmFrame arm_frame(*this, f, scratch);
+      arm_frame.Measure(t[k], least[static_cast<Eigen::Index>(i)], hand[static_cast<Eigen::Index>(i)],
+                        gap[static_cast<Eigen::Index>(i)]);
     }
   });
 }
