@@ -5,9 +5,10 @@ hand's direction kept, continuous over the clip (numpy and native posing, no bpy
 Per frame that goes in, the turn of the upper arm about the shoulder and of the forearm about the elbow
 (two rotation vectors) is solved by Gauss-Newton on the arm's skin points that are nearer the body than
 wanted: each point moves by the turns' cross products with its lever arms, the body's distance along its
-gradient; a small equal weight on both turns takes the least turn and shares it between the joints. The
-turns of the frames that go in are then spread over the frames around them (a Gaussian-weighted mean of the
-nearby frames' turns, eased in and out), so that the arm leaves and meets the body without a pop; the frames
+gradient; a small equal weight on both turns takes the least turn and shares it between the joints; each
+run of consecutive frames is solved as one, neighbours' turns tied (SMOOTHNESS). The turns of the frames that
+go in are then spread over the frames around them (a Gaussian-weighted mean of the nearby frames' turns,
+eased in and out) and held to TURN_RATE, so that the arm leaves and meets the body without a pop; the frames
 still in after that are solved again from there, and what that adds spread in turn (ROUNDS).
 """
 from __future__ import annotations
@@ -37,6 +38,19 @@ EASE = 0.25           # seconds over which a turn eases in before and out after 
 # ... and at least as many frames as keep the easing under this many degrees a frame: an animator sees a
 # jump of a few degrees from one frame to the next as a pop (a smoothstep's steepest is 1.5 times its mean).
 EASE_RATE = 1.5
+# Within the frames that go in or touch, a joint's turn changes by at most this many degrees a second: 4 a
+# frame at 24 fps, under a dance's own fastest arm (10-14 degrees a frame), so that what the stage adds
+# never makes the arm move faster than the clip itself does (a place the hand is to reach that jumps with
+# the source's nearest point would otherwise swing the arm with it).
+TURN_RATE = 96.0
+# Neighbouring frames' turns solved as one (_native.body_arm's smoothness): a turn's change from one frame
+# to the next weighs as its distance in body heights over this many seconds, so that the frames of a run
+# take the same way round the body (each alone, one goes over a shoulder, the next under it).
+SMOOTHNESS = 0.0125
+# A place on the body the hand reaches only by turning a joint farther than this (degrees) is not the
+# corresponding place for this character (a long glove round a wide belly): the hand goes the nearest way.
+MAX_TURN = 60.0
+LIMIT_STEPS = 4000    # _limited's averaging steps at most: enough for a jump of two radians spread at the rate
 
 
 @dataclass(frozen=True)
@@ -256,7 +270,7 @@ def _posed(arm: Arm, orientations, heads) -> np.ndarray:
     return rotation_channels.rotate_each(g, arm.local) + h
 
 
-def _goals(body: Body, arm: Arm, place: Place, orientations, heads) -> tuple:
+def _goals(body: Body, arm: Arm, place: Place, orientations, heads, fps: float) -> tuple:
     """(goals, contacts), each (frames, 3), for a Place (on this rig's bones): where the hand is to go on
     each frame (the bone's posed head plus the offset, taken to the nearest point half a cell off the skin;
     NaN where the place is off the field or there is none) and the hand's point that goes there (the hand's
@@ -264,9 +278,15 @@ def _goals(body: Body, arm: Arm, place: Place, orientations, heads) -> tuple:
     on = np.flatnonzero(place.bone >= 0)
     if not len(on):
         return None, None
-    wanted = heads[on[:, None], 3 * place.bone[on][:, None] + np.arange(3)] + place.offset[on]
-    goals, contacts = np.full((len(orientations), 3), np.nan), np.zeros((len(orientations), 3))
-    goals[on] = _off_skin(body, wanted, orientations[on], heads[on])
+    count, base, wrist = len(orientations), 3 * int(body.carriers[0]), 3 * arm.hand
+    wanted = np.full((count, 3), np.nan)
+    wanted[on] = heads[on[:, None], 3 * place.bone[on][:, None] + np.arange(3)] + place.offset[on]
+    # Averaged over the frames around (relative to the body's first carrier), as the source's own contact
+    # is: its hand's nearest point jumps from frame to frame (a finger, the wrist; the hip, the chest), and
+    # the arm taken to each would jump with it.
+    wanted = _averaged(wanted - heads[:, base:base + 3], fps) + heads[:, base:base + 3]
+    goals, contacts = np.full((count, 3), np.nan), np.zeros((count, 3))
+    goals[on] = _off_skin(body, wanted[on], orientations[on], heads[on])
     # On the hand as it is turned on each frame (the hand keeps the target's orientation, which need not be the
     # source's), the same share of its length, and there the hand's own skin point nearest: hands are not alike
     # in shape either (a cartoon glove's fingertip, shrunk to a slim hand's length, is off its fingers).
@@ -275,7 +295,9 @@ def _goals(body: Body, arm: Arm, place: Place, orientations, heads) -> tuple:
         _hand_turn(body, arm, orientations[on]), size * place.hand[on])
     skin = _posed(arm, orientations[on], heads[on])[:, arm.on_hand]
     nearest = np.argmin(np.linalg.norm(skin - mapped[:, None, :], axis=2), axis=1)
-    contacts[on] = skin[np.arange(len(on)), nearest]
+    touching = np.full((count, 3), np.nan)
+    touching[on] = skin[np.arange(len(on)), nearest] - heads[on, wrist:wrist + 3]
+    contacts[on] = _averaged(touching, fps)[on] + heads[on, wrist:wrist + 3]
     return goals, contacts
 
 
@@ -312,7 +334,9 @@ def _nearest_goals(body: Body, arm: Arm, orientations, heads, frames, fps: float
         chunk = frames[start:start + 64]
         o, h = orientations[chunk], heads[chunk]
         hand, body_points = _posed(arm, o, h)[:, arm.on_hand], _posed(on_skin, o, h)
-        gaps = np.linalg.norm(hand[:, :, None, :] - body_points[:, None, :, :], axis=3)
+        # Squared, through a product: the (64, hand, skin, 3) differences would cost ten times as much.
+        gaps = (np.einsum("fhk,fhk->fh", hand, hand)[:, :, None] + np.einsum("fsk,fsk->fs", body_points, body_points)[:, None, :]
+                - 2.0 * hand @ body_points.transpose(0, 2, 1))
         flat = np.argmin(gaps.reshape(len(chunk), -1), axis=1)
         rows, which, where = np.arange(len(chunk)), flat // gaps.shape[2], flat % gaps.shape[2]
         found[chunk] = body_points[rows, where] - h[:, base:base + 3]
@@ -384,12 +408,9 @@ def clear(body: Body, rotations, locations, fps: float, clearance: dict | None =
         # makes that up. The first takes the turns the goals' trial found (_reachable) where it has them.
         seeded = np.all(np.isfinite(tried), axis=1)
         for round_ in range(ROUNDS):
-            fresh = ~seeded[frames] if round_ == 0 else np.ones(len(frames), dtype=bool)
-            solved = np.nan_to_num(tried[frames])
-            if fresh.any():
-                solved[fresh] = _solve(body, arm, orientations, heads, wanted, spread, touch, frames[fresh],
-                                       (goals, contacts))
-            spread += _spread_turns(frames, solved - spread[frames], count, fps)
+            start = np.where(seeded[:, None], tried, spread) if round_ == 0 else spread
+            solved = _solve(body, arm, orientations, heads, wanted, start, touch, frames, fps, (goals, contacts))
+            spread = _limited(spread + _spread_turns(frames, solved - spread[frames], count, fps), fps)
             if round_ == ROUNDS - 1:
                 break
             # Only a frame that went in or that the turns reach can be in now: the others are as they were.
@@ -404,13 +425,14 @@ def clear(body: Body, rotations, locations, fps: float, clearance: dict | None =
     return Cleared(went_in, turns)
 
 
-def _reachable(body: Body, arm: Arm, orientations, heads, wanted, touch, goals) -> tuple:
+def _reachable(body: Body, arm: Arm, orientations, heads, wanted, touch, goals, most: float = np.inf) -> tuple:
     """(goals[0] (frames, 3) kept on the touching frames where the arm's solve brings the hand onto its goal
     (within a cell) with the rest of the arm out of the body (within half a cell, the field's precision),
     NaN on the others; that solve's turns (frames, 6) on the frames kept, NaN on the others). Where a goal is
     not kept the hand touches the nearest way. The clearance comes first: a place the target's hand cannot
     reach from outside its body (a far side of a bigger head, past the belly) would drag the arm through the
-    body to it, or leave the hand short of the body, off it."""
+    body to it, or leave the hand short of the body, off it. most: the largest turn (radians) of either joint
+    a goal is kept with."""
     on = np.flatnonzero(touch & np.all(np.isfinite(goals[0]), axis=1))
     kept, tried = goals[0].copy(), np.full((len(orientations), 6), np.nan)
     if not len(on):
@@ -418,6 +440,7 @@ def _reachable(body: Body, arm: Arm, orientations, heads, wanted, touch, goals) 
     solved, measured = _arm(body, arm, orientations, heads, wanted, np.zeros((len(orientations), 6)), touch, on,
                             ROUNDS * ITERATIONS, goals)
     reached = (measured.least >= -0.5 * body.spacing) & (measured.gap <= body.spacing)
+    reached &= np.all(np.linalg.norm(solved[on].reshape(-1, 2, 3), axis=2) <= most, axis=1)
     kept[on[~reached]] = np.nan
     tried[on[reached]] = solved[on[reached]]
     return kept, tried
@@ -431,19 +454,43 @@ def _touch_goals(body: Body, arm: Arm, place, orientations, heads, wanted, touch
     count = len(orientations)
     goals, contacts, tried = None, None, np.full((count, 6), np.nan)
     if place is not None:
-        goals, contacts = _goals(body, arm, place, orientations, heads)
+        goals, contacts = _goals(body, arm, place, orientations, heads, fps)
         if goals is not None:
-            goals, tried = _reachable(body, arm, orientations, heads, wanted, touch, (goals, contacts))
+            goals, tried = _reachable(body, arm, orientations, heads, wanted, touch, (goals, contacts),
+                                      np.radians(MAX_TURN))
     none = touch & (np.ones(count, dtype=bool) if goals is None else ~np.all(np.isfinite(goals), axis=1))
     if not none.any():
-        return goals, contacts, tried
+        return (*_joined(body, arm, goals, contacts, touch, orientations, heads, fps), tried)
     near, touching = _nearest_goals(body, arm, orientations, heads, np.flatnonzero(none), fps)
     near, near_tried = _reachable(body, arm, orientations, heads, wanted, none, (near, touching))
-    taken = np.all(np.isfinite(near), axis=1)
-    if goals is None:
-        return near, touching, near_tried
-    return (np.where(taken[:, None], near, goals), np.where(taken[:, None], touching, contacts),
-            np.where(taken[:, None], near_tried, tried))
+    if goals is not None:
+        taken = np.all(np.isfinite(near), axis=1)
+        near, touching = np.where(taken[:, None], near, goals), np.where(taken[:, None], touching, contacts)
+        near_tried = np.where(taken[:, None], near_tried, tried)
+    return (*_joined(body, arm, near, touching, touch, orientations, heads, fps), near_tried)
+
+
+def _joined(body: Body, arm: Arm, goals, contacts, touch, orientations, heads, fps: float) -> tuple:
+    """(goals, contacts) on every touching frame: where a frame has none, joined by lines from the touching
+    frames around that have one, then all averaged over the frames around (Gaussian, SPREAD), each relative to
+    what carries it (the goal to the body's first carrier, the hand's point to the wrist), the goal taken back
+    half a cell off the skin. Frame by frame, the goal would switch between the source's place, the nearest
+    skin and none (the field's nearest way), and the arm would jump with it."""
+    known = None if goals is None else touch & np.all(np.isfinite(goals), axis=1)
+    if known is None or not known.any():
+        return goals, contacts
+    on, have = np.flatnonzero(touch), np.flatnonzero(known)
+    base, wrist = 3 * int(body.carriers[0]), 3 * arm.hand
+    out = []
+    for values, carrier in ((goals, base), (contacts, wrist)):
+        relative = values[have] - heads[have, carrier:carrier + 3]
+        line = np.full_like(values, np.nan)
+        line[on] = np.stack([np.interp(on, have, relative[:, k]) for k in range(3)], axis=1)
+        out.append(_averaged(line, fps) + heads[:, carrier:carrier + 3])
+    joined, held = np.full_like(goals, np.nan), np.zeros_like(contacts)
+    joined[on] = _off_skin(body, out[0][on], orientations[on], heads[on])
+    held[on] = out[1][on]
+    return joined, held
 
 
 def _quaternions(rotvecs) -> np.ndarray:
@@ -462,14 +509,17 @@ def _needed(body: Body, arm: Arm, orientations, heads, turns, touch, frames, goa
     return (measured.least < 0.0) | (touch[frames] & far)
 
 
-def _solve(body: Body, arm: Arm, orientations, heads, wanted, turns, touch, frames, goals=(None, None)) -> np.ndarray:
+def _solve(body: Body, arm: Arm, orientations, heads, wanted, turns, touch, frames, fps: float,
+           goals=(None, None)) -> np.ndarray:
     """(len(frames), 6) the turns from turns (every frame's, (frames, 6)) on that bring every skin point to
     wanted (frames,) from the body and, on frames to touch, the hand's point nearest its goal onto it, or
     where there is none the hand's point nearest the body to half a cell from it (from either side)."""
-    return _arm(body, arm, orientations, heads, wanted, turns, touch, frames, ITERATIONS, goals)[0][frames]
+    return _arm(body, arm, orientations, heads, wanted, turns, touch, frames, ITERATIONS, goals,
+                SMOOTHNESS * fps * body.height)[0][frames]
 
 
-def _arm(body: Body, arm: Arm, orientations, heads, wanted, turns, touch, frames, iterations, goals=(None, None)):
+def _arm(body: Body, arm: Arm, orientations, heads, wanted, turns, touch, frames, iterations, goals=(None, None),
+         smoothness: float = 0.0):
     """(every frame's turns, solved from turns on at frames; _native.BodyArmResult at frames): the arm's
     Gauss-Newton, natively (_native.body_arm: the least turn on the points short of wanted, the hand's
     direction kept; goals: (_goals' goals, contacts) or (None, None))."""
@@ -482,7 +532,8 @@ def _arm(body: Body, arm: Arm, orientations, heads, wanted, turns, touch, frames
         wanted=np.ascontiguousarray(wanted, dtype=np.float64), touch=np.asarray(touch, dtype=int).tolist(),
         turns=solved, goals=None if goals[0] is None else np.ascontiguousarray(goals[0], dtype=np.float64),
         contacts=None if goals[1] is None else np.ascontiguousarray(goals[1], dtype=np.float64),
-        touch_distance=0.5 * body.spacing, iterations=iterations, turn_weight=TURN_WEIGHT, max_step=MAX_STEP)
+        touch_distance=0.5 * body.spacing, iterations=iterations, turn_weight=TURN_WEIGHT, max_step=MAX_STEP,
+        smoothness=smoothness)
     return solved, measured
 
 
@@ -501,6 +552,29 @@ def _spread_turns(frames, solved, count: int, fps: float) -> np.ndarray:
     ease = np.clip(1.0 - gaps / ease_frames, 0.0, 1.0)
     ease = ease * ease * (3.0 - 2.0 * ease)  # smoothstep: no kink where it starts or ends
     return mean * ease[:, None]
+
+
+def _limited(turns, fps: float) -> np.ndarray:
+    """(frames, 6) the turns, where from one frame to the next a joint's changes by more than TURN_RATE allows,
+    averaged with its neighbours there until none does (a local diffusion: the turn spread over as many frames
+    as the rate asks, the frames away from it left to the bit)."""
+    budget, count = np.radians(TURN_RATE) / max(fps, 1e-9), len(turns)
+    out = np.array(turns, dtype=np.float64)
+    if count < 3:
+        return out
+    # A jump of J radians needs about J / budget frames, a diffusion about their square of steps.
+    for _ in range(LIMIT_STEPS):
+        change = np.square(out[1:] - out[:-1])
+        fast = np.maximum(change[:, :3].sum(axis=1), change[:, 3:].sum(axis=1)) > budget * budget
+        if not fast.any():
+            break
+        near = np.zeros(count, dtype=bool)  # both frames of a fast change and one either side
+        near[:-1] |= fast
+        near[1:] |= fast
+        near[1:-1] |= near[:-2] | near[2:]
+        near[[0, -1]] = False
+        out[1:-1][near[1:-1]] = ((out[:-2] + out[1:-1] + out[2:]) / 3.0)[near[1:-1]]
+    return out
 
 
 def _gaps(frames, count: int) -> np.ndarray:

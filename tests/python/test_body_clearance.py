@@ -296,3 +296,43 @@ def test_a_touching_point_off_the_target_s_hand_is_taken_to_its_own_skin_nearest
     body_clearance.clear(body, after, locations, FPS, touches=touches,
                          places={"L": body_clearance.Place(place.bone, place.offset, 3.0 * place.hand, place.reach)})
     assert _hand_gap(rig, mesh, _skinned(rig, mesh, after[26:34:2])[0]).max() < 2.0 * body.spacing
+
+
+
+def test_a_turn_that_jumps_is_spread_at_the_turn_rate_and_the_frames_away_from_it_are_left():
+    """A shoulder's turn that jumps by a radian from one frame to the next (a goal switching places) comes out
+    changing by no more than TURN_RATE allows a frame (1.0e-9 for the comparison's rounding), as a ramp about
+    the jump: the frames half a second away keep their turns to the bit; a turn changing slower (the elbow's,
+    a line) is left, to the rounding of its neighbours' mean."""
+    turns = np.zeros((120, 6))
+    turns[60:, 0], turns[:, 4] = 1.0, np.linspace(0.0, 0.3, 120)
+    limited = body_clearance._limited(turns, FPS)
+    step = np.linalg.norm(np.diff(limited.reshape(120, 2, 3), axis=0), axis=2)
+    assert step.max() <= np.radians(body_clearance.TURN_RATE) / FPS + 1e-9
+    assert np.array_equal(limited[:45], turns[:45]) and np.array_equal(limited[75:], turns[75:])
+    np.testing.assert_allclose(limited[:, 3:], turns[:, 3:], rtol=0, atol=1e-14)  # a line's average: itself
+    assert 0.3 < limited[59, 0] < 0.5 and 0.5 < limited[60, 0] < 0.7
+
+
+def test_a_touching_place_that_jumps_or_is_missing_is_joined_into_one_path(vegas, core_native):
+    """Goals on touching frames that switch every other frame between two places 10 cm apart, and are missing
+    on some (no place the arm reaches): on every touching frame the goal is one, half a cell off the skin (by
+    the field), moving less from frame to frame than the switching (a Gaussian of SPREAD over it), and the
+    frames not touching have none."""
+    rig, mesh = vegas
+    body = body_module.Body.of(rig, mesh)
+    source, locations, touches, places = _source_touching(rig, body, core_native)
+    orientations, heads = core_native.armature_pose(rig.native, source, locations)
+    arm = [a for a in body_clearance.arms(body) if a.side == "L"][0]
+    goals, contacts = body_clearance._goals(body, arm, places["L"], orientations, heads, FPS)
+    on = np.flatnonzero(touches["L"])
+    jumping = goals.copy()
+    jumping[on[1::2]] += [0.0, 0.0, 0.1]
+    jumping[on[2:4]] = np.nan
+    joined, held = body_clearance._joined(body, arm, jumping, contacts, touches["L"], orientations, heads, FPS)
+    assert np.all(np.isfinite(joined[on])) and np.all(np.isnan(np.delete(joined, on, axis=0)))
+    distance = body.posed(joined[on][:, None, :], orientations[on], heads[on])[:, 0]
+    np.testing.assert_allclose(distance, 0.5 * body.spacing, atol=0.1 * body.spacing)
+    moved = np.linalg.norm(np.diff(joined[on], axis=0), axis=1)
+    assert moved.max() < 0.5 * np.linalg.norm(np.diff(jumping[on[4:]], axis=0), axis=1).min()
+    assert np.all(np.isfinite(held[on]))
